@@ -1,0 +1,30 @@
+/* SPDX-License-Identifier: MIT */
+/* The wetgraph command line: one file per subcommand, all on the public API only. */
+#ifndef WETGRAPH_CLI_H
+#define WETGRAPH_CLI_H
+
+#include <wetgraph/wetgraph.h>
+#include <stdio.h>
+
+/* Exit codes */
+enum { EXIT_OK = 0, EXIT_FAILED = 1, EXIT_USAGE = 2 };
+
+int cmd_render(int argc, char **argv);
+int cmd_check(int argc, char **argv);
+int cmd_info(int argc, char **argv);
+int cmd_nodes(int argc, char **argv);
+int cmd_dot(int argc, char **argv);
+
+/* "wetgraph: error: <location>: <message>" on stderr. */
+void cli_report(const WgError *err);
+/* Usage error with a hint to --help; returns EXIT_USAGE. */
+int cli_usage_error(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+bool cli_is_help(const char *arg);
+/* JSON string literal. */
+void cli_json_string(FILE *f, const char *s);
+/* Parse "N" or "WxH". */
+bool cli_parse_size(const char *text, int *w, int *h);
+/* Make a graph runnable for checking: placeholder images for inputs without a default. */
+int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err);
+
+#endif

@@ -1,0 +1,137 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph info`: what a graph declares, as text or JSON. */
+#include "cli.h"
+
+#include <string.h>
+
+static const char help[] =
+    "usage: wetgraph info FILE [--json]\n"
+    "\n"
+    "List the graph's size, seed, parameters (type, default, range), image inputs and outputs.\n";
+
+static const char *type_name(WgParamType t)
+{
+    static const char *const names[] = {"float", "int", "bool", "enum", "color", "string"};
+    return (unsigned)t < 6 ? names[t] : "?";
+}
+
+static void print_json(const WgGraph *g)
+{
+    printf("{\n  \"name\": ");
+    cli_json_string(stdout, wg_graph_name(g));
+    printf(",\n  \"size\": ");
+    cli_json_string(stdout, wg_graph_size_text(g));
+    printf(",\n  \"seed\": %llu,\n  \"params\": [", (unsigned long long)wg_graph_seed(g));
+    for (int i = 0; i < wg_graph_param_count(g); i++) {
+        const WgGraphParamInfo *p = wg_graph_param_info(g, i);
+        printf("%s\n    {\"name\": ", i ? "," : "");
+        cli_json_string(stdout, p->name);
+        printf(", \"type\": \"%s\", \"default\": ", type_name(p->type));
+        cli_json_string(stdout, p->default_text);
+        if (p->has_min) printf(", \"min\": %.17g", p->min);
+        if (p->has_max) printf(", \"max\": %.17g", p->max);
+        if (p->label) {
+            printf(", \"label\": ");
+            cli_json_string(stdout, p->label);
+        }
+        if (p->values) {
+            printf(", \"values\": [");
+            for (int k = 0; p->values[k]; k++) {
+                printf("%s", k ? ", " : "");
+                cli_json_string(stdout, p->values[k]);
+            }
+            printf("]");
+        }
+        printf("}");
+    }
+    printf("\n  ],\n  \"inputs\": [");
+    for (int i = 0; i < wg_graph_input_count(g); i++) {
+        const WgGraphInputInfo *in = wg_graph_input_info(g, i);
+        printf("%s\n    {\"name\": ", i ? "," : "");
+        cli_json_string(stdout, in->name);
+        printf(", \"type\": \"%s\", \"colorspace\": \"%s\"", in->kind == WG_COLOR ? "color" : "gray",
+               in->colorspace == WG_SRGB ? "srgb" : "linear");
+        if (in->has_default) {
+            printf(", \"default\": ");
+            cli_json_string(stdout, in->default_text);
+        }
+        printf("}");
+    }
+    printf("\n  ],\n  \"outputs\": [");
+    for (int i = 0; i < wg_graph_output_count(g); i++) {
+        const WgGraphOutputInfo *o = wg_graph_output_info(g, i);
+        printf("%s\n    {\"name\": ", i ? "," : "");
+        cli_json_string(stdout, o->name);
+        printf(", \"from\": ");
+        cli_json_string(stdout, o->from);
+        printf(", \"format\": \"%s\", \"colorspace\": \"%s\"}",
+               o->format ? wg_format_name(o->format) : "default",
+               o->colorspace == WG_SRGB ? "srgb" : "linear");
+    }
+    printf("\n  ],\n  \"nodes\": %d\n}\n", wg_graph_node_count(g));
+}
+
+static void print_text(const WgGraph *g)
+{
+    printf("graph %s (%s)\n  size %s, seed %llu, %d nodes\n", wg_graph_name(g), wg_graph_path(g),
+           wg_graph_size_text(g), (unsigned long long)wg_graph_seed(g), wg_graph_node_count(g));
+    printf("parameters:%s\n", wg_graph_param_count(g) ? "" : " none");
+    for (int i = 0; i < wg_graph_param_count(g); i++) {
+        const WgGraphParamInfo *p = wg_graph_param_info(g, i);
+        printf("  %-20s %-6s default %s", p->name, type_name(p->type), p->default_text);
+        if (p->has_min || p->has_max) {
+            printf("  range [");
+            if (p->has_min) printf("%g", p->min);
+            printf(", ");
+            if (p->has_max) printf("%g", p->max);
+            printf("]");
+        }
+        if (p->values) {
+            printf("  values");
+            for (int k = 0; p->values[k]; k++) printf("%s%s", k ? "|" : " ", p->values[k]);
+        }
+        if (p->label) printf("  \"%s\"", p->label);
+        printf("\n");
+    }
+    printf("inputs:%s\n", wg_graph_input_count(g) ? "" : " none");
+    for (int i = 0; i < wg_graph_input_count(g); i++) {
+        const WgGraphInputInfo *in = wg_graph_input_info(g, i);
+        printf("  %-20s %-6s %s%s%s\n", in->name, in->kind == WG_COLOR ? "color" : "gray",
+               in->colorspace == WG_SRGB ? "srgb" : "linear",
+               in->has_default ? "  default " : "  required", in->has_default ? in->default_text : "");
+    }
+    printf("outputs:\n");
+    for (int i = 0; i < wg_graph_output_count(g); i++) {
+        const WgGraphOutputInfo *o = wg_graph_output_info(g, i);
+        printf("  %-20s from %-20s %s %s\n", o->name, o->from,
+               o->format ? wg_format_name(o->format) : "default",
+               o->colorspace == WG_SRGB ? "srgb" : "linear");
+    }
+}
+
+int cmd_info(int argc, char **argv)
+{
+    const char *file = NULL;
+    bool json = false;
+    for (int i = 1; i < argc; i++) {
+        if (cli_is_help(argv[i])) {
+            fputs(help, stdout);
+            return EXIT_OK;
+        }
+        if (!strcmp(argv[i], "--json")) json = true;
+        else if (argv[i][0] == '-' && argv[i][1]) return cli_usage_error("info", "unknown option '%s'", argv[i]);
+        else if (file) return cli_usage_error("info", "one graph file at a time");
+        else file = argv[i];
+    }
+    if (!file) return cli_usage_error("info", "no graph file given");
+    WgError err = {0};
+    WgGraph *g;
+    if (wg_graph_load(file, &g, &err)) {
+        cli_report(&err);
+        return EXIT_USAGE;
+    }
+    if (json) print_json(g);
+    else print_text(g);
+    wg_graph_free(g);
+    return EXIT_OK;
+}

@@ -1,0 +1,49 @@
+/* SPDX-License-Identifier: MIT */
+/* wetgraph: command-line entry point and subcommand dispatch. */
+#include "cli.h"
+
+#include <string.h>
+
+static const char usage[] =
+    "wetgraph " WETGRAPH_VERSION " - node-graph texture engine\n"
+    "\n"
+    "usage: wetgraph COMMAND [ARGS]\n"
+    "\n"
+    "commands:\n"
+    "  render FILE [options]   evaluate a graph and write its outputs\n"
+    "  check FILE...           validate graph files without evaluating them\n"
+    "  info FILE [--json]      list a graph's parameters, inputs and outputs\n"
+    "  nodes [TYPE] [--markdown]  the built-in node catalogue\n"
+    "  dot FILE                Graphviz view of a graph\n"
+    "\n"
+    "'wetgraph COMMAND --help' describes a command. Exit codes: 0 ok, 1 evaluation or I/O\n"
+    "failure, 2 usage or graph error.\n";
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(usage, stderr);
+        return EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (cli_is_help(cmd) || !strcmp(cmd, "help")) {
+        fputs(usage, stdout);
+        return EXIT_OK;
+    }
+    if (!strcmp(cmd, "--version")) {
+        puts("wetgraph " WETGRAPH_VERSION);
+        return EXIT_OK;
+    }
+    static const struct {
+        const char *name;
+        int (*fn)(int, char **);
+    } cmds[] = {{"render", cmd_render}, {"check", cmd_check}, {"info", cmd_info},
+                {"nodes", cmd_nodes},   {"dot", cmd_dot}};
+    for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
+        if (!strcmp(cmd, cmds[i].name)) return cmds[i].fn(argc - 1, argv + 1);
+    const char *names[] = {"render", "check", "info", "nodes", "dot"};
+    const char *s = wg_suggest(cmd, names, 5);
+    fprintf(stderr, "wetgraph: unknown command '%s'%s%s%s\n(see 'wetgraph --help')\n", cmd,
+            s ? "; did you mean '" : "", s ? s : "", s ? "'?" : "");
+    return EXIT_USAGE;
+}

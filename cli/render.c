@@ -1,0 +1,323 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph render`: load, check, evaluate and write. Nothing is written unless the whole
+ * render succeeded; each file is written atomically. */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const char help[] =
+    "usage: wetgraph render FILE [options]\n"
+    "\n"
+    "Evaluate the graph in FILE and write each requested output to DIR/<graph>_<output>.<ext>.\n"
+    "\n"
+    "  -o, --out DIR          output folder (created if missing; default: .)\n"
+    "  --set NAME=VALUE       set a graph parameter (repeatable)\n"
+    "  --input NAME=PATH      feed a graph input from an image file (repeatable)\n"
+    "  --output NAME          render only this output (repeatable; default: all)\n"
+    "  --size WxH | N         override the graph size\n"
+    "  --seed N               override the graph seed\n"
+    "  --time T               value of $time (seconds; for animation)\n"
+    "  --format FMT           png | png16 | tif16 | exr | exr32 for every output\n"
+    "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
+    "                         (add -o to get both)\n"
+    "  --threads N            worker threads (default: number of cores)\n"
+    "  --cache DIR            persistent result cache: unchanged nodes are not recomputed\n"
+    "  --memory-budget MB     image memory for the working set and the cache\n"
+    "  --stats[=json]         per-node time, cache outcome and size, and peak memory\n"
+    "                         (table on stderr, or JSON on stdout)\n"
+    "  -q, --quiet            print nothing but errors\n";
+
+typedef struct {
+    const char *file, *out_dir, *layered, *cache;
+    const char **sets, **inputs, **outputs;
+    int n_sets, n_inputs, n_outputs;
+    int width, height, threads, format;
+    bool has_seed, has_time, quiet, stats, stats_json;
+    unsigned long long seed;
+    double time;
+    size_t budget;
+} Options;
+
+static int mkdir_p(const char *path)
+{
+    char buf[4096];
+    snprintf(buf, sizeof buf, "%s", path);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/') continue;
+        *p = '\0';
+        if (mkdir(buf, 0777) && errno != EEXIST) return -1;
+        *p = '/';
+    }
+    if (mkdir(buf, 0777) && errno != EEXIST) return -1;
+    struct stat st;
+    return stat(buf, &st) == 0 && S_ISDIR(st.st_mode) ? 0 : -1;
+}
+
+static void progress(void *user, int done, int total, const char *node)
+{
+    (void)user;
+    (void)node;
+    fprintf(stderr, "\r[%d/%d] rendering...", done, total);
+    if (done == total) fprintf(stderr, "\r%*s\r", 40, "");
+    fflush(stderr);
+}
+
+/* "--opt VALUE" or "--opt=VALUE" */
+static bool take(int argc, char **argv, int *i, const char *opt, const char **val, bool *missing)
+{
+    const char *a = argv[*i];
+    size_t n = strlen(opt);
+    if (!strcmp(a, opt)) {
+        if (*i + 1 >= argc) *missing = true;
+        else *val = argv[++*i];
+        return true;
+    }
+    if (!strncmp(a, opt, n) && a[n] == '=') {
+        *val = a + n + 1;
+        return true;
+    }
+    return false;
+}
+
+static int parse_args(int argc, char **argv, Options *o)
+{
+    o->sets = calloc((size_t)argc, sizeof(char *));
+    o->inputs = calloc((size_t)argc, sizeof(char *));
+    o->outputs = calloc((size_t)argc, sizeof(char *));
+    o->format = -1;
+    if (!o->sets || !o->inputs || !o->outputs) return cli_usage_error("render", "out of memory");
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *val = NULL;
+        bool missing = false;
+#define TAKE(opt) take(argc, argv, &i, opt, &val, &missing)
+#define NEED                                                                                       \
+    if (missing) return cli_usage_error("render", "%s needs a value", a)
+        if (cli_is_help(a)) {
+            fputs(help, stdout);
+            return 1;
+        } else if (TAKE("-o") || TAKE("--out")) {
+            NEED;
+            o->out_dir = val;
+        } else if (TAKE("--set")) {
+            NEED;
+            if (!strchr(val, '=')) return cli_usage_error("render", "--set wants NAME=VALUE, not '%s'", val);
+            o->sets[o->n_sets++] = val;
+        } else if (TAKE("--input")) {
+            NEED;
+            if (!strchr(val, '=')) return cli_usage_error("render", "--input wants NAME=PATH, not '%s'", val);
+            o->inputs[o->n_inputs++] = val;
+        } else if (TAKE("--output")) {
+            NEED;
+            o->outputs[o->n_outputs++] = val;
+        } else if (TAKE("--size")) {
+            NEED;
+            if (!cli_parse_size(val, &o->width, &o->height))
+                return cli_usage_error("render", "bad --size '%s' (N or WxH, sides 1..%d)", val,
+                                       WG_MAX_SIDE);
+        } else if (TAKE("--seed")) {
+            NEED;
+            char *end;
+            o->seed = strtoull(val, &end, 10);
+            if (!*val || *end || *val == '-')
+                return cli_usage_error("render", "bad --seed '%s' (a whole number >= 0)", val);
+            o->has_seed = true;
+        } else if (TAKE("--time")) {
+            NEED;
+            char *end;
+            o->time = strtod(val, &end);
+            if (!*val || *end || !isfinite(o->time))
+                return cli_usage_error("render", "bad --time '%s' (a finite number)", val);
+            o->has_time = true;
+        } else if (TAKE("--format")) {
+            NEED;
+            o->format = wg_format_parse(val);
+            if (o->format < 0)
+                return cli_usage_error("render", "unknown --format '%s' (png, png16, tif16, exr, exr32)", val);
+        } else if (TAKE("--layered")) {
+            NEED;
+            o->layered = val;
+        } else if (TAKE("--threads")) {
+            NEED;
+            char *end;
+            long n = strtol(val, &end, 10);
+            if (!*val || *end || n < 1 || n > 256)
+                return cli_usage_error("render", "bad --threads '%s' (1..256)", val);
+            o->threads = (int)n;
+        } else if (TAKE("--cache")) {
+            NEED;
+            o->cache = val;
+        } else if (TAKE("--memory-budget")) {
+            NEED;
+            char *end;
+            double mb = strtod(val, &end);
+            if (!*val || *end || !(mb >= 1) || mb > 1e9)
+                return cli_usage_error("render", "bad --memory-budget '%s' (MiB, at least 1)", val);
+            o->budget = (size_t)(mb * 1048576.0);
+        } else if (!strcmp(a, "--stats")) {
+            o->stats = true;
+        } else if (!strcmp(a, "--stats=json")) {
+            o->stats = o->stats_json = true;
+        } else if (!strncmp(a, "--stats=", 8)) {
+            return cli_usage_error("render", "--stats takes no value or =json, not '%s'", a + 8);
+        } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
+            o->quiet = true;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage_error("render", "unknown option '%s'", a);
+        } else if (!o->file) {
+            o->file = a;
+        } else {
+            return cli_usage_error("render", "one graph file at a time ('%s' and '%s')", o->file, a);
+        }
+#undef TAKE
+#undef NEED
+    }
+    if (!o->file) return cli_usage_error("render", "no graph file given");
+    return 0;
+}
+
+static void print_stats(const WgResult *res, bool json)
+{
+    int n = wg_result_stat_count(res);
+    if (json) {
+        printf("{\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"evaluated\": %d,\n  \"nodes\": [\n",
+               wg_result_total_ms(res), wg_result_peak_bytes(res), wg_result_evaluated_count(res));
+        for (int i = 0; i < n; i++) {
+            const WgNodeStat *s = wg_result_stat(res, i);
+            static const char *const cache[] = {"miss", "memory", "disk"};
+            printf("    {\"id\": ");
+            cli_json_string(stdout, s->id);
+            printf(", \"type\": ");
+            cli_json_string(stdout, s->type);
+            printf(", \"ms\": %.3f, \"cache\": \"%s\", \"width\": %d, \"height\": %d, "
+                   "\"channels\": %d, \"bytes\": %zu}%s\n",
+                   s->ms, cache[s->cache], s->width, s->height, s->channels, s->bytes,
+                   i + 1 < n ? "," : "");
+        }
+        printf("  ]\n}\n");
+        return;
+    }
+    fprintf(stderr, "%-32s %-12s %10s  %-6s %11s %9s\n", "node", "type", "ms", "cache", "size",
+            "MiB");
+    for (int i = 0; i < n; i++) {
+        const WgNodeStat *s = wg_result_stat(res, i);
+        static const char *const cache[] = {"miss", "memory", "disk"};
+        char size[32];
+        snprintf(size, sizeof size, "%dx%d%s", s->width, s->height, s->channels == 4 ? "c" : "g");
+        fprintf(stderr, "%-32s %-12s %10.2f  %-6s %11s %9.2f\n", s->id, s->type, s->ms,
+                cache[s->cache], size, s->bytes / 1048576.0);
+    }
+    fprintf(stderr, "%d of %d nodes computed, %.1f ms in all, peak image memory %.1f MiB\n",
+            wg_result_evaluated_count(res), n, wg_result_total_ms(res),
+            wg_result_peak_bytes(res) / 1048576.0);
+}
+
+static int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, WgError *err)
+{
+    int n = wg_result_output_count(res);
+    if (o->layered) {
+        const char **names = calloc((size_t)n + 1, sizeof *names);
+        const WgImage **images = calloc((size_t)n + 1, sizeof *images);
+        if (!names || !images) {
+            free(names);
+            free(images);
+            return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        }
+        for (int i = 0; i < n; i++) {
+            names[i] = wg_result_output_name(res, i);
+            images[i] = wg_result_output_image(res, i);
+        }
+        bool half = o->format != WG_FORMAT_EXR32;
+        int rc = wg_exr_write_layers(o->layered, n, names, images, half, err);
+        free(names);
+        free(images);
+        if (rc) return rc;
+        if (!o->quiet) fprintf(stderr, "wrote %s (%d layers)\n", o->layered, n);
+        if (!o->out_dir) return WG_OK;
+    }
+    const char *dir = o->out_dir ? o->out_dir : ".";
+    if (mkdir_p(dir))
+        return wg_error_set_at(err, WG_ERR_IO, dir, 0, 0, "cannot create the output folder: %s",
+                               strerror(errno));
+    for (int i = 0; i < n; i++) {
+        WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s_%s.%s", dir, wg_graph_name(g),
+                 wg_result_output_name(res, i), wg_format_extension(f));
+        int rc = wg_image_write(path, wg_result_output_image(res, i), f,
+                                wg_result_output_colorspace(res, i), err);
+        if (rc) return rc;
+        if (!o->quiet) printf("%s\n", path);
+    }
+    return WG_OK;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    Options o = {0};
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgEngine *e = NULL;
+    WgResult *res = NULL;
+    WgError err = {0};
+    int status = parse_args(argc, argv, &o);
+    if (status) {
+        status = status == 1 ? EXIT_OK : status;
+        goto out;
+    }
+    status = EXIT_USAGE;
+    if (wg_graph_load(o.file, &g, &err)) goto fail;
+    if (!(r = wg_request_new(g))) {
+        wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto fail;
+    }
+    for (int i = 0; i < o.n_sets; i++) {
+        char name[256];
+        const char *eq = strchr(o.sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - o.sets[i]), o.sets[i]);
+        if (wg_request_set(r, name, eq + 1, &err)) {
+            char msg[1200];
+            snprintf(msg, sizeof msg, "--set %s: %s", o.sets[i], err.message);
+            wg_error_set(&err, err.code, NULL, "%s", msg);
+            goto fail;
+        }
+    }
+    for (int i = 0; i < o.n_inputs; i++) {
+        char name[256];
+        const char *eq = strchr(o.inputs[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - o.inputs[i]), o.inputs[i]);
+        if (wg_request_set_input_file(r, name, eq + 1, &err)) goto fail;
+    }
+    for (int i = 0; i < o.n_outputs; i++)
+        if (wg_request_add_output(r, o.outputs[i], &err)) goto fail;
+    if (o.width) wg_request_set_size(r, o.width, o.height);
+    if (o.has_seed) wg_request_set_seed(r, o.seed);
+    if (o.has_time) wg_request_set_time(r, o.time);
+    if (!o.quiet && isatty(2)) wg_request_set_progress(r, progress, NULL);
+    if (wg_request_check(r, &err)) goto fail;
+
+    status = EXIT_FAILED;
+    WgEngineOptions eo = {o.threads, o.budget, o.cache};
+    if (wg_engine_new(&eo, &e, &err)) goto fail;
+    if (wg_render(e, r, &res, &err)) goto fail;
+    if (write_outputs(&o, g, res, &err)) goto fail;
+    if (o.stats) print_stats(res, o.stats_json);
+    status = EXIT_OK;
+    goto out;
+fail:
+    cli_report(&err);
+out:
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+    free(o.sets);
+    free(o.inputs);
+    free(o.outputs);
+    return status;
+}

@@ -1,0 +1,77 @@
+/* SPDX-License-Identifier: MIT */
+/* Helpers shared by the subcommands: error reporting, JSON strings, sizes. */
+#include "cli.h"
+
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+void cli_report(const WgError *err)
+{
+    char buf[4096];
+    wg_error_format(err, buf, sizeof buf);
+    fprintf(stderr, "wetgraph: error: %s\n", buf);
+}
+
+int cli_usage_error(const char *cmd, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "wetgraph %s: ", cmd);
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n(see 'wetgraph %s --help')\n", cmd);
+    va_end(ap);
+    return EXIT_USAGE;
+}
+
+bool cli_is_help(const char *arg)
+{
+    return !strcmp(arg, "--help") || !strcmp(arg, "-h");
+}
+
+void cli_json_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; s && *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
+        else if (c == '\n') fputs("\\n", f);
+        else if (c == '\t') fputs("\\t", f);
+        else if (c < 0x20) fprintf(f, "\\u%04x", c);
+        else fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+bool cli_parse_size(const char *text, int *w, int *h)
+{
+    char *end;
+    long a = strtol(text, &end, 10);
+    if (end == text) return false;
+    long b = a;
+    if (*end == 'x' || *end == 'X') {
+        const char *s = end + 1;
+        b = strtol(s, &end, 10);
+        if (end == s) return false;
+    }
+    if (*end || a < 1 || b < 1 || a > WG_MAX_SIDE || b > WG_MAX_SIDE) return false;
+    *w = (int)a;
+    *h = (int)b;
+    return true;
+}
+
+int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err)
+{
+    const char *size = wg_graph_size_text(g);
+    if (size[0] == '$') wg_request_set_size(r, 256, 256);
+    for (int i = 0; i < wg_graph_input_count(g); i++) {
+        const WgGraphInputInfo *in = wg_graph_input_info(g, i);
+        if (in->has_default) continue;
+        WgImage *img = wg_image_new_zero(1, 1, in->kind == WG_COLOR ? 4 : 1);
+        if (!img) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        int rc = wg_request_set_input_image(r, in->name, img, err);
+        wg_image_unref(img);
+        if (rc) return rc;
+    }
+    return WG_OK;
+}

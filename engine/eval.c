@@ -1,0 +1,547 @@
+/* SPDX-License-Identifier: MIT */
+/* Rendering a request: build the plan, decide what must be computed (walking back from the
+ * requested outputs, stopping at cache hits), check that the working set fits the memory
+ * budget, then run ready nodes on the worker pool. Intermediates are released as soon as their
+ * last consumer has run; the in-memory cache keeps what fits in the budget. The first failing
+ * node cancels the rest and its error is reported. */
+#include "internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+struct WgEngine {
+    WgPool *pool;
+    WgCache *cache;
+    size_t budget;
+};
+
+typedef struct Run Run;
+
+typedef struct Node {
+    Run *run;
+    int index;
+    bool needed, evaluate, requested, done;
+    int pending;   /* inputs still being computed */
+    int consumers; /* evaluations that still have to read this node */
+    int *dependents;
+    int n_dependents;
+    const WgImage **out;
+    size_t out_bytes;
+    WgNodeStat stat;
+} Node;
+
+struct Run {
+    WgEngine *e;
+    const WgRequest *r;
+    WgPlan *plan;
+    Node *nodes;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    int running, completed, total;
+    int *ready;
+    int ready_head, ready_tail;
+    size_t live, peak;
+    volatile int cancel;
+    int rc;
+    WgError err;
+};
+
+struct WgResult {
+    int n_outputs;
+    char **names;
+    const WgImage **images;
+    WgFormat *formats;
+    WgColorspace *colorspaces;
+    int n_stats;
+    WgNodeStat *stats;
+    int evaluated;
+    size_t peak;
+    double total_ms;
+};
+
+double wg__now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+/* ---- engine ------------------------------------------------------------------------------ */
+
+static size_t default_budget(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+    size_t half = pages > 0 && size > 0 ? (size_t)pages * (size_t)size / 2 : (size_t)4 << 30;
+    size_t cap = (size_t)16 << 30;
+    return half < cap ? half : cap;
+}
+
+int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
+{
+    WgEngineOptions none = {0};
+    if (!opt) opt = &none;
+    *out = NULL;
+    int threads = opt->threads;
+    if (threads <= 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = n > 0 ? (int)n : 1;
+    }
+    if (threads > 256)
+        return wg_error_set(err, WG_ERR_RANGE, NULL, "%d threads is more than the limit of 256",
+                            threads);
+    WgEngine *e = calloc(1, sizeof *e);
+    if (!e) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    e->budget = opt->memory_budget ? opt->memory_budget : default_budget();
+    e->pool = wg__pool_new(threads);
+    e->cache = wg__cache_new(opt->cache_dir);
+    if (!e->pool || !e->cache) {
+        int rc = opt->cache_dir && e->pool
+                     ? wg_error_set(err, WG_ERR_IO, NULL, "cannot create the cache folder '%s'",
+                                    opt->cache_dir)
+                     : wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot start %d worker threads",
+                                    threads);
+        wg_engine_free(e);
+        return rc;
+    }
+    *out = e;
+    return WG_OK;
+}
+
+void wg_engine_free(WgEngine *e)
+{
+    if (!e) return;
+    wg__pool_free(e->pool);
+    wg__cache_free(e->cache);
+    free(e);
+}
+
+void wg_engine_clear_cache(WgEngine *e)
+{
+    wg__cache_clear(e->cache);
+}
+
+size_t wg_engine_memory_budget(const WgEngine *e)
+{
+    return e->budget;
+}
+
+/* ---- evaluating one node ----------------------------------------------------------------- */
+
+static bool disk_cacheable(const WgInst *in)
+{
+    return !(in->type->flags & WG_NODE_CHEAP) && !in->constant;
+}
+
+static int eval_node(Run *run, Node *node, WgError *err)
+{
+    WgInst *in = &run->plan->insts[node->index];
+    const WgNodeType *t = in->type;
+    int rc = WG_OK;
+    const WgImage **inputs = calloc((size_t)in->n_in + 1, sizeof *inputs);
+    const WgImage **owned = calloc((size_t)in->n_in + 1, sizeof *owned);
+    WgImage **outputs = calloc((size_t)in->n_out + 1, sizeof *outputs);
+    if (!inputs || !owned || !outputs) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto out;
+    }
+    if (in->constant) {
+        WgImage *img = wg_image_convert(in->constant, in->width, in->height, in->out_channels[0]);
+        if (!img) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        outputs[0] = img;
+        goto out;
+    }
+    int n_fixed = 0;
+    while (t->inputs && t->inputs[n_fixed].name) n_fixed++;
+    for (int i = 0; i < in->n_in; i++) {
+        if (in->in[i].inst < 0) continue;
+        const WgImage *src = run->nodes[in->in[i].inst].out[in->in[i].port];
+        int want = src->channels;
+        if (i < n_fixed && t->inputs[i].kind == WG_COLOR) want = 4;
+        if (src->width != in->width || src->height != in->height || src->channels != want) {
+            owned[i] = wg_image_convert(src, in->width, in->height, want);
+            if (!owned[i]) {
+                rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory converting input '%s'",
+                                  in->in_names[i]);
+                goto out;
+            }
+            in->in_channels[i] = want;
+            src = owned[i];
+        }
+        inputs[i] = src;
+    }
+    for (int o = 0; o < in->n_out; o++) {
+        outputs[o] = wg_image_new(in->width, in->height, in->out_channels[o]);
+        if (!outputs[o]) {
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image",
+                              in->width, in->height);
+            goto out;
+        }
+    }
+    WgNodeContext ctx = {0};
+    ctx.node_id = in->id;
+    ctx.params = in->params;
+    ctx.width = in->width;
+    ctx.height = in->height;
+    ctx.seed = in->seed;
+    ctx.time = in->time;
+    ctx.n_inputs = in->n_in;
+    ctx.input_names = (const char *const *)in->in_names;
+    ctx.input_channels = in->in_channels;
+    ctx.inputs = inputs;
+    ctx.n_outputs = in->n_out;
+    ctx.outputs = outputs;
+    ctx.n_extra = in->n_extra;
+    ctx.extra_names = (const char *const *)in->extra_names;
+    ctx.extra_values = in->extra_values;
+    ctx.n_scope = in->n_scope;
+    ctx.scope_names = (const char *const *)in->scope_names;
+    ctx.scope_values = in->scope_values;
+    ctx.pool_ = run->e->pool;
+    ctx.cancel_ = &run->cancel;
+    rc = t->eval(&ctx, err);
+    if (!rc && run->cancel) rc = WG_ERR_CANCELLED;
+out:
+    if (inputs)
+        for (int i = 0; i < in->n_in; i++) wg_image_unref(owned[i]);
+    if (rc == WG_OK) {
+        for (int o = 0; o < in->n_out; o++) node->out[o] = outputs[o];
+    } else if (outputs) {
+        for (int o = 0; o < in->n_out; o++) wg_image_unref(outputs[o]);
+    }
+    free(inputs);
+    free(owned);
+    free(outputs);
+    if (rc && rc != WG_ERR_CANCELLED) {
+        if (err->file[0] == '\0') wg_error_locate(err, in->file, in->line, in->id);
+        else wg_error_locate(err, NULL, 0, in->id);
+    }
+    return rc;
+}
+
+static void release(Run *run, int index)
+{
+    Node *n = &run->nodes[index];
+    if (n->requested || !n->out) return;
+    WgInst *in = &run->plan->insts[index];
+    for (int o = 0; o < in->n_out; o++) {
+        wg_image_unref(n->out[o]);
+        n->out[o] = NULL;
+    }
+    run->live -= n->out_bytes;
+}
+
+static void node_job(void *user)
+{
+    Node *node = user;
+    Run *run = node->run;
+    WgInst *in = &run->plan->insts[node->index];
+    WgError err = {0};
+    double t0 = wg__now_ms();
+    int rc = run->cancel ? WG_ERR_CANCELLED : eval_node(run, node, &err);
+    node->stat.ms = wg__now_ms() - t0;
+    if (!rc) {
+        for (int o = 0; o < in->n_out; o++) {
+            wg__cache_put(run->e->cache, in->key, o, node->out[o]);
+            if (wg__cache_has_disk(run->e->cache) && disk_cacheable(in))
+                wg__cache_disk_put(run->e->cache, in->key, o, node->out[o]);
+        }
+    }
+    pthread_mutex_lock(&run->mu);
+    run->running--;
+    run->completed++;
+    node->done = true;
+    if (rc) {
+        if (run->rc == WG_OK && rc != WG_ERR_CANCELLED) {
+            run->rc = rc;
+            run->err = err;
+        }
+        run->cancel = 1;
+        run->live -= node->out_bytes;
+    } else {
+        for (int i = 0; i < in->n_in; i++) {
+            int src = in->in[i].inst;
+            if (src < 0) continue;
+            if (--run->nodes[src].consumers == 0) release(run, src);
+        }
+        for (int k = 0; k < node->n_dependents; k++) {
+            Node *d = &run->nodes[node->dependents[k]];
+            if (--d->pending == 0) run->ready[run->ready_tail++] = node->dependents[k];
+        }
+        if (node->consumers == 0) release(run, node->index);
+    }
+    pthread_cond_signal(&run->cv);
+    pthread_mutex_unlock(&run->mu);
+}
+
+/* ---- planning ---------------------------------------------------------------------------- */
+
+static size_t inst_bytes(const WgInst *in)
+{
+    size_t b = 0;
+    for (int o = 0; o < in->n_out; o++)
+        b += wg_image_bytes_for(in->width, in->height, in->out_channels[o]);
+    return b;
+}
+
+static bool lookup_cache(Run *run, int i)
+{
+    WgInst *in = &run->plan->insts[i];
+    Node *n = &run->nodes[i];
+    WgCache *c = run->e->cache;
+    bool all = true;
+    for (int o = 0; o < in->n_out && all; o++) all = (n->out[o] = wg__cache_get(c, in->key, o));
+    if (all) {
+        n->stat.cache = WG_HIT_MEMORY;
+        return true;
+    }
+    for (int o = 0; o < in->n_out; o++) {
+        wg_image_unref(n->out[o]);
+        n->out[o] = NULL;
+    }
+    if (!wg__cache_has_disk(c) || !disk_cacheable(in)) return false;
+    all = true;
+    for (int o = 0; o < in->n_out && all; o++)
+        all = (n->out[o] = wg__cache_disk_get(c, in->key, o, in->width, in->height,
+                                              in->out_channels[o]));
+    if (all) {
+        for (int o = 0; o < in->n_out; o++) wg__cache_put(c, in->key, o, n->out[o]);
+        n->stat.cache = WG_HIT_DISK;
+        return true;
+    }
+    for (int o = 0; o < in->n_out; o++) {
+        wg_image_unref(n->out[o]);
+        n->out[o] = NULL;
+    }
+    return false;
+}
+
+static int plan_work(Run *run, WgError *err)
+{
+    WgPlan *p = run->plan;
+    for (int k = 0; k < p->n_outputs; k++) {
+        run->nodes[p->outputs[k].ref.inst].needed = true;
+        run->nodes[p->outputs[k].ref.inst].requested = true;
+    }
+    for (int i = p->n_insts - 1; i >= 0; i--) {
+        Node *n = &run->nodes[i];
+        WgInst *in = &p->insts[i];
+        if (!n->needed) continue;
+        n->out_bytes = inst_bytes(in);
+        if (!in->constant && lookup_cache(run, i)) continue;
+        n->evaluate = true;
+        run->total++;
+        for (int k = 0; k < in->n_in; k++)
+            if (in->in[k].inst >= 0) run->nodes[in->in[k].inst].needed = true;
+    }
+    for (int i = 0; i < p->n_insts; i++) {
+        Node *n = &run->nodes[i];
+        WgInst *in = &p->insts[i];
+        if (!n->evaluate) continue;
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            if (s < 0) continue;
+            run->nodes[s].consumers++;
+            if (run->nodes[s].evaluate) {
+                n->pending++;
+                int *d = realloc(run->nodes[s].dependents,
+                                 sizeof(int) * (size_t)(run->nodes[s].n_dependents + 1));
+                if (!d) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+                d[run->nodes[s].n_dependents++] = i;
+                run->nodes[s].dependents = d;
+            }
+        }
+    }
+    /* Peak working set of a sequential run in plan order: a lower bound of what any schedule
+     * needs, so a render that cannot fit fails here instead of thrashing. */
+    size_t live = 0, peak = 0;
+    int *left = calloc((size_t)p->n_insts + 1, sizeof(int));
+    if (!left) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int biggest = -1;
+    for (int i = 0; i < p->n_insts; i++) {
+        left[i] = run->nodes[i].consumers;
+        if (run->nodes[i].needed && !run->nodes[i].evaluate) live += run->nodes[i].out_bytes;
+    }
+    peak = live;
+    for (int i = 0; i < p->n_insts; i++) {
+        Node *n = &run->nodes[i];
+        if (!n->evaluate) continue;
+        WgInst *in = &p->insts[i];
+        live += n->out_bytes;
+        if (biggest < 0 || n->out_bytes > run->nodes[biggest].out_bytes) biggest = i;
+        if (live > peak) peak = live;
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested) live -= run->nodes[s].out_bytes;
+        }
+        if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
+    }
+    free(left);
+    if (peak > run->e->budget) {
+        const WgInst *b = biggest >= 0 ? &p->insts[biggest] : NULL;
+        return wg_error_set(err, WG_ERR_BUDGET, NULL,
+                            "this render needs at least %.1f MiB of image memory but the budget "
+                            "is %.1f MiB (--memory-budget)%s%s%s",
+                            peak / 1048576.0, run->e->budget / 1048576.0,
+                            b ? "; the largest image is node '" : "", b ? b->id : "",
+                            b ? "'" : "");
+    }
+    return WG_OK;
+}
+
+/* ---- render ------------------------------------------------------------------------------ */
+
+void wg_result_free(WgResult *r)
+{
+    if (!r) return;
+    for (int i = 0; i < r->n_outputs; i++) {
+        free(r->names[i]);
+        wg_image_unref(r->images[i]);
+    }
+    free(r->names);
+    free(r->images);
+    free(r->formats);
+    free(r->colorspaces);
+    for (int i = 0; i < r->n_stats; i++) free((char *)r->stats[i].id);
+    free(r->stats);
+    free(r);
+}
+
+static int collect(Run *run, WgResult **out, double t0, WgError *err)
+{
+    WgPlan *p = run->plan;
+    WgResult *r = calloc(1, sizeof *r);
+    if (!r) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    r->n_outputs = p->n_outputs;
+    r->names = calloc((size_t)p->n_outputs + 1, sizeof(char *));
+    r->images = calloc((size_t)p->n_outputs + 1, sizeof(WgImage *));
+    r->formats = calloc((size_t)p->n_outputs + 1, sizeof(WgFormat));
+    r->colorspaces = calloc((size_t)p->n_outputs + 1, sizeof(WgColorspace));
+    r->stats = calloc((size_t)p->n_insts + 1, sizeof(WgNodeStat));
+    if (!r->names || !r->images || !r->formats || !r->colorspaces || !r->stats) {
+        r->n_outputs = 0;
+        wg_result_free(r);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    for (int k = 0; k < p->n_outputs; k++) {
+        WgPlanOutput *po = &p->outputs[k];
+        r->names[k] = strdup(po->name);
+        r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
+        r->formats[k] = po->format;
+        r->colorspaces[k] = po->colorspace;
+    }
+    for (int i = 0; i < p->n_insts; i++) {
+        Node *n = &run->nodes[i];
+        if (!n->needed) continue;
+        WgInst *in = &p->insts[i];
+        WgNodeStat *s = &r->stats[r->n_stats++];
+        *s = n->stat;
+        s->id = strdup(in->id);
+        s->type = in->type->name;
+        s->width = in->width;
+        s->height = in->height;
+        s->channels = in->out_channels[0];
+        s->bytes = n->out_bytes;
+        r->evaluated += n->evaluate;
+    }
+    r->peak = run->peak;
+    r->total_ms = wg__now_ms() - t0;
+    *out = r;
+    return WG_OK;
+}
+
+int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
+{
+    double t0 = wg__now_ms();
+    *out = NULL;
+    WgPlan *plan = calloc(1, sizeof *plan);
+    if (!plan) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int rc = wg__plan_build(req, plan, err);
+    if (rc) {
+        free(plan);
+        return rc;
+    }
+    Run run = {.e = e, .r = req, .plan = plan};
+    pthread_mutex_init(&run.mu, NULL);
+    pthread_cond_init(&run.cv, NULL);
+    run.nodes = calloc((size_t)plan->n_insts + 1, sizeof(Node));
+    run.ready = calloc((size_t)plan->n_insts + 1, sizeof(int));
+    if (!run.nodes || !run.ready) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto done;
+    }
+    for (int i = 0; i < plan->n_insts; i++) {
+        run.nodes[i].run = &run;
+        run.nodes[i].index = i;
+        run.nodes[i].out = calloc((size_t)plan->insts[i].n_out + 1, sizeof(WgImage *));
+        if (!run.nodes[i].out) {
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+            goto done;
+        }
+    }
+    if ((rc = plan_work(&run, err))) goto done;
+    for (int i = 0; i < plan->n_insts; i++)
+        if (run.nodes[i].needed && !run.nodes[i].evaluate) run.live += run.nodes[i].out_bytes;
+    run.peak = run.live;
+    for (int i = 0; i < plan->n_insts; i++)
+        if (run.nodes[i].evaluate && run.nodes[i].pending == 0) run.ready[run.ready_tail++] = i;
+
+    pthread_mutex_lock(&run.mu);
+    while (run.completed < run.total) {
+        while (!run.cancel && run.ready_head < run.ready_tail) {
+            Node *n = &run.nodes[run.ready[run.ready_head]];
+            if (run.running > 0 && run.live + n->out_bytes > e->budget) break;
+            run.ready_head++;
+            run.running++;
+            run.live += n->out_bytes;
+            if (run.live > run.peak) run.peak = run.live;
+            wg__pool_submit(e->pool, node_job, n);
+        }
+        if (run.cancel && run.running == 0) break;
+        int before = run.completed;
+        pthread_cond_wait(&run.cv, &run.mu);
+        if (req->progress && run.completed != before) {
+            int done = run.completed, total = run.total;
+            pthread_mutex_unlock(&run.mu);
+            req->progress(req->progress_user, done, total, NULL);
+            pthread_mutex_lock(&run.mu);
+        }
+    }
+    pthread_mutex_unlock(&run.mu);
+    if (run.rc) {
+        rc = run.rc;
+        *err = run.err;
+        goto done;
+    }
+    rc = collect(&run, out, t0, err);
+done:
+    if (run.nodes) {
+        for (int i = 0; i < plan->n_insts; i++) {
+            if (run.nodes[i].out)
+                for (int o = 0; o < plan->insts[i].n_out; o++) wg_image_unref(run.nodes[i].out[o]);
+            free(run.nodes[i].out);
+            free(run.nodes[i].dependents);
+        }
+    }
+    wg__cache_trim(e->cache, e->budget);
+    free(run.nodes);
+    free(run.ready);
+    pthread_mutex_destroy(&run.mu);
+    pthread_cond_destroy(&run.cv);
+    wg__plan_free(plan);
+    free(plan);
+    return rc;
+}
+
+int wg_result_output_count(const WgResult *r) { return r->n_outputs; }
+const char *wg_result_output_name(const WgResult *r, int i) { return r->names[i]; }
+const WgImage *wg_result_output_image(const WgResult *r, int i) { return r->images[i]; }
+WgFormat wg_result_output_format(const WgResult *r, int i) { return r->formats[i]; }
+WgColorspace wg_result_output_colorspace(const WgResult *r, int i) { return r->colorspaces[i]; }
+int wg_result_stat_count(const WgResult *r) { return r->n_stats; }
+const WgNodeStat *wg_result_stat(const WgResult *r, int i) { return &r->stats[i]; }
+int wg_result_evaluated_count(const WgResult *r) { return r->evaluated; }
+size_t wg_result_peak_bytes(const WgResult *r) { return r->peak; }
+double wg_result_total_ms(const WgResult *r) { return r->total_ms; }

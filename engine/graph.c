@@ -1,0 +1,1380 @@
+/* SPDX-License-Identifier: MIT */
+/* Loading .wetgraph files with libxml2 into validated definitions. Everything that can be
+ * checked without parameter values or images is checked here, with the file and line of the
+ * offending element: unknown elements and attributes, node types, parameters and ports,
+ * malformed literals and expressions, duplicate ids, dangling references, unconnected required
+ * inputs, cycles between nodes and recursion between graph files. Subgraphs are loaded once per
+ * load and shared. Instantiation with concrete values is in plan.c. */
+#include "internal.h"
+
+#include <ctype.h>
+#include <libxml/parser.h>
+#include <libxml/tree.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#ifndef WG_SOURCE_GRAPHS_DIR
+#define WG_SOURCE_GRAPHS_DIR ""
+#endif
+#ifndef WG_INSTALL_GRAPHS_DIR
+#define WG_INSTALL_GRAPHS_DIR ""
+#endif
+
+typedef struct LoadCtx {
+    char *stack[64]; /* real paths of the graphs being loaded, outermost first */
+    int depth;
+    WgGraph **loaded;
+    int n_loaded, cap_loaded;
+} LoadCtx;
+
+static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err);
+static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out, WgError *err);
+
+/* ---- small helpers ----------------------------------------------------------------------- */
+
+static bool file_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+static bool dir_exists(const char *path)
+{
+    struct stat st;
+    return path[0] && stat(path, &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+const char *wg_builtin_graphs_dir(void)
+{
+    const char *env = getenv("WETGRAPH_GRAPHS_DIR");
+    if (env && dir_exists(env)) return env;
+    if (dir_exists(WG_SOURCE_GRAPHS_DIR)) return WG_SOURCE_GRAPHS_DIR;
+    return WG_INSTALL_GRAPHS_DIR;
+}
+
+static char *dir_of(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash) return wg_strdup(".");
+    if (slash == path) return wg_strdup("/");
+    return wg_strndup(path, (size_t)(slash - path));
+}
+
+static char *join_path(const char *dir, const char *name)
+{
+    if (name[0] == '/' || !dir || !dir[0]) return wg_strdup(name);
+    size_t n = strlen(dir) + strlen(name) + 2;
+    char *p = wg_malloc(n);
+    if (p) snprintf(p, n, "%s/%s", dir, name);
+    return p;
+}
+
+static bool ends_with(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && !strcmp(s + a - b, suffix);
+}
+
+static int levenshtein(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b);
+    if (la > 64 || lb > 64) return 99;
+    int row[65];
+    for (size_t j = 0; j <= lb; j++) row[j] = (int)j;
+    for (size_t i = 1; i <= la; i++) {
+        int prev = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= lb; j++) {
+            int cur = row[j];
+            int cost = tolower((unsigned char)a[i - 1]) != tolower((unsigned char)b[j - 1]);
+            int best = prev + cost;
+            if (row[j] + 1 < best) best = row[j] + 1;
+            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
+            row[j] = best;
+            prev = cur;
+        }
+    }
+    return row[lb];
+}
+
+const char *wg_suggest(const char *word, const char *const *candidates, int count)
+{
+    const char *best = NULL;
+    int best_d = 3;
+    size_t wl = strlen(word);
+    for (int i = 0; i < count; i++) {
+        if (!candidates[i]) continue;
+        int d = levenshtein(word, candidates[i]);
+        int limit = wl <= 3 ? 1 : 2;
+        if (d <= limit && d < best_d) {
+            best = candidates[i];
+            best_d = d;
+        }
+    }
+    if (!best && wl >= 3) {
+        for (int i = 0; i < count; i++)
+            if (candidates[i] && !strncmp(candidates[i], word, wl)) return candidates[i];
+    }
+    return best;
+}
+
+static bool valid_id(const char *s)
+{
+    if (!isalpha((unsigned char)*s) && *s != '_') return false;
+    for (s++; *s; s++)
+        if (!isalnum((unsigned char)*s) && *s != '_' && *s != '-') return false;
+    return true;
+}
+
+bool wg__parse_size(const char *text, int *w, int *h)
+{
+    char *end;
+    long a = strtol(text, &end, 10);
+    if (end == text) return false;
+    long b = a;
+    if (*end == 'x' || *end == 'X') {
+        const char *s = end + 1;
+        if (!isdigit((unsigned char)*s)) return false;
+        b = strtol(s, &end, 10);
+    }
+    if (*end) return false;
+    if (a < 1 || b < 1 || a > WG_MAX_SIDE || b > WG_MAX_SIDE) return false;
+    *w = (int)a;
+    *h = (int)b;
+    return true;
+}
+
+/* ---- lookups ----------------------------------------------------------------------------- */
+
+int wg__graph_find_param(const WgGraph *g, const char *name, size_t len)
+{
+    for (int i = 0; i < g->n_params; i++)
+        if (strlen(g->params[i].info.name) == len && !strncmp(g->params[i].info.name, name, len))
+            return i;
+    return -1;
+}
+
+int wg__graph_find_input(const WgGraph *g, const char *name)
+{
+    for (int i = 0; i < g->n_inputs; i++)
+        if (!strcmp(g->inputs[i].info.name, name)) return i;
+    return -1;
+}
+
+int wg__graph_find_node(const WgGraph *g, const char *id)
+{
+    for (int i = 0; i < g->n_nodes; i++)
+        if (!strcmp(g->nodes[i].id, id)) return i;
+    return -1;
+}
+
+int wg__graph_find_output(const WgGraph *g, const char *name)
+{
+    for (int i = 0; i < g->n_outputs; i++)
+        if (!strcmp(g->outputs[i].name, name)) return i;
+    return -1;
+}
+
+int wg__node_output_count(const NodeDef *n)
+{
+    if (n->sub) return n->sub->n_outputs;
+    int k = 0;
+    while (n->type->outputs[k].name) k++;
+    return k;
+}
+
+const char *wg__node_output_name(const NodeDef *n, int i)
+{
+    return n->sub ? n->sub->outputs[i].name : n->type->outputs[i].name;
+}
+
+static int node_input_count(const NodeDef *n)
+{
+    if (n->sub) return n->sub->n_inputs;
+    int k = 0;
+    while (n->type->inputs && n->type->inputs[k].name) k++;
+    return k;
+}
+
+static const char *node_input_name(const NodeDef *n, int i)
+{
+    return n->sub ? n->sub->inputs[i].info.name : n->type->inputs[i].name;
+}
+
+/* ---- freeing ----------------------------------------------------------------------------- */
+
+void wg_graph_free(WgGraph *g)
+{
+    if (!g || --g->refs > 0) return;
+    for (int i = 0; i < g->n_params; i++) {
+        ParamDef *p = &g->params[i];
+        wg_free((char *)p->info.name);
+        wg_free((char *)p->info.default_text);
+        wg_free((char *)p->info.label);
+        if (p->value_storage)
+            for (int k = 0; p->value_storage[k]; k++) wg_free(p->value_storage[k]);
+        wg_free(p->value_storage);
+        wg__value_clear(&p->def);
+    }
+    wg_free(g->params);
+    for (int i = 0; i < g->n_inputs; i++) {
+        wg_free((char *)g->inputs[i].info.name);
+        wg_free((char *)g->inputs[i].info.default_text);
+    }
+    wg_free(g->inputs);
+    for (int i = 0; i < g->n_outputs; i++) {
+        wg_free((char *)g->outputs[i].name);
+        wg_free((char *)g->outputs[i].from);
+    }
+    wg_free(g->outputs);
+    wg_free(g->output_node);
+    wg_free(g->output_port);
+    wg_free(g->output_input);
+    for (int i = 0; i < g->n_nodes; i++) {
+        NodeDef *n = &g->nodes[i];
+        for (int k = 0; k < n->n_attrs; k++) {
+            wg_free(n->attrs[k].name);
+            wg_free(n->attrs[k].text);
+            wg_expr_free(n->attrs[k].expr);
+            wg__value_clear(&n->attrs[k].literal);
+        }
+        wg_free(n->attrs);
+        for (int k = 0; k < n->n_ins; k++) {
+            wg_free(n->ins[k].port);
+            wg_free(n->ins[k].from);
+        }
+        wg_free(n->ins);
+        wg_free(n->info_ports);
+        wg_free(n->info_from);
+        wg_free(n->id);
+        wg_free(n->type_name);
+        wg_free(n->size_text);
+        wg_free(n->seed_text);
+        wg_free(n->label);
+        wg_graph_free(n->sub);
+    }
+    wg_free(g->nodes);
+    wg_free(g->node_info);
+    wg_free(g->path);
+    wg_free(g->dir);
+    wg_free(g->name);
+    wg_free(g->size_text);
+    wg_free(g);
+}
+
+/* ---- XML helpers ------------------------------------------------------------------------- */
+
+typedef struct Doc {
+    const char *path;
+    WgError *err;
+} Doc;
+
+static int line_of(xmlNodePtr n)
+{
+    return (int)xmlGetLineNo(n);
+}
+
+static char *attr(xmlNodePtr n, const char *name)
+{
+    xmlChar *v = xmlGetProp(n, (const xmlChar *)name);
+    if (!v) return NULL;
+    char *s = wg_strdup((const char *)v);
+    xmlFree(v);
+    return s;
+}
+
+/* Report the first attribute of `n` not in `allowed` (NULL-terminated). */
+static int check_attrs(Doc *d, xmlNodePtr n, const char *const *allowed)
+{
+    for (xmlAttrPtr a = n->properties; a; a = a->next) {
+        const char *name = (const char *)a->name;
+        bool ok = false;
+        int count = 0;
+        for (; allowed[count]; count++) ok |= !strcmp(allowed[count], name);
+        if (ok) continue;
+        const char *s = wg_suggest(name, allowed, count);
+        if (s)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(n), 0,
+                                   "unknown attribute '%s' on <%s>; did you mean '%s'?", name,
+                                   (const char *)n->name, s);
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(n), 0,
+                               "unknown attribute '%s' on <%s>", name, (const char *)n->name);
+    }
+    return WG_OK;
+}
+
+static int need_attr(Doc *d, xmlNodePtr n, const char *name, char **out)
+{
+    *out = attr(n, name);
+    if (!*out)
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(n), 0,
+                               "<%s> needs a '%s' attribute", (const char *)n->name, name);
+    return WG_OK;
+}
+
+static int check_no_text(Doc *d, xmlNodePtr n)
+{
+    for (xmlNodePtr c = n->children; c; c = c->next) {
+        if (c->type != XML_TEXT_NODE && c->type != XML_CDATA_SECTION_NODE) continue;
+        for (const xmlChar *s = c->content; s && *s; s++)
+            if (!isspace(*s))
+                return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(c), 0,
+                                       "unexpected text inside <%s>", (const char *)n->name);
+    }
+    return WG_OK;
+}
+
+/* ---- <param> ----------------------------------------------------------------------------- */
+
+static const char *const param_types[] = {"float", "int", "bool", "color", "enum", "string", NULL};
+static const WgParamType param_type_values[] = {WG_PARAM_FLOAT_T, WG_PARAM_INT_T,
+                                                WG_PARAM_BOOL_T,  WG_PARAM_COLOR_T,
+                                                WG_PARAM_ENUM_T,  WG_PARAM_STRING_T};
+
+static int parse_enum_values(ParamDef *p, const char *text)
+{
+    int cap = 1;
+    for (const char *s = text; *s; s++) cap += (*s == '|' || *s == ',' || *s == ' ');
+    p->value_storage = wg_calloc((size_t)cap + 1, sizeof(char *));
+    if (!p->value_storage) return WG_ERR_NOMEM;
+    int n = 0;
+    const char *s = text;
+    while (*s) {
+        while (*s == '|' || *s == ',' || *s == ' ') s++;
+        const char *e = s;
+        while (*e && *e != '|' && *e != ',' && *e != ' ') e++;
+        if (e > s && !(p->value_storage[n++] = wg_strndup(s, (size_t)(e - s)))) return WG_ERR_NOMEM;
+        s = e;
+    }
+    p->info.values = (const char *const *)p->value_storage;
+    return n;
+}
+
+static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
+{
+    static const char *const allowed[] = {"name", "type", "default", "min", "max", "label",
+                                          "values", NULL};
+    int line = line_of(x);
+    int rc = check_attrs(d, x, allowed);
+    if (rc) return rc;
+    ParamDef *p = &g->params[g->n_params];
+    memset(p, 0, sizeof *p);
+    p->info.line = line;
+    char *name = NULL, *type = NULL, *def = NULL, *min = NULL, *max = NULL, *values = NULL;
+    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type))) goto out;
+    if (!valid_id(name) || strchr(name, '-')) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "parameter name '%s' must start with a letter and contain only "
+                             "letters, digits and '_'",
+                             name);
+        goto out;
+    }
+    if (wg__graph_find_param(g, name, strlen(name)) >= 0) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "parameter '%s' is declared twice", name);
+        goto out;
+    }
+    int t = -1;
+    for (int i = 0; param_types[i]; i++)
+        if (!strcmp(param_types[i], type)) t = i;
+    if (t < 0) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "unknown parameter type '%s' (float, int, bool, color, enum, string)",
+                             type);
+        goto out;
+    }
+    p->info.name = name;
+    name = NULL;
+    p->info.type = param_type_values[t];
+    p->info.label = attr(x, "label");
+    p->desc.name = p->info.name;
+    p->desc.type = p->info.type;
+    def = attr(x, "default");
+    min = attr(x, "min");
+    max = attr(x, "max");
+    values = attr(x, "values");
+    bool numeric = p->info.type == WG_PARAM_FLOAT_T || p->info.type == WG_PARAM_INT_T;
+    if ((min || max) && !numeric) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "min/max apply only to float and int parameters");
+        goto out;
+    }
+    if (values && p->info.type != WG_PARAM_ENUM_T) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "'values' applies only to enum parameters");
+        goto out;
+    }
+    if (p->info.type == WG_PARAM_ENUM_T) {
+        if (!values) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "enum parameter '%s' needs values=\"a|b|c\"", p->info.name);
+            goto out;
+        }
+        int n = parse_enum_values(p, values);
+        if (n <= 0) {
+            rc = n < 0 ? n
+                       : wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                         "enum parameter '%s' has no values", p->info.name);
+            goto out;
+        }
+        p->desc.values = p->info.values;
+    }
+    WgParamDesc bound = {.name = "min", .type = WG_PARAM_FLOAT_T};
+    WgValue v;
+    if (min) {
+        if ((rc = wg__value_parse(&bound, min, &v, d->err))) goto located;
+        p->info.has_min = p->desc.has_min = true;
+        p->info.min = p->desc.min = v.num;
+    }
+    if (max) {
+        bound.name = "max";
+        if ((rc = wg__value_parse(&bound, max, &v, d->err))) goto located;
+        p->info.has_max = p->desc.has_max = true;
+        p->info.max = p->desc.max = v.num;
+    }
+    if (min && max && p->info.min > p->info.max) {
+        rc = wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line, 0,
+                             "min %g is greater than max %g", p->info.min, p->info.max);
+        goto out;
+    }
+    if (!def) {
+        static const char *const natural[] = {"0", "0", "false", "0 0 0 1", NULL, ""};
+        const char *text = p->info.type == WG_PARAM_ENUM_T ? p->info.values[0] : natural[t];
+        if (numeric && p->info.has_min && p->info.min > 0) {
+            char buf[64];
+            snprintf(buf, sizeof buf, "%.17g", p->info.min);
+            def = wg_strdup(buf);
+        } else {
+            def = wg_strdup(text);
+        }
+    }
+    if ((rc = wg__value_parse(&p->desc, def, &p->def, d->err))) goto located;
+    p->info.default_text = def;
+    def = NULL;
+    g->n_params++;
+    goto out;
+located:
+    wg_error_locate(d->err, d->path, line, NULL);
+out:
+    if (rc) {
+        wg_free((char *)p->info.name);
+        wg_free((char *)p->info.label);
+        if (p->value_storage)
+            for (int k = 0; p->value_storage[k]; k++) wg_free(p->value_storage[k]);
+        wg_free(p->value_storage);
+        memset(p, 0, sizeof *p);
+    }
+    wg_free(name);
+    wg_free(type);
+    wg_free(def);
+    wg_free(min);
+    wg_free(max);
+    wg_free(values);
+    return rc;
+}
+
+/* ---- <input> ----------------------------------------------------------------------------- */
+
+static int parse_input(Doc *d, WgGraph *g, xmlNodePtr x)
+{
+    static const char *const allowed[] = {"name", "type", "colorspace", "default", "label", NULL};
+    int line = line_of(x);
+    int rc = check_attrs(d, x, allowed);
+    if (rc) return rc;
+    char *name = NULL, *type = NULL, *cs = attr(x, "colorspace"), *def = attr(x, "default");
+    InputDef *in = &g->inputs[g->n_inputs];
+    memset(in, 0, sizeof *in);
+    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type))) goto out;
+    if (!valid_id(name)) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "bad input name '%s'", name);
+        goto out;
+    }
+    if (wg__graph_find_input(g, name) >= 0) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "input '%s' is declared twice", name);
+        goto out;
+    }
+    if (!strcmp(type, "gray")) in->info.kind = WG_GRAY;
+    else if (!strcmp(type, "color")) in->info.kind = WG_COLOR;
+    else {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "input type must be 'gray' or 'color', not '%s'", type);
+        goto out;
+    }
+    in->info.colorspace = WG_LINEAR;
+    if (cs) {
+        if (!strcmp(cs, "srgb")) in->info.colorspace = WG_SRGB;
+        else if (strcmp(cs, "linear")) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "colorspace must be 'linear' or 'srgb', not '%s'", cs);
+            goto out;
+        }
+    }
+    if (def) {
+        if (wg__color_parse(def, in->def)) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "bad default '%s' for input '%s' (a number, or a colour such "
+                                 "as #808080 or '0.5 0.5 0.5')",
+                                 def, name);
+            goto out;
+        }
+        in->info.has_default = true;
+    }
+    in->info.name = name;
+    in->info.default_text = def;
+    in->info.line = line;
+    name = def = NULL;
+    g->n_inputs++;
+out:
+    wg_free(name);
+    wg_free(type);
+    wg_free(cs);
+    wg_free(def);
+    return rc;
+}
+
+/* ---- <node> ------------------------------------------------------------------------------ */
+
+static const char *const reserved_node_attrs[] = {"id", "type", "size", "seed", "label", "pos",
+                                                  NULL};
+
+static bool is_reserved(const char *name)
+{
+    for (int i = 0; reserved_node_attrs[i]; i++)
+        if (!strcmp(reserved_node_attrs[i], name)) return true;
+    return false;
+}
+
+static int resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError *err)
+{
+    char *found = NULL;
+    if (ends_with(n->type_name, ".wetgraph")) {
+        found = join_path(g->dir, n->type_name);
+        if (found && !file_exists(found)) {
+            wg_free(found);
+            return wg_error_set_at(err, WG_ERR_IO, d->path, n->line, 0,
+                                   "subgraph file '%s' not found (relative to %s)", n->type_name,
+                                   g->dir);
+        }
+    } else {
+        size_t fl = strlen(n->type_name) + 10;
+        char *file = wg_malloc(fl);
+        if (!file) return WG_ERR_NOMEM;
+        snprintf(file, fl, "%s.wetgraph", n->type_name);
+        char *cand = join_path(g->dir, file);
+        if (cand && file_exists(cand)) found = cand;
+        else wg_free(cand);
+        const char *env = getenv("WETGRAPH_PATH");
+        if (!found && env) {
+            char *copy = wg_strdup(env);
+            for (char *save = NULL, *tok = strtok_r(copy, ":", &save); tok && !found;
+                 tok = strtok_r(NULL, ":", &save)) {
+                cand = join_path(tok, file);
+                if (cand && file_exists(cand)) found = cand;
+                else wg_free(cand);
+            }
+            wg_free(copy);
+        }
+        if (!found) {
+            cand = join_path(wg_builtin_graphs_dir(), file);
+            if (cand && file_exists(cand)) found = cand;
+            else wg_free(cand);
+        }
+        wg_free(file);
+        if (!found) {
+            const char *names[256];
+            int count = 0;
+            for (; wg_node_types[count] && count < 256; count++)
+                names[count] = wg_node_types[count]->name;
+            const char *s = wg_suggest(n->type_name, names, count);
+            if (s)
+                return wg_error_set_at(err, WG_ERR_TYPE, d->path, n->line, 0,
+                                       "unknown node type '%s'; did you mean '%s'?",
+                                       n->type_name, s);
+            return wg_error_set_at(err, WG_ERR_TYPE, d->path, n->line, 0,
+                                   "unknown node type '%s' (not a built-in node, and no %s.wetgraph "
+                                   "next to this file, in WETGRAPH_PATH or in %s)",
+                                   n->type_name, n->type_name, wg_builtin_graphs_dir());
+        }
+    }
+    if (!found) return WG_ERR_NOMEM;
+    int rc = load_file(lc, found, &n->sub, err);
+    if (rc && err && !err->file[0]) wg_error_locate(err, d->path, n->line, n->id);
+    if (rc == WG_ERR_CYCLE || rc == WG_ERR_PARSE || rc == WG_ERR_TYPE || rc == WG_ERR_RANGE ||
+        rc == WG_ERR_IO) {
+        /* keep the inner location, say where it was used */
+        if (err) {
+            size_t l = strlen(err->message);
+            snprintf(err->message + l, sizeof err->message - l, " (used by node '%s' at %s:%d)",
+                     n->id, d->path, n->line);
+        }
+    }
+    wg_free(found);
+    return rc;
+}
+
+typedef struct ScopeResolve {
+    const WgGraph *g;
+    const char *bad; /* set when a name exists but is not numeric */
+} ScopeResolve;
+
+static bool resolve_scope(void *user, const char *name, size_t len, int *slot)
+{
+    ScopeResolve *sr = user;
+    static const char *const specials[WG_SCOPE_COUNT_] = {"$time", "$seed", "$width", "$height"};
+    for (int i = 0; i < WG_SCOPE_COUNT_; i++) {
+        if (strlen(specials[i]) == len && !strncmp(specials[i], name, len)) {
+            *slot = sr->g->n_params + i;
+            return true;
+        }
+    }
+    int p = wg__graph_find_param(sr->g, name, len);
+    if (p < 0) return false;
+    WgParamType t = sr->g->params[p].info.type;
+    if (t == WG_PARAM_COLOR_T || t == WG_PARAM_STRING_T) {
+        sr->bad = wg__type_name(t);
+        return false;
+    }
+    *slot = p;
+    return true;
+}
+
+/* Parse an attribute value against the descriptor of its parameter. */
+static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
+                            const WgParamDesc *desc)
+{
+    a->ref_param = -1;
+    if (a->text[0] == '=') {
+        const char *src = a->text + 1;
+        bool numeric = !desc || desc->type == WG_PARAM_FLOAT_T || desc->type == WG_PARAM_INT_T ||
+                       desc->type == WG_PARAM_BOOL_T;
+        if (!numeric) {
+            const char *s = src;
+            while (isspace((unsigned char)*s)) s++;
+            size_t len = strlen(s);
+            while (len && isspace((unsigned char)s[len - 1])) len--;
+            int p = wg__graph_find_param(g, s, len);
+            if (p < 0 || g->params[p].info.type != desc->type)
+                return wg_error_set_at(d->err, WG_ERR_TYPE, d->path, n->line, 0,
+                                       "node '%s': '%s' is a %s parameter: its value can only be "
+                                       "a literal or '=name' of a graph %s parameter",
+                                       n->id, a->name, wg__type_name(desc->type),
+                                       wg__type_name(desc->type));
+            a->ref_param = p;
+            return WG_OK;
+        }
+        ScopeResolve sr = {g, NULL};
+        WgExprOptions opt = {resolve_scope, &sr, false};
+        WgError e = {0};
+        int rc = wg_expr_parse(src, &opt, &a->expr, &e);
+        if (rc) {
+            char extra[128] = "";
+            if (sr.bad) snprintf(extra, sizeof extra, " (it is a %s parameter, not a number)", sr.bad);
+            return wg_error_set_at(d->err, rc, d->path, n->line, e.column + 1,
+                                   "node '%s', attribute '%s', column %d: %s%s", n->id, a->name,
+                                   e.column + 1, e.message, extra);
+        }
+        return WG_OK;
+    }
+    WgParamDesc numeric = {.name = a->name, .type = WG_PARAM_FLOAT_T};
+    int rc = wg__value_parse(desc ? desc : &numeric, a->text, &a->literal, d->err);
+    if (rc) {
+        char msg[1024];
+        snprintf(msg, sizeof msg, "node '%s': %s", n->id, d->err ? d->err->message : "");
+        return wg_error_set_at(d->err, rc, d->path, n->line, 0, "%s", msg);
+    }
+    return WG_OK;
+}
+
+static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
+{
+    int line = line_of(x);
+    NodeDef *n = &g->nodes[g->n_nodes];
+    memset(n, 0, sizeof *n);
+    n->line = line;
+    int rc;
+    if ((rc = need_attr(d, x, "id", &n->id)) || (rc = need_attr(d, x, "type", &n->type_name)))
+        goto fail;
+    if (!valid_id(n->id)) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "bad node id '%s': use letters, digits, '_' and '-', starting with a "
+                             "letter",
+                             n->id);
+        goto fail;
+    }
+    int dup = wg__graph_find_node(g, n->id);
+    if (dup >= 0) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "duplicate node id '%s' (first defined at line %d)", n->id,
+                             g->nodes[dup].line);
+        goto fail;
+    }
+    n->type = wg_node_type_find(n->type_name);
+    if (!n->type && (rc = resolve_subgraph(lc, d, g, n, d->err))) goto fail;
+    n->size_text = attr(x, "size");
+    n->seed_text = attr(x, "seed");
+    n->label = attr(x, "label");
+    if (n->seed_text) {
+        char *end;
+        strtoull(n->seed_text, &end, 10);
+        if (!isdigit((unsigned char)n->seed_text[0]) || *end) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "node '%s': seed must be a whole number >= 0, not '%s'", n->id,
+                                 n->seed_text);
+            goto fail;
+        }
+    }
+    if (n->size_text) {
+        const char *s = n->size_text;
+        int w, h;
+        bool ok = !strcmp(s, "graph") || !strcmp(s, "input") || wg__parse_size(s, &w, &h);
+        if (!ok && (s[0] == 'x' || s[0] == '/')) {
+            char *end;
+            double f = strtod(s + 1, &end);
+            ok = end != s + 1 && !*end && f > 0 && f <= WG_MAX_SIDE;
+        }
+        if (!ok) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "node '%s': bad size '%s' (N, WxH, xK, /K, input or graph; "
+                                 "sides 1..%d)",
+                                 n->id, s, WG_MAX_SIDE);
+            goto fail;
+        }
+    }
+
+    /* parameters */
+    int n_props = 0;
+    for (xmlAttrPtr a = x->properties; a; a = a->next) n_props++;
+    n->attrs = wg_calloc((size_t)n_props + 1, sizeof(AttrDef));
+    if (!n->attrs) {
+        rc = WG_ERR_NOMEM;
+        goto fail;
+    }
+    for (xmlAttrPtr xa = x->properties; xa; xa = xa->next) {
+        const char *name = (const char *)xa->name;
+        if (is_reserved(name)) continue;
+        AttrDef *a = &n->attrs[n->n_attrs++];
+        a->name = wg_strdup(name);
+        a->text = attr(x, name);
+        a->param = -1;
+        a->ref_param = -1;
+        if (!a->name || !a->text) {
+            rc = WG_ERR_NOMEM;
+            goto fail;
+        }
+        WgParamDesc desc;
+        const WgParamDesc *dp = NULL;
+        const char *names[128];
+        int count = 0;
+        if (n->type) {
+            for (int i = 0; n->type->params && n->type->params[i].name; i++) {
+                if (count < 128) names[count++] = n->type->params[i].name;
+                if (!strcmp(n->type->params[i].name, name)) {
+                    a->param = i;
+                    wg__param_desc_from_spec(&desc, &n->type->params[i]);
+                    dp = &desc;
+                }
+            }
+        } else {
+            for (int i = 0; i < n->sub->n_params; i++) {
+                if (count < 128) names[count++] = n->sub->params[i].info.name;
+                if (!strcmp(n->sub->params[i].info.name, name)) {
+                    a->param = i;
+                    dp = &n->sub->params[i].desc;
+                }
+            }
+        }
+        for (int k = 0; k < n->n_attrs - 1; k++) {
+            if (!strcmp(n->attrs[k].name, name)) {
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                     "node '%s': attribute '%s' given twice", n->id, name);
+                goto fail;
+            }
+        }
+        if (a->param < 0 && !(n->type && (n->type->flags & WG_NODE_EXTRA_PARAMS))) {
+            for (int r = 0; reserved_node_attrs[r] && count < 128; r++)
+                names[count++] = reserved_node_attrs[r];
+            const char *s = wg_suggest(name, names, count);
+            if (s)
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                     "node '%s': %s '%s' has no parameter '%s'; did you mean "
+                                     "'%s'?",
+                                     n->id, n->type ? "node type" : "subgraph", n->type_name, name,
+                                     s);
+            else
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                     "node '%s': %s '%s' has no parameter '%s'", n->id,
+                                     n->type ? "node type" : "subgraph", n->type_name, name);
+            goto fail;
+        }
+        if (a->param < 0 && !valid_id(name)) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "node '%s': bad parameter name '%s'", n->id, name);
+            goto fail;
+        }
+        if ((rc = parse_attr_value(d, g, n, a, dp))) goto fail;
+    }
+
+    /* connections */
+    int n_children = 0;
+    for (xmlNodePtr c = x->children; c; c = c->next) n_children += c->type == XML_ELEMENT_NODE;
+    n->ins = wg_calloc((size_t)n_children + 1, sizeof(InDef));
+    if (!n->ins) {
+        rc = WG_ERR_NOMEM;
+        goto fail;
+    }
+    if ((rc = check_no_text(d, x))) goto fail;
+    for (xmlNodePtr c = x->children; c; c = c->next) {
+        if (c->type != XML_ELEMENT_NODE) continue;
+        if (strcmp((const char *)c->name, "in")) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(c), 0,
+                                 "unexpected <%s> inside <node>; only <in name=... from=...> "
+                                 "belongs there",
+                                 (const char *)c->name);
+            goto fail;
+        }
+        static const char *const in_allowed[] = {"name", "from", NULL};
+        if ((rc = check_attrs(d, c, in_allowed))) goto fail;
+        InDef *in = &n->ins[n->n_ins];
+        in->line = line_of(c);
+        if ((rc = need_attr(d, c, "name", &in->port)) || (rc = need_attr(d, c, "from", &in->from)))
+            goto fail;
+        n->n_ins++;
+    }
+    g->n_nodes++;
+    return WG_OK;
+fail:
+    g->n_nodes++; /* let wg_graph_free release what was filled in */
+    return rc;
+}
+
+/* Resolve "node", "node.port" or "$input" in graph g. */
+static int resolve_from(Doc *d, WgGraph *g, const char *from, int line, int *node, int *port,
+                        int *input)
+{
+    *node = -1;
+    *port = 0;
+    *input = -1;
+    if (from[0] == '$') {
+        *input = wg__graph_find_input(g, from + 1);
+        if (*input < 0) {
+            const char *names[256];
+            int count = 0;
+            for (int i = 0; i < g->n_inputs && count < 256; i++) names[count++] = g->inputs[i].info.name;
+            const char *s = wg_suggest(from + 1, names, count);
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                   "no graph input '%s'%s%s%s", from + 1, s ? "; did you mean '$" : "",
+                                   s ? s : "", s ? "'?" : "");
+        }
+        return WG_OK;
+    }
+    char id[256];
+    snprintf(id, sizeof id, "%s", from);
+    char *dot = strchr(id, '.');
+    if (dot) *dot = '\0';
+    *node = wg__graph_find_node(g, id);
+    if (*node < 0) {
+        const char *names[1024];
+        int count = 0;
+        for (int i = 0; i < g->n_nodes && count < 1024; i++) names[count++] = g->nodes[i].id;
+        const char *s = wg_suggest(id, names, count);
+        if (s)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                   "no node '%s'; did you mean '%s'?", id, s);
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                               "no node '%s' (a graph input is written '$name')", id);
+    }
+    NodeDef *src = &g->nodes[*node];
+    int count = wg__node_output_count(src);
+    if (dot) {
+        *port = -1;
+        for (int i = 0; i < count; i++)
+            if (!strcmp(wg__node_output_name(src, i), dot + 1)) *port = i;
+        if (*port < 0) {
+            char list[512] = "";
+            for (int i = 0; i < count; i++) {
+                size_t l = strlen(list);
+                snprintf(list + l, sizeof list - l, "%s%s", i ? ", " : "",
+                         wg__node_output_name(src, i));
+            }
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                   "node '%s' has no output '%s' (outputs: %s)", id, dot + 1, list);
+        }
+    }
+    return WG_OK;
+}
+
+static int link_node(Doc *d, WgGraph *g, NodeDef *n)
+{
+    int n_ports = node_input_count(n);
+    bool dynamic = n->type && (n->type->flags & WG_NODE_DYNAMIC_INPUTS);
+    for (int k = 0; k < n->n_ins; k++) {
+        InDef *in = &n->ins[k];
+        for (int j = 0; j < k; j++)
+            if (!strcmp(n->ins[j].port, in->port))
+                return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, in->line, 0,
+                                       "node '%s': input '%s' is connected twice", n->id, in->port);
+        in->port_index = -1;
+        for (int i = 0; i < n_ports; i++)
+            if (!strcmp(node_input_name(n, i), in->port)) in->port_index = i;
+        if (in->port_index < 0) {
+            if (dynamic) {
+                if (!valid_id(in->port) || strchr(in->port, '-'))
+                    return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, in->line, 0,
+                                           "node '%s': input name '%s' must be a plain name "
+                                           "(letters, digits, '_')",
+                                           n->id, in->port);
+                in->port_index = n_ports + k;
+            } else {
+                const char *names[64];
+                int count = 0;
+                for (int i = 0; i < n_ports && i < 64; i++) names[count++] = node_input_name(n, i);
+                const char *s = wg_suggest(in->port, names, count);
+                char list[512] = "";
+                for (int i = 0; i < count; i++) {
+                    size_t l = strlen(list);
+                    snprintf(list + l, sizeof list - l, "%s%s", i ? ", " : "", names[i]);
+                }
+                if (s)
+                    return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, in->line, 0,
+                                           "node '%s' (%s) has no input '%s'; did you mean '%s'?",
+                                           n->id, n->type_name, in->port, s);
+                return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, in->line, 0,
+                                       "node '%s' (%s) has no input '%s' (inputs: %s)", n->id,
+                                       n->type_name, in->port, count ? list : "none");
+            }
+        }
+        int rc = resolve_from(d, g, in->from, in->line, &in->from_node, &in->from_port,
+                              &in->from_input);
+        if (rc) return rc;
+    }
+    for (int i = 0; i < n_ports; i++) {
+        bool required = n->type ? !n->type->inputs[i].optional : !n->sub->inputs[i].info.has_default;
+        if (!required) continue;
+        bool connected = false;
+        for (int k = 0; k < n->n_ins; k++) connected |= n->ins[k].port_index == i;
+        if (!connected)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, n->line, 0,
+                                   "node '%s' (%s): required input '%s' is not connected; add "
+                                   "<in name=\"%s\" from=\"...\"/>",
+                                   n->id, n->type_name, node_input_name(n, i), node_input_name(n, i));
+    }
+    return WG_OK;
+}
+
+/* Depth-first search for a cycle; reports the node ids around it. */
+static int find_cycle(Doc *d, WgGraph *g)
+{
+    int n = g->n_nodes;
+    int *state = wg_calloc((size_t)n + 1, sizeof(int)); /* 0 new, 1 on stack, 2 done */
+    int *stack = wg_calloc((size_t)n + 1, sizeof(int));
+    int *edge = wg_calloc((size_t)n + 1, sizeof(int));
+    int rc = WG_OK;
+    if (!state || !stack || !edge) {
+        rc = WG_ERR_NOMEM;
+        goto out;
+    }
+    for (int start = 0; start < n && !rc; start++) {
+        if (state[start]) continue;
+        int sp = 0;
+        stack[sp] = start;
+        edge[sp] = 0;
+        state[start] = 1;
+        while (sp >= 0 && !rc) {
+            NodeDef *cur = &g->nodes[stack[sp]];
+            if (edge[sp] >= cur->n_ins) {
+                state[stack[sp]] = 2;
+                sp--;
+                continue;
+            }
+            int next = cur->ins[edge[sp]++].from_node;
+            if (next < 0 || state[next] == 2) continue;
+            if (state[next] == 1) {
+                char path[1024] = "";
+                int from = 0;
+                while (stack[from] != next) from++;
+                for (int i = from; i <= sp; i++) {
+                    size_t l = strlen(path);
+                    snprintf(path + l, sizeof path - l, "%s -> ", g->nodes[stack[i]].id);
+                }
+                size_t l = strlen(path);
+                snprintf(path + l, sizeof path - l, "%s", g->nodes[next].id);
+                rc = wg_error_set_at(d->err, WG_ERR_CYCLE, d->path, g->nodes[next].line, 0,
+                                     "cycle between nodes: %s", path);
+                break;
+            }
+            state[next] = 1;
+            stack[++sp] = next;
+            edge[sp] = 0;
+        }
+    }
+out:
+    wg_free(state);
+    wg_free(stack);
+    wg_free(edge);
+    return rc;
+}
+
+static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
+{
+    static const char *const allowed[] = {"name", "from", "format", "colorspace", "label", NULL};
+    int line = line_of(x);
+    int rc = check_attrs(d, x, allowed);
+    if (rc) return rc;
+    WgGraphOutputInfo *o = &g->outputs[g->n_outputs];
+    memset(o, 0, sizeof *o);
+    o->line = line;
+    char *name = NULL, *from = NULL, *format = attr(x, "format"), *cs = attr(x, "colorspace");
+    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "from", &from))) goto out;
+    if (!valid_id(name)) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "bad output name '%s'", name);
+        goto out;
+    }
+    if (wg__graph_find_output(g, name) >= 0) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "output '%s' is declared twice", name);
+        goto out;
+    }
+    if (format) {
+        int f = wg_format_parse(format);
+        if (f < 0) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "unknown format '%s' (png, png16, tif16, exr, exr32)", format);
+            goto out;
+        }
+        o->format = (WgFormat)f;
+    }
+    if (cs) {
+        if (!strcmp(cs, "srgb")) o->colorspace = WG_SRGB;
+        else if (strcmp(cs, "linear")) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "colorspace must be 'linear' or 'srgb', not '%s'", cs);
+            goto out;
+        }
+    }
+    o->name = name;
+    o->from = from;
+    name = from = NULL;
+    g->n_outputs++;
+out:
+    wg_free(name);
+    wg_free(from);
+    wg_free(format);
+    wg_free(cs);
+    return rc;
+}
+
+/* ---- the document ------------------------------------------------------------------------ */
+
+static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out, WgError *err)
+{
+    Doc d = {path, err};
+    xmlNodePtr root = xmlDocGetRootElement(doc);
+    if (!root || strcmp((const char *)root->name, "wetgraph"))
+        return wg_error_set_at(err, WG_ERR_PARSE, path, root ? line_of(root) : 1, 0,
+                               "the root element must be <wetgraph>, not <%s>",
+                               root ? (const char *)root->name : "nothing");
+    static const char *const allowed[] = {"version", "size", "seed", "label", "description", NULL};
+    int rc = check_attrs(&d, root, allowed);
+    if (rc) return rc;
+    char *version = attr(root, "version");
+    if (!version || strcmp(version, "1")) {
+        rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
+                             version ? "unsupported version '%s' (this engine reads version 1)"
+                                     : "<wetgraph> needs version=\"1\"%s",
+                             version ? version : "");
+        wg_free(version);
+        return rc;
+    }
+    wg_free(version);
+
+    WgGraph *g = wg_calloc(1, sizeof *g);
+    if (!g) return WG_ERR_NOMEM;
+    g->refs = 1;
+    g->path = wg_strdup(path);
+    g->dir = dir_of(path);
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    g->name = wg_strdup(base);
+    if (g->name && ends_with(g->name, ".wetgraph")) g->name[strlen(g->name) - 9] = '\0';
+    g->size_text = attr(root, "size");
+    if (!g->size_text) g->size_text = wg_strdup("1024");
+    g->size_line = line_of(root);
+    char *seed = attr(root, "seed");
+    if (seed) {
+        char *end;
+        g->seed = strtoull(seed, &end, 10);
+        if (!isdigit((unsigned char)seed[0]) || *end)
+            rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
+                                 "seed must be a whole number >= 0, not '%s'", seed);
+        wg_free(seed);
+    }
+
+    int counts[4] = {0};
+    static const char *const elements[] = {"param", "input", "node", "output", NULL};
+    for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
+        if (c->type != XML_ELEMENT_NODE) continue;
+        int k = -1;
+        for (int i = 0; elements[i]; i++)
+            if (!strcmp(elements[i], (const char *)c->name)) k = i;
+        if (k < 0) {
+            const char *s = wg_suggest((const char *)c->name, elements, 4);
+            rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(c), 0,
+                                 "unknown element <%s>%s%s%s", (const char *)c->name,
+                                 s ? "; did you mean <" : " (expected param, input, node or output)",
+                                 s ? s : "", s ? ">?" : "");
+            break;
+        }
+        counts[k]++;
+    }
+    if (!rc) rc = check_no_text(&d, root);
+    if (!rc && !(g->params = wg_calloc((size_t)counts[0] + 1, sizeof(ParamDef)))) rc = WG_ERR_NOMEM;
+    if (!rc && !(g->inputs = wg_calloc((size_t)counts[1] + 1, sizeof(InputDef)))) rc = WG_ERR_NOMEM;
+    if (!rc && !(g->nodes = wg_calloc((size_t)counts[2] + 1, sizeof(NodeDef)))) rc = WG_ERR_NOMEM;
+    if (!rc && !(g->outputs = wg_calloc((size_t)counts[3] + 1, sizeof(WgGraphOutputInfo))))
+        rc = WG_ERR_NOMEM;
+    /* declarations first so node attributes can refer to any parameter */
+    for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
+        if (c->type != XML_ELEMENT_NODE) continue;
+        if (!strcmp((const char *)c->name, "param")) rc = parse_param(&d, g, c);
+        else if (!strcmp((const char *)c->name, "input")) rc = parse_input(&d, g, c);
+        else if (!strcmp((const char *)c->name, "output")) rc = parse_output(&d, g, c);
+        if (!rc && (!strcmp((const char *)c->name, "param") || !strcmp((const char *)c->name, "input")))
+            rc = check_no_text(&d, c);
+    }
+    for (xmlNodePtr c = root->children; c && !rc; c = c->next)
+        if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "node"))
+            rc = parse_node(lc, &d, g, c);
+    for (int i = 0; i < g->n_nodes && !rc; i++) rc = link_node(&d, g, &g->nodes[i]);
+    if (!rc) rc = find_cycle(&d, g);
+    if (!rc && g->n_outputs == 0)
+        rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
+                             "the graph declares no <output>");
+    if (!rc) {
+        g->output_node = wg_calloc((size_t)g->n_outputs, sizeof(int));
+        g->output_port = wg_calloc((size_t)g->n_outputs, sizeof(int));
+        g->output_input = wg_calloc((size_t)g->n_outputs, sizeof(int));
+        if (!g->output_node || !g->output_port || !g->output_input) rc = WG_ERR_NOMEM;
+    }
+    for (int i = 0; i < g->n_outputs && !rc; i++)
+        rc = resolve_from(&d, g, g->outputs[i].from, g->outputs[i].line, &g->output_node[i],
+                          &g->output_port[i], &g->output_input[i]);
+    if (!rc) {
+        int w, h;
+        const char *s = g->size_text;
+        if (s[0] == '$') {
+            if (wg__graph_find_input(g, s + 1) < 0)
+                rc = wg_error_set_at(err, WG_ERR_PARSE, path, g->size_line, 0,
+                                     "size '%s' names no graph input", s);
+        } else if (!wg__parse_size(s, &w, &h)) {
+            rc = wg_error_set_at(err, WG_ERR_PARSE, path, g->size_line, 0,
+                                 "bad graph size '%s' (N, WxH or $input; sides 1..%d)", s,
+                                 WG_MAX_SIDE);
+        }
+    }
+    if (!rc) {
+        g->node_info = wg_calloc((size_t)g->n_nodes + 1, sizeof(WgGraphNodeInfo));
+        if (!g->node_info) rc = WG_ERR_NOMEM;
+        for (int i = 0; i < g->n_nodes && !rc; i++) {
+            NodeDef *n = &g->nodes[i];
+            WgGraphNodeInfo *ni = &g->node_info[i];
+            n->info_ports = wg_calloc((size_t)n->n_ins + 1, sizeof(char *));
+            n->info_from = wg_calloc((size_t)n->n_ins + 1, sizeof(char *));
+            if (!n->info_ports || !n->info_from) {
+                rc = WG_ERR_NOMEM;
+                break;
+            }
+            for (int k = 0; k < n->n_ins; k++) {
+                n->info_ports[k] = n->ins[k].port;
+                n->info_from[k] = n->ins[k].from;
+            }
+            ni->id = n->id;
+            ni->type = n->type_name;
+            ni->is_subgraph = n->sub != NULL;
+            ni->subgraph_path = n->sub ? n->sub->path : NULL;
+            ni->n_inputs = n->n_ins;
+            ni->input_ports = n->info_ports;
+            ni->input_from = n->info_from;
+            ni->line = n->line;
+        }
+    }
+    if (rc) {
+        wg_graph_free(g);
+        return rc;
+    }
+    *out = g;
+    return WG_OK;
+}
+
+static void silent_xml_error(void *user, const xmlError *e)
+{
+    (void)user;
+    (void)e;
+}
+
+static int xml_error(const char *path, xmlParserCtxtPtr ctxt, WgError *err)
+{
+    const xmlError *e = xmlCtxtGetLastError(ctxt);
+    if (!e)
+        return wg_error_set_at(err, WG_ERR_PARSE, path, 0, 0, "not a readable XML file");
+    char msg[512];
+    snprintf(msg, sizeof msg, "%s", e->message ? e->message : "malformed XML");
+    size_t l = strlen(msg);
+    while (l && (msg[l - 1] == '\n' || msg[l - 1] == ' ')) msg[--l] = '\0';
+    if (e->domain == XML_FROM_IO || e->code == XML_IO_LOAD_ERROR)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the file: %s", msg);
+    return wg_error_set_at(err, WG_ERR_PARSE, path, e->line, e->int2, "XML: %s", msg);
+}
+
+static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len, WgGraph **out,
+                     WgError *err)
+{
+    xmlSetStructuredErrorFunc(NULL, (xmlStructuredErrorFunc)silent_xml_error);
+    xmlParserCtxtPtr ctxt = xmlNewParserCtxt();
+    if (!ctxt) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int opts = XML_PARSE_NONET | XML_PARSE_NOCDATA;
+    xmlDocPtr doc = mem ? xmlCtxtReadMemory(ctxt, mem, (int)len, path, NULL, opts)
+                        : xmlCtxtReadFile(ctxt, path, NULL, opts);
+    int rc;
+    if (!doc) rc = xml_error(path, ctxt, err);
+    else rc = load_doc(lc, doc, path, out, err);
+    if (doc) xmlFreeDoc(doc);
+    xmlFreeParserCtxt(ctxt);
+    return rc;
+}
+
+static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err)
+{
+    char real[PATH_MAX];
+    if (!realpath(path, real))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot open the graph file: no such file");
+    for (int i = 0; i < lc->depth; i++) {
+        if (!strcmp(lc->stack[i], real)) {
+            char chain[1024] = "";
+            for (int k = i; k < lc->depth; k++) {
+                const char *b = strrchr(lc->stack[k], '/');
+                size_t l = strlen(chain);
+                snprintf(chain + l, sizeof chain - l, "%s -> ", b ? b + 1 : lc->stack[k]);
+            }
+            const char *b = strrchr(real, '/');
+            size_t l = strlen(chain);
+            snprintf(chain + l, sizeof chain - l, "%s", b ? b + 1 : real);
+            return wg_error_set_at(err, WG_ERR_CYCLE, path, 0, 0,
+                                   "subgraph recursion: %s", chain);
+        }
+    }
+    if (lc->depth >= 64)
+        return wg_error_set_at(err, WG_ERR_CYCLE, path, 0, 0, "subgraphs nested more than 64 deep");
+    for (int i = 0; i < lc->n_loaded; i++) {
+        char r2[PATH_MAX];
+        if (realpath(lc->loaded[i]->path, r2) && !strcmp(r2, real)) {
+            lc->loaded[i]->refs++;
+            *out = lc->loaded[i];
+            return WG_OK;
+        }
+    }
+    lc->stack[lc->depth++] = real;
+    int rc = parse_xml(lc, path, NULL, 0, out, err);
+    lc->depth--;
+    if (rc) return rc;
+    if (lc->n_loaded == lc->cap_loaded) {
+        int cap = lc->cap_loaded ? lc->cap_loaded * 2 : 8;
+        WgGraph **p = wg_realloc_array(lc->loaded, (size_t)lc->n_loaded, (size_t)cap, sizeof *p);
+        if (!p) return WG_OK; /* sharing is only an optimisation */
+        lc->loaded = p;
+        lc->cap_loaded = cap;
+    }
+    lc->loaded[lc->n_loaded++] = *out;
+    return WG_OK;
+}
+
+int wg_graph_load(const char *path, WgGraph **out, WgError *err)
+{
+    LoadCtx lc = {0};
+    *out = NULL;
+    int rc = load_file(&lc, path, out, err);
+    wg_free(lc.loaded);
+    return rc;
+}
+
+int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph **out,
+                         WgError *err)
+{
+    LoadCtx lc = {0};
+    char real[PATH_MAX];
+    *out = NULL;
+    if (realpath(path, real)) lc.stack[lc.depth++] = real;
+    int rc = parse_xml(&lc, path, xml, len, out, err);
+    wg_free(lc.loaded);
+    return rc;
+}
+
+/* ---- introspection ----------------------------------------------------------------------- */
+
+const char *wg_graph_name(const WgGraph *g) { return g->name; }
+const char *wg_graph_path(const WgGraph *g) { return g->path; }
+const char *wg_graph_size_text(const WgGraph *g) { return g->size_text; }
+uint64_t wg_graph_seed(const WgGraph *g) { return g->seed; }
+int wg_graph_param_count(const WgGraph *g) { return g->n_params; }
+const WgGraphParamInfo *wg_graph_param_info(const WgGraph *g, int i) { return &g->params[i].info; }
+int wg_graph_input_count(const WgGraph *g) { return g->n_inputs; }
+const WgGraphInputInfo *wg_graph_input_info(const WgGraph *g, int i) { return &g->inputs[i].info; }
+int wg_graph_output_count(const WgGraph *g) { return g->n_outputs; }
+const WgGraphOutputInfo *wg_graph_output_info(const WgGraph *g, int i) { return &g->outputs[i]; }
+int wg_graph_node_count(const WgGraph *g) { return g->n_nodes; }
+const WgGraphNodeInfo *wg_graph_node_info(const WgGraph *g, int i) { return &g->node_info[i]; }
+
+static void dot_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        if (*s == '"' || *s == '\\') fputc('\\', f);
+        fputc(*s, f);
+    }
+    fputc('"', f);
+}
+
+int wg_graph_write_dot(const WgGraph *g, FILE *f)
+{
+    fprintf(f, "digraph ");
+    dot_string(f, g->name);
+    fprintf(f, " {\n  rankdir=LR;\n  node [fontname=\"Helvetica\", fontsize=10];\n");
+    for (int i = 0; i < g->n_inputs; i++) {
+        fprintf(f, "  \"$%s\" [shape=ellipse, style=filled, fillcolor=\"#dde8f0\", label=\"$%s\\n%s\"];\n",
+                g->inputs[i].info.name, g->inputs[i].info.name,
+                g->inputs[i].info.kind == WG_COLOR ? "color" : "gray");
+    }
+    for (int i = 0; i < g->n_nodes; i++) {
+        const NodeDef *n = &g->nodes[i];
+        fprintf(f, "  \"n:%s\" [shape=box, %slabel=\"%s\\n%s\"];\n", n->id,
+                n->sub ? "style=\"rounded,filled\", fillcolor=\"#f0e8d8\", " : "", n->id,
+                n->type_name);
+    }
+    for (int i = 0; i < g->n_nodes; i++) {
+        const NodeDef *n = &g->nodes[i];
+        for (int k = 0; k < n->n_ins; k++) {
+            const InDef *in = &n->ins[k];
+            if (in->from_node >= 0)
+                fprintf(f, "  \"n:%s\" -> \"n:%s\" [label=\"%s\"];\n",
+                        g->nodes[in->from_node].id, n->id, in->port);
+            else
+                fprintf(f, "  \"$%s\" -> \"n:%s\" [label=\"%s\"];\n",
+                        g->inputs[in->from_input].info.name, n->id, in->port);
+        }
+    }
+    for (int i = 0; i < g->n_outputs; i++) {
+        fprintf(f, "  \"out:%s\" [shape=doubleoctagon, label=\"%s\"];\n", g->outputs[i].name,
+                g->outputs[i].name);
+        if (g->output_node[i] >= 0)
+            fprintf(f, "  \"n:%s\" -> \"out:%s\";\n", g->nodes[g->output_node[i]].id,
+                    g->outputs[i].name);
+        else
+            fprintf(f, "  \"$%s\" -> \"out:%s\";\n", g->inputs[g->output_input[i]].info.name,
+                    g->outputs[i].name);
+    }
+    fprintf(f, "}\n");
+    return ferror(f) ? WG_ERR_IO : WG_OK;
+}

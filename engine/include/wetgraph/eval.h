@@ -1,0 +1,91 @@
+/* SPDX-License-Identifier: MIT */
+/* Rendering: an engine (worker threads, memory budget, result cache) evaluates requests (a
+ * graph plus parameter values, input images, size, seed and time). Only the nodes the requested
+ * outputs depend on are evaluated, and only those whose result is not already cached. Keep one
+ * engine alive to re-render after an edit: unchanged nodes come from the in-memory cache; with a
+ * cache folder they also survive across processes. Results are bit-identical for any thread
+ * count and whether the cache is warm or cold. */
+#ifndef WETGRAPH_EVAL_H
+#define WETGRAPH_EVAL_H
+
+#include "error.h"
+#include "graph.h"
+#include "image.h"
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct WgEngine WgEngine;
+typedef struct WgRequest WgRequest;
+typedef struct WgResult WgResult;
+
+typedef struct WgEngineOptions {
+    int threads;          /* worker threads; 0 = number of cores */
+    size_t memory_budget; /* bytes of image memory (working set + cache); 0 = default: half
+                             of physical memory, at most 16 GiB */
+    const char *cache_dir; /* persistent cache folder (created if missing); NULL = none */
+} WgEngineOptions;
+
+/* The caller owns the engine. NULL options means defaults. */
+int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err);
+void wg_engine_free(WgEngine *e);
+/* Drop every in-memory cache entry. */
+void wg_engine_clear_cache(WgEngine *e);
+size_t wg_engine_memory_budget(const WgEngine *e);
+
+/* A request refers to the graph (which must outlive it). */
+WgRequest *wg_request_new(const WgGraph *g);
+void wg_request_free(WgRequest *r);
+/* Override a graph parameter with a value written as in the file ("0.4", "true", "#ff8000",
+ * an enum name, or an expression starting with '='). Checked against type and range. */
+int wg_request_set(WgRequest *r, const char *name, const char *value, WgError *err);
+/* Feed a graph input from a file or from an image (the request takes its own reference). */
+int wg_request_set_input_file(WgRequest *r, const char *name, const char *path, WgError *err);
+int wg_request_set_input_image(WgRequest *r, const char *name, const WgImage *img,
+                               WgError *err);
+/* Restrict to some outputs (default: all). */
+int wg_request_add_output(WgRequest *r, const char *name, WgError *err);
+void wg_request_set_size(WgRequest *r, int width, int height); /* override root size */
+void wg_request_set_seed(WgRequest *r, uint64_t seed);
+void wg_request_set_time(WgRequest *r, double time);
+/* Called from the engine's control thread after each node (done of total). */
+typedef void (*WgProgressFn)(void *user, int done, int total, const char *node_id);
+void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user);
+
+/* Resolve everything (sizes, parameters, types, files) without evaluating. */
+int wg_request_check(const WgRequest *r, WgError *err);
+
+/* Evaluate. On success the caller owns *out. */
+int wg_render(WgEngine *e, const WgRequest *r, WgResult **out, WgError *err);
+
+typedef enum { WG_COMPUTED = 0, WG_HIT_MEMORY = 1, WG_HIT_DISK = 2 } WgCacheOutcome;
+
+typedef struct WgNodeStat {
+    const char *id;
+    const char *type;
+    double ms; /* evaluation time (0 for cache hits) */
+    WgCacheOutcome cache;
+    int width, height, channels; /* first output */
+    size_t bytes;                /* all outputs */
+} WgNodeStat;
+
+int wg_result_output_count(const WgResult *r);
+const char *wg_result_output_name(const WgResult *r, int i);
+const WgImage *wg_result_output_image(const WgResult *r, int i); /* owned by the result */
+WgFormat wg_result_output_format(const WgResult *r, int i);     /* resolved, never DEFAULT */
+WgColorspace wg_result_output_colorspace(const WgResult *r, int i);
+int wg_result_stat_count(const WgResult *r);
+const WgNodeStat *wg_result_stat(const WgResult *r, int i);
+int wg_result_evaluated_count(const WgResult *r); /* nodes computed (not cache hits) */
+size_t wg_result_peak_bytes(const WgResult *r);   /* peak image memory during the render */
+double wg_result_total_ms(const WgResult *r);
+void wg_result_free(WgResult *r);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

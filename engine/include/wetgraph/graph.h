@@ -1,0 +1,97 @@
+/* SPDX-License-Identifier: MIT */
+/* Graph files: loading and validating a .wetgraph file (and every subgraph it uses), and
+ * reading what it declares: parameters, image inputs, outputs and nodes. A loaded WgGraph is
+ * immutable; rendering it with different parameters or inputs is done with a WgRequest
+ * (eval.h). */
+#ifndef WETGRAPH_GRAPH_H
+#define WETGRAPH_GRAPH_H
+
+#include "error.h"
+#include "io.h"
+#include "node.h"
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct WgGraph WgGraph;
+
+typedef struct WgGraphParamInfo {
+    const char *name;
+    WgParamType type;
+    const char *default_text; /* as written in the file (or the type's natural default) */
+    bool has_min, has_max;
+    double min, max;
+    const char *label;          /* may be NULL */
+    const char *const *values;  /* enum values, NULL-terminated; NULL for other types */
+    int line;
+} WgGraphParamInfo;
+
+typedef struct WgGraphInputInfo {
+    const char *name;
+    int kind; /* WG_GRAY or WG_COLOR */
+    WgColorspace colorspace;
+    bool has_default;
+    const char *default_text;
+    int line;
+} WgGraphInputInfo;
+
+typedef struct WgGraphOutputInfo {
+    const char *name;
+    const char *from; /* "node", "node.port" or "$input" */
+    WgFormat format;  /* WG_FORMAT_DEFAULT when not given */
+    WgColorspace colorspace;
+    int line;
+} WgGraphOutputInfo;
+
+typedef struct WgGraphNodeInfo {
+    const char *id;
+    const char *type;    /* as written */
+    bool is_subgraph;
+    const char *subgraph_path; /* resolved file for subgraphs, else NULL */
+    int n_inputs;
+    const char *const *input_ports; /* <in name> */
+    const char *const *input_from;  /* <in from> */
+    int line;
+} WgGraphNodeInfo;
+
+/* Load and validate a graph file and its subgraphs. The caller owns *out. Subgraph types are
+ * looked up as <type>.wetgraph in the including file's folder, then each folder of the
+ * WETGRAPH_PATH environment variable (':'-separated), then the built-in graphs folder. */
+int wg_graph_load(const char *path, WgGraph **out, WgError *err);
+/* Same from memory; `path` names the source in messages and anchors relative paths. */
+int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph **out,
+                         WgError *err);
+void wg_graph_free(WgGraph *g);
+
+const char *wg_graph_name(const WgGraph *g); /* file name without folder and extension */
+const char *wg_graph_path(const WgGraph *g);
+const char *wg_graph_size_text(const WgGraph *g); /* root `size` attribute */
+uint64_t wg_graph_seed(const WgGraph *g);
+
+int wg_graph_param_count(const WgGraph *g);
+const WgGraphParamInfo *wg_graph_param_info(const WgGraph *g, int i);
+int wg_graph_input_count(const WgGraph *g);
+const WgGraphInputInfo *wg_graph_input_info(const WgGraph *g, int i);
+int wg_graph_output_count(const WgGraph *g);
+const WgGraphOutputInfo *wg_graph_output_info(const WgGraph *g, int i);
+int wg_graph_node_count(const WgGraph *g);
+const WgGraphNodeInfo *wg_graph_node_info(const WgGraph *g, int i);
+
+/* Graphviz description of the graph (its own nodes; subgraphs as single boxes). */
+int wg_graph_write_dot(const WgGraph *g, FILE *f);
+
+/* Folder of the built-in graph library used as the last search location. */
+const char *wg_builtin_graphs_dir(void);
+
+/* "did you mean" helper: the candidate closest to `word` (edit distance <= 2 or a prefix
+ * match), or NULL. */
+const char *wg_suggest(const char *word, const char *const *candidates, int count);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,190 @@
+/* SPDX-License-Identifier: MIT */
+/* How to write a node
+ * ===================
+ * A node is a `const WgNodeType` descriptor plus an `eval` function, in nodes/<family>.c, listed
+ * in nodes/registry.c. This header is all a node file includes.
+ *
+ * 1. Declare a plain params struct and a table of WgParamSpec addressing its fields with the
+ *    WG_PARAM_* macros. XML attribute names are the field names. The engine parses, type-checks
+ *    and range-checks every value (literal or `=expression`) before your code runs, so `eval`
+ *    never sees an out-of-range or non-finite parameter.
+ * 2. Declare input and output ports (WG_PORT). A WG_GRAY input receiving colour is a graph error;
+ *    a WG_COLOR input receiving gray is promoted by the engine. Every input arrives already
+ *    resampled to the node's size. Optional inputs that are not connected are NULL.
+ * 3. Output images are allocated by the engine before `eval` (size and channel count known);
+ *    fill every pixel of ctx->outputs[i]. Never keep or free inputs.
+ * 4. Split heavy work over rows with wg_parallel_rows(); the chunking does not depend on the
+ *    thread count, so results are bit-identical for any --threads. Randomness must come from
+ *    hashing coordinates with ctx->seed, never from a running generator.
+ * 5. Neighbourhood reads wrap around the edges (everything tiles) unless the node documents
+ *    otherwise.
+ * 6. Fail with `return wg_error_set(err, WG_ERR_..., NULL, "...")`; the engine adds the file,
+ *    line and node id.
+ * 7. Add the node to tests/nodes/: exact small cases, a float64 reference for fast paths,
+ *    tiling, thread-count invariance, hard cases. */
+#ifndef WETGRAPH_NODE_H
+#define WETGRAPH_NODE_H
+
+#include "error.h"
+#include "expr.h"
+#include "image.h"
+#include "io.h"
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum {
+    WG_PARAM_FLOAT_T,
+    WG_PARAM_INT_T,
+    WG_PARAM_BOOL_T,
+    WG_PARAM_ENUM_T,   /* int field: index into `values` */
+    WG_PARAM_COLOR_T,  /* float[4] field: linear RGBA */
+    WG_PARAM_STRING_T, /* const char * field, owned by the engine during eval */
+} WgParamType;
+
+enum {
+    WG_PARAM_PATH = 1 << 0, /* string is a file path: resolved relative to the graph file, and
+                               the file's content is part of the cache key */
+};
+
+typedef struct WgParamSpec {
+    const char *name;
+    WgParamType type;
+    size_t offset;
+    const char *label;
+    double def;            /* float/int/bool/enum default */
+    double min, max;       /* hard range (float/int) */
+    double ui_min, ui_max; /* suggested slider range */
+    const char *const *values; /* enum value names, NULL-terminated */
+    const char *def_string;    /* string default; colour default as text */
+    unsigned flags;
+} WgParamSpec;
+
+#define WG_PARAM_FLOAT_UI(S, f, label, def, lo, hi, ulo, uhi)                                      \
+    {#f, WG_PARAM_FLOAT_T, offsetof(S, f), label, def, lo, hi, ulo, uhi, NULL, NULL, 0}
+#define WG_PARAM_FLOAT(S, f, label, def, lo, hi) WG_PARAM_FLOAT_UI(S, f, label, def, lo, hi, lo, hi)
+#define WG_PARAM_INT(S, f, label, def, lo, hi)                                                     \
+    {#f, WG_PARAM_INT_T, offsetof(S, f), label, def, lo, hi, lo, hi, NULL, NULL, 0}
+#define WG_PARAM_BOOL(S, f, label, def)                                                            \
+    {#f, WG_PARAM_BOOL_T, offsetof(S, f), label, (def) ? 1 : 0, 0, 1, 0, 1, NULL, NULL, 0}
+#define WG_PARAM_ENUM(S, f, label, def_index, values)                                              \
+    {#f, WG_PARAM_ENUM_T, offsetof(S, f), label, def_index, 0, 0, 0, 0, values, NULL, 0}
+#define WG_PARAM_COLOR(S, f, label, def_text)                                                      \
+    {#f, WG_PARAM_COLOR_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, def_text, 0}
+#define WG_PARAM_STRING(S, f, label, def_text)                                                     \
+    {#f, WG_PARAM_STRING_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, def_text, 0}
+#define WG_PARAM_PATH_STRING(S, f, label)                                                          \
+    {#f, WG_PARAM_STRING_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, "", WG_PARAM_PATH}
+#define WG_PARAM_END {NULL, 0, 0, NULL, 0, 0, 0, 0, 0, NULL, NULL, 0}
+
+enum { WG_ANY = 0, WG_GRAY = 1, WG_COLOR = 4 };
+
+typedef struct WgPortSpec {
+    const char *name;
+    int kind;      /* WG_GRAY, WG_COLOR or WG_ANY */
+    bool optional; /* inputs only */
+    const char *doc;
+} WgPortSpec;
+
+#define WG_PORT(name, kind) {name, kind, false, NULL}
+#define WG_PORT_OPT(name, kind) {name, kind, true, NULL}
+#define WG_PORT_END {NULL, 0, false, NULL}
+
+enum {
+    WG_NODE_POINT = 1 << 0,         /* each pixel depends only on the same pixel of the inputs */
+    WG_NODE_NEIGHBOURHOOD = 1 << 1, /* reads a window around each pixel */
+    WG_NODE_GLOBAL = 1 << 2,        /* needs the whole image (statistics, transforms) */
+    WG_NODE_SOURCE = 1 << 3,        /* no image inputs */
+    WG_NODE_SEEDED = 1 << 4,        /* output depends on the seed */
+    WG_NODE_TIMED = 1 << 5,         /* output depends on $time directly (not only via params) */
+    WG_NODE_DYNAMIC_INPUTS = 1 << 6, /* any <in name=...>; `inputs` lists none or fixed ones */
+    WG_NODE_EXTRA_PARAMS = 1 << 7,  /* undeclared numeric attributes are passed as extras */
+    WG_NODE_CHEAP = 1 << 8,         /* cheaper to recompute than to read from the disk cache */
+    WG_NODE_SCOPED = 1 << 9,        /* reads ctx->scope_* (graph params etc.) in its own maths */
+};
+
+typedef struct WgPool WgPool;
+
+/* Everything a node sees while it is checked or evaluated. */
+typedef struct WgNodeContext {
+    const char *node_id;
+    const void *params; /* the node's params struct, fully resolved */
+    int width, height;  /* output size */
+    uint64_t seed;
+    double time;
+
+    int n_inputs;
+    const char *const *input_names;
+    const int *input_channels;       /* 0 for an unconnected optional input */
+    const WgImage *const *inputs;    /* eval only; NULL for unconnected */
+
+    int n_outputs;
+    WgImage **outputs; /* eval only: allocated by the engine */
+
+    /* Extra numeric attributes (WG_NODE_EXTRA_PARAMS), and the numeric scope of the graph
+     * (graph params, $time, $seed, $width, $height) for nodes with their own expressions. */
+    int n_extra;
+    const char *const *extra_names;
+    const double *extra_values;
+    int n_scope;
+    const char *const *scope_names;
+    const double *scope_values;
+
+    WgPool *pool_; /* private */
+    volatile int *cancel_; /* private */
+} WgNodeContext;
+
+typedef struct WgNodeType {
+    const char *name;
+    const char *summary;  /* one line */
+    const char *category; /* "source", "blend", "adjust", "filter", ... */
+    const char *doc;      /* longer text for the node reference (may be NULL) */
+    const WgParamSpec *params;
+    size_t params_size;
+    const WgPortSpec *inputs;
+    const WgPortSpec *outputs;
+    unsigned flags;
+    /* Optional: channels (1 or 4) of an output port whose kind is WG_ANY. Default: the largest
+     * channel count among the connected inputs, or 1 without inputs. */
+    int (*output_channels)(const WgNodeContext *ctx, int port);
+    /* Optional: checks that need the resolved params and input kinds (no images yet). */
+    int (*check)(const WgNodeContext *ctx, WgError *err);
+    int (*eval)(WgNodeContext *ctx, WgError *err);
+} WgNodeType;
+
+/* The registry: a NULL-terminated array in fixed order. */
+extern const WgNodeType *const wg_node_types[];
+const WgNodeType *wg_node_type_find(const char *name);
+
+/* Run fn(user, y0, y1) over [0, height) in chunks of rows. The chunks depend only on `height`
+ * (never on the thread count) so per-chunk reductions combine in a fixed order. Chunk i covers
+ * rows [i*h/n, (i+1)*h/n) with n = wg_parallel_chunks(height). Returns WG_ERR_CANCELLED if the
+ * render was cancelled meanwhile. */
+typedef void (*WgRowsFn)(void *user, int y0, int y1);
+int wg_parallel_rows(const WgNodeContext *ctx, int height, WgRowsFn fn, void *user);
+int wg_parallel_chunks(int height);
+
+/* Deterministic hashing for procedural nodes. */
+static inline uint32_t wg_hash_u32(uint32_t x)
+{
+    /* lowbias32 (Chris Wellons' hash prospector): good avalanche, 2 multiplies */
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+}
+static inline uint32_t wg_hash3(uint32_t a, uint32_t b, uint32_t c)
+{
+    return wg_hash_u32(a ^ wg_hash_u32(b ^ wg_hash_u32(c)));
+}
+
+#ifdef __cplusplus
+}
+#endif
+#endif

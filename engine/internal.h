@@ -1,0 +1,238 @@
+/* SPDX-License-Identifier: MIT */
+/* Engine internals shared between the engine source files (not installed, not for nodes). */
+#ifndef WETGRAPH_INTERNAL_H
+#define WETGRAPH_INTERNAL_H
+
+#include "wetgraph/wetgraph.h"
+
+#include <pthread.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+/* ---- values ------------------------------------------------------------------------------ */
+
+typedef struct WgValue {
+    WgParamType type;
+    double num;      /* float, int, bool (0/1), enum (index) */
+    float color[4];  /* colour */
+    char *str;       /* string; enum: value name */
+} WgValue;
+
+/* What a value must satisfy: built from a node's WgParamSpec or a graph's <param>. */
+typedef struct WgParamDesc {
+    const char *name;
+    WgParamType type;
+    bool has_min, has_max;
+    double min, max;
+    const char *const *values;
+    unsigned flags;
+} WgParamDesc;
+
+void wg__param_desc_from_spec(WgParamDesc *d, const WgParamSpec *s);
+/* Parse literal text into *out (owned: wg__value_clear). Error message names `what`. */
+int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgError *err);
+/* Range/finiteness check of a numeric value (after expressions). */
+int wg__value_check(const WgParamDesc *d, WgValue *v, WgError *err);
+int wg__value_copy(WgValue *dst, const WgValue *src);
+void wg__value_clear(WgValue *v);
+/* Text form (for --set echo, info, dot). */
+void wg__value_format(const WgValue *v, char *buf, size_t size);
+int wg__color_parse(const char *text, float out[4]);
+const char *wg__type_name(WgParamType t);
+
+/* ---- loaded graph definitions ------------------------------------------------------------ */
+
+typedef struct AttrDef {
+    char *name;
+    char *text;
+    int param;       /* index in the node type's params (or the subgraph's); -1 for extras */
+    WgExpr *expr;    /* numeric expression (text starts with '=') */
+    int ref_param;   /* '=name' forwarding a non-numeric graph param: its index, else -1 */
+    WgValue literal; /* parsed literal when neither of the above */
+} AttrDef;
+
+typedef struct InDef {
+    char *port;
+    char *from;      /* as written */
+    int from_node;   /* node index, or -1 for a graph input */
+    int from_input;  /* graph input index when from_node < 0 */
+    int from_port;   /* output port index of the source node */
+    int port_index;  /* input port index on this node (dynamic inputs: order of <in>) */
+    int line;
+} InDef;
+
+typedef struct NodeDef {
+    char *id;
+    char *type_name;
+    int line;
+    const WgNodeType *type; /* built-in, or NULL */
+    WgGraph *sub;           /* subgraph, or NULL */
+    AttrDef *attrs;
+    int n_attrs;
+    char *size_text; /* NULL = "graph" */
+    char *seed_text; /* NULL = inherit */
+    char *label;
+    InDef *ins;
+    int n_ins;
+    /* info view */
+    const char **info_ports, **info_from;
+} NodeDef;
+
+typedef struct ParamDef {
+    WgGraphParamInfo info;
+    WgParamDesc desc;
+    WgValue def;
+    char **value_storage; /* enum values */
+} ParamDef;
+
+typedef struct InputDef {
+    WgGraphInputInfo info;
+    float def[4];
+} InputDef;
+
+struct WgGraph {
+    int refs;
+    char *path, *dir, *name;
+    char *size_text;
+    int size_line;
+    uint64_t seed;
+    ParamDef *params;
+    int n_params;
+    InputDef *inputs;
+    int n_inputs;
+    WgGraphOutputInfo *outputs;
+    int *output_node, *output_port, *output_input; /* resolved `from` */
+    int n_outputs;
+    NodeDef *nodes;
+    int n_nodes;
+    WgGraphNodeInfo *node_info;
+};
+
+/* Slots of the graph scope in expressions: params first, then these. */
+enum { WG_SCOPE_TIME, WG_SCOPE_SEED, WG_SCOPE_WIDTH, WG_SCOPE_HEIGHT, WG_SCOPE_COUNT_ };
+
+int wg__graph_find_param(const WgGraph *g, const char *name, size_t len);
+int wg__graph_find_input(const WgGraph *g, const char *name);
+int wg__graph_find_node(const WgGraph *g, const char *id);
+int wg__graph_find_output(const WgGraph *g, const char *name);
+/* Output port names of a node def (built-in ports, or the subgraph's outputs). */
+int wg__node_output_count(const NodeDef *n);
+const char *wg__node_output_name(const NodeDef *n, int i);
+/* Parse "N", "WxH" into a size; returns false when malformed or out of range. */
+bool wg__parse_size(const char *text, int *w, int *h);
+
+/* ---- instances (a request flattened into concrete nodes) --------------------------------- */
+
+typedef struct WgRef {
+    int inst; /* -1 none */
+    int port;
+} WgRef;
+
+typedef struct WgInst {
+    const WgNodeType *type;
+    char *id; /* path: "sub/node" inside subgraphs */
+    const char *file;
+    int line;
+    void *params;     /* resolved params struct */
+    char **strings;   /* owned strings referenced by params */
+    int n_strings;
+    int width, height;
+    uint64_t seed;
+    double time;
+    int n_in;
+    WgRef *in;
+    char **in_names;
+    int *in_channels;
+    int *in_lines;
+    int n_out;
+    int *out_channels;
+    int n_extra;
+    char **extra_names;
+    double *extra_values;
+    int n_scope;
+    char **scope_names;
+    double *scope_values;
+    uint64_t key[2]; /* xxh3-128 of everything that determines the outputs */
+    const WgImage *constant; /* internal "constant" node: the image itself */
+} WgInst;
+
+typedef struct WgPlanOutput {
+    char *name;
+    WgRef ref;
+    WgFormat format;
+    WgColorspace colorspace;
+} WgPlanOutput;
+
+typedef struct WgPlan {
+    WgInst *insts;
+    int n_insts, cap_insts;
+    WgPlanOutput *outputs;
+    int n_outputs;
+} WgPlan;
+
+struct WgRequest {
+    const WgGraph *graph;
+    WgValue *values;   /* per graph param */
+    bool *value_set;
+    char **input_paths;        /* per graph input */
+    const WgImage **input_images;
+    char **outputs;
+    int n_outputs;
+    int width, height; /* 0 = from the graph */
+    bool has_seed;
+    uint64_t seed;
+    double time;
+    WgProgressFn progress;
+    void *progress_user;
+};
+
+int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);
+void wg__plan_free(WgPlan *plan);
+extern const WgNodeType wg__node_constant;
+
+/* ---- cache ------------------------------------------------------------------------------- */
+
+typedef struct WgCache WgCache;
+WgCache *wg__cache_new(const char *dir);
+void wg__cache_free(WgCache *c);
+/* Memory lookup; returns a new reference or NULL. */
+const WgImage *wg__cache_get(WgCache *c, const uint64_t key[2], int port);
+void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *img);
+/* Disk lookup: a new reference when a valid entry of exactly that shape exists; invalid
+ * entries are removed. */
+const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
+                                  int height, int channels);
+int wg__cache_disk_put(WgCache *c, const uint64_t key[2], int port, const WgImage *img);
+bool wg__cache_has_disk(const WgCache *c);
+/* Evict least recently used memory entries until they hold at most max_bytes that nothing
+ * else references. */
+void wg__cache_trim(WgCache *c, size_t max_bytes);
+void wg__cache_clear(WgCache *c);
+/* The disk file of an entry (for tests and tools); caller frees. */
+char *wg__cache_entry_path(const WgCache *c, const uint64_t key[2], int port);
+
+/* ---- worker pool ------------------------------------------------------------------------- */
+
+typedef void (*WgJobFn)(void *user);
+WgPool *wg__pool_new(int threads);
+void wg__pool_free(WgPool *p);
+int wg__pool_threads(const WgPool *p);
+void wg__pool_submit(WgPool *p, WgJobFn fn, void *user);
+int wg__pool_rows(WgPool *p, volatile int *cancel, int height, WgRowsFn fn, void *user);
+
+/* ---- misc -------------------------------------------------------------------------------- */
+
+float wg__luminance(const float *rgba);
+double wg__now_ms(void);
+/* xxh3 of a whole file's content; false when it cannot be read. */
+bool wg__hash_file(const char *path, uint64_t out[2]);
+/* OpenImageIO bridge (io_oiio.cpp) */
+int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
+int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
+                  size_t msg_size);
+/* bits: 8, 16 (unsigned integers), -16 (half), 32 (float); data packed, `c` channels of that
+ * type for 8/16, float for -16/32. */
+int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h,
+                   int c, int bits, char *msg, size_t msg_size);
+
+#endif

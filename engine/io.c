@@ -1,0 +1,232 @@
+/* SPDX-License-Identifier: MIT */
+/* Image file reading and writing on top of the OpenImageIO bridge (io_oiio.cpp): channel
+ * mapping, sRGB transfer, quantisation, and atomic replacement of the target file. Integer
+ * formats are quantised here, not by the library, so rounding is exactly round-to-nearest of
+ * clamp(v, 0, 1) * (2^bits - 1) and a 16-bit file round-trips bit for bit. */
+#include "internal.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+static const char *const format_names[] = {"default", "png", "png16", "tif16", "exr", "exr32"};
+
+int wg_format_parse(const char *name)
+{
+    for (int i = 1; i < 6; i++)
+        if (!strcmp(name, format_names[i])) return i;
+    return -1;
+}
+
+const char *wg_format_name(WgFormat f)
+{
+    return (unsigned)f < 6 ? format_names[f] : "?";
+}
+
+const char *wg_format_extension(WgFormat f)
+{
+    switch (f) {
+    case WG_FORMAT_TIF16: return "tif";
+    case WG_FORMAT_EXR:
+    case WG_FORMAT_EXR32: return "exr";
+    default: return "png";
+    }
+}
+
+float wg_srgb_to_linear(float v)
+{
+    double x = v;
+    return (float)(x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4));
+}
+
+float wg_linear_to_srgb(float v)
+{
+    double x = v;
+    if (x <= 0) return 0;
+    return (float)(x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1 / 2.4) - 0.055);
+}
+
+char *wg__temp_path_for(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    const char *ext = strrchr(base, '.');
+    if (!ext) ext = "";
+    static unsigned counter;
+    unsigned c = __atomic_add_fetch(&counter, 1, __ATOMIC_RELAXED);
+    size_t n = strlen(path) + 64;
+    char *tmp = wg_malloc(n);
+    if (!tmp) return NULL;
+    /* hidden, unique per process and call, same folder and extension as the target */
+    snprintf(tmp, n, "%.*s.%.*s.tmp%ld-%u%s", (int)(base - path), path, (int)(ext - base), base,
+             (long)getpid(), c, ext);
+    return tmp;
+}
+
+bool wg__hash_file(const char *path, uint64_t out[2])
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return false;
+    XXH3_state_t *st = XXH3_createState();
+    if (!st) {
+        fclose(f);
+        return false;
+    }
+    XXH3_128bits_reset(st);
+    char buf[1 << 16];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0) XXH3_128bits_update(st, buf, n);
+    bool ok = !ferror(f);
+    fclose(f);
+    XXH128_hash_t h = XXH3_128bits_digest(st);
+    XXH3_freeState(st);
+    out[0] = h.low64;
+    out[1] = h.high64;
+    return ok;
+}
+
+int wg_image_probe(const char *path, int *width, int *height, int *channels, WgError *err)
+{
+    char msg[512];
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot open the image: %s",
+                               strerror(errno));
+    if (!S_ISREG(st.st_mode))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "not a regular file");
+    if (wg__oiio_probe(path, width, height, channels, msg, sizeof msg))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    if (*width < 1 || *height < 1 || *width > WG_MAX_SIDE || *height > WG_MAX_SIDE)
+        return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0,
+                               "image is %dx%d; sides must be 1..%d", *width, *height, WG_MAX_SIDE);
+    return WG_OK;
+}
+
+int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out, WgError *err)
+{
+    *out = NULL;
+    int w, h, c;
+    int rc = wg_image_probe(path, &w, &h, &c, err);
+    if (rc) return rc;
+    if (c < 1)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "image has no channels");
+    size_t count = (size_t)w * (size_t)h * (size_t)c;
+    float *buf = wg_malloc(count * sizeof(float));
+    if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
+    char msg[512];
+    if (wg__oiio_read(path, buf, w, h, c, msg, sizeof msg)) {
+        wg_free(buf);
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    }
+    size_t bad = 0, first_bad = 0;
+    for (size_t i = 0; i < count; i++) {
+        if (!isfinite(buf[i])) {
+            if (!bad) first_bad = i;
+            bad++;
+        }
+    }
+    if (bad) {
+        size_t px = first_bad / (size_t)c;
+        wg_free(buf);
+        return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0,
+                               "image has %zu non-finite values (NaN or infinity), the first at "
+                               "pixel (%zu, %zu)",
+                               bad, px % (size_t)w, px / (size_t)w);
+    }
+    int native = c <= 2 ? 1 : 4;
+    WgImage *img = wg_image_new(w, h, native);
+    if (!img) {
+        wg_free(buf);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
+    }
+    for (int y = 0; y < h; y++) {
+        const float *src = buf + (size_t)y * (size_t)w * (size_t)c;
+        float *dst = wg_image_row(img, y);
+        for (int x = 0; x < w; x++) {
+            const float *p = src + (size_t)x * (size_t)c;
+            if (native == 1) {
+                dst[x] = cs == WG_SRGB ? wg_srgb_to_linear(p[0]) : p[0];
+                continue;
+            }
+            for (int k = 0; k < 3; k++)
+                dst[4 * x + k] = cs == WG_SRGB ? wg_srgb_to_linear(p[k]) : p[k];
+            dst[4 * x + 3] = c >= 4 ? p[3] : 1.0f;
+        }
+    }
+    wg_free(buf);
+    if (channels && channels != native) {
+        WgImage *conv = wg_image_convert(img, w, h, channels);
+        wg_image_unref(img);
+        if (!conv) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        img = conv;
+    }
+    *out = img;
+    return WG_OK;
+}
+
+static double quantize(float v, WgColorspace cs, bool colour_channel, double scale)
+{
+    if (isnan(v)) v = 0;
+    if (cs == WG_SRGB && colour_channel) v = wg_linear_to_srgb(v);
+    double x = v < 0 ? 0 : v > 1 ? 1 : v;
+    return floor(x * scale + 0.5);
+}
+
+int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
+                   WgError *err)
+{
+    if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
+    int c = img->channels;
+    if (c == 4) {
+        bool opaque = true;
+        for (int y = 0; y < img->height && opaque; y++) {
+            const float *r = wg_image_row(img, y);
+            for (int x = 0; x < img->width && opaque; x++) opaque = r[4 * x + 3] == 1.0f;
+        }
+        if (opaque) c = 3;
+    }
+    int bits = format == WG_FORMAT_PNG ? 8 : format == WG_FORMAT_EXR ? -16
+               : format == WG_FORMAT_EXR32                           ? 32
+                                                                     : 16;
+    size_t count = (size_t)img->width * (size_t)img->height * (size_t)c;
+    size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
+    void *buf = wg_malloc(count * elem);
+    if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory writing '%s'", path);
+    size_t i = 0;
+    for (int y = 0; y < img->height; y++) {
+        const float *r = wg_image_row(img, y);
+        for (int x = 0; x < img->width; x++) {
+            for (int k = 0; k < c; k++, i++) {
+                float v = r[x * img->channels + k];
+                bool colour = img->channels == 4 && k < 3;
+                if (bits == 8) ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
+                else if (bits == 16) ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
+                else ((float *)buf)[i] = v;
+            }
+        }
+    }
+    char *tmp = wg__temp_path_for(path);
+    if (!tmp) {
+        wg_free(buf);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    char msg[512];
+    int rc = WG_OK;
+    if (wg__oiio_write(tmp, wg_format_extension(format), buf, img->width, img->height, c, bits, msg,
+                       sizeof msg)) {
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s", msg);
+        unlink(tmp);
+    } else if (rename(tmp, path) != 0) {
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot replace the file: %s",
+                             strerror(errno));
+        unlink(tmp);
+    }
+    wg_free(tmp);
+    wg_free(buf);
+    return rc;
+}

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Install the Debian packages wetgraph needs: only those missing, quietly, idempotently.
+#   scripts/install-deps.sh          build and test dependencies
+#   scripts/install-deps.sh --bench  also the peers the benchmarks compare against
+set -euo pipefail
+pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
+      libxxhash-dev libcmocka-dev)
+if [[ "${1:-}" == "--bench" ]]; then
+    pkgs+=(python3 python3-numpy python3-scipy python3-opencv gegl)
+fi
+missing=()
+for p in "${pkgs[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[[ ${#missing[@]} -eq 0 ]] && exit 0
+sudo=""
+[[ "$(id -u)" -ne 0 ]] && sudo="sudo"
+echo "wetgraph: installing ${missing[*]}" >&2
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

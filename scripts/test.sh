@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Install dependencies, build, and run the whole test suite twice: the optimised build, then an
+# address+undefined sanitizer build (skip it with WETGRAPH_NO_SANITIZE=1). Ends with one line
+# "tests: N passed, M failed" and a non-zero exit if anything failed.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh || exit 1
+nproc=$(nproc 2>/dev/null || echo 2)
+passed=0
+failed=0
+
+run_suite() { # build-dir, extra meson args...
+    local dir=$1
+    shift
+    if [[ ! -f $dir/build.ninja ]]; then
+        meson setup "$dir" "$@" >/dev/null || { failed=$((failed + 1)); return; }
+    fi
+    if ! ninja -C "$dir" >/dev/null; then
+        ninja -C "$dir" | tail -30
+        failed=$((failed + 1))
+        return
+    fi
+    meson test -C "$dir" --num-processes "$nproc" --print-errorlogs
+    local log=$dir/meson-logs/testlog.json
+    local ok bad
+    ok=$(grep -c '"result": "OK"' "$log" || true)
+    bad=$(grep -c '"result": "\(FAIL\|TIMEOUT\|ERROR\|UNEXPECTEDPASS\)"' "$log" || true)
+    passed=$((passed + ok))
+    failed=$((failed + bad))
+}
+
+run_suite build --buildtype=release
+if [[ "${WETGRAPH_NO_SANITIZE:-0}" != 1 ]]; then
+    export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:suppressions=$PWD/tests/asan.supp
+    export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp
+    export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+    run_suite build-sanitize --buildtype=debugoptimized -Db_sanitize=address,undefined -Db_lundef=false
+fi
+echo "tests: $passed passed, $failed failed"
+[[ $failed -eq 0 ]]

@@ -1,0 +1,248 @@
+/* SPDX-License-Identifier: MIT */
+/* Test helpers; see wgtest.h. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+const char *wgt_tmpdir(void)
+{
+    static char dir[512];
+    if (!dir[0]) {
+        const char *base = getenv("TMPDIR");
+        snprintf(dir, sizeof dir, "%s/wgtest-%ld", base && base[0] ? base : "/tmp", (long)getpid());
+        mkdir(dir, 0777);
+    }
+    return dir;
+}
+
+const char *wgt_path(const char *name)
+{
+    static char buf[8][1024];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, 1024, "%s/%s", wgt_tmpdir(), name);
+    return p;
+}
+
+void wgt_write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) fail_msg("cannot write %s", path);
+    fputs(text, f);
+    fclose(f);
+}
+
+WgImage *wgt_image(int w, int h, int channels, const float *values)
+{
+    WgImage *img = wg_image_new_zero(w, h, channels);
+    assert_non_null(img);
+    if (values)
+        for (int y = 0; y < h; y++)
+            memcpy(wg_image_row(img, y), values + (size_t)y * w * channels,
+                   sizeof(float) * (size_t)w * channels);
+    return img;
+}
+
+WgImage *wgt_image_fn(int w, int h, int channels, double (*fn)(int x, int y, int k))
+{
+    WgImage *img = wg_image_new(w, h, channels);
+    assert_non_null(img);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int k = 0; k < channels; k++) wg_image_row(img, y)[x * channels + k] = (float)fn(x, y, k);
+    return img;
+}
+
+static void fail_with(const char *what, const WgError *err)
+{
+    char buf[2048];
+    wg_error_format(err, buf, sizeof buf);
+    fail_msg("%s: %s", what, buf);
+}
+
+WgGraph *wgt_load_at(const char *xml, const char *path)
+{
+    WgGraph *g = NULL;
+    WgError err = {0};
+    if (!path) path = wgt_path("test.wetgraph");
+    if (wg_graph_load_memory(xml, strlen(xml), path, &g, &err)) fail_with("load", &err);
+    return g;
+}
+
+WgGraph *wgt_load(const char *xml)
+{
+    return wgt_load_at(xml, NULL);
+}
+
+int wgt_load_error(const char *xml, WgError *err)
+{
+    WgGraph *g = NULL;
+    memset(err, 0, sizeof *err);
+    int rc = wg_graph_load_memory(xml, strlen(xml), wgt_path("test.wetgraph"), &g, err);
+    if (rc == WG_OK) {
+        wg_graph_free(g);
+        fail_msg("expected the graph to be rejected");
+    }
+    return rc;
+}
+
+WgResult *wgt_render(const WgGraph *g, int threads)
+{
+    WgError err = {0};
+    WgEngineOptions opt = {threads, 0, NULL};
+    WgEngine *e = NULL;
+    if (wg_engine_new(&opt, &e, &err)) fail_with("engine", &err);
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    WgResult *res = NULL;
+    if (wg_render(e, r, &res, &err)) fail_with("render", &err);
+    wg_request_free(r);
+    wg_engine_free(e);
+    return res;
+}
+
+const WgImage *wgt_output(const WgResult *r, const char *name)
+{
+    for (int i = 0; i < wg_result_output_count(r); i++)
+        if (!strcmp(wg_result_output_name(r, i), name)) return wg_result_output_image(r, i);
+    fail_msg("no output '%s'", name);
+    return NULL;
+}
+
+static char *node_xml(const char *type, const char *attrs, int w, int h, int n, const char **names,
+                      const WgImage **images, const char *port)
+{
+    size_t cap = 4096 + strlen(attrs) + 256 * (size_t)n;
+    char *xml = malloc(cap);
+    assert_non_null(xml);
+    size_t l = (size_t)snprintf(xml, cap, "<wetgraph version=\"1\" size=\"%dx%d\">\n", w, h);
+    for (int i = 0; i < n; i++)
+        l += (size_t)snprintf(xml + l, cap - l, "  <input name=\"in%d\" type=\"%s\"/>\n", i,
+                              images[i]->channels == 4 ? "color" : "gray");
+    l += (size_t)snprintf(xml + l, cap - l, "  <node id=\"n\" type=\"%s\" %s>\n", type, attrs);
+    for (int i = 0; i < n; i++)
+        l += (size_t)snprintf(xml + l, cap - l, "    <in name=\"%s\" from=\"$in%d\"/>\n", names[i], i);
+    snprintf(xml + l, cap - l, "  </node>\n  <output name=\"out\" from=\"n%s%s\"/>\n</wetgraph>\n",
+             port ? "." : "", port ? port : "");
+    return xml;
+}
+
+static int run_node(const char *type, const char *attrs, int w, int h, int n, const char **names,
+                    const WgImage **images, const char *port, int threads, WgImage **out,
+                    WgError *err)
+{
+    char *xml = node_xml(type, attrs, w, h, n, names, images, port);
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgEngine *e = NULL;
+    WgResult *res = NULL;
+    memset(err, 0, sizeof *err);
+    int rc = wg_graph_load_memory(xml, strlen(xml), wgt_path("node.wetgraph"), &g, err);
+    free(xml);
+    if (!rc && !(r = wg_request_new(g))) rc = WG_ERR_NOMEM;
+    for (int i = 0; i < n && !rc; i++) {
+        char name[16];
+        snprintf(name, sizeof name, "in%d", i);
+        rc = wg_request_set_input_image(r, name, images[i], err);
+    }
+    WgEngineOptions opt = {threads, 0, NULL};
+    if (!rc) rc = wg_engine_new(&opt, &e, err);
+    if (!rc) rc = wg_request_check(r, err);
+    if (!rc) rc = wg_render(e, r, &res, err);
+    if (!rc && out) *out = wg_image_ref(wg_result_output_image(res, 0));
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+    return rc;
+}
+
+WgImage *wgt_node(const char *type, const char *attrs, int w, int h, int n, const char **names,
+                  const WgImage **images, int port, int threads)
+{
+    const WgNodeType *t = wg_node_type_find(type);
+    if (!t) fail_msg("no node type '%s'", type);
+    const char *pname = port > 0 ? t->outputs[port].name : NULL;
+    WgError err = {0};
+    WgImage *out = NULL;
+    if (run_node(type, attrs, w, h, n, names, images, pname, threads, &out, &err))
+        fail_with(type, &err);
+    return out;
+}
+
+int wgt_node_error(const char *type, const char *attrs, int w, int h, int n, const char **names,
+                   const WgImage **images, WgError *err)
+{
+    WgImage *out = NULL;
+    int rc = run_node(type, attrs, w, h, n, names, images, NULL, 1, &out, err);
+    if (rc == WG_OK) {
+        wg_image_unref(out);
+        fail_msg("expected node '%s' with %s to fail", type, attrs);
+    }
+    return rc;
+}
+
+void wgt_assert_same_shape(const WgImage *a, const WgImage *b)
+{
+    assert_non_null(a);
+    assert_non_null(b);
+    if (a->width != b->width || a->height != b->height || a->channels != b->channels)
+        fail_msg("shape %dx%dx%d vs %dx%dx%d", a->width, a->height, a->channels, b->width,
+                 b->height, b->channels);
+}
+
+void wgt_assert_identical(const WgImage *a, const WgImage *b)
+{
+    wgt_assert_same_shape(a, b);
+    for (int y = 0; y < a->height; y++)
+        if (memcmp(wg_image_row(a, y), wg_image_row(b, y),
+                   sizeof(float) * (size_t)a->width * a->channels)) {
+            for (int i = 0; i < a->width * a->channels; i++)
+                if (memcmp(&wg_image_row(a, y)[i], &wg_image_row(b, y)[i], sizeof(float)))
+                    fail_msg("images differ at x=%d y=%d channel %d: %.9g vs %.9g",
+                             i / a->channels, y, i % a->channels, wg_image_row(a, y)[i],
+                             wg_image_row(b, y)[i]);
+        }
+}
+
+double wgt_max_abs_diff(const WgImage *a, const WgImage *b)
+{
+    wgt_assert_same_shape(a, b);
+    double m = 0;
+    for (int y = 0; y < a->height; y++)
+        for (int i = 0; i < a->width * a->channels; i++) {
+            double d = fabs((double)wg_image_row(a, y)[i] - wg_image_row(b, y)[i]);
+            if (!(d <= m)) m = d; /* NaN counts as a difference */
+        }
+    return m;
+}
+
+void wgt_assert_near(const WgImage *a, const WgImage *b, double tol)
+{
+    double d = wgt_max_abs_diff(a, b);
+    if (!(d <= tol)) fail_msg("max difference %.3g exceeds %.3g", d, tol);
+}
+
+void wgt_assert_range(const WgImage *img, double lo, double hi)
+{
+    for (int y = 0; y < img->height; y++)
+        for (int i = 0; i < img->width * img->channels; i++) {
+            float v = wg_image_row(img, y)[i];
+            if (!(v >= lo && v <= hi))
+                fail_msg("value %.9g at x=%d y=%d outside [%g, %g]", v, i / img->channels, y, lo, hi);
+        }
+}
+
+void wgt_assert_error(const WgError *err, int code, int line, const char *needle)
+{
+    char buf[2048];
+    wg_error_format(err, buf, sizeof buf);
+    if (err->code != code) fail_msg("expected code %d, got %d: %s", code, err->code, buf);
+    if (line && err->line != line) fail_msg("expected line %d, got %d: %s", line, err->line, buf);
+    if (needle && !strstr(buf, needle)) fail_msg("expected '%s' in: %s", needle, buf);
+}
