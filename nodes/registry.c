@@ -9,6 +9,9 @@ extern const WgNodeType wg_node_uniform, wg_node_image;
 extern const WgNodeType wg_node_blend;
 extern const WgNodeType wg_node_levels, wg_node_invert, wg_node_grayscale;
 extern const WgNodeType wg_node_blur;
+/* issue 3: generators */
+/* issue 3: colour and value */
+/* issue 3: pixel */
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -22,6 +25,9 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_grayscale,
     /* filters */
     &wg_node_blur,
+    /* generators (issue 3) */
+    /* colour and value (issue 3) */
+    /* per-pixel expressions (issue 3) */
     NULL,
 };
 
