@@ -509,15 +509,19 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
         if (n->ins[k].port_index >= n_in) n_in = n->ins[k].port_index + 1;
     WgRef *refs = wg_calloc((size_t)n_in + 1, sizeof(WgRef));
     int *lines = wg_calloc((size_t)n_in + 1, sizeof(int));
-    if (!refs || !lines) {
+    const char **names = wg_calloc((size_t)n_in + 1, sizeof(char *));
+    if (!refs || !lines || !names) {
         wg_free(refs);
         wg_free(lines);
+        wg_free(names);
         return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
     }
     for (int i = 0; i < n_in; i++) refs[i].inst = -1;
+    for (int i = 0; i < n_fixed; i++) names[i] = t->inputs[i].name;
     for (int k = 0; k < n->n_ins; k++) {
         const InDef *in = &n->ins[k];
         lines[in->port_index] = in->line;
+        names[in->port_index] = in->port;
         if ((rc = resolve_ref(b, f, in->from_node, in->from_port, in->from_input, in->line,
                               &refs[in->port_index])))
             goto out;
@@ -525,9 +529,10 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
     /* dynamic ports are numbered by <in> order; squeeze out the gaps */
     int used = n_fixed;
     for (int i = n_fixed; i < n_in; i++) {
-        if (refs[i].inst < 0) continue;
+        if (!names[i]) continue;
         refs[used] = refs[i];
         lines[used] = lines[i];
+        names[used] = names[i];
         used++;
     }
     n_in = used;
@@ -560,13 +565,7 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
     for (int i = 0; i < n_in; i++) {
         in->in[i] = refs[i];
         in->in_lines[i] = lines[i] ? lines[i] : n->line;
-        const char *name = i < n_fixed ? t->inputs[i].name : NULL;
-        if (!name)
-            for (int k = 0; k < n->n_ins && !name; k++)
-                if (n->ins[k].port_index >= n_fixed && lines[i] == n->ins[k].line &&
-                    refs[i].inst >= 0)
-                    name = n->ins[k].port;
-        if (!(in->in_names[i] = wg_strdup(name ? name : "?"))) {
+        if (!(in->in_names[i] = wg_strdup(names[i]))) {
             rc = WG_ERR_NOMEM;
             goto out_slots;
         }
@@ -645,6 +644,7 @@ out_slots:
 out:
     wg_free(refs);
     wg_free(lines);
+    wg_free(names);
     return rc;
 }
 
