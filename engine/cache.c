@@ -48,11 +48,11 @@ static int mkdir_p(const char *path)
 
 WgCache *wg__cache_new(const char *dir)
 {
-    WgCache *c = calloc(1, sizeof *c);
+    WgCache *c = wg_calloc(1, sizeof *c);
     if (!c) return NULL;
     pthread_mutex_init(&c->mu, NULL);
     if (dir) {
-        c->dir = strdup(dir);
+        c->dir = wg_strdup(dir);
         if (!c->dir || mkdir_p(dir)) {
             wg__cache_free(c);
             return NULL;
@@ -74,9 +74,9 @@ void wg__cache_free(WgCache *c)
     if (!c) return;
     wg__cache_clear(c);
     pthread_mutex_destroy(&c->mu);
-    free(c->entries);
-    free(c->dir);
-    free(c);
+    wg_free(c->entries);
+    wg_free(c->dir);
+    wg_free(c);
 }
 
 bool wg__cache_has_disk(const WgCache *c)
@@ -113,7 +113,7 @@ void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *i
     if (i < 0) {
         if (c->count == c->cap) {
             int cap = c->cap ? 2 * c->cap : 64;
-            Entry *e = realloc(c->entries, sizeof *e * (size_t)cap);
+            Entry *e = wg_realloc_array(c->entries, (size_t)c->count, (size_t)cap, sizeof *e);
             if (!e) goto out; /* caching is best effort */
             c->entries = e;
             c->cap = cap;
@@ -150,7 +150,7 @@ char *wg__cache_entry_path(const WgCache *c, const uint64_t key[2], int port)
 {
     if (!c->dir) return NULL;
     size_t n = strlen(c->dir) + 64;
-    char *p = malloc(n);
+    char *p = wg_malloc(n);
     if (p)
         snprintf(p, n, "%s/%02x/%016llx%016llx-%d.wgc", c->dir, (unsigned)(key[1] >> 56),
                  (unsigned long long)key[1], (unsigned long long)key[0], port);
@@ -203,7 +203,7 @@ const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, i
 out:
     if (f) fclose(f);
     if (bad) unlink(path); /* corrupt or stale: recompute and rewrite */
-    free(path);
+    wg_free(path);
     return img;
 }
 
@@ -243,6 +243,6 @@ int wg__cache_disk_put(WgCache *c, const uint64_t key[2], int port, const WgImag
         else unlink(tmp);
     }
     wg_free(tmp);
-    free(path);
+    wg_free(path);
     return rc;
 }

@@ -92,7 +92,7 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     if (threads > 256)
         return wg_error_set(err, WG_ERR_RANGE, NULL, "%d threads is more than the limit of 256",
                             threads);
-    WgEngine *e = calloc(1, sizeof *e);
+    WgEngine *e = wg_calloc(1, sizeof *e);
     if (!e) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     e->budget = opt->memory_budget ? opt->memory_budget : default_budget();
     e->pool = wg__pool_new(threads);
@@ -115,7 +115,7 @@ void wg_engine_free(WgEngine *e)
     if (!e) return;
     wg__pool_free(e->pool);
     wg__cache_free(e->cache);
-    free(e);
+    wg_free(e);
 }
 
 void wg_engine_clear_cache(WgEngine *e)
@@ -140,9 +140,9 @@ static int eval_node(Run *run, Node *node, WgError *err)
     WgInst *in = &run->plan->insts[node->index];
     const WgNodeType *t = in->type;
     int rc = WG_OK;
-    const WgImage **inputs = calloc((size_t)in->n_in + 1, sizeof *inputs);
-    const WgImage **owned = calloc((size_t)in->n_in + 1, sizeof *owned);
-    WgImage **outputs = calloc((size_t)in->n_out + 1, sizeof *outputs);
+    const WgImage **inputs = wg_calloc((size_t)in->n_in + 1, sizeof *inputs);
+    const WgImage **owned = wg_calloc((size_t)in->n_in + 1, sizeof *owned);
+    WgImage **outputs = wg_calloc((size_t)in->n_out + 1, sizeof *outputs);
     if (!inputs || !owned || !outputs) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto out;
@@ -211,9 +211,9 @@ out:
     } else if (outputs) {
         for (int o = 0; o < in->n_out; o++) wg_image_unref(outputs[o]);
     }
-    free(inputs);
-    free(owned);
-    free(outputs);
+    wg_free(inputs);
+    wg_free(owned);
+    wg_free(outputs);
     if (rc && rc != WG_ERR_CANCELLED) {
         if (err->file[0] == '\0') wg_error_locate(err, in->file, in->line, in->id);
         else wg_error_locate(err, NULL, 0, in->id);
@@ -346,8 +346,9 @@ static int plan_work(Run *run, WgError *err)
             run->nodes[s].consumers++;
             if (run->nodes[s].evaluate) {
                 n->pending++;
-                int *d = realloc(run->nodes[s].dependents,
-                                 sizeof(int) * (size_t)(run->nodes[s].n_dependents + 1));
+                int *d = wg_realloc_array(run->nodes[s].dependents,
+                                          (size_t)run->nodes[s].n_dependents,
+                                          (size_t)run->nodes[s].n_dependents + 1, sizeof(int));
                 if (!d) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
                 d[run->nodes[s].n_dependents++] = i;
                 run->nodes[s].dependents = d;
@@ -357,7 +358,7 @@ static int plan_work(Run *run, WgError *err)
     /* Peak working set of a sequential run in plan order: a lower bound of what any schedule
      * needs, so a render that cannot fit fails here instead of thrashing. */
     size_t live = 0, peak = 0;
-    int *left = calloc((size_t)p->n_insts + 1, sizeof(int));
+    int *left = wg_calloc((size_t)p->n_insts + 1, sizeof(int));
     if (!left) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     int biggest = -1;
     for (int i = 0; i < p->n_insts; i++) {
@@ -378,7 +379,7 @@ static int plan_work(Run *run, WgError *err)
         }
         if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
     }
-    free(left);
+    wg_free(left);
     if (peak > run->e->budget) {
         const WgInst *b = biggest >= 0 ? &p->insts[biggest] : NULL;
         return wg_error_set(err, WG_ERR_BUDGET, NULL,
@@ -397,29 +398,29 @@ void wg_result_free(WgResult *r)
 {
     if (!r) return;
     for (int i = 0; i < r->n_outputs; i++) {
-        free(r->names[i]);
+        wg_free(r->names[i]);
         wg_image_unref(r->images[i]);
     }
-    free(r->names);
-    free(r->images);
-    free(r->formats);
-    free(r->colorspaces);
-    for (int i = 0; i < r->n_stats; i++) free((char *)r->stats[i].id);
-    free(r->stats);
-    free(r);
+    wg_free(r->names);
+    wg_free(r->images);
+    wg_free(r->formats);
+    wg_free(r->colorspaces);
+    for (int i = 0; i < r->n_stats; i++) wg_free((char *)r->stats[i].id);
+    wg_free(r->stats);
+    wg_free(r);
 }
 
 static int collect(Run *run, WgResult **out, double t0, WgError *err)
 {
     WgPlan *p = run->plan;
-    WgResult *r = calloc(1, sizeof *r);
+    WgResult *r = wg_calloc(1, sizeof *r);
     if (!r) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     r->n_outputs = p->n_outputs;
-    r->names = calloc((size_t)p->n_outputs + 1, sizeof(char *));
-    r->images = calloc((size_t)p->n_outputs + 1, sizeof(WgImage *));
-    r->formats = calloc((size_t)p->n_outputs + 1, sizeof(WgFormat));
-    r->colorspaces = calloc((size_t)p->n_outputs + 1, sizeof(WgColorspace));
-    r->stats = calloc((size_t)p->n_insts + 1, sizeof(WgNodeStat));
+    r->names = wg_calloc((size_t)p->n_outputs + 1, sizeof(char *));
+    r->images = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgImage *));
+    r->formats = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgFormat));
+    r->colorspaces = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgColorspace));
+    r->stats = wg_calloc((size_t)p->n_insts + 1, sizeof(WgNodeStat));
     if (!r->names || !r->images || !r->formats || !r->colorspaces || !r->stats) {
         r->n_outputs = 0;
         wg_result_free(r);
@@ -427,7 +428,7 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     }
     for (int k = 0; k < p->n_outputs; k++) {
         WgPlanOutput *po = &p->outputs[k];
-        r->names[k] = strdup(po->name);
+        r->names[k] = wg_strdup(po->name);
         r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
         r->formats[k] = po->format;
         r->colorspaces[k] = po->colorspace;
@@ -438,7 +439,7 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
         WgInst *in = &p->insts[i];
         WgNodeStat *s = &r->stats[r->n_stats++];
         *s = n->stat;
-        s->id = strdup(in->id);
+        s->id = wg_strdup(in->id);
         s->type = in->type->name;
         s->width = in->width;
         s->height = in->height;
@@ -456,18 +457,18 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
 {
     double t0 = wg__now_ms();
     *out = NULL;
-    WgPlan *plan = calloc(1, sizeof *plan);
+    WgPlan *plan = wg_calloc(1, sizeof *plan);
     if (!plan) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     int rc = wg__plan_build(req, plan, err);
     if (rc) {
-        free(plan);
+        wg_free(plan);
         return rc;
     }
     Run run = {.e = e, .r = req, .plan = plan};
     pthread_mutex_init(&run.mu, NULL);
     pthread_cond_init(&run.cv, NULL);
-    run.nodes = calloc((size_t)plan->n_insts + 1, sizeof(Node));
-    run.ready = calloc((size_t)plan->n_insts + 1, sizeof(int));
+    run.nodes = wg_calloc((size_t)plan->n_insts + 1, sizeof(Node));
+    run.ready = wg_calloc((size_t)plan->n_insts + 1, sizeof(int));
     if (!run.nodes || !run.ready) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto done;
@@ -475,7 +476,7 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
     for (int i = 0; i < plan->n_insts; i++) {
         run.nodes[i].run = &run;
         run.nodes[i].index = i;
-        run.nodes[i].out = calloc((size_t)plan->insts[i].n_out + 1, sizeof(WgImage *));
+        run.nodes[i].out = wg_calloc((size_t)plan->insts[i].n_out + 1, sizeof(WgImage *));
         if (!run.nodes[i].out) {
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
             goto done;
@@ -521,17 +522,17 @@ done:
         for (int i = 0; i < plan->n_insts; i++) {
             if (run.nodes[i].out)
                 for (int o = 0; o < plan->insts[i].n_out; o++) wg_image_unref(run.nodes[i].out[o]);
-            free(run.nodes[i].out);
-            free(run.nodes[i].dependents);
+            wg_free(run.nodes[i].out);
+            wg_free(run.nodes[i].dependents);
         }
     }
     wg__cache_trim(e->cache, e->budget);
-    free(run.nodes);
-    free(run.ready);
+    wg_free(run.nodes);
+    wg_free(run.ready);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
     wg__plan_free(plan);
-    free(plan);
+    wg_free(plan);
     return rc;
 }
 

@@ -78,7 +78,7 @@ static void *worker(void *arg)
             if (!p->head) p->tail = NULL;
             pthread_mutex_unlock(&p->mu);
             j->fn(j->user);
-            free(j);
+            wg_free(j);
             pthread_mutex_lock(&p->mu);
             continue;
         }
@@ -90,15 +90,15 @@ static void *worker(void *arg)
 
 WgPool *wg__pool_new(int threads)
 {
-    WgPool *p = calloc(1, sizeof *p);
+    WgPool *p = wg_calloc(1, sizeof *p);
     if (!p) return NULL;
     p->threads = threads < 1 ? 1 : threads;
     pthread_mutex_init(&p->mu, NULL);
     pthread_cond_init(&p->work, NULL);
     pthread_cond_init(&p->batch_done, NULL);
-    p->tids = calloc((size_t)p->threads, sizeof(pthread_t));
+    p->tids = wg_calloc((size_t)p->threads, sizeof(pthread_t));
     if (!p->tids) {
-        free(p);
+        wg_free(p);
         return NULL;
     }
     for (int i = 0; i < p->threads; i++) {
@@ -122,13 +122,13 @@ void wg__pool_free(WgPool *p)
     while (p->head) {
         Job *j = p->head;
         p->head = j->next;
-        free(j);
+        wg_free(j);
     }
     pthread_mutex_destroy(&p->mu);
     pthread_cond_destroy(&p->work);
     pthread_cond_destroy(&p->batch_done);
-    free(p->tids);
-    free(p);
+    wg_free(p->tids);
+    wg_free(p);
 }
 
 int wg__pool_threads(const WgPool *p)
@@ -138,8 +138,7 @@ int wg__pool_threads(const WgPool *p)
 
 void wg__pool_submit(WgPool *p, WgJobFn fn, void *user)
 {
-    /* plain malloc: a job record must not fail under injected allocation failures */
-    Job *j = malloc(sizeof *j);
+    Job *j = wg_malloc(sizeof *j);
     if (!j) {
         fn(user); /* run inline rather than lose it */
         return;
