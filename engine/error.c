@@ -52,6 +52,11 @@ void wg_error_locate(WgError *err, const char *file, int line, const char *node)
     if (!err->node[0] && node) copy_text(err->node, sizeof err->node, node);
 }
 
+void wg_error_locate_type(WgError *err, const char *type)
+{
+    if (err && !err->node_type[0] && type) copy_text(err->node_type, sizeof err->node_type, type);
+}
+
 void wg_error_clear(WgError *err)
 {
     if (err) memset(err, 0, sizeof *err);
@@ -74,7 +79,8 @@ void wg_error_format(const WgError *err, char *buf, size_t size)
         if (err->line > 0 && err->column > 0) PUT(":%d", err->column);
         PUT(": ");
     }
-    if (err->node[0]) PUT("node '%s': ", err->node);
+    if (err->node[0] && err->node_type[0]) PUT("node '%s' (%s): ", err->node, err->node_type);
+    else if (err->node[0]) PUT("node '%s': ", err->node);
     PUT("%s", err->message[0] ? err->message : wg_status_name(err->code));
 #undef PUT
 }

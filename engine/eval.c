@@ -204,7 +204,7 @@ static int eval_node(Run *run, Node *node, WgError *err)
     rc = t->eval(&ctx, err);
     if (!rc && run->cancel) rc = WG_ERR_CANCELLED;
 out:
-    if (inputs)
+    if (owned)
         for (int i = 0; i < in->n_in; i++) wg_image_unref(owned[i]);
     if (rc == WG_OK) {
         for (int o = 0; o < in->n_out; o++) node->out[o] = outputs[o];
@@ -215,8 +215,15 @@ out:
     wg_free(owned);
     wg_free(outputs);
     if (rc && rc != WG_ERR_CANCELLED) {
-        if (err->file[0] == '\0') wg_error_locate(err, in->file, in->line, in->id);
-        else wg_error_locate(err, NULL, 0, in->id);
+        if (err->file[0]) { /* a file the node read: name it in the message, locate the node */
+            char msg[sizeof err->message];
+            snprintf(msg, sizeof msg, "%s: %s", err->file, err->message);
+            memcpy(err->message, msg, sizeof msg);
+            err->file[0] = '\0';
+            err->line = err->column = 0;
+        }
+        wg_error_locate(err, in->file, in->line, in->id);
+        wg_error_locate_type(err, in->type->name);
     }
     return rc;
 }
@@ -426,9 +433,10 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
         wg_result_free(r);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     }
+    bool ok = true;
     for (int k = 0; k < p->n_outputs; k++) {
         WgPlanOutput *po = &p->outputs[k];
-        r->names[k] = wg_strdup(po->name);
+        ok &= (r->names[k] = wg_strdup(po->name)) != NULL;
         r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
         r->formats[k] = po->format;
         r->colorspaces[k] = po->colorspace;
@@ -439,13 +447,17 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
         WgInst *in = &p->insts[i];
         WgNodeStat *s = &r->stats[r->n_stats++];
         *s = n->stat;
-        s->id = wg_strdup(in->id);
+        ok &= (s->id = wg_strdup(in->id)) != NULL;
         s->type = in->type->name;
         s->width = in->width;
         s->height = in->height;
         s->channels = in->out_channels[0];
         s->bytes = n->out_bytes;
         r->evaluated += n->evaluate;
+    }
+    if (!ok) {
+        wg_result_free(r);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     }
     r->peak = run->peak;
     r->total_ms = wg__now_ms() - t0;
@@ -489,6 +501,7 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
     for (int i = 0; i < plan->n_insts; i++)
         if (run.nodes[i].evaluate && run.nodes[i].pending == 0) run.ready[run.ready_tail++] = i;
 
+    int reported = 0;
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total) {
         while (!run.cancel && run.ready_head < run.ready_tail) {
@@ -498,19 +511,29 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
             run.running++;
             run.live += n->out_bytes;
             if (run.live > run.peak) run.peak = run.live;
-            wg__pool_submit(e->pool, node_job, n);
+            if (wg__pool_submit(e->pool, node_job, n)) { /* fails like a node that ran out */
+                run.running--;
+                run.live -= n->out_bytes;
+                if (run.rc == WG_OK)
+                    run.rc = wg_error_set(&run.err, WG_ERR_NOMEM, NULL, "out of memory");
+                run.cancel = 1;
+            }
         }
         if (run.cancel && run.running == 0) break;
         int before = run.completed;
         pthread_cond_wait(&run.cv, &run.mu);
         if (req->progress && run.completed != before) {
             int done = run.completed, total = run.total;
+            reported = done;
             pthread_mutex_unlock(&run.mu);
             req->progress(req->progress_user, done, total, NULL);
             pthread_mutex_lock(&run.mu);
         }
     }
     pthread_mutex_unlock(&run.mu);
+    /* the last nodes may have finished while the callback ran: always end on done == total */
+    if (req->progress && !run.rc && reported < run.total)
+        req->progress(req->progress_user, run.total, run.total, NULL);
     if (run.rc) {
         rc = run.rc;
         *err = run.err;

@@ -8,6 +8,7 @@
 #include "internal.h"
 
 #include <ctype.h>
+#include <errno.h>
 #include <libxml/parser.h>
 #include <libxml/tree.h>
 #include <limits.h>
@@ -325,6 +326,17 @@ static int check_no_text(Doc *d, xmlNodePtr n)
                                        "unexpected text inside <%s>", (const char *)n->name);
     }
     return WG_OK;
+}
+
+/* <param>, <input>, <output> and <in> hold neither text nor elements. */
+static int check_leaf(Doc *d, xmlNodePtr n)
+{
+    for (xmlNodePtr c = n->children; c; c = c->next)
+        if (c->type == XML_ELEMENT_NODE)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(c), 0,
+                                   "unexpected <%s> inside <%s>", (const char *)c->name,
+                                   (const char *)n->name);
+    return check_no_text(d, n);
 }
 
 /* ---- <param> ----------------------------------------------------------------------------- */
@@ -719,8 +731,9 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
     n->label = attr(x, "label");
     if (n->seed_text) {
         char *end;
+        errno = 0;
         strtoull(n->seed_text, &end, 10);
-        if (!isdigit((unsigned char)n->seed_text[0]) || *end) {
+        if (!isdigit((unsigned char)n->seed_text[0]) || *end || errno == ERANGE) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                                  "node '%s': seed must be a whole number >= 0, not '%s'", n->id,
                                  n->seed_text);
@@ -837,7 +850,7 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
             goto fail;
         }
         static const char *const in_allowed[] = {"name", "from", NULL};
-        if ((rc = check_attrs(d, c, in_allowed))) goto fail;
+        if ((rc = check_attrs(d, c, in_allowed)) || (rc = check_leaf(d, c))) goto fail;
         InDef *in = &n->ins[n->n_ins];
         in->line = line_of(c);
         if ((rc = need_attr(d, c, "name", &in->port)) || (rc = need_attr(d, c, "from", &in->from)))
@@ -1106,8 +1119,9 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     char *seed = attr(root, "seed");
     if (seed) {
         char *end;
+        errno = 0;
         g->seed = strtoull(seed, &end, 10);
-        if (!isdigit((unsigned char)seed[0]) || *end)
+        if (!isdigit((unsigned char)seed[0]) || *end || errno == ERANGE)
             rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
                                  "seed must be a whole number >= 0, not '%s'", seed);
         wg_free(seed);
@@ -1142,8 +1156,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
         if (!strcmp((const char *)c->name, "param")) rc = parse_param(&d, g, c);
         else if (!strcmp((const char *)c->name, "input")) rc = parse_input(&d, g, c);
         else if (!strcmp((const char *)c->name, "output")) rc = parse_output(&d, g, c);
-        if (!rc && (!strcmp((const char *)c->name, "param") || !strcmp((const char *)c->name, "input")))
-            rc = check_no_text(&d, c);
+        if (!rc && strcmp((const char *)c->name, "node")) rc = check_leaf(&d, c);
     }
     for (xmlNodePtr c = root->children; c && !rc; c = c->next)
         if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "node"))
@@ -1215,9 +1228,19 @@ static void silent_xml_error(void *user, const xmlError *e)
     (void)e;
 }
 
-static int xml_error(const char *path, xmlParserCtxtPtr ctxt, WgError *err)
+/* libxml2 goes on after the first error and its last one is often a consequence ("Premature
+ * end of data" at the end of the file for a tag left open); report the first. */
+static void first_xml_error(void *user, const xmlError *e)
 {
-    const xmlError *e = xmlCtxtGetLastError(ctxt);
+    xmlError *first = user;
+    if (first->code == 0 && e && e->code != 0 && e->level >= XML_ERR_ERROR)
+        xmlCopyError((xmlErrorPtr)e, first);
+}
+
+static int xml_error(const char *path, xmlParserCtxtPtr ctxt, const xmlError *first,
+                     WgError *err)
+{
+    const xmlError *e = first->code ? first : xmlCtxtGetLastError(ctxt);
     if (!e)
         return wg_error_set_at(err, WG_ERR_PARSE, path, 0, 0, "not a readable XML file");
     char msg[512];
@@ -1235,12 +1258,16 @@ static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len,
     xmlSetStructuredErrorFunc(NULL, (xmlStructuredErrorFunc)silent_xml_error);
     xmlParserCtxtPtr ctxt = xmlNewParserCtxt();
     if (!ctxt) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    xmlError first = {0};
+    xmlSetStructuredErrorFunc(&first, (xmlStructuredErrorFunc)first_xml_error);
     int opts = XML_PARSE_NONET | XML_PARSE_NOCDATA;
     xmlDocPtr doc = mem ? xmlCtxtReadMemory(ctxt, mem, (int)len, path, NULL, opts)
                         : xmlCtxtReadFile(ctxt, path, NULL, opts);
+    xmlSetStructuredErrorFunc(NULL, (xmlStructuredErrorFunc)silent_xml_error);
     int rc;
-    if (!doc) rc = xml_error(path, ctxt, err);
+    if (!doc) rc = xml_error(path, ctxt, &first, err);
     else rc = load_doc(lc, doc, path, out, err);
+    xmlResetError(&first);
     if (doc) xmlFreeDoc(doc);
     xmlFreeParserCtxt(ctxt);
     return rc;

@@ -2,8 +2,9 @@
 /* WgImage allocation, reference counting and conversion (resampling, channel changes), and the
  * allocation hook. Resampling is separable with a tent filter of support max(1, scale) source
  * pixels, wrapping around the edges: exact bilinear interpolation when enlarging, an area-like
- * average when shrinking (a constant image stays exactly constant because the weights are
- * normalised per output sample). */
+ * average when shrinking. The weights are normalised per output sample, and a sample whose taps
+ * all read the same value is that value, so a constant image stays exactly constant (a float sum
+ * of weights times v can be off by an ulp). */
 #include "internal.h"
 
 #include <math.h>
@@ -183,10 +184,14 @@ static WgImage *resample(const WgImage *src, int width, int height)
         float *out = wg_image_row(tmp, y);
         for (int x = 0; x < width; x++) {
             for (int k = 0; k < c; k++) {
-                float s = 0;
-                for (int t = 0; t < ax.taps; t++)
-                    s += ax.weight[x * ax.taps + t] * in[ax.index[x * ax.taps + t] * c + k];
-                out[x * c + k] = s;
+                float s = 0, first = in[ax.index[x * ax.taps] * c + k];
+                bool same = true;
+                for (int t = 0; t < ax.taps; t++) {
+                    float v = in[ax.index[x * ax.taps + t] * c + k];
+                    same &= v == first;
+                    s += ax.weight[x * ax.taps + t] * v;
+                }
+                out[x * c + k] = same ? first : s;
             }
         }
     }
@@ -198,6 +203,13 @@ static WgImage *resample(const WgImage *src, int width, int height)
             if (w == 0) continue;
             const float *in = wg_image_row(tmp, ay.index[y * ay.taps + t]);
             for (int i = 0; i < width * c; i++) out[i] += w * in[i];
+        }
+        const float *first = wg_image_row(tmp, ay.index[y * ay.taps]);
+        for (int i = 0; i < width * c; i++) {
+            bool same = true;
+            for (int t = 1; t < ay.taps && same; t++)
+                same = wg_image_row(tmp, ay.index[y * ay.taps + t])[i] == first[i];
+            if (same) out[i] = first[i];
         }
     }
     goto done;
@@ -238,7 +250,9 @@ static WgImage *convert_channels(const WgImage *src, int channels)
 
 WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels)
 {
-    if (!src) return NULL;
+    if (!src || width < 1 || height < 1 || width > WG_MAX_SIDE || height > WG_MAX_SIDE ||
+        (channels != 1 && channels != 4))
+        return NULL;
     WgImage *sized = NULL;
     if (width != src->width || height != src->height) {
         sized = resample(src, width, height);

@@ -217,7 +217,8 @@ typedef void (*WgJobFn)(void *user);
 WgPool *wg__pool_new(int threads);
 void wg__pool_free(WgPool *p);
 int wg__pool_threads(const WgPool *p);
-void wg__pool_submit(WgPool *p, WgJobFn fn, void *user);
+/* WG_ERR_NOMEM when the job cannot be queued (it is then not run). */
+int wg__pool_submit(WgPool *p, WgJobFn fn, void *user);
 int wg__pool_rows(WgPool *p, volatile int *cancel, int height, WgRowsFn fn, void *user);
 
 /* ---- misc -------------------------------------------------------------------------------- */

@@ -203,7 +203,7 @@ int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColo
         for (int x = 0; x < img->width; x++) {
             for (int k = 0; k < c; k++, i++) {
                 float v = r[x * img->channels + k];
-                bool colour = img->channels == 4 && k < 3;
+                bool colour = k < 3; /* gray is a colour channel too; alpha never is */
                 if (bits == 8) ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
                 else if (bits == 16) ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
                 else ((float *)buf)[i] = v;

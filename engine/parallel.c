@@ -136,13 +136,11 @@ int wg__pool_threads(const WgPool *p)
     return p ? p->threads : 1;
 }
 
-void wg__pool_submit(WgPool *p, WgJobFn fn, void *user)
+int wg__pool_submit(WgPool *p, WgJobFn fn, void *user)
 {
+    /* Not run inline on failure: the caller holds locks the job takes (wg_render's run.mu). */
     Job *j = wg_malloc(sizeof *j);
-    if (!j) {
-        fn(user); /* run inline rather than lose it */
-        return;
-    }
+    if (!j) return WG_ERR_NOMEM;
     j->fn = fn;
     j->user = user;
     j->next = NULL;
@@ -152,6 +150,7 @@ void wg__pool_submit(WgPool *p, WgJobFn fn, void *user)
     p->tail = j;
     pthread_cond_signal(&p->work);
     pthread_mutex_unlock(&p->mu);
+    return WG_OK;
 }
 
 int wg__pool_rows(WgPool *p, volatile int *cancel, int height, WgRowsFn fn, void *user)

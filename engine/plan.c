@@ -334,12 +334,17 @@ static int finish_inst(Builder *b, int *index)
     while (t->inputs && t->inputs[n_fixed].name) n_fixed++;
     for (int i = 0; i < in->n_in && i < n_fixed; i++) {
         if (t->inputs[i].kind == WG_GRAY && in->in_channels[i] == 4)
-            return wg_error_set_at(b->err, WG_ERR_TYPE, in->file, in->in_lines[i], 0,
-                                   "node '%s' (%s): input '%s' takes a gray image but gets a "
-                                   "colour one; convert it with a 'grayscale' node",
-                                   in->id, t->name, in->in_names[i]);
+        {
+            wg_error_set_at(b->err, WG_ERR_TYPE, in->file, in->in_lines[i], 0,
+                            "input '%s' takes a gray image but gets a colour one; convert it "
+                            "with a 'grayscale' node",
+                            in->in_names[i]);
+            wg_error_locate(b->err, NULL, 0, in->id);
+            wg_error_locate_type(b->err, t->name);
+            return WG_ERR_TYPE;
+        }
     }
-    for (int o = 0; o < in->n_out; o++) {
+    for (int o = 0; o < in->n_out && !in->constant; o++) { /* constants: set by the caller */
         int kind = t->outputs[o].kind;
         if (kind == WG_ANY) {
             WgNodeContext ctx = check_context(in);
@@ -357,8 +362,9 @@ static int finish_inst(Builder *b, int *index)
         WgNodeContext ctx = check_context(in);
         WgError e = {0};
         if ((rc = t->check(&ctx, &e))) {
-            wg_error_set_at(b->err, rc, in->file, in->line, e.column, "node '%s' (%s): %s", in->id,
-                            t->name, e.message);
+            wg_error_set_at(b->err, rc, in->file, in->line, e.column, "%s", e.message);
+            wg_error_locate(b->err, NULL, 0, in->id);
+            wg_error_locate_type(b->err, t->name);
             return rc;
         }
     }
@@ -438,8 +444,7 @@ static int resolve_size(Builder *b, Frame *f, const NodeDef *n, const WgRef *inp
             return WG_OK;
         }
         return wg_error_set_at(b->err, WG_ERR_PARSE, f->g->path, n->line, 0,
-                               "node '%s%s': size=\"input\" but no input is connected", f->prefix,
-                               n->id);
+                               "size=\"input\" but no input is connected");
     }
     if (s[0] == 'x' || s[0] == '/') {
         double k = strtod(s + 1, NULL);
@@ -448,9 +453,8 @@ static int resolve_size(Builder *b, Frame *f, const NodeDef *n, const WgRef *inp
         long lw = lround(fw), lh = lround(fh);
         if (lw < 1 || lh < 1 || lw > WG_MAX_SIDE || lh > WG_MAX_SIDE)
             return wg_error_set_at(b->err, WG_ERR_RANGE, f->g->path, n->line, 0,
-                                   "node '%s%s': size '%s' of %dx%d gives %.0fx%.0f, outside "
-                                   "1..%d",
-                                   f->prefix, n->id, s, f->width, f->height, fw, fh, WG_MAX_SIDE);
+                                   "size '%s' of %dx%d gives %.0fx%.0f, outside 1..%d", s,
+                                   f->width, f->height, fw, fh, WG_MAX_SIDE);
         *w = (int)lw;
         *h = (int)lh;
         return WG_OK;
@@ -473,8 +477,8 @@ static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a,
         rc = wg__value_check(d ? d : &any, out, b->err);
         if (rc) {
             char msg[1024];
-            snprintf(msg, sizeof msg, "node '%s%s': expression '%s' gives: %s", f->prefix, n->id,
-                     a->text + 1, b->err ? b->err->message : "");
+            snprintf(msg, sizeof msg, "expression '%s' gives: %s", a->text + 1,
+                     b->err ? b->err->message : "");
             return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "%s", msg);
         }
         return WG_OK;
@@ -486,8 +490,7 @@ static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a,
             WgError e = {0};
             rc = wg__value_parse(d, src->str ? src->str : "", out, &e);
             if (rc)
-                return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "node '%s%s': %s",
-                                       f->prefix, n->id, e.message);
+                return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "%s", e.message);
             return WG_OK;
         }
         return wg__value_copy(out, src);
@@ -608,7 +611,7 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
             }
             if (!file_readable(full)) {
                 rc = wg_error_set_at(b->err, WG_ERR_IO, g->path, n->line, 0,
-                                     "node '%s%s': file '%s' not found", f->prefix, n->id, full);
+                                     "file '%s' not found", full);
                 wg__value_clear(&v);
                 goto out_slots;
             }
@@ -753,7 +756,9 @@ static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int 
             if (rc) {
                 char id[512];
                 snprintf(id, sizeof id, "%s%s", f->prefix, n->id);
+                bool ours = b->err && (!b->err->node[0] || !strcmp(b->err->node, id));
                 wg_error_locate(b->err, f->g->path, n->line, id);
+                if (ours) wg_error_locate_type(b->err, n->type_name);
                 return rc;
             }
             f->node_inst[node] = index;
@@ -764,7 +769,14 @@ static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int 
     }
     if (!f->node_sub[node]) {
         int rc = inst_sub(b, f, node, &f->node_sub[node]);
-        if (rc) return rc;
+        if (rc) {
+            char id[512];
+            snprintf(id, sizeof id, "%s%s", f->prefix, n->id);
+            bool ours = b->err && (!b->err->node[0] || !strcmp(b->err->node, id));
+            wg_error_locate(b->err, f->g->path, n->line, id);
+            if (ours) wg_error_locate_type(b->err, n->type_name);
+            return rc;
+        }
     }
     Frame *c = f->node_sub[node];
     const WgGraph *sg = c->g;
@@ -885,6 +897,8 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
                              : WG_FORMAT_PNG16;
     }
 out:
+    if (rc && err && err->code == WG_OK)
+        wg_error_set(err, rc, NULL, "%s", rc == WG_ERR_NOMEM ? "out of memory" : wg_status_name(rc));
     for (int i = 0; i < b.n_frames; i++) frame_free(b.frames[i]);
     wg_free(b.frames);
     if (rc) wg__plan_free(plan);

@@ -96,9 +96,11 @@ static void blend_rows(void *user, int y0, int y1)
             for (int k = 0; k < c; k++) {
                 float a = channel(j->fg, fr, x, k), b = channel(j->bg, br, x, k);
                 float v;
+                /* (1-t)B + tF rather than B + (F-B)t: exact at t = 0 and t = 1 even when B is
+                 * much larger than F (HDR heights) */
                 if (p->mode == M_SWITCH) v = t >= 0.5f ? a : b;
-                else if (k == 3) v = b + (a - b) * t;
-                else v = b + (blend_one(p->mode, a, b) - b) * t;
+                else if (k == 3) v = (1 - t) * b + t * a;
+                else v = (1 - t) * b + t * blend_one(p->mode, a, b);
                 if (p->clamp) v = v < 0 ? 0 : v > 1 ? 1 : v;
                 o[x * c + k] = v;
             }

@@ -32,6 +32,7 @@ typedef struct WgError {
     int line;        /* 1-based, 0 when unknown */
     int column;      /* 1-based, 0 when unknown */
     char node[256];  /* node id (path for nodes inside subgraphs), empty when unknown */
+    char node_type[64]; /* that node's type, empty when unknown */
 } WgError;
 
 /* Set code and message (printf-style); keeps any location already set. Returns code.
@@ -48,7 +49,10 @@ void wg_error_locate(WgError *err, const char *file, int line, const char *node)
 
 void wg_error_clear(WgError *err);
 
-/* "file:line:column: node 'id': message" with the parts that are known. */
+/* Also record the node's type (shown as "node 'id' (type)"), if none is set yet. */
+void wg_error_locate_type(WgError *err, const char *type);
+
+/* "file:line:column: node 'id' (type): message" with the parts that are known. */
 void wg_error_format(const WgError *err, char *buf, size_t size);
 
 /* Short name of a status code ("parse error", "I/O error", ...). */
