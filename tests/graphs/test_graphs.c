@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Reference renders: every tests/graphs/*.wetgraph is rendered with the library and each output
+/* Reference renders: every .wetgraph file in tests/graphs is rendered with the library and each output
  * compared with tests/graphs/ref/<graph>_<output>.exr (float32) within TOLERANCE. References
  * change only through scripts/update-references.sh (WETGRAPH_UPDATE_REFERENCES=1), never by a
  * test run. */

@@ -1,0 +1,701 @@
+/* SPDX-License-Identifier: MIT */
+/* The wetgraph command (WETGRAPH_BIN): exit codes (0 ok, 1 evaluation or I/O failure, 2 usage
+ * or graph error), help and error messages, every render option and the files it writes (or,
+ * on failure, does not write), and the check, info, nodes and dot subcommands.
+ *
+ * Starting the binary costs about 0.2 s (the dynamic linker resolving OpenImageIO's many
+ * libraries), so commands that do not depend on each other run as one concurrent batch, each
+ * with its own stdout and stderr files, and every command checks as much as it can. */
+#include "wgtest.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+/* ---- running the command ----------------------------------------------------------------- */
+
+typedef struct {
+    const char *args; /* shell fragment after `wetgraph` */
+    int status;
+    char *out, *err;
+} Cmd;
+
+static char *slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        if (size) *size = 0;
+        return NULL;
+    }
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+    buf[n] = '\0';
+    fclose(f);
+    if (size) *size = (size_t)n;
+    return buf;
+}
+
+/* The scratch folder commands run in. */
+static const char *work(void)
+{
+    static char dir[1024];
+    if (!dir[0]) {
+        snprintf(dir, sizeof dir, "%s/work", wgt_tmpdir());
+        mkdir(dir, 0777);
+    }
+    return dir;
+}
+
+/* work()/name in a rotating buffer */
+static const char *at(const char *name)
+{
+    static char buf[8][1200];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, sizeof buf[0], "%s/%s", work(), name);
+    return p;
+}
+
+/* Run every command concurrently in work() and collect status, stdout and stderr. */
+static void run_batch(Cmd *cmds, int n)
+{
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    char script[1200];
+    snprintf(script, sizeof script, "%s/batch.sh", wgt_tmpdir());
+    FILE *f = fopen(script, "w");
+    assert_non_null(f);
+    fprintf(f, "cd '%s' || exit 99\n", work());
+    for (int i = 0; i < n; i++)
+        fprintf(f, "'%s' %s >'%s/out%d' 2>'%s/err%d' </dev/null & p%d=$!\n", bin, cmds[i].args,
+                wgt_tmpdir(), i, wgt_tmpdir(), i, i);
+    for (int i = 0; i < n; i++)
+        fprintf(f, "wait $p%d; echo $? >'%s/status%d'\n", i, wgt_tmpdir(), i);
+    fclose(f);
+    char cmd[1300];
+    snprintf(cmd, sizeof cmd, "sh '%s'", script);
+    if (system(cmd) != 0) fail_msg("the batch script failed");
+    for (int i = 0; i < n; i++) {
+        char p[1200];
+        snprintf(p, sizeof p, "%s/status%d", wgt_tmpdir(), i);
+        char *st = slurp(p, NULL);
+        if (!st) fail_msg("no status for '%s'", cmds[i].args);
+        cmds[i].status = atoi(st);
+        free(st);
+        snprintf(p, sizeof p, "%s/out%d", wgt_tmpdir(), i);
+        cmds[i].out = slurp(p, NULL);
+        snprintf(p, sizeof p, "%s/err%d", wgt_tmpdir(), i);
+        cmds[i].err = slurp(p, NULL);
+        if (!cmds[i].out) cmds[i].out = calloc(1, 1);
+        if (!cmds[i].err) cmds[i].err = calloc(1, 1);
+    }
+}
+
+static void free_batch(Cmd *cmds, int n)
+{
+    for (int i = 0; i < n; i++) {
+        free(cmds[i].out);
+        free(cmds[i].err);
+        cmds[i].out = cmds[i].err = NULL;
+    }
+}
+
+static void expect_status(const Cmd *c, int status)
+{
+    if (c->status != status)
+        fail_msg("'wetgraph %s' exited %d, expected %d\nstdout:\n%s\nstderr:\n%s", c->args,
+                 c->status, status, c->out, c->err);
+}
+
+static void expect_in(const char *haystack, const char *needle, const Cmd *c, const char *where)
+{
+    if (!strstr(haystack, needle))
+        fail_msg("'wetgraph %s': expected '%s' in %s:\n%s", c->args, needle, where, haystack);
+}
+#define OUT_HAS(c, s) expect_in((c)->out, s, c, "stdout")
+#define ERR_HAS(c, s) expect_in((c)->err, s, c, "stderr")
+
+/* One command on its own. */
+static void run1(Cmd *c)
+{
+    run_batch(c, 1);
+}
+
+static bool exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static int count_files(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) n++;
+    closedir(d);
+    return n;
+}
+
+static void rm_rf(const char *path)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", path);
+    if (system(cmd) != 0) fail_msg("cannot remove %s", path);
+}
+
+static WgImage *read_image(const char *path)
+{
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path, 0, WG_LINEAR, &img, &err)) fail_msg("read %s: %s", path, err.message);
+    return img;
+}
+
+/* Integer value after "key": in a JSON text (first occurrence). */
+static long long json_int(const char *json, const char *key)
+{
+    char pat[128];
+    snprintf(pat, sizeof pat, "\"%s\": ", key);
+    const char *p = strstr(json, pat);
+    if (!p) fail_msg("no %s in:\n%s", key, json);
+    return strtoll(p + strlen(pat), NULL, 10);
+}
+
+static int count_substr(const char *s, const char *needle)
+{
+    int n = 0;
+    for (const char *p = strstr(s, needle); p; p = strstr(p + 1, needle)) n++;
+    return n;
+}
+
+/* ---- files used by the tests ------------------------------------------------------------- */
+
+static const char *const main_graph =
+    "<wetgraph version=\"1\" size=\"16x8\" seed=\"3\">\n"
+    "  <param name=\"level\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\" label=\"Level\"/>\n"
+    "  <param name=\"mode\" type=\"enum\" values=\"add|multiply\" default=\"multiply\"/>\n"
+    "  <input name=\"base\" type=\"color\" default=\"0.2 0.3 0.4 1\"/>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+    "  <node id=\"t\" type=\"uniform\" value=\"=$time\"/>\n"
+    "  <node id=\"s\" type=\"uniform\" value=\"=$seed / 100\"/>\n"
+    "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"u\"/></node>\n"
+    "  <node id=\"c\" type=\"blend\" mode=\"=mode\"><in name=\"foreground\" from=\"b\"/>"
+    "<in name=\"background\" from=\"$base\"/></node>\n"
+    "  <output name=\"mask\" from=\"b\" format=\"png16\"/>\n"
+    "  <output name=\"color\" from=\"c\"/>\n"
+    "  <output name=\"time\" from=\"t\" format=\"exr32\"/>\n"
+    "  <output name=\"seed\" from=\"s\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+
+/* unknown node type on line 3 */
+static const char *const bad_graph =
+    "<wetgraph version=\"1\" size=\"8\">\n"
+    "  <node id=\"u\" type=\"uniform\"/>\n"
+    "  <node id=\"x\" type=\"bluur\"><in name=\"source\" from=\"u\"/></node>\n"
+    "  <output name=\"out\" from=\"x\"/>\n"
+    "</wetgraph>\n";
+
+/* unknown name in an expression on line 2 */
+static const char *const bad2_graph = "<wetgraph version=\"1\" size=\"8\">\n"
+                                      "  <node id=\"u\" type=\"uniform\" value=\"=nope\"/>\n"
+                                      "  <output name=\"out\" from=\"u\"/>\n"
+                                      "</wetgraph>\n";
+
+/* a value out of range only once the expression is evaluated (line 4) */
+static const char *const range_graph =
+    "<wetgraph version=\"1\" size=\"8\">\n"
+    "  <param name=\"s\" type=\"float\" default=\"1\"/>\n"
+    "  <node id=\"u\" type=\"uniform\"/>\n"
+    "  <node id=\"b\" type=\"blur\" sigma=\"=s - 5\"><in name=\"source\" from=\"u\"/></node>\n"
+    "  <output name=\"out\" from=\"b\"/>\n"
+    "</wetgraph>\n";
+
+/* an input without default that sets the size */
+static const char *const input_graph =
+    "<wetgraph version=\"1\" size=\"$src\">\n"
+    "  <input name=\"src\" type=\"gray\"/>\n"
+    "  <node id=\"inv\" type=\"invert\"><in name=\"source\" from=\"$src\"/></node>\n"
+    "  <node id=\"blur\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"$src\"/></node>\n"
+    "  <output name=\"inv\" from=\"inv\"/>\n"
+    "  <output name=\"blur\" from=\"blur\"/>\n"
+    "</wetgraph>\n";
+
+/* an image node reading `file` on line 2 */
+static void write_image_graph(const char *name, const char *file)
+{
+    char xml[1024];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"32\">\n"
+             "  <node id=\"pic\" type=\"image\" path=\"%s\"/>\n"
+             "  <node id=\"inv\" type=\"invert\"><in name=\"source\" from=\"pic\"/></node>\n"
+             "  <output name=\"inv\" from=\"inv\"/>\n"
+             "</wetgraph>\n",
+             file);
+    wgt_write_file(at(name), xml);
+}
+
+static double noise_fn(int x, int y, int k)
+{
+    (void)k;
+    return (wg_hash3((uint32_t)x, (uint32_t)y, 5) & 0xffff) / 65535.0;
+}
+
+static void write_noise_png(const char *path, int size)
+{
+    WgImage *img = wgt_image_fn(size, size, 1, noise_fn);
+    WgError err = {0};
+    assert_int_equal(wg_image_write(path, img, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_OK);
+    wg_image_unref(img);
+}
+
+/* Keep the first `keep` bytes: the PNG header still reads, the pixels do not. */
+static void truncate_file(const char *path, size_t keep)
+{
+    size_t n;
+    char *data = slurp(path, &n);
+    assert_non_null(data);
+    assert_true(n > keep);
+    FILE *f = fopen(path, "wb");
+    fwrite(data, 1, keep, f);
+    fclose(f);
+    free(data);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    wgt_write_file(at("g.wetgraph"), main_graph);
+    wgt_write_file(at("bad.wetgraph"), bad_graph);
+    wgt_write_file(at("bad2.wetgraph"), bad2_graph);
+    wgt_write_file(at("range.wetgraph"), range_graph);
+    wgt_write_file(at("inp.wetgraph"), input_graph);
+    wgt_write_file(at("plainfile"), "not a folder\n");
+    return 0;
+}
+
+/* ---- help and usage ---------------------------------------------------------------------- */
+
+static void test_help_and_usage_errors(void **state)
+{
+    (void)state;
+    static const char *const subs[] = {"render", "check", "info", "nodes", "dot"};
+    Cmd c[] = {
+        {"render --help"},
+        {"check --help"},
+        {"info --help"},
+        {"nodes --help"},
+        {"dot -h"},
+        {"--help"},
+        {""},
+        {"rendr g.wetgraph"},
+        {"render g.wetgraph --frob"},
+        {"render g.wetgraph --size 0x5 --format tif"},
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+    for (int i = 0; i < 5; i++) {
+        expect_status(&c[i], 0);
+        char want[64];
+        snprintf(want, sizeof want, "usage: wetgraph %s", subs[i]);
+        if (strncmp(c[i].out, want, strlen(want)))
+            fail_msg("'%s' printed:\n%s", c[i].args, c[i].out);
+        assert_string_equal(c[i].err, "");
+    }
+    OUT_HAS(&c[0], "--memory-budget MB");
+    OUT_HAS(&c[0], "--layered FILE.exr");
+    OUT_HAS(&c[0], "--stats[=json]");
+    OUT_HAS(&c[0], "-q, --quiet");
+    OUT_HAS(&c[3], "--markdown");
+
+    expect_status(&c[5], 0);
+    OUT_HAS(&c[5], "usage: wetgraph COMMAND");
+    OUT_HAS(&c[5], "Exit codes: 0 ok, 1 evaluation or I/O");
+    for (int k = 0; k < 5; k++) OUT_HAS(&c[5], subs[k]);
+    expect_status(&c[6], 2); /* no command: usage on stderr */
+    ERR_HAS(&c[6], "usage: wetgraph COMMAND");
+    assert_string_equal(c[6].out, "");
+
+    struct {
+        int i;
+        const char *msg;
+    } errors[] = {
+        {7, "wetgraph: unknown command 'rendr'; did you mean 'render'?"},
+        {8, "wetgraph render: unknown option '--frob'\n(see 'wetgraph render --help')"},
+        {9, "bad --size '0x5' (N or WxH"}, /* the first bad option is reported */
+    };
+    for (size_t k = 0; k < sizeof errors / sizeof errors[0]; k++) {
+        Cmd *e = &c[errors[k].i];
+        expect_status(e, 2);
+        ERR_HAS(e, errors[k].msg);
+        assert_string_equal(e->out, "");
+    }
+    free_batch(c, n);
+    /* nothing was written by any of them */
+    assert_false(exists(at("g_mask.png")));
+}
+
+/* ---- render ------------------------------------------------------------------------------ */
+
+static void test_render_outputs_and_options(void **state)
+{
+    (void)state;
+    static const char *const dirs[] = {"out", "opt", "fmt", "lay", "sj", "inp"};
+    for (int i = 0; i < 6; i++) rm_rf(at(dirs[i]));
+    unlink(at("lay.exr"));
+    unlink(at("only.exr"));
+    write_noise_png(at("noise.png"), 24);
+    float px[] = {0.2f, 0.4f, 0.6f, 1};
+    WgImage *basecol = wgt_image(1, 1, 4, px);
+    WgError err = {0};
+    assert_int_equal(wg_image_write(at("base.exr"), basecol, WG_FORMAT_EXR32, WG_LINEAR, &err),
+                     WG_OK);
+    wg_image_unref(basecol);
+
+    Cmd c[] = {
+        {"render g.wetgraph -o out/deep/er --stats"},
+        {"render g.wetgraph -o opt --set level=0.25 --set=mode=add --output mask --output=color "
+         "--input base=base.exr"},
+        {"render g.wetgraph -o fmt --size 32x20 --seed 42 --time 0.75 --format exr32 --threads 3"},
+        {"render g.wetgraph --layered lay.exr -o lay"},
+        {"render g.wetgraph --layered only.exr -q"},
+        {"render g.wetgraph -o sj --stats=json -q --memory-budget 64"},
+        {"render inp.wetgraph -o inp --input src=noise.png"},
+        {"render g.wetgraph -o plainfile"},
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+
+    /* -o DIR is created, files are <graph>_<output>.<ext>, each path printed */
+    expect_status(&c[0], 0);
+    static const char *const files[] = {"out/deep/er/g_mask.png", "out/deep/er/g_color.png",
+                                        "out/deep/er/g_time.exr", "out/deep/er/g_seed.exr"};
+    for (int i = 0; i < 4; i++) {
+        if (!exists(at(files[i]))) fail_msg("%s was not written", files[i]);
+        OUT_HAS(&c[0], files[i]);
+    }
+    assert_int_equal(count_files(at("out/deep/er")), 4);
+    assert_int_equal(count_substr(c[0].out, "\n"), 4);
+    /* --stats: a table on stderr, the paths still alone on stdout */
+    ERR_HAS(&c[0], "6 of 6 nodes computed");
+    ERR_HAS(&c[0], "peak image memory");
+    ERR_HAS(&c[0], "blur");
+    ERR_HAS(&c[0], "16x8c");
+    WgImage *mask = read_image(at("out/deep/er/g_mask.png"));
+    assert_int_equal(mask->width, 16);
+    assert_int_equal(mask->height, 8);
+    assert_int_equal(mask->channels, 1);
+    assert_float_equal(wgt_px(mask, 5, 5, 0), 0.5, 1.0 / 65535);
+    wg_image_unref(mask);
+    WgImage *color = read_image(at("out/deep/er/g_color.png"));
+    assert_int_equal(color->channels, 4);
+    static const float base[] = {0.2f, 0.3f, 0.4f};
+    for (int k = 0; k < 3; k++)
+        assert_float_equal(wgt_px(color, 3, 2, k), 0.5 * base[k], 0.5 / 255 + 1e-6);
+    wg_image_unref(color);
+    WgImage *img = read_image(at("out/deep/er/g_time.exr"));
+    assert_true(wgt_px(img, 0, 0, 0) == 0.0f);
+    wg_image_unref(img);
+    img = read_image(at("out/deep/er/g_seed.exr"));
+    assert_true(wgt_px(img, 0, 0, 0) == (float)(3 / 100.0)); /* the graph's seed */
+    wg_image_unref(img);
+
+    /* --set (both forms), --output, --input */
+    expect_status(&c[1], 0);
+    assert_int_equal(count_files(at("opt")), 2);
+    mask = read_image(at("opt/g_mask.png"));
+    assert_float_equal(wgt_px(mask, 0, 0, 0), 0.25, 1.0 / 65535);
+    wg_image_unref(mask);
+    color = read_image(at("opt/g_color.png"));
+    for (int k = 0; k < 3; k++)
+        assert_float_equal(wgt_px(color, 0, 0, k), 0.25 + px[k], 0.5 / 255 + 1e-6);
+    wg_image_unref(color);
+
+    /* --size, --seed, --time, --format, --threads */
+    expect_status(&c[2], 0);
+    assert_int_equal(count_files(at("fmt")), 4);
+    mask = read_image(at("fmt/g_mask.exr"));
+    assert_int_equal(mask->width, 32);
+    assert_int_equal(mask->height, 20);
+    assert_float_equal(wgt_px(mask, 31, 19, 0), 0.5, 1e-6); /* float: not quantised */
+    wg_image_unref(mask);
+    assert_true(exists(at("fmt/g_color.exr")));
+    img = read_image(at("fmt/g_time.exr"));
+    assert_true(wgt_px(img, 31, 19, 0) == 0.75f);
+    wg_image_unref(img);
+    img = read_image(at("fmt/g_seed.exr"));
+    assert_true(wgt_px(img, 0, 0, 0) == (float)(42 / 100.0));
+    wg_image_unref(img);
+
+    /* --layered with -o: both; the note on stderr */
+    expect_status(&c[3], 0);
+    ERR_HAS(&c[3], "wrote lay.exr (4 layers)");
+    assert_int_equal(count_files(at("lay")), 4);
+    int w, h, ch;
+    assert_int_equal(wg_image_probe(at("lay.exr"), &w, &h, &ch, &err), WG_OK);
+    assert_int_equal(w, 16);
+    assert_int_equal(h, 8);
+    assert_int_equal(ch, 7); /* mask.Y, color.RGBA, time.Y, seed.Y */
+    /* --layered alone writes only the EXR; -q prints nothing */
+    expect_status(&c[4], 0);
+    assert_true(exists(at("only.exr")));
+    assert_false(exists(at("g_color.png")));
+    assert_false(exists(at("g_mask.png")));
+    assert_string_equal(c[4].out, "");
+    assert_string_equal(c[4].err, "");
+
+    /* --stats=json with -q: only the JSON, on stdout */
+    expect_status(&c[5], 0);
+    const char *j = c[5].out;
+    assert_string_equal(c[5].err, "");
+    assert_int_equal(j[0], '{');
+    assert_int_equal(json_int(j, "evaluated"), 6);
+    long long peak = json_int(j, "peak_bytes");
+    assert_true(peak >= 3 * 8 * 64 + 8 * 512); /* 3 gray and 1 colour 16x8 outputs alive */
+    assert_true(peak <= 64ll << 20);
+    assert_int_equal(count_substr(j, "\"id\": "), 6);
+    expect_in(j, "{\"id\": \"$base\", \"type\": \"uniform\"", &c[5], "stdout");
+    expect_in(j, "\"width\": 16, \"height\": 8, \"channels\": 4", &c[5], "stdout");
+    assert_int_equal(count_substr(j, "\"cache\": \"miss\""), 6);
+    assert_null(strstr(j, "sj/g_mask.png"));
+    assert_int_equal(count_files(at("sj")), 4);
+
+    /* --input feeding a graph whose size comes from the input */
+    expect_status(&c[6], 0);
+    WgImage *inv = read_image(at("inp/inp_inv.png"));
+    assert_int_equal(inv->width, 24);
+    for (int y = 0; y < 24; y++)
+        for (int x = 0; x < 24; x++) {
+            double want = 1.0 - round(noise_fn(x, y, 0) * 65535) / 65535.0;
+            if (fabs(wgt_px(inv, x, y, 0) - want) > 1.0 / 65535)
+                fail_msg("(%d,%d): %g vs %g", x, y, wgt_px(inv, x, y, 0), want);
+        }
+    wg_image_unref(inv);
+
+    /* -o naming a file: an I/O failure after rendering */
+    expect_status(&c[7], 1);
+    ERR_HAS(&c[7], "cannot create the output folder");
+
+    free_batch(c, n);
+    for (int i = 0; i < 6; i++) rm_rf(at(dirs[i]));
+    unlink(at("lay.exr"));
+    unlink(at("only.exr"));
+}
+
+static void test_render_failures_write_nothing(void **state)
+{
+    (void)state;
+    static const char *const dirs[] = {"e1", "e2", "e3", "e4", "e5", "e6"};
+    for (int i = 0; i < 6; i++) rm_rf(at(dirs[i]));
+    /* pre-existing outputs that must survive */
+    mkdir(at("e4"), 0777);
+    wgt_write_file(at("e4/inp_inv.png"), "old content\n");
+    mkdir(at("e5"), 0777);
+    wgt_write_file(at("e5/cut_inv.png"), "old content\n");
+    /* the header reads (so the check passes) but the pixels are cut off */
+    write_noise_png(at("cut.png"), 64);
+    truncate_file(at("cut.png"), 2000);
+    write_image_graph("cut.wetgraph", "cut.png");
+
+    Cmd c[] = {
+        {"render g.wetgraph -o e1 --set levl=0.3"},
+        {"render bad.wetgraph -o e2"},
+        {"render g.wetgraph -o e3 --size 1024 --memory-budget 1"},
+        {"render inp.wetgraph -o e4 --input src=cut.png"},
+        {"render cut.wetgraph -o e5"},
+        {"render g.wetgraph -o e6 --input base=missing.png"},
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+
+    /* graph and usage errors: 2, with file:line where there is one */
+    expect_status(&c[0], 2);
+    ERR_HAS(&c[0], "--set levl=0.3");
+    ERR_HAS(&c[0], "no parameter 'levl'; did you mean 'level'?");
+    expect_status(&c[1], 2);
+    ERR_HAS(&c[1], "bad.wetgraph:3:");
+    ERR_HAS(&c[1], "bluur");
+    /* evaluation failures: 1 */
+    expect_status(&c[2], 1);
+    ERR_HAS(&c[2], "--memory-budget");
+    ERR_HAS(&c[2], "the largest image is node");
+    expect_status(&c[3], 1);
+    ERR_HAS(&c[3], "cannot read the image");
+    ERR_HAS(&c[3], "cut.png");
+    expect_status(&c[4], 1);
+    ERR_HAS(&c[4], "cut.wetgraph:2: node 'pic'");
+    ERR_HAS(&c[4], "cut.png");
+    /* a missing input file is found before rendering (see the report for its exit status) */
+    assert_int_not_equal(c[5].status, 0);
+    ERR_HAS(&c[5], "missing.png");
+
+    for (int i = 0; i < n; i++) {
+        assert_string_equal(c[i].out, "");      /* no path printed */
+        int expect = i == 3 || i == 4 ? 1 : -1; /* only the pre-existing file */
+        if (count_files(at(dirs[i])) != expect)
+            fail_msg("'%s' left %d files in %s", c[i].args, count_files(at(dirs[i])), dirs[i]);
+    }
+    char *old = slurp(at("e4/inp_inv.png"), NULL);
+    assert_string_equal(old, "old content\n");
+    free(old);
+    old = slurp(at("e5/cut_inv.png"), NULL);
+    assert_string_equal(old, "old content\n");
+    free(old);
+    free_batch(c, n);
+    for (int i = 0; i < 6; i++) rm_rf(at(dirs[i]));
+}
+
+static void test_cache_option(void **state)
+{
+    (void)state;
+    rm_rf(at("cache"));
+    rm_rf(at("c1"));
+    Cmd first = {
+        "render g.wetgraph -o c1 --cache cache --output mask --output color --stats=json -q"};
+    run1(&first);
+    expect_status(&first, 0);
+    assert_int_equal(json_int(first.out, "evaluated"), 4); /* u, b, $base, c */
+    assert_int_equal(count_substr(first.out, "\"cache\": \"miss\""), 4);
+    assert_true(exists(at("cache")));
+    Cmd second = {first.args};
+    run1(&second);
+    expect_status(&second, 0);
+    assert_int_equal(json_int(second.out, "evaluated"), 0);
+    assert_int_equal(count_substr(second.out, "\"cache\": \"disk\""), 2);
+    /* an edit downstream: the blur still comes from the disk */
+    Cmd edit = {
+        "render g.wetgraph -o c1 --cache=cache --set mode=add --output color --stats=json -q"};
+    run1(&edit);
+    expect_status(&edit, 0);
+    assert_int_equal(json_int(edit.out, "evaluated"), 2); /* $base and c */
+    const char *b = strstr(edit.out, "{\"id\": \"b\", \"type\": \"blur\"");
+    if (!b) fail_msg("no stats for b:\n%s", edit.out);
+    expect_in(b, "\"cache\": \"disk\"", &edit, "the stats of b");
+    free_batch(&first, 1);
+    free_batch(&second, 1);
+    free_batch(&edit, 1);
+    rm_rf(at("cache"));
+    rm_rf(at("c1"));
+}
+
+/* ---- check, info, nodes, dot ------------------------------------------------------------- */
+
+static void test_inspection_commands(void **state)
+{
+    (void)state;
+    Cmd c[] = {
+        {"check g.wetgraph inp.wetgraph"},
+        {"check g.wetgraph bad.wetgraph inp.wetgraph bad2.wetgraph missing.wetgraph "
+         "range.wetgraph"},
+        {"info g.wetgraph"},
+        {"info --json g.wetgraph"},
+        {"info bad.wetgraph"},
+        {"nodes"},
+        {"nodes blur"},
+        {"nodes bluur"},
+        {"nodes --markdown"},
+        {"dot g.wetgraph"},
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+
+    /* check: ok lines on stdout (an input without default gets a placeholder) */
+    expect_status(&c[0], 0);
+    assert_string_equal(c[0].out, "g.wetgraph: ok\ninp.wetgraph: ok\n");
+    assert_string_equal(c[0].err, "");
+    /* errors in the middle: every file is checked, every error reported, exit 2 */
+    expect_status(&c[1], 2);
+    assert_string_equal(c[1].out, "g.wetgraph: ok\ninp.wetgraph: ok\n");
+    ERR_HAS(&c[1], "bad.wetgraph:3:");
+    ERR_HAS(&c[1], "bluur");
+    ERR_HAS(&c[1], "bad2.wetgraph:2:");
+    ERR_HAS(&c[1], "unknown name 'nope'");
+    ERR_HAS(&c[1], "missing.wetgraph");
+    ERR_HAS(&c[1], "range.wetgraph:4:"); /* found by resolving, without rendering */
+    assert_int_equal(count_substr(c[1].err, "wetgraph: error: "), 4);
+
+    /* info */
+    expect_status(&c[2], 0);
+    OUT_HAS(&c[2], "graph g (g.wetgraph)");
+    OUT_HAS(&c[2], "size 16x8, seed 3, 5 nodes");
+    OUT_HAS(&c[2], "default 0.5  range [0, 1]");
+    OUT_HAS(&c[2], "\"Level\"");
+    OUT_HAS(&c[2], "values add|multiply");
+    OUT_HAS(&c[2], "default 0.2 0.3 0.4 1");
+    OUT_HAS(&c[2], "png16");
+    expect_status(&c[3], 0);
+    const char *j = c[3].out;
+    OUT_HAS(&c[3], "\"name\": \"g\"");
+    OUT_HAS(&c[3], "\"size\": \"16x8\"");
+    assert_int_equal(json_int(j, "seed"), 3);
+    assert_int_equal(json_int(j, "nodes"), 5);
+    OUT_HAS(&c[3], "{\"name\": \"level\", \"type\": \"float\", \"default\": \"0.5\", \"min\": 0, "
+                   "\"max\": 1, \"label\": \"Level\"}");
+    OUT_HAS(&c[3], "\"values\": [\"add\", \"multiply\"]");
+    OUT_HAS(&c[3], "{\"name\": \"base\", \"type\": \"color\", \"colorspace\": \"linear\", "
+                   "\"default\": \"0.2 0.3 0.4 1\"}");
+    OUT_HAS(&c[3], "{\"name\": \"mask\", \"from\": \"b\", \"format\": \"png16\", \"colorspace\": "
+                   "\"linear\"}");
+    OUT_HAS(&c[3], "{\"name\": \"color\", \"from\": \"c\", \"format\": \"default\"");
+    assert_int_equal(count_substr(j, "{"), 1 + 2 + 1 + 4);
+    expect_status(&c[4], 2);
+    ERR_HAS(&c[4], "bad.wetgraph:3:");
+    assert_string_equal(c[4].out, "");
+
+    /* nodes: one line per registered type */
+    expect_status(&c[5], 0);
+    int count = 0;
+    for (; wg_node_types[count]; count++) {
+        char line[80];
+        snprintf(line, sizeof line, "\n%s ", wg_node_types[count]->name);
+        bool first = !strncmp(c[5].out, line + 1, strlen(line + 1));
+        if (!first && !strstr(c[5].out, line))
+            fail_msg("'%s' not listed:\n%s", wg_node_types[count]->name, c[5].out);
+    }
+    assert_int_equal(count_substr(c[5].out, "\n"), count);
+    expect_status(&c[6], 0);
+    OUT_HAS(&c[6], "blur - Exact Gaussian blur");
+    OUT_HAS(&c[6], "sigma");
+    OUT_HAS(&c[6], "source");
+    expect_status(&c[7], 2);
+    ERR_HAS(&c[7], "unknown node type 'bluur'; did you mean 'blur'?");
+    expect_status(&c[8], 0);
+    assert_int_equal(strncmp(c[8].out, "# Node reference\n", 17), 0);
+    for (int i = 0; wg_node_types[i]; i++) {
+        char hd[80];
+        snprintf(hd, sizeof hd, "\n## `%s`\n", wg_node_types[i]->name);
+        OUT_HAS(&c[8], hd);
+    }
+    OUT_HAS(&c[8], "| `sigma` | float | `1` |");
+
+    /* dot */
+    expect_status(&c[9], 0);
+    assert_int_equal(strncmp(c[9].out, "digraph \"g\" {", 13), 0);
+    OUT_HAS(&c[9], "\"n:u\" -> \"n:b\" [label=\"source\"]");
+    OUT_HAS(&c[9], "\"n:b\" -> \"n:c\" [label=\"foreground\"]");
+    OUT_HAS(&c[9], "\"$base\" -> \"n:c\"");
+    free_batch(c, n);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_help_and_usage_errors),
+        cmocka_unit_test(test_render_outputs_and_options),
+        cmocka_unit_test(test_render_failures_write_nothing),
+        cmocka_unit_test(test_cache_option),
+        cmocka_unit_test(test_inspection_commands),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}

@@ -1,0 +1,740 @@
+/* SPDX-License-Identifier: MIT */
+/* The result cache: re-renders on one engine reuse memory entries, an edit recomputes only the
+ * edited node and what depends on it, the seed does not invalidate unseeded nodes, the disk
+ * cache serves a fresh engine, damaged entries are ignored, recomputed and rewritten, and an
+ * image node's key follows the content of its file. Results are bit-identical cold or warm. */
+#include "wgtest.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ---- helpers ----------------------------------------------------------------------------- */
+
+static WgEngine *engine(int threads, const char *cache_dir)
+{
+    WgEngineOptions opt = {threads, 0, cache_dir};
+    WgEngine *e = NULL;
+    WgError err = {0};
+    if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
+    return e;
+}
+
+static WgResult *render_ok(WgEngine *e, const WgRequest *r)
+{
+    WgResult *res = NULL;
+    WgError err = {0};
+    if (wg_render(e, r, &res, &err)) {
+        char buf[2048];
+        wg_error_format(&err, buf, sizeof buf);
+        fail_msg("render: %s", buf);
+    }
+    return res;
+}
+
+static const WgNodeStat *stat_of(const WgResult *res, const char *id)
+{
+    for (int i = 0; i < wg_result_stat_count(res); i++)
+        if (!strcmp(wg_result_stat(res, i)->id, id)) return wg_result_stat(res, i);
+    return NULL;
+}
+
+/* The node has a stat with that outcome (or, for outcome -1, no stat at all). */
+static void expect_stat(const WgResult *res, const char *id, int outcome)
+{
+    const WgNodeStat *s = stat_of(res, id);
+    if (outcome < 0) {
+        if (s) fail_msg("node '%s' should not have been needed (outcome %d)", id, s->cache);
+        return;
+    }
+    if (!s) fail_msg("no stat for node '%s'", id);
+    if ((int)s->cache != outcome)
+        fail_msg("node '%s': cache outcome %d, expected %d", id, s->cache, outcome);
+    if (outcome != WG_COMPUTED && s->ms != 0) fail_msg("node '%s': a hit took %g ms", id, s->ms);
+}
+
+static void expect_same_outputs(const WgResult *a, const WgResult *b)
+{
+    assert_int_equal(wg_result_output_count(a), wg_result_output_count(b));
+    for (int i = 0; i < wg_result_output_count(a); i++) {
+        assert_string_equal(wg_result_output_name(a, i), wg_result_output_name(b, i));
+        wgt_assert_identical(wg_result_output_image(a, i), wg_result_output_image(b, i));
+    }
+}
+
+static double pic_fn(int x, int y, int k)
+{
+    if (k == 3) return 1;
+    return ((x * 37 + y * 101 + k * 53) % 256) / 255.0;
+}
+
+static double other_fn(int x, int y, int k)
+{
+    if (k == 3) return 1;
+    return ((x * 11 + y * 7 + k * 199 + 40) % 256) / 255.0;
+}
+
+static void write_picture(const char *path, double (*fn)(int, int, int))
+{
+    WgImage *img = wgt_image_fn(16, 12, 4, fn);
+    WgError err = {0};
+    assert_int_equal(wg_image_write(path, img, WG_FORMAT_PNG, WG_LINEAR, &err), WG_OK);
+    wg_image_unref(img);
+}
+
+/* image -> two blurs; one blur -> levels (driven by `gain`) -> blend with the other blur. */
+static const char *const chain_xml =
+    "<wetgraph version=\"1\" size=\"32x24\" seed=\"7\">\n"
+    "  <param name=\"gain\" type=\"float\" default=\"0.8\" min=\"0\" max=\"2\"/>\n"
+    "  <node id=\"img\" type=\"image\" path=\"chain.png\" size=\"16x12\"/>\n"
+    "  <node id=\"soft\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"img\"/></node>\n"
+    "  <node id=\"sharp\" type=\"blur\" sigma=\"0.5\"><in name=\"source\" from=\"img\"/></node>\n"
+    "  <node id=\"lev\" type=\"levels\" out_high=\"=gain\"><in name=\"source\" "
+    "from=\"soft\"/></node>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"multiply\"><in name=\"foreground\" from=\"lev\"/>"
+    "<in name=\"background\" from=\"sharp\"/></node>\n"
+    "  <output name=\"mix\" from=\"mix\"/>\n"
+    "  <output name=\"soft\" from=\"soft\"/>\n"
+    "</wetgraph>\n";
+
+static WgGraph *chain_graph(void)
+{
+    write_picture(wgt_path("chain.png"), pic_fn);
+    return wgt_load_at(chain_xml, wgt_path("chain.wetgraph"));
+}
+
+static WgRequest *chain_request(const WgGraph *g, const char *gain)
+{
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    if (gain) {
+        WgError err = {0};
+        assert_int_equal(wg_request_set(r, "gain", gain, &err), WG_OK);
+    }
+    return r;
+}
+
+/* Render on a fresh engine without any cache. */
+static WgResult *cold(const WgRequest *r)
+{
+    WgEngine *e = engine(2, NULL);
+    WgResult *res = render_ok(e, r);
+    wg_engine_free(e);
+    return res;
+}
+
+typedef struct {
+    char path[1024];
+    int width, height, channels;
+} Entry;
+
+/* Every .wgc file under dir (one level of subfolders), with its header's shape. */
+static int cache_entries(const char *dir, Entry *out, int max)
+{
+    int n = 0;
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char sub[1024];
+        snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name);
+        DIR *s = opendir(sub);
+        if (!s) continue;
+        struct dirent *f;
+        while ((f = readdir(s))) {
+            size_t l = strlen(f->d_name);
+            if (l < 4 || strcmp(f->d_name + l - 4, ".wgc")) continue;
+            if (n < max) {
+                snprintf(out[n].path, sizeof out[n].path, "%s/%s", sub, f->d_name);
+                FILE *fp = fopen(out[n].path, "rb");
+                int32_t hdr[6] = {0};
+                if (fp) {
+                    if (fread(hdr, sizeof hdr, 1, fp) != 1) memset(hdr, 0, sizeof hdr);
+                    fclose(fp);
+                }
+                out[n].width = hdr[2];
+                out[n].height = hdr[3];
+                out[n].channels = hdr[4];
+            }
+            n++;
+        }
+        closedir(s);
+    }
+    closedir(d);
+    return n;
+}
+
+/* Temporary files left in the cache folders. */
+static int cache_temp_files(const char *dir)
+{
+    int n = 0;
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char sub[1024];
+        snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name);
+        DIR *s = opendir(sub);
+        if (!s) continue;
+        struct dirent *f;
+        while ((f = readdir(s)))
+            if (f->d_name[0] == '.' && strcmp(f->d_name, ".") && strcmp(f->d_name, "..")) n++;
+        closedir(s);
+    }
+    closedir(d);
+    return n;
+}
+
+static char *slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("cannot open %s", path);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    *size = (size_t)n;
+    return buf;
+}
+
+static void spit(const char *path, const char *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, n, f), n);
+    fclose(f);
+}
+
+static const char *cache_dir(const char *name)
+{
+    static char buf[1024];
+    snprintf(buf, sizeof buf, "%s/%s", wgt_tmpdir(), name);
+    return buf;
+}
+
+/* ---- in memory --------------------------------------------------------------------------- */
+
+static void test_rerender_uses_memory_cache(void **state)
+{
+    (void)state;
+    WgGraph *g = chain_graph();
+    WgRequest *r = chain_request(g, NULL);
+    WgEngine *e = engine(3, NULL);
+    WgResult *first = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(first), 5);
+    static const char *const all[] = {"img", "soft", "sharp", "lev", "mix"};
+    for (int i = 0; i < 5; i++) expect_stat(first, all[i], WG_COMPUTED);
+
+    WgResult *second = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(second), 0);
+    /* the outputs come straight from the cache: nothing upstream is even looked at */
+    assert_int_equal(wg_result_stat_count(second), 2);
+    expect_stat(second, "mix", WG_HIT_MEMORY);
+    expect_stat(second, "soft", WG_HIT_MEMORY);
+    expect_stat(second, "img", -1);
+    expect_same_outputs(first, second);
+
+    /* clearing the cache recomputes everything, identically */
+    wg_engine_clear_cache(e);
+    WgResult *third = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(third), 5);
+    expect_same_outputs(first, third);
+
+    wg_result_free(third);
+    wg_result_free(second);
+    wg_result_free(first);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_edit_recomputes_only_dependents(void **state)
+{
+    (void)state;
+    WgGraph *g = chain_graph();
+    WgEngine *e = engine(2, NULL);
+    WgRequest *r = chain_request(g, NULL);
+    WgResult *base = render_ok(e, r);
+    wg_request_free(r);
+
+    r = chain_request(g, "0.5");
+    WgResult *edited = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(edited), 2);
+    expect_stat(edited, "lev", WG_COMPUTED);
+    expect_stat(edited, "mix", WG_COMPUTED);
+    expect_stat(edited, "soft", WG_HIT_MEMORY);
+    expect_stat(edited, "sharp", WG_HIT_MEMORY);
+    expect_stat(edited, "img", -1);
+    /* the unchanged output is the same image, the edited one differs */
+    wgt_assert_identical(wgt_output(edited, "soft"), wgt_output(base, "soft"));
+    assert_true(wgt_max_abs_diff(wgt_output(edited, "mix"), wgt_output(base, "mix")) > 0.01);
+    /* and equals a cold render of the edited request */
+    WgResult *ref = cold(r);
+    expect_same_outputs(edited, ref);
+    wg_result_free(ref);
+    wg_request_free(r);
+
+    /* going back to the old value is a pure cache hit */
+    r = chain_request(g, "0.8");
+    WgResult *back = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(back), 0);
+    expect_same_outputs(back, base);
+    wg_result_free(back);
+
+    /* the expression gives the same float as the default: same key */
+    wg_request_free(r);
+    r = chain_request(g, "=0.4 * 2");
+    back = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(back), 0);
+    wg_result_free(back);
+
+    wg_result_free(edited);
+    wg_result_free(base);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
+static void test_seed_does_not_invalidate_unseeded_nodes(void **state)
+{
+    (void)state;
+    for (int i = 0; wg_node_types[i]; i++) {
+        const char *n = wg_node_types[i]->name;
+        if (!strcmp(n, "uniform") || !strcmp(n, "image") || !strcmp(n, "blur") ||
+            !strcmp(n, "blend") || !strcmp(n, "levels") || !strcmp(n, "invert") ||
+            !strcmp(n, "grayscale"))
+            assert_false(wg_node_types[i]->flags & WG_NODE_SEEDED);
+    }
+    WgGraph *g = chain_graph();
+    WgEngine *e = engine(2, NULL);
+    WgRequest *r = chain_request(g, NULL);
+    WgResult *base = render_ok(e, r);
+    wg_request_set_seed(r, 123456789);
+    WgResult *seeded = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(seeded), 0);
+    expect_stat(seeded, "mix", WG_HIT_MEMORY);
+    expect_same_outputs(base, seeded);
+    /* time does not matter to untimed nodes either */
+    wg_request_set_time(r, 2.5);
+    WgResult *timed = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(timed), 0);
+    wg_result_free(timed);
+    wg_result_free(seeded);
+    wg_result_free(base);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
+static void test_seed_in_an_expression_is_a_parameter_change(void **state)
+{
+    (void)state;
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"8\" seed=\"3\">\n"
+                 "  <node id=\"u\" type=\"uniform\" value=\"0.5\"/>\n"
+                 "  <node id=\"b\" type=\"blur\" sigma=\"=$seed % 4\">"
+                 "<in name=\"source\" from=\"u\"/></node>\n"
+                 "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"u\"/></node>\n"
+                 "  <output name=\"b\" from=\"b\"/>\n"
+                 "  <output name=\"i\" from=\"i\"/>\n"
+                 "</wetgraph>\n");
+    WgEngine *e = engine(1, NULL);
+    WgRequest *r = wg_request_new(g);
+    WgResult *a = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(a), 3);
+    wg_request_set_seed(r, 6);
+    WgResult *b = render_ok(e, r);
+    /* the blur's sigma changed (3 -> 2): it recomputes from the cached u; invert does not */
+    assert_int_equal(wg_result_evaluated_count(b), 1);
+    expect_stat(b, "b", WG_COMPUTED);
+    expect_stat(b, "u", WG_HIT_MEMORY);
+    expect_stat(b, "i", WG_HIT_MEMORY);
+    wg_request_set_seed(r, 7); /* 7 % 4 = 3 as with seed 3 */
+    WgResult *c = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(c), 0);
+    wg_result_free(c);
+    wg_result_free(b);
+    wg_result_free(a);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
+/* ---- on disk ----------------------------------------------------------------------------- */
+
+static void test_disk_cache_serves_a_fresh_engine(void **state)
+{
+    (void)state;
+    const char *dir = cache_dir("disk1/nested/cache"); /* created if missing */
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgGraph *g = chain_graph();
+    WgRequest *r = chain_request(g, NULL);
+    WgResult *ref = cold(r);
+
+    WgEngine *e1 = engine(2, dirbuf);
+    WgResult *computed = render_ok(e1, r);
+    assert_int_equal(wg_result_evaluated_count(computed), 5);
+    wg_engine_free(e1);
+    expect_same_outputs(computed, ref);
+    Entry entries[32];
+    assert_int_equal(cache_entries(dirbuf, entries, 32), 5);
+    assert_int_equal(cache_temp_files(dirbuf), 0);
+
+    /* a new engine: no memory cache, the disk serves the outputs */
+    WgEngine *e2 = engine(3, dirbuf);
+    WgResult *warm = render_ok(e2, r);
+    assert_int_equal(wg_result_evaluated_count(warm), 0);
+    assert_int_equal(wg_result_stat_count(warm), 2);
+    expect_stat(warm, "mix", WG_HIT_DISK);
+    expect_stat(warm, "soft", WG_HIT_DISK);
+    expect_same_outputs(warm, ref);
+    /* the same engine again: now from memory */
+    WgResult *again = render_ok(e2, r);
+    expect_stat(again, "mix", WG_HIT_MEMORY);
+    wg_result_free(again);
+    wg_engine_free(e2);
+    wg_request_free(r);
+
+    /* an edit in a new engine: the disk serves the upstream nodes */
+    r = chain_request(g, "1.7");
+    WgEngine *e3 = engine(1, dirbuf);
+    WgResult *edited = render_ok(e3, r);
+    assert_int_equal(wg_result_evaluated_count(edited), 2);
+    expect_stat(edited, "lev", WG_COMPUTED);
+    expect_stat(edited, "mix", WG_COMPUTED);
+    expect_stat(edited, "soft", WG_HIT_DISK);
+    expect_stat(edited, "sharp", WG_HIT_DISK);
+    expect_stat(edited, "img", -1);
+    WgResult *edited_ref = cold(r);
+    expect_same_outputs(edited, edited_ref);
+    assert_int_equal(cache_entries(dirbuf, entries, 32), 7);
+    wg_engine_free(e3);
+
+    wg_result_free(edited_ref);
+    wg_result_free(edited);
+    wg_result_free(warm);
+    wg_result_free(computed);
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_cheap_nodes_are_not_written_to_disk(void **state)
+{
+    (void)state;
+    const char *dir = cache_dir("disk_cheap");
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"16\">\n"
+                 "  <input name=\"src\" type=\"gray\"/>\n"
+                 "  <node id=\"u\" type=\"uniform\" value=\"0.25\"/>\n"
+                 "  <node id=\"m\" type=\"blend\" mode=\"add\"><in name=\"foreground\" from=\"u\"/>"
+                 "<in name=\"background\" from=\"$src\"/></node>\n"
+                 "  <output name=\"u\" from=\"u\"/>\n"
+                 "  <output name=\"m\" from=\"m\"/>\n"
+                 "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    WgImage *src = wgt_image_fn(16, 16, 1, pic_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
+    WgEngine *e = engine(2, dirbuf);
+    WgResult *a = render_ok(e, r);
+    wg_engine_free(e);
+    Entry entries[8];
+    /* only the blend: the uniform is cheaper to recompute, the input image is not a node */
+    assert_int_equal(cache_entries(dirbuf, entries, 8), 1);
+    e = engine(2, dirbuf);
+    WgResult *b = render_ok(e, r);
+    expect_stat(b, "m", WG_HIT_DISK);
+    expect_stat(b, "u", WG_COMPUTED);
+    assert_int_equal(wg_result_evaluated_count(b), 1);
+    expect_same_outputs(a, b);
+    wg_result_free(b);
+    wg_result_free(a);
+    wg_engine_free(e);
+    wg_image_unref(src);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* image (16x12) -> blur (32x24): two disk entries of different shapes. */
+static const char *const pair_xml =
+    "<wetgraph version=\"1\" size=\"32x24\">\n"
+    "  <node id=\"img\" type=\"image\" path=\"pair.png\" size=\"16x12\"/>\n"
+    "  <node id=\"soft\" type=\"blur\" sigma=\"1.5\"><in name=\"source\" from=\"img\"/></node>\n"
+    "  <output name=\"soft\" from=\"soft\"/>\n"
+    "</wetgraph>\n";
+
+enum { FLIP_PIXEL, FLIP_MAGIC, FLIP_SHAPE, FLIP_CHECKSUM, TRUNCATE, APPEND, EMPTY, N_DAMAGE };
+
+static void damage(const char *path, int how)
+{
+    size_t n;
+    char *data = slurp(path, &n);
+    switch (how) {
+    case FLIP_PIXEL:
+        data[24 + 4 * 37 + 1] ^= 0x10;
+        break;
+    case FLIP_MAGIC:
+        data[0] ^= 1;
+        break;
+    case FLIP_SHAPE:
+        data[8] ^= 1;
+        break; /* width */
+    case FLIP_CHECKSUM:
+        data[n - 1] ^= 0x80;
+        break;
+    case TRUNCATE:
+        n = n / 2;
+        break;
+    case APPEND:
+        data = realloc(data, n + 1);
+        data[n++] = 0;
+        break;
+    case EMPTY:
+        n = 0;
+        break;
+    }
+    spit(path, data, n);
+    free(data);
+}
+
+static void test_damaged_entries_are_recomputed_and_rewritten(void **state)
+{
+    (void)state;
+    write_picture(wgt_path("pair.png"), pic_fn);
+    WgGraph *g = wgt_load_at(pair_xml, wgt_path("pair.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    WgResult *ref = cold(r);
+    for (int how = 0; how < N_DAMAGE; how++) {
+        char dir[1024];
+        snprintf(dir, sizeof dir, "%s/damage%d", wgt_tmpdir(), how);
+        WgEngine *e = engine(2, dir);
+        WgResult *res = render_ok(e, r);
+        wg_result_free(res);
+        wg_engine_free(e);
+        Entry entries[4];
+        assert_int_equal(cache_entries(dir, entries, 4), 2);
+        /* the blur's entry is the 32x24 one */
+        int soft = entries[0].width == 32 ? 0 : 1;
+        assert_int_equal(entries[soft].width, 32);
+        assert_int_equal(entries[soft].height, 24);
+        assert_int_equal(entries[soft].channels, 4);
+        assert_int_equal(entries[1 - soft].width, 16);
+        size_t n0;
+        char *original = slurp(entries[soft].path, &n0);
+        assert_int_equal(n0, 24 + 32 * 24 * 4 * sizeof(float) + 8);
+
+        damage(entries[soft].path, how);
+        e = engine(2, dir);
+        res = render_ok(e, r);
+        /* the damaged entry is a miss; its input still comes from the disk */
+        if (wg_result_evaluated_count(res) != 1)
+            fail_msg("damage %d: %d nodes evaluated", how, wg_result_evaluated_count(res));
+        expect_stat(res, "soft", WG_COMPUTED);
+        expect_stat(res, "img", WG_HIT_DISK);
+        expect_same_outputs(res, ref);
+        wg_result_free(res);
+        wg_engine_free(e);
+        /* rewritten, byte for byte as before */
+        size_t n1;
+        char *rewritten = slurp(entries[soft].path, &n1);
+        assert_int_equal(n1, n0);
+        assert_memory_equal(original, rewritten, n0);
+        assert_int_equal(cache_temp_files(dir), 0);
+        free(rewritten);
+        free(original);
+
+        /* and trusted again */
+        e = engine(1, dir);
+        res = render_ok(e, r);
+        assert_int_equal(wg_result_evaluated_count(res), 0);
+        expect_stat(res, "soft", WG_HIT_DISK);
+        expect_same_outputs(res, ref);
+        wg_result_free(res);
+        wg_engine_free(e);
+    }
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_all_entries_damaged(void **state)
+{
+    (void)state;
+    write_picture(wgt_path("pair.png"), pic_fn);
+    WgGraph *g = wgt_load_at(pair_xml, wgt_path("pair.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    const char *dir = cache_dir("damage_all");
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgEngine *e = engine(2, dirbuf);
+    WgResult *ref = render_ok(e, r);
+    wg_engine_free(e);
+    Entry entries[4];
+    assert_int_equal(cache_entries(dirbuf, entries, 4), 2);
+    damage(entries[0].path, FLIP_PIXEL);
+    damage(entries[1].path, TRUNCATE);
+    e = engine(4, dirbuf);
+    WgResult *res = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 2);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_engine_free(e);
+    assert_int_equal(cache_entries(dirbuf, entries, 4), 2);
+    e = engine(1, dirbuf);
+    res = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 0);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_cache_dir_that_cannot_be_created(void **state)
+{
+    (void)state;
+    const char *file = wgt_path("a_file");
+    wgt_write_file(file, "x");
+    char dir[1100];
+    snprintf(dir, sizeof dir, "%s/sub", file);
+    WgEngineOptions opt = {1, 0, dir};
+    WgEngine *e = NULL;
+    WgError err = {0};
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_ERR_IO);
+    assert_null(e);
+    assert_non_null(strstr(err.message, "cache folder"));
+}
+
+/* ---- image files in keys ----------------------------------------------------------------- */
+
+static void test_image_key_follows_file_content(void **state)
+{
+    (void)state;
+    const char *png = wgt_path("swap.png");
+    write_picture(png, pic_fn);
+    WgGraph *g =
+        wgt_load_at("<wetgraph version=\"1\" size=\"16x12\">\n"
+                    "  <node id=\"img\" type=\"image\" path=\"swap.png\"/>\n"
+                    "  <node id=\"inv\" type=\"invert\"><in name=\"source\" from=\"img\"/></node>\n"
+                    "  <output name=\"inv\" from=\"inv\"/>\n"
+                    "</wetgraph>\n",
+                    wgt_path("swap.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    const char *dir = cache_dir("swapcache");
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgEngine *e = engine(2, dirbuf);
+    WgResult *a = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(a), 2);
+    WgResult *a2 = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(a2), 0);
+
+    /* same path, other pixels */
+    write_picture(png, other_fn);
+    WgResult *b = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(b), 2);
+    expect_stat(b, "img", WG_COMPUTED);
+    expect_stat(b, "inv", WG_COMPUTED);
+    const WgImage *out = wg_result_output_image(b, 0);
+    for (int y = 0; y < 12; y++)
+        for (int x = 0; x < 16; x++)
+            for (int k = 0; k < 3; k++) {
+                float want = 1.0f - (float)(lround(other_fn(x, y, k) * 255) / 255.0);
+                if (fabs(wgt_px(out, x, y, k) - want) > 1e-6)
+                    fail_msg("(%d,%d,%d): %g vs %g", x, y, k, wgt_px(out, x, y, k), want);
+            }
+    assert_true(wgt_max_abs_diff(out, wg_result_output_image(a, 0)) > 0.1);
+
+    /* a fresh engine with the disk cache does not serve the old picture either */
+    wg_engine_free(e);
+    e = engine(2, dirbuf);
+    WgResult *c = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(c), 0);
+    expect_stat(c, "inv", WG_HIT_DISK);
+    expect_same_outputs(b, c);
+    /* back to the first picture: both versions are cached */
+    write_picture(png, pic_fn);
+    WgResult *d = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(d), 0);
+    expect_same_outputs(a, d);
+
+    wg_result_free(d);
+    wg_result_free(c);
+    wg_result_free(b);
+    wg_result_free(a2);
+    wg_result_free(a);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_input_images_are_part_of_the_key(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(
+        "<wetgraph version=\"1\" size=\"16\">\n"
+        "  <input name=\"src\" type=\"gray\"/>\n"
+        "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"$src\"/></node>\n"
+        "  <output name=\"b\" from=\"b\"/>\n"
+        "</wetgraph>\n");
+    WgEngine *e = engine(2, NULL);
+    WgRequest *r = wg_request_new(g);
+    WgImage *one = wgt_image_fn(16, 16, 1, pic_fn);
+    WgImage *two = wgt_image_fn(16, 16, 1, other_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", one, &err), WG_OK);
+    WgResult *a = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(a), 2);
+    assert_int_equal(wg_request_set_input_image(r, "src", two, &err), WG_OK);
+    WgResult *b = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(b), 2);
+    assert_true(wgt_max_abs_diff(wg_result_output_image(a, 0), wg_result_output_image(b, 0)) >
+                0.01);
+    /* a copy of the first image (another object, same pixels) hits */
+    WgImage *copy = wgt_image_fn(16, 16, 1, pic_fn);
+    assert_int_equal(wg_request_set_input_image(r, "src", copy, &err), WG_OK);
+    WgResult *c = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(c), 0);
+    expect_same_outputs(a, c);
+    wg_result_free(c);
+    wg_result_free(b);
+    wg_result_free(a);
+    wg_image_unref(copy);
+    wg_image_unref(two);
+    wg_image_unref(one);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rerender_uses_memory_cache),
+        cmocka_unit_test(test_edit_recomputes_only_dependents),
+        cmocka_unit_test(test_seed_does_not_invalidate_unseeded_nodes),
+        cmocka_unit_test(test_seed_in_an_expression_is_a_parameter_change),
+        cmocka_unit_test(test_disk_cache_serves_a_fresh_engine),
+        cmocka_unit_test(test_cheap_nodes_are_not_written_to_disk),
+        cmocka_unit_test(test_damaged_entries_are_recomputed_and_rewritten),
+        cmocka_unit_test(test_all_entries_damaged),
+        cmocka_unit_test(test_cache_dir_that_cannot_be_created),
+        cmocka_unit_test(test_image_key_follows_file_content),
+        cmocka_unit_test(test_input_images_are_part_of_the_key),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,957 @@
+/* SPDX-License-Identifier: MIT */
+/* Image I/O: exact integer round trips (PNG 8/16, TIFF 16), float and half EXR, the sRGB
+ * transfer, channel mapping on read, unassociated alpha, RGB-when-opaque, atomic writes,
+ * layered EXR (checked with OpenEXR's own C API), rejection of non-finite files, probe errors,
+ * and the format names. */
+#include "wgtest.h"
+
+#include "internal.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <math.h>
+#include <openexr.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ---- helpers ----------------------------------------------------------------------------- */
+
+static WgImage *read_ok(const char *path, int channels, WgColorspace cs)
+{
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path, channels, cs, &img, &err)) {
+        char buf[2048];
+        wg_error_format(&err, buf, sizeof buf);
+        fail_msg("read %s: %s", path, buf);
+    }
+    return img;
+}
+
+static void write_ok(const char *path, const WgImage *img, WgFormat f, WgColorspace cs)
+{
+    WgError err = {0};
+    if (wg_image_write(path, img, f, cs, &err)) {
+        char buf[2048];
+        wg_error_format(&err, buf, sizeof buf);
+        fail_msg("write %s: %s", path, buf);
+    }
+}
+
+static int probe_channels(const char *path)
+{
+    int w, h, c;
+    WgError err = {0};
+    assert_int_equal(wg_image_probe(path, &w, &h, &c, &err), WG_OK);
+    return c;
+}
+
+static bool exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* Names in a folder other than . and .., NULL-terminated, caller frees. */
+static int list_dir(const char *dir, char names[][256], int max)
+{
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        if (n < max) snprintf(names[n], 256, "%s", e->d_name);
+        n++;
+    }
+    closedir(d);
+    return n;
+}
+
+static char *slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("cannot open %s", path);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+    fclose(f);
+    *size = (size_t)n;
+    return buf;
+}
+
+static const char *fresh_dir(const char *name)
+{
+    const char *p = wgt_path(name);
+    mkdir(p, 0777);
+    return p;
+}
+
+/* ---- integer formats --------------------------------------------------------------------- */
+
+static void test_png16_round_trip_is_exact(void **state)
+{
+    (void)state;
+    /* all 65536 codes, k/65535 */
+    WgImage *img = wgt_image(256, 256, 1, NULL);
+    for (int k = 0; k < 65536; k++) wg_image_row(img, k / 256)[k % 256] = (float)(k / 65535.0);
+    const char *path = wgt_path("all16.png");
+    write_ok(path, img, WG_FORMAT_PNG16, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 1);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    assert_int_equal(back->channels, 1);
+    for (int k = 0; k < 65536; k++) {
+        double v = wgt_px(back, k % 256, k / 256, 0);
+        /* exact to the code; the float is k/65535 to float precision */
+        if (lround(v * 65535.0) != k || fabs(v - k / 65535.0) > 6e-8)
+            fail_msg("code %d read back as %.9g", k, v);
+    }
+    /* file -> float -> file is bit for bit */
+    const char *path2 = wgt_path("all16b.png");
+    write_ok(path2, back, WG_FORMAT_PNG16, WG_LINEAR);
+    WgImage *again = read_ok(path2, 0, WG_LINEAR);
+    wgt_assert_identical(back, again);
+    wg_image_unref(again);
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+static void test_png8_rounds_to_nearest_and_clamps(void **state)
+{
+    (void)state;
+    /* columns: (k + 0.49)/255 -> k, (k + 0.51)/255 -> k + 1, and out-of-range values */
+    float vals[] = {0.49f / 255,   0.51f / 255,   100.49f / 255, 100.51f / 255,
+                    254.49f / 255, 254.51f / 255, -0.5f,         2.0f,
+                    NAN,           1.0f,          0.0f,          0.5f};
+    int expect[] = {0, 1, 100, 101, 254, 255, 0, 255, 0, 255, 0, 128};
+    int n = (int)(sizeof vals / sizeof vals[0]);
+    WgImage *img = wgt_image(n, 1, 1, vals);
+    const char *path = wgt_path("round8.png");
+    write_ok(path, img, WG_FORMAT_PNG, WG_LINEAR);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    for (int i = 0; i < n; i++) {
+        double v = wgt_px(back, i, 0, 0);
+        if (fabs(v * 255.0 - expect[i]) > 1e-4)
+            fail_msg("value %d (%.9g) read back as %.9g, expected code %d", i, vals[i], v,
+                     expect[i]);
+    }
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+static void test_png16_clamps_and_rounds(void **state)
+{
+    (void)state;
+    float vals[] = {-1.0f, 1.5f, 1000.4f / 65535, 1000.6f / 65535, NAN};
+    int expect[] = {0, 65535, 1000, 1001, 0};
+    WgImage *img = wgt_image(5, 1, 1, vals);
+    const char *path = wgt_path("round16.png");
+    write_ok(path, img, WG_FORMAT_PNG16, WG_LINEAR);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    for (int i = 0; i < 5; i++)
+        if (fabs(wgt_px(back, i, 0, 0) * 65535.0 - expect[i]) > 1e-3)
+            fail_msg("value %d read back as %.9g", i, wgt_px(back, i, 0, 0));
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+static double code_fn(int x, int y, int k)
+{
+    /* distinct 16-bit codes per channel; alpha 1 */
+    if (k == 3) return 1.0;
+    return ((x * 7919 + y * 104729 + k * 15485863) % 65536) / 65535.0;
+}
+
+static void test_tif16_round_trip_is_exact(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image_fn(37, 23, 4, code_fn);
+    const char *path = wgt_path("rgb16.tif");
+    write_ok(path, img, WG_FORMAT_TIF16, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 3); /* opaque: written as RGB */
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    assert_int_equal(back->channels, 4);
+    for (int y = 0; y < 23; y++)
+        for (int x = 0; x < 37; x++)
+            for (int k = 0; k < 4; k++) {
+                double want = code_fn(x, y, k) * 65535.0;
+                double got = wgt_px(back, x, y, k) * 65535.0;
+                if (fabs(got - want) > 0.01)
+                    fail_msg("(%d,%d,%d): %.6f vs %.6f", x, y, k, got, want);
+            }
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+static void test_tif16_keeps_alpha_unassociated(void **state)
+{
+    (void)state;
+    float px[] = {0.2f, 0.6f, 1.0f, 0.5f, 1.0f, 0.25f, 0.75f, 0.0f};
+    WgImage *img = wgt_image(2, 1, 4, px);
+    const char *path = wgt_path("alpha16.tif");
+    write_ok(path, img, WG_FORMAT_TIF16, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 4);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    for (int i = 0; i < 8; i++) {
+        double want = floor(px[i] * 65535.0 + 0.5);
+        double got = wgt_px(back, i / 4, 0, i % 4) * 65535.0;
+        if (fabs(got - want) > 0.01) fail_msg("value %d: code %.4f, expected %.0f", i, got, want);
+    }
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+/* ---- EXR --------------------------------------------------------------------------------- */
+
+static void test_exr32_is_bit_exact(void **state)
+{
+    (void)state;
+    float vals[] = {-3.5f,       1e6f,    1e-20f, 0.1f, -0.0f, 65504.0f,
+                    123456.789f, -1e-30f, 1.0f,   2.5f, 1e30f, -7.25f};
+    WgImage *gray = wgt_image(4, 3, 1, vals);
+    const char *path = wgt_path("f32.exr");
+    write_ok(path, gray, WG_FORMAT_EXR32, WG_LINEAR);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    wgt_assert_identical(gray, back);
+    wg_image_unref(back);
+
+    /* colour with alpha, and the colorspace is ignored for EXR */
+    float rgba[] = {-3.5f, 1e6f, 0.1f, 0.25f, 4.0f, -0.125f, 1e-20f, 1.5f};
+    WgImage *col = wgt_image(2, 1, 4, rgba);
+    const char *path2 = wgt_path("f32rgba.exr");
+    write_ok(path2, col, WG_FORMAT_EXR32, WG_SRGB);
+    assert_int_equal(probe_channels(path2), 4);
+    back = read_ok(path2, 0, WG_LINEAR);
+    wgt_assert_identical(col, back);
+    wg_image_unref(back);
+    wg_image_unref(col);
+    wg_image_unref(gray);
+}
+
+/* Nearest half value (round to nearest even), for normal and subnormal halves. */
+static double to_half(double v)
+{
+    if (v == 0) return v;
+    double a = fabs(v);
+    int e;
+    frexp(a, &e); /* a = m * 2^e, m in [0.5, 1) */
+    int exp2 = e - 1;
+    if (exp2 < -14) exp2 = -14; /* subnormal spacing 2^-24 */
+    double ulp = ldexp(1.0, exp2 - 10);
+    double q = nearbyint(a / ulp) * ulp;
+    return v < 0 ? -q : q;
+}
+
+static void test_exr_half_within_half_precision(void **state)
+{
+    (void)state;
+    float vals[] = {-3.5f,     1000.3f, 1e-3f, 0.1f, 0.333333f, 65504.0f,
+                    -2.71828f, 1e-6f,   1.0f,  0.5f, 7.77f,     60000.0f};
+    WgImage *img = wgt_image(12, 1, 1, vals);
+    const char *path = wgt_path("half.exr");
+    write_ok(path, img, WG_FORMAT_EXR, WG_LINEAR);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    for (int i = 0; i < 12; i++) {
+        double got = wgt_px(back, i, 0, 0), want = to_half(vals[i]);
+        if (got != want) fail_msg("%.9g stored as half %.9g, expected %.9g", vals[i], got, want);
+        if (fabs(got - vals[i]) > fabs(vals[i]) * 0x1p-11 + 0x1p-25)
+            fail_msg("%.9g -> %.9g is outside half precision", vals[i], got);
+    }
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+/* ---- sRGB -------------------------------------------------------------------------------- */
+
+static void test_srgb_transfer_functions(void **state)
+{
+    (void)state;
+    assert_float_equal(wg_linear_to_srgb(0.5f), 0.7353569, 1e-7);
+    assert_float_equal(wg_srgb_to_linear(0.7353569f), 0.5, 2e-7);
+    assert_float_equal(wg_linear_to_srgb(0.0f), 0.0, 0);
+    assert_float_equal(wg_linear_to_srgb(-0.25f), 0.0, 0);
+    assert_float_equal(wg_linear_to_srgb(1.0f), 1.0, 1e-7);
+    assert_float_equal(wg_srgb_to_linear(1.0f), 1.0, 0);
+    assert_float_equal(wg_srgb_to_linear(0.0f), 0.0, 0);
+    /* the linear segment */
+    assert_float_equal(wg_srgb_to_linear(0.04f), 0.04 / 12.92, 1e-9);
+    assert_float_equal(wg_linear_to_srgb(0.002f), 0.002 * 12.92, 1e-9);
+    /* the two pieces meet */
+    assert_float_equal(wg_srgb_to_linear(0.04045f), 0.0031308, 1e-7);
+    assert_float_equal(wg_linear_to_srgb(0.0031308f), 0.04045, 1e-6);
+    /* monotonic and inverse of each other on a fine grid */
+    float prev = -1;
+    for (int i = 0; i <= 1000; i++) {
+        float s = i / 1000.0f;
+        float l = wg_srgb_to_linear(s);
+        if (!(l > prev)) fail_msg("not increasing at %g", s);
+        prev = l;
+        if (fabs(wg_linear_to_srgb(l) - s) > 2e-7) fail_msg("round trip of %g", s);
+    }
+}
+
+static void test_srgb_png_round_trips_every_code(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image(256, 1, 4, NULL);
+    float *row = wg_image_row(img, 0);
+    for (int k = 0; k < 256; k++) {
+        row[4 * k + 0] = wg_srgb_to_linear(k / 255.0f);
+        row[4 * k + 1] = wg_srgb_to_linear((255 - k) / 255.0f);
+        row[4 * k + 2] = wg_srgb_to_linear((k * 37 % 256) / 255.0f);
+        row[4 * k + 3] = k / 255.0f; /* alpha is never encoded */
+    }
+    const char *path = wgt_path("srgb8.png");
+    write_ok(path, img, WG_FORMAT_PNG, WG_SRGB);
+    WgImage *raw = read_ok(path, 0, WG_LINEAR);
+    WgImage *lin = read_ok(path, 0, WG_SRGB);
+    for (int k = 0; k < 256; k++) {
+        int codes[4] = {k, 255 - k, k * 37 % 256, k};
+        for (int c = 0; c < 4; c++) {
+            double v = wgt_px(raw, k, 0, c) * 255.0;
+            if (fabs(v - codes[c]) > 1e-4)
+                fail_msg("pixel %d channel %d: code %.4f, expected %d", k, c, v, codes[c]);
+            double l = wgt_px(lin, k, 0, c);
+            double want = c == 3 ? codes[c] / 255.0 : wg_srgb_to_linear(codes[c] / 255.0f);
+            if (fabs(l - want) > 3e-7)
+                fail_msg("pixel %d channel %d decoded to %.9g, expected %.9g", k, c, l, want);
+        }
+    }
+    wg_image_unref(lin);
+    wg_image_unref(raw);
+    wg_image_unref(img);
+}
+
+static void test_srgb_png16_gray(void **state)
+{
+    (void)state;
+    /* a gray image written as sRGB is encoded, as reading a gray file as sRGB decodes it: the
+     * two are symmetric */
+    float vals[] = {0.5f, 0.0f, 1.0f, 0.002f};
+    WgImage *img = wgt_image(4, 1, 1, vals);
+    const char *path = wgt_path("srgb16.png");
+    write_ok(path, img, WG_FORMAT_PNG16, WG_SRGB);
+    WgImage *raw = read_ok(path, 0, WG_LINEAR);
+    WgImage *lin = read_ok(path, 0, WG_SRGB);
+    for (int i = 0; i < 4; i++) {
+        double want = floor(wg_linear_to_srgb(vals[i]) * 65535.0 + 0.5);
+        double got = wgt_px(raw, i, 0, 0) * 65535.0;
+        if (fabs(got - want) > 0.01) fail_msg("value %d: code %.3f, expected %.0f", i, got, want);
+        if (fabs(wgt_px(lin, i, 0, 0) - vals[i]) > 2e-5)
+            fail_msg("value %d: %.9g read back as %.9g", i, vals[i], wgt_px(lin, i, 0, 0));
+    }
+    wg_image_unref(lin);
+    wg_image_unref(raw);
+    wg_image_unref(img);
+}
+
+/* ---- channels ---------------------------------------------------------------------------- */
+
+static void test_gray_file_maps_to_gray_or_rgba(void **state)
+{
+    (void)state;
+    float vals[] = {0, 0.25f, 0.5f, 1};
+    WgImage *img = wgt_image(2, 2, 1, vals);
+    const char *path = wgt_path("gray.tif");
+    write_ok(path, img, WG_FORMAT_TIF16, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 1);
+    WgImage *g = read_ok(path, 0, WG_LINEAR);
+    assert_int_equal(g->channels, 1);
+    WgImage *c = read_ok(path, 4, WG_LINEAR);
+    assert_int_equal(c->channels, 4);
+    for (int i = 0; i < 4; i++) {
+        float v = wgt_px(g, i % 2, i / 2, 0);
+        assert_float_equal(v * 65535.0, floor(vals[i] * 65535.0 + 0.5), 1e-3);
+        for (int k = 0; k < 3; k++) assert_true(wgt_px(c, i % 2, i / 2, k) == v);
+        assert_true(wgt_px(c, i % 2, i / 2, 3) == 1.0f);
+    }
+    wg_image_unref(c);
+    wg_image_unref(g);
+    wg_image_unref(img);
+}
+
+static void test_colour_file_maps_to_rgba_or_luminance(void **state)
+{
+    (void)state;
+    /* opaque RGB: pure red, equal channels, mixed */
+    float px[] = {1, 0, 0, 1, 0.4f, 0.4f, 0.4f, 1, 0.1f, 0.7f, 0.3f, 1};
+    WgImage *img = wgt_image(3, 1, 4, px);
+    const char *path = wgt_path("rgb.exr");
+    write_ok(path, img, WG_FORMAT_EXR32, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 3);
+    WgImage *c = read_ok(path, 0, WG_LINEAR);
+    assert_int_equal(c->channels, 4);
+    wgt_assert_identical(img, c);
+    WgImage *g = read_ok(path, 1, WG_LINEAR);
+    assert_int_equal(g->channels, 1);
+    assert_true(wgt_px(g, 0, 0, 0) == 0.2126f);
+    assert_true(wgt_px(g, 1, 0, 0) == 0.4f); /* exactly the value when R = G = B */
+    assert_float_equal(wgt_px(g, 2, 0, 0), 0.2126 * 0.1 + 0.7152 * 0.7 + 0.0722 * 0.3, 1e-6);
+    wg_image_unref(g);
+    wg_image_unref(c);
+    wg_image_unref(img);
+
+    /* RGBA with alpha < 1: luminance ignores alpha */
+    float px2[] = {0.5f, 0.5f, 0.5f, 0.25f};
+    img = wgt_image(1, 1, 4, px2);
+    path = wgt_path("rgba.exr");
+    write_ok(path, img, WG_FORMAT_EXR32, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 4);
+    g = read_ok(path, 1, WG_LINEAR);
+    assert_true(wgt_px(g, 0, 0, 0) == 0.5f);
+    wg_image_unref(g);
+    wg_image_unref(img);
+}
+
+static void test_gray_alpha_file_reads_as_gray(void **state)
+{
+    (void)state;
+    /* a 2-channel (gray + alpha) PNG, written through the bridge directly */
+    uint8_t data[] = {10, 255, 200, 128, 0, 0, 255, 50};
+    char msg[256];
+    const char *path = wgt_path("ga.png");
+    assert_int_equal(wg__oiio_write(path, "png", data, 4, 1, 2, 8, msg, sizeof msg), 0);
+    assert_int_equal(probe_channels(path), 2);
+    WgImage *g = read_ok(path, 0, WG_LINEAR);
+    assert_int_equal(g->channels, 1);
+    for (int x = 0; x < 4; x++) assert_float_equal(wgt_px(g, x, 0, 0) * 255.0, data[2 * x], 1e-4);
+    WgImage *c = read_ok(path, 4, WG_LINEAR);
+    assert_int_equal(c->channels, 4);
+    for (int x = 0; x < 4; x++) {
+        assert_float_equal(wgt_px(c, x, 0, 1) * 255.0, data[2 * x], 1e-4);
+        assert_true(wgt_px(c, x, 0, 3) == 1.0f);
+    }
+    wg_image_unref(c);
+    wg_image_unref(g);
+}
+
+static void test_alpha_stays_unassociated_in_png(void **state)
+{
+    (void)state;
+    /* codes chosen so the floats are exact k/255 */
+    int codes[] = {51, 153, 255, 128, 200, 10, 90, 0, 255, 255, 255, 1};
+    float px[12];
+    for (int i = 0; i < 12; i++) px[i] = codes[i] / 255.0f;
+    WgImage *img = wgt_image(3, 1, 4, px);
+    const char *path = wgt_path("alpha8.png");
+    write_ok(path, img, WG_FORMAT_PNG, WG_LINEAR);
+    assert_int_equal(probe_channels(path), 4);
+    WgImage *back = read_ok(path, 0, WG_LINEAR);
+    for (int i = 0; i < 12; i++) {
+        double got = wgt_px(back, i / 4, 0, i % 4) * 255.0;
+        if (fabs(got - codes[i]) > 1e-4)
+            fail_msg("pixel %d channel %d: code %.4f, expected %d (alpha %d)", i / 4, i % 4, got,
+                     codes[i], codes[(i / 4) * 4 + 3]);
+    }
+    /* and through sRGB: the colour channels are encoded, alpha is not, nothing premultiplied */
+    const char *path2 = wgt_path("alpha8srgb.png");
+    write_ok(path2, back, WG_FORMAT_PNG, WG_SRGB);
+    WgImage *back2 = read_ok(path2, 0, WG_SRGB);
+    for (int i = 0; i < 12; i++) {
+        double got = wgt_px(back2, i / 4, 0, i % 4), want = wgt_px(back, i / 4, 0, i % 4);
+        if (i % 4 == 3) {
+            if (got != want) fail_msg("alpha of pixel %d: %.9g vs %.9g", i / 4, got, want);
+            continue;
+        }
+        /* one 8-bit sRGB step at most, measured where the quantisation happens */
+        double d = fabs(wg_linear_to_srgb((float)got) - wg_linear_to_srgb((float)want));
+        if (d > 0.5 / 255 + 1e-6)
+            fail_msg("srgb pixel %d channel %d: %.6f vs %.6f", i / 4, i % 4, got, want);
+    }
+    wg_image_unref(back2);
+    wg_image_unref(back);
+    wg_image_unref(img);
+}
+
+static void test_rgb_written_when_alpha_is_one(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image(3, 2, 4, NULL);
+    for (int y = 0; y < 2; y++)
+        for (int x = 0; x < 3; x++) wg_image_row(img, y)[4 * x + 3] = 1.0f;
+    const char *p1 = wgt_path("opaque.png");
+    write_ok(p1, img, WG_FORMAT_PNG, WG_LINEAR);
+    assert_int_equal(probe_channels(p1), 3);
+    /* one pixel slightly transparent: RGBA */
+    wg_image_row(img, 1)[4 * 2 + 3] = 0.999f;
+    const char *p2 = wgt_path("nearly.png");
+    write_ok(p2, img, WG_FORMAT_PNG, WG_LINEAR);
+    assert_int_equal(probe_channels(p2), 4);
+    const char *p3 = wgt_path("nearly.exr");
+    write_ok(p3, img, WG_FORMAT_EXR, WG_LINEAR);
+    assert_int_equal(probe_channels(p3), 4);
+    /* gray stays 1 channel */
+    WgImage *g = wgt_image(2, 2, 1, NULL);
+    const char *p4 = wgt_path("gray1.exr");
+    write_ok(p4, g, WG_FORMAT_EXR32, WG_LINEAR);
+    assert_int_equal(probe_channels(p4), 1);
+    wg_image_unref(g);
+    wg_image_unref(img);
+}
+
+static void test_default_format_is_png16_for_gray_png8_for_colour(void **state)
+{
+    (void)state;
+    float g[] = {1000 / 65535.0f};
+    WgImage *gray = wgt_image(1, 1, 1, g);
+    const char *p1 = wgt_path("default_gray.png");
+    write_ok(p1, gray, WG_FORMAT_DEFAULT, WG_LINEAR);
+    WgImage *b1 = read_ok(p1, 0, WG_LINEAR);
+    assert_float_equal(wgt_px(b1, 0, 0, 0) * 65535.0, 1000, 1e-3); /* 16 bits kept */
+    float c[] = {0.3f, 0.3f, 0.3f, 1};
+    WgImage *col = wgt_image(1, 1, 4, c);
+    const char *p2 = wgt_path("default_colour.png");
+    write_ok(p2, col, WG_FORMAT_DEFAULT, WG_LINEAR);
+    WgImage *b2 = read_ok(p2, 0, WG_LINEAR);
+    assert_float_equal(wgt_px(b2, 0, 0, 0) * 255.0, 77, 1e-4); /* 8 bits: 0.3*255 = 76.5 -> 77 */
+    wg_image_unref(b2);
+    wg_image_unref(col);
+    wg_image_unref(b1);
+    wg_image_unref(gray);
+}
+
+/* ---- atomic writes ----------------------------------------------------------------------- */
+
+static void test_temp_path_semantics(void **state)
+{
+    (void)state;
+    char *a = wg__temp_path_for("/some/dir/height.png");
+    char *b = wg__temp_path_for("/some/dir/height.png");
+    assert_non_null(a);
+    assert_non_null(b);
+    assert_string_not_equal(a, b);
+    /* same folder, hidden, same extension */
+    assert_int_equal(strncmp(a, "/some/dir/.height.", 18), 0);
+    assert_string_equal(a + strlen(a) - 4, ".png");
+    assert_null(strchr(a + strlen("/some/dir/"), '/'));
+    char *c = wg__temp_path_for("plain");
+    assert_int_equal(strncmp(c, ".plain.tmp", 10), 0);
+    assert_null(strchr(c, '/'));
+    char *d = wg__temp_path_for("dir.v2/file");
+    assert_int_equal(strncmp(d, "dir.v2/.file", 12), 0);
+    wg_free(a);
+    wg_free(b);
+    wg_free(c);
+    wg_free(d);
+}
+
+static void test_write_into_missing_folder_fails_and_leaves_nothing(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("atomic1");
+    char missing[1024], path[1100];
+    snprintf(missing, sizeof missing, "%s/no/such", dir);
+    snprintf(path, sizeof path, "%s/out.png", missing);
+    WgImage *img = wgt_image(2, 2, 1, NULL);
+    WgError err = {0};
+    assert_int_equal(wg_image_write(path, img, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_ERR_IO);
+    char msg[2048];
+    wg_error_format(&err, msg, sizeof msg);
+    assert_non_null(strstr(msg, path));
+    assert_false(exists(missing));
+    char names[8][256];
+    assert_int_equal(list_dir(dir, names, 8), 0);
+    /* the layered writer too */
+    const WgImage *imgs[] = {img};
+    const char *names1[] = {"h"};
+    snprintf(path, sizeof path, "%s/out.exr", missing);
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_exr_write_layers(path, 1, names1, imgs, false, &err), WG_ERR_IO);
+    assert_false(exists(missing));
+    assert_int_equal(list_dir(dir, names, 8), 0);
+    wg_image_unref(img);
+}
+
+static void test_successful_write_leaves_no_temp_files(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("atomic2");
+    WgImage *img = wgt_image_fn(16, 8, 4, code_fn);
+    static const WgFormat formats[] = {WG_FORMAT_PNG, WG_FORMAT_PNG16, WG_FORMAT_TIF16,
+                                       WG_FORMAT_EXR, WG_FORMAT_EXR32};
+    char path[1100];
+    for (int i = 0; i < 5; i++) {
+        snprintf(path, sizeof path, "%s/img%d.%s", dir, i, wg_format_extension(formats[i]));
+        write_ok(path, img, formats[i], WG_LINEAR);
+        write_ok(path, img, formats[i], WG_LINEAR); /* replacing an existing file */
+    }
+    const WgImage *imgs[] = {img};
+    const char *names1[] = {"c"};
+    snprintf(path, sizeof path, "%s/layers.exr", dir);
+    WgError err = {0};
+    assert_int_equal(wg_exr_write_layers(path, 1, names1, imgs, true, &err), WG_OK);
+    char names[16][256];
+    int n = list_dir(dir, names, 16);
+    assert_int_equal(n, 6);
+    for (int i = 0; i < n; i++)
+        if (names[i][0] == '.') fail_msg("left-over temporary file %s", names[i]);
+    wg_image_unref(img);
+}
+
+/* The next temporary name the writer will use for `path`: the counter is per process and
+ * increments by one per call. */
+static void next_temp_path(const char *path, char *out, size_t size)
+{
+    char *t = wg__temp_path_for(path);
+    char *dash = strrchr(t, '-');
+    unsigned c = (unsigned)strtoul(dash + 1, NULL, 10);
+    const char *ext = strrchr(path, '.');
+    snprintf(out, size, "%.*s-%u%s", (int)(dash - t), t, c + 1, ext ? ext : "");
+    wg_free(t);
+}
+
+static void test_failed_write_keeps_the_old_file(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("atomic3");
+    char path[1100], blocker[1200];
+    snprintf(path, sizeof path, "%s/keep.png", dir);
+    WgImage *old = wgt_image_fn(8, 8, 1, code_fn);
+    write_ok(path, old, WG_FORMAT_PNG16, WG_LINEAR);
+    size_t n0;
+    char *before = slurp(path, &n0);
+    /* make the temporary file impossible to create: a folder sits at its name */
+    next_temp_path(path, blocker, sizeof blocker);
+    assert_int_equal(mkdir(blocker, 0777), 0);
+    WgImage *other = wgt_image(8, 8, 1, NULL);
+    WgError err = {0};
+    assert_int_equal(wg_image_write(path, other, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_ERR_IO);
+    assert_string_equal(err.file, path);
+    rmdir(blocker);
+    size_t n1;
+    char *after = slurp(path, &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(before, after, n0);
+    char names[8][256];
+    assert_int_equal(list_dir(dir, names, 8), 1);
+    /* same for the layered EXR */
+    snprintf(path, sizeof path, "%s/keep.exr", dir);
+    const WgImage *imgs[] = {old};
+    const char *lnames[] = {"h"};
+    assert_int_equal(wg_exr_write_layers(path, 1, lnames, imgs, false, &err), WG_OK);
+    free(before);
+    before = slurp(path, &n0);
+    next_temp_path(path, blocker, sizeof blocker);
+    assert_int_equal(mkdir(blocker, 0777), 0);
+    const WgImage *imgs2[] = {other};
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_exr_write_layers(path, 1, lnames, imgs2, false, &err), WG_ERR_IO);
+    rmdir(blocker);
+    free(after);
+    after = slurp(path, &n1);
+    assert_int_equal(n0, n1);
+    assert_memory_equal(before, after, n0);
+    assert_int_equal(list_dir(dir, names, 8), 2);
+    free(before);
+    free(after);
+    wg_image_unref(other);
+    wg_image_unref(old);
+}
+
+/* ---- layered EXR ------------------------------------------------------------------------- */
+
+typedef struct {
+    int n;
+    char names[16][64];
+    int types[16];
+    float *planes[16];
+    int width, height;
+} ExrData;
+
+static void quiet(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    (void)ctxt;
+    (void)code;
+    (void)msg;
+}
+
+/* Read every channel of part 0 as float planes with OpenEXR's C API. */
+static void exr_read_all(const char *path, ExrData *d)
+{
+    memset(d, 0, sizeof *d);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet;
+    exr_context_t ctx = NULL;
+    assert_int_equal(exr_start_read(&ctx, path, &init), EXR_ERR_SUCCESS);
+    int parts = 0;
+    assert_int_equal(exr_get_count(ctx, &parts), EXR_ERR_SUCCESS);
+    assert_int_equal(parts, 1);
+    const exr_attr_chlist_t *chl = NULL;
+    assert_int_equal(exr_get_channels(ctx, 0, &chl), EXR_ERR_SUCCESS);
+    assert_true(chl->num_channels <= 16);
+    exr_attr_box2i_t dw;
+    assert_int_equal(exr_get_data_window(ctx, 0, &dw), EXR_ERR_SUCCESS);
+    d->width = dw.max.x - dw.min.x + 1;
+    d->height = dw.max.y - dw.min.y + 1;
+    d->n = chl->num_channels;
+    for (int c = 0; c < d->n; c++) {
+        snprintf(d->names[c], 64, "%s", chl->entries[c].name.str);
+        d->types[c] = chl->entries[c].pixel_type;
+        d->planes[c] = calloc((size_t)d->width * (size_t)d->height, sizeof(float));
+        assert_non_null(d->planes[c]);
+    }
+    int32_t lines = 1;
+    assert_int_equal(exr_get_scanlines_per_chunk(ctx, 0, &lines), EXR_ERR_SUCCESS);
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    bool init_done = false;
+    for (int y = dw.min.y; y <= dw.max.y; y += lines) {
+        exr_chunk_info_t ci;
+        assert_int_equal(exr_read_scanline_chunk_info(ctx, 0, y, &ci), EXR_ERR_SUCCESS);
+        if (!init_done)
+            assert_int_equal(exr_decoding_initialize(ctx, 0, &ci, &dec), EXR_ERR_SUCCESS);
+        else
+            assert_int_equal(exr_decoding_update(ctx, 0, &ci, &dec), EXR_ERR_SUCCESS);
+        init_done = true;
+        for (int c = 0; c < dec.channel_count; c++) {
+            exr_coding_channel_info_t *ch = &dec.channels[c];
+            int idx = -1;
+            for (int k = 0; k < d->n; k++)
+                if (!strcmp(d->names[k], ch->channel_name)) idx = k;
+            assert_true(idx >= 0);
+            ch->decode_to_ptr =
+                (uint8_t *)(d->planes[idx] + (size_t)(ci.start_y - dw.min.y) * (size_t)d->width);
+            ch->user_pixel_stride = 4;
+            ch->user_line_stride = 4 * d->width;
+            ch->user_bytes_per_element = 4;
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+        }
+        assert_int_equal(exr_decoding_choose_default_routines(ctx, 0, &dec), EXR_ERR_SUCCESS);
+        assert_int_equal(exr_decoding_run(ctx, 0, &dec), EXR_ERR_SUCCESS);
+    }
+    if (init_done) exr_decoding_destroy(ctx, &dec);
+    exr_finish(&ctx);
+}
+
+static void exr_free(ExrData *d)
+{
+    for (int c = 0; c < d->n; c++) free(d->planes[c]);
+}
+
+static const float *exr_plane(const ExrData *d, const char *name)
+{
+    for (int c = 0; c < d->n; c++)
+        if (!strcmp(d->names[c], name)) return d->planes[c];
+    fail_msg("no channel %s", name);
+    return NULL;
+}
+
+static double layer_fn(int x, int y, int k)
+{
+    return (x - 3) * 0.75 + y * 1.5 - k * 2.25 + (x * y % 3) * 1e3;
+}
+
+static void test_layered_exr_channels_and_values(void **state)
+{
+    (void)state;
+    WgImage *height = wgt_image_fn(9, 5, 1, layer_fn);
+    WgImage *colour = wgt_image_fn(9, 5, 4, layer_fn);
+    WgImage *mask = wgt_image_fn(9, 5, 1, code_fn);
+    const WgImage *imgs[] = {height, colour, mask};
+    const char *names[] = {"height", "base.color", "mask"};
+    for (int half = 0; half < 2; half++) {
+        const char *path = wgt_path(half ? "layers_half.exr" : "layers.exr");
+        WgError err = {0};
+        assert_int_equal(wg_exr_write_layers(path, 3, names, imgs, half, &err), WG_OK);
+        ExrData d;
+        exr_read_all(path, &d);
+        assert_int_equal(d.width, 9);
+        assert_int_equal(d.height, 5);
+        /* channel lists are stored sorted */
+        static const char *const expect[] = {"base.color.A", "base.color.B", "base.color.G",
+                                             "base.color.R", "height.Y",     "mask.Y"};
+        assert_int_equal(d.n, 6);
+        for (int c = 0; c < 6; c++) {
+            assert_string_equal(d.names[c], expect[c]);
+            assert_int_equal(d.types[c], half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT);
+        }
+        const float *h = exr_plane(&d, "height.Y"), *m = exr_plane(&d, "mask.Y");
+        const float *rgba[4] = {exr_plane(&d, "base.color.R"), exr_plane(&d, "base.color.G"),
+                                exr_plane(&d, "base.color.B"), exr_plane(&d, "base.color.A")};
+        for (int y = 0; y < 5; y++)
+            for (int x = 0; x < 9; x++) {
+                size_t i = (size_t)y * 9 + (size_t)x;
+                double want_h = wgt_px(height, x, y, 0), want_m = wgt_px(mask, x, y, 0);
+                if (half) {
+                    want_h = to_half(want_h);
+                    want_m = to_half(want_m);
+                }
+                if (h[i] != (float)want_h)
+                    fail_msg("height (%d,%d): %.9g vs %.9g", x, y, h[i], want_h);
+                if (m[i] != (float)want_m)
+                    fail_msg("mask (%d,%d): %.9g vs %.9g", x, y, m[i], want_m);
+                for (int k = 0; k < 4; k++) {
+                    double want = wgt_px(colour, x, y, k);
+                    if (half) want = to_half(want);
+                    if (rgba[k][i] != (float)want)
+                        fail_msg("colour (%d,%d,%d): %.9g vs %.9g", x, y, k, rgba[k][i], want);
+                }
+            }
+        exr_free(&d);
+    }
+    wg_image_unref(mask);
+    wg_image_unref(colour);
+    wg_image_unref(height);
+}
+
+static void test_layered_exr_rejects_bad_layers(void **state)
+{
+    (void)state;
+    WgImage *a = wgt_image(4, 4, 1, NULL), *b = wgt_image(4, 3, 1, NULL);
+    const char *path = wgt_path("bad_layers.exr");
+    WgError err = {0};
+    const WgImage *sizes[] = {a, b};
+    const char *n2[] = {"a", "b"};
+    assert_int_equal(wg_exr_write_layers(path, 2, n2, sizes, false, &err), WG_ERR_USAGE);
+    assert_non_null(strstr(err.message, "'b' is 4x3"));
+    const WgImage *dup[] = {a, a};
+    const char *same[] = {"x", "x"};
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_exr_write_layers(path, 2, same, dup, false, &err), WG_ERR_USAGE);
+    assert_non_null(strstr(err.message, "'x' given twice"));
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_exr_write_layers(path, 0, same, dup, false, &err), WG_ERR_USAGE);
+    assert_false(exists(path));
+    wg_image_unref(a);
+    wg_image_unref(b);
+}
+
+/* ---- errors on read ---------------------------------------------------------------------- */
+
+static void test_non_finite_values_are_rejected(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image(6, 4, 1, NULL);
+    wg_image_row(img, 2)[3] = NAN;
+    wg_image_row(img, 3)[0] = INFINITY;
+    const char *path = wgt_path("nan.exr");
+    write_ok(path, img, WG_FORMAT_EXR32, WG_LINEAR);
+    WgImage *out = NULL;
+    WgError err = {0};
+    assert_int_equal(wg_image_read(path, 0, WG_LINEAR, &out, &err), WG_ERR_RANGE);
+    assert_null(out);
+    wgt_assert_error(&err, WG_ERR_RANGE, 0, "pixel (3, 2)");
+    assert_non_null(strstr(err.message, "2 non-finite"));
+    assert_string_equal(err.file, path);
+    /* colour: the pixel, not the value index */
+    WgImage *c = wgt_image(5, 3, 4, NULL);
+    for (int y = 0; y < 3; y++)
+        for (int x = 0; x < 5; x++) wg_image_row(c, y)[4 * x + 3] = 1;
+    wg_image_row(c, 1)[4 * 4 + 2] = -INFINITY;
+    const char *path2 = wgt_path("inf.exr");
+    write_ok(path2, c, WG_FORMAT_EXR, WG_LINEAR);
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_read(path2, 4, WG_LINEAR, &out, &err), WG_ERR_RANGE);
+    wgt_assert_error(&err, WG_ERR_RANGE, 0, "pixel (4, 1)");
+    wg_image_unref(c);
+    wg_image_unref(img);
+}
+
+static void test_probe_errors_name_the_path(void **state)
+{
+    (void)state;
+    int w, h, c;
+    WgError err = {0};
+    const char *missing = wgt_path("does_not_exist.png");
+    assert_int_equal(wg_image_probe(missing, &w, &h, &c, &err), WG_ERR_IO);
+    assert_string_equal(err.file, missing);
+    char msg[2048];
+    wg_error_format(&err, msg, sizeof msg);
+    assert_non_null(strstr(msg, missing));
+
+    const char *text = wgt_path("not_an_image.png");
+    wgt_write_file(text, "this is not a picture\n");
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_probe(text, &w, &h, &c, &err), WG_ERR_IO);
+    assert_string_equal(err.file, text);
+    assert_non_null(strstr(err.message, "cannot read the image"));
+
+    WgImage *img = NULL;
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_read(text, 0, WG_LINEAR, &img, &err), WG_ERR_IO);
+    assert_null(img);
+    assert_string_equal(err.file, text);
+
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_probe(wgt_tmpdir(), &w, &h, &c, &err), WG_ERR_IO);
+    assert_non_null(strstr(err.message, "not a regular file"));
+
+    /* an empty file */
+    const char *empty = wgt_path("empty.exr");
+    wgt_write_file(empty, "");
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_probe(empty, &w, &h, &c, &err), WG_ERR_IO);
+    assert_string_equal(err.file, empty);
+}
+
+static void test_probe_reports_shape(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image(13, 7, 1, NULL);
+    const char *path = wgt_path("shape.png");
+    write_ok(path, img, WG_FORMAT_PNG16, WG_LINEAR);
+    int w = 0, h = 0, c = 0;
+    WgError err = {0};
+    assert_int_equal(wg_image_probe(path, &w, &h, &c, &err), WG_OK);
+    assert_int_equal(w, 13);
+    assert_int_equal(h, 7);
+    assert_int_equal(c, 1);
+    wg_image_unref(img);
+}
+
+static void test_format_names(void **state)
+{
+    (void)state;
+    static const char *const names[] = {"png", "png16", "tif16", "exr", "exr32"};
+    static const char *const ext[] = {"png", "png", "tif", "exr", "exr"};
+    for (int i = 0; i < 5; i++) {
+        assert_int_equal(wg_format_parse(names[i]), i + 1);
+        assert_string_equal(wg_format_name((WgFormat)(i + 1)), names[i]);
+        assert_string_equal(wg_format_extension((WgFormat)(i + 1)), ext[i]);
+    }
+    assert_int_equal(wg_format_parse("PNG"), -1);
+    assert_int_equal(wg_format_parse("tif"), -1);
+    assert_int_equal(wg_format_parse("jpg"), -1);
+    assert_int_equal(wg_format_parse(""), -1);
+    assert_int_equal(wg_format_parse("default"), -1);
+    assert_int_equal(wg_format_parse("png16 "), -1);
+    assert_string_equal(wg_format_name(WG_FORMAT_DEFAULT), "default");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_png16_round_trip_is_exact),
+        cmocka_unit_test(test_png8_rounds_to_nearest_and_clamps),
+        cmocka_unit_test(test_png16_clamps_and_rounds),
+        cmocka_unit_test(test_tif16_round_trip_is_exact),
+        cmocka_unit_test(test_tif16_keeps_alpha_unassociated),
+        cmocka_unit_test(test_exr32_is_bit_exact),
+        cmocka_unit_test(test_exr_half_within_half_precision),
+        cmocka_unit_test(test_srgb_transfer_functions),
+        cmocka_unit_test(test_srgb_png_round_trips_every_code),
+        cmocka_unit_test(test_srgb_png16_gray),
+        cmocka_unit_test(test_gray_file_maps_to_gray_or_rgba),
+        cmocka_unit_test(test_colour_file_maps_to_rgba_or_luminance),
+        cmocka_unit_test(test_gray_alpha_file_reads_as_gray),
+        cmocka_unit_test(test_alpha_stays_unassociated_in_png),
+        cmocka_unit_test(test_rgb_written_when_alpha_is_one),
+        cmocka_unit_test(test_default_format_is_png16_for_gray_png8_for_colour),
+        cmocka_unit_test(test_temp_path_semantics),
+        cmocka_unit_test(test_write_into_missing_folder_fails_and_leaves_nothing),
+        cmocka_unit_test(test_successful_write_leaves_no_temp_files),
+        cmocka_unit_test(test_failed_write_keeps_the_old_file),
+        cmocka_unit_test(test_layered_exr_channels_and_values),
+        cmocka_unit_test(test_layered_exr_rejects_bad_layers),
+        cmocka_unit_test(test_non_finite_values_are_rejected),
+        cmocka_unit_test(test_probe_errors_name_the_path),
+        cmocka_unit_test(test_probe_reports_shape),
+        cmocka_unit_test(test_format_names),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

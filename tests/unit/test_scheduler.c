@@ -1,0 +1,524 @@
+/* SPDX-License-Identifier: MIT */
+/* The scheduler: bit-identical results for any thread count, only the nodes the requested
+ * outputs need are evaluated, a failing node stops the render with its id and location (for any
+ * thread count, without crashing or leaking), the memory budget is checked before anything runs,
+ * and the reported peak memory is plausible. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* Several independent branches (two blurs, levels, invert, grayscale) meeting in a masked
+ * blend, a resampled blur, a node nothing uses, and a branch that only feeds one output. */
+static const char *const branches_xml =
+    "<wetgraph version=\"1\" size=\"48x40\">\n" /* 1 */
+    "  <input name=\"src\" type=\"color\"/>\n"  /* 2 */
+    "  <input name=\"h\" type=\"gray\"/>\n"     /* 3 */
+    "  <node id=\"blur_a\" type=\"blur\" sigma=\"1.5\"><in name=\"source\" from=\"$src\"/></node>\n"
+    "  <node id=\"lev_a\" type=\"levels\" in_low=\"0.1\" in_high=\"0.8\" in_mid=\"0.3\">"
+    "<in name=\"source\" from=\"blur_a\"/></node>\n"
+    "  <node id=\"blur_b\" type=\"blur\" sigma=\"3\"><in name=\"source\" from=\"$h\"/></node>\n"
+    "  <node id=\"inv_b\" type=\"invert\"><in name=\"source\" from=\"blur_b\"/></node>\n"
+    "  <node id=\"gray_c\" type=\"grayscale\"><in name=\"source\" from=\"$src\"/></node>\n"
+    "  <node id=\"lev_c\" type=\"levels\" in_low=\"0.9\" in_high=\"0.2\">"
+    "<in name=\"source\" from=\"gray_c\"/></node>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"overlay\" opacity=\"0.7\">"
+    "<in name=\"foreground\" from=\"lev_a\"/><in name=\"background\" from=\"inv_b\"/>"
+    "<in name=\"mask\" from=\"lev_c\"/></node>\n"
+    "  <node id=\"small\" type=\"blur\" sigma=\"0.7\" size=\"24x20\">"
+    "<in name=\"source\" from=\"mix\"/></node>\n"
+    "  <node id=\"tint\" type=\"uniform\" kind=\"color\" color=\"#80a0ff\"/>\n"
+    "  <node id=\"tinted\" type=\"blend\" mode=\"multiply\" clamp=\"false\">"
+    "<in name=\"foreground\" from=\"tint\"/><in name=\"background\" from=\"blur_a\"/></node>\n"
+    "  <node id=\"dead\" type=\"blur\" sigma=\"5\"><in name=\"source\" from=\"$src\"/></node>\n"
+    "  <output name=\"mix\" from=\"mix\"/>\n"
+    "  <output name=\"a\" from=\"lev_a\"/>\n"
+    "  <output name=\"b\" from=\"inv_b\"/>\n"
+    "  <output name=\"small\" from=\"small\"/>\n"
+    "  <output name=\"tinted\" from=\"tinted\"/>\n"
+    "</wetgraph>\n";
+
+static double src_fn(int x, int y, int k)
+{
+    if (k == 3) return 0.5 + 0.5 * sin(x * 0.3 + y * 0.11);
+    return 0.5 + 0.45 * sin(x * 0.37 + y * 0.23 * (k + 1) + k) * cos(y * 0.19 - x * 0.05 * k);
+}
+
+static double h_fn(int x, int y, int k)
+{
+    (void)k;
+    return fmod(x * 0.137 + y * y * 0.0173, 1.0) * 1.5 - 0.2;
+}
+
+static WgRequest *branches_request(const WgGraph *g)
+{
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    WgImage *src = wgt_image_fn(48, 40, 4, src_fn);
+    WgImage *h = wgt_image_fn(48, 40, 1, h_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
+    assert_int_equal(wg_request_set_input_image(r, "h", h, &err), WG_OK);
+    wg_image_unref(src);
+    wg_image_unref(h);
+    return r;
+}
+
+static WgEngine *engine(int threads, size_t budget)
+{
+    WgEngineOptions opt = {threads, budget, NULL};
+    WgEngine *e = NULL;
+    WgError err = {0};
+    if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
+    return e;
+}
+
+static WgResult *render_ok(WgEngine *e, const WgRequest *r)
+{
+    WgResult *res = NULL;
+    WgError err = {0};
+    if (wg_render(e, r, &res, &err)) {
+        char buf[2048];
+        wg_error_format(&err, buf, sizeof buf);
+        fail_msg("render: %s", buf);
+    }
+    return res;
+}
+
+static const WgNodeStat *find_stat(const WgResult *res, const char *id)
+{
+    for (int i = 0; i < wg_result_stat_count(res); i++)
+        if (!strcmp(wg_result_stat(res, i)->id, id)) return wg_result_stat(res, i);
+    return NULL;
+}
+
+static void test_output_is_identical_for_any_thread_count(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(branches_xml);
+    WgRequest *r = branches_request(g);
+    static const int threads[] = {1, 2, 3, 8};
+    WgResult *ref = NULL;
+    for (int t = 0; t < 4; t++) {
+        for (int repeat = 0; repeat < 3; repeat++) {
+            WgEngine *e = engine(threads[t], 0);
+            WgResult *res = render_ok(e, r);
+            assert_int_equal(wg_result_output_count(res), 5);
+            assert_int_equal(wg_result_evaluated_count(res), 12);
+            if (!ref) {
+                ref = res;
+            } else {
+                for (int i = 0; i < 5; i++) {
+                    assert_string_equal(wg_result_output_name(res, i),
+                                        wg_result_output_name(ref, i));
+                    wgt_assert_identical(wg_result_output_image(res, i),
+                                         wg_result_output_image(ref, i));
+                }
+                wg_result_free(res);
+            }
+            wg_engine_free(e);
+        }
+    }
+    /* the outputs are not trivial: the branches really computed something */
+    const WgImage *mix = wgt_output(ref, "mix");
+    assert_int_equal(mix->channels, 4);
+    assert_true(wgt_max_abs_diff(mix, wgt_output(ref, "a")) > 0.05);
+    const WgImage *small = wgt_output(ref, "small");
+    assert_int_equal(small->width, 24);
+    assert_int_equal(small->height, 20);
+    const WgImage *b = wgt_output(ref, "b");
+    assert_int_equal(b->channels, 1);
+    wgt_assert_range(b, -1, 1.3);
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_only_needed_nodes_run(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(branches_xml);
+    WgRequest *r = branches_request(g);
+    WgError err = {0};
+    assert_int_equal(wg_request_add_output(r, "b", &err), WG_OK);
+    WgEngine *e = engine(4, 0);
+    WgResult *res = render_ok(e, r);
+    assert_int_equal(wg_result_output_count(res), 1);
+    assert_string_equal(wg_result_output_name(res, 0), "b");
+    /* the input image, its blur and the invert: nothing of the colour branches */
+    assert_int_equal(wg_result_evaluated_count(res), 3);
+    assert_int_equal(wg_result_stat_count(res), 3);
+    static const char *const ids[] = {"$h", "blur_b", "inv_b"};
+    for (int i = 0; i < 3; i++) {
+        const WgNodeStat *s = find_stat(res, ids[i]);
+        if (!s) fail_msg("no stat for %s", ids[i]);
+        assert_int_equal(s->cache, WG_COMPUTED);
+        assert_int_equal(s->width, 48);
+        assert_int_equal(s->height, 40);
+        assert_int_equal(s->channels, 1);
+        assert_true(s->bytes >= 48 * 40 * sizeof(float));
+    }
+    assert_string_equal(find_stat(res, "blur_b")->type, "blur");
+    assert_null(find_stat(res, "dead"));
+    assert_null(find_stat(res, "blur_a"));
+    wg_result_free(res);
+    wg_request_free(r);
+
+    /* every output: all but the unused node */
+    r = branches_request(g);
+    wg_engine_clear_cache(e);
+    res = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 12);
+    assert_int_equal(wg_result_stat_count(res), 12);
+    assert_null(find_stat(res, "dead"));
+    assert_non_null(find_stat(res, "tint"));
+    assert_string_equal(find_stat(res, "tint")->type, "uniform");
+    assert_int_equal(find_stat(res, "small")->width, 24);
+    assert_int_equal(find_stat(res, "mix")->channels, 4);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
+static void test_broken_unused_node_is_never_resolved(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"8\">\n"
+                          "  <node id=\"ok\" type=\"uniform\" value=\"0.25\"/>\n"
+                          "  <node id=\"broken\" type=\"image\" path=\"no_such_file.png\"/>\n"
+                          "  <output name=\"out\" from=\"ok\"/>\n"
+                          "  <output name=\"bad\" from=\"broken\"/>\n"
+                          "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    WgError err = {0};
+    assert_int_equal(wg_request_add_output(r, "out", &err), WG_OK);
+    WgEngine *e = engine(2, 0);
+    WgResult *res = render_ok(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 1);
+    assert_true(wgt_px(wg_result_output_image(res, 0), 7, 7, 0) == 0.25f);
+    wg_result_free(res);
+    wg_request_free(r);
+    /* asking for it fails with its location */
+    r = wg_request_new(g);
+    assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_IO);
+    assert_null(res);
+    wgt_assert_error(&err, WG_ERR_IO, 3, "no_such_file.png");
+    wgt_assert_error(&err, WG_ERR_IO, 3, "node 'broken'");
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
+static double noise_fn(int x, int y, int k)
+{
+    (void)k;
+    uint32_t h = wg_hash3((uint32_t)x, (uint32_t)y, 17);
+    return (h & 0xffff) / 65535.0;
+}
+
+/* A graph whose `img` node (line 2) reads `file`, beside heavier independent branches. */
+static char *failing_xml(const char *file)
+{
+    static char xml[4096];
+    snprintf(
+        xml, sizeof xml,
+        "<wetgraph version=\"1\" size=\"64\">\n"
+        "  <node id=\"img\" type=\"image\" path=\"%s\"/>\n"
+        "  <node id=\"u\" type=\"uniform\" value=\"0.5\" size=\"256\"/>\n"
+        "  <node id=\"b1\" type=\"blur\" sigma=\"4\" size=\"256\"><in name=\"source\" "
+        "from=\"u\"/></node>\n"
+        "  <node id=\"b2\" type=\"blur\" sigma=\"6\" size=\"256\"><in name=\"source\" "
+        "from=\"b1\"/></node>\n"
+        "  <node id=\"b3\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"img\"/></node>\n"
+        "  <node id=\"mix\" type=\"blend\" mode=\"add\"><in name=\"foreground\" from=\"b3\"/>"
+        "<in name=\"background\" from=\"b2\"/></node>\n"
+        "  <output name=\"mix\" from=\"mix\"/>\n"
+        "  <output name=\"side\" from=\"b2\"/>\n"
+        "</wetgraph>\n",
+        file);
+    return xml;
+}
+
+static void truncate_file(const char *path, long keep)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    char buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    assert_true((long)n > keep);
+    f = fopen(path, "wb");
+    fwrite(buf, 1, (size_t)keep, f);
+    fclose(f);
+}
+
+static void test_failing_node_stops_the_render(void **state)
+{
+    (void)state;
+    static const int threads[] = {1, 2, 3, 8};
+    for (int variant = 0; variant < 2; variant++) {
+        for (int t = 0; t < 4; t++) {
+            const char *png = wgt_path("fragile.png");
+            WgImage *pic = wgt_image_fn(64, 64, 1, noise_fn);
+            WgError err = {0};
+            assert_int_equal(wg_image_write(png, pic, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_OK);
+            wg_image_unref(pic);
+            const char *graph_path = wgt_path("failing.wetgraph");
+            WgGraph *g = wgt_load_at(failing_xml("fragile.png"), graph_path);
+            WgRequest *r = wg_request_new(g);
+            assert_int_equal(wg_request_check(r, &err), WG_OK);
+            /* now damage the file: cut in the middle of the pixels (the header still reads),
+             * or replace it with text */
+            if (variant == 0)
+                truncate_file(png, 2000);
+            else
+                wgt_write_file(png, "not an image at all\n");
+            WgEngine *e = engine(threads[t], 0);
+            WgResult *res = (WgResult *)(uintptr_t)1;
+            memset(&err, 0, sizeof err);
+            int rc = wg_render(e, r, &res, &err);
+            if (rc != WG_ERR_IO) {
+                char buf[2048];
+                wg_error_format(&err, buf, sizeof buf);
+                fail_msg("variant %d, %d threads: status %d (%s)", variant, threads[t], rc, buf);
+            }
+            assert_null(res);
+            wgt_assert_error(&err, WG_ERR_IO, 2, "node 'img'");
+            assert_string_equal(err.file, graph_path);
+            assert_int_equal(err.line, 2);
+            assert_non_null(strstr(err.message, "cannot read the image"));
+            char buf[2048];
+            wg_error_format(&err, buf, sizeof buf);
+            char where[1200];
+            snprintf(where, sizeof where, "%s:2: ", graph_path);
+            if (strncmp(buf, where, strlen(where))) fail_msg("message starts: %s", buf);
+            /* the engine is still usable: the other output renders */
+            wg_request_free(r);
+            r = wg_request_new(g);
+            assert_int_equal(wg_request_add_output(r, "side", &err), WG_OK);
+            res = render_ok(e, r);
+            assert_float_equal(wgt_px(wg_result_output_image(res, 0), 10, 10, 0), 0.5, 1e-6);
+            wg_result_free(res);
+            wg_request_free(r);
+            wg_engine_free(e);
+            wg_graph_free(g);
+        }
+    }
+}
+
+static void test_missing_input_image_file_fails_cleanly(void **state)
+{
+    (void)state;
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"16\">\n"
+                 "  <input name=\"src\" type=\"gray\"/>\n"
+                 "  <node id=\"b\" type=\"blur\"><in name=\"source\" from=\"$src\"/></node>\n"
+                 "  <output name=\"out\" from=\"b\"/>\n"
+                 "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    WgError err = {0};
+    const char *missing = wgt_path("gone.png");
+    assert_int_equal(wg_request_set_input_file(r, "src", missing, &err), WG_ERR_IO);
+    assert_string_equal(err.file, missing);
+    /* without any image the render says which input is missing */
+    WgEngine *e = engine(2, 0);
+    WgResult *res = NULL;
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_USAGE);
+    wgt_assert_error(&err, WG_ERR_USAGE, 2, "--input src=FILE");
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* ---- memory budget ----------------------------------------------------------------------- */
+
+static const char *const budget_xml =
+    "<wetgraph version=\"1\" size=\"64\">\n"
+    "  <node id=\"small\" type=\"uniform\" value=\"0.5\"/>\n"
+    "  <node id=\"big\" type=\"uniform\" kind=\"color\" color=\"0.1 0.2 0.3 1\" size=\"512\"/>\n"
+    "  <node id=\"medium\" type=\"blur\" sigma=\"1\" size=\"256\"><in name=\"source\" "
+    "from=\"big\"/></node>\n"
+    "  <node id=\"down\" type=\"levels\" out_high=\"2\"><in name=\"source\" "
+    "from=\"medium\"/></node>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"multiply\"><in name=\"foreground\" from=\"small\"/>"
+    "<in name=\"background\" from=\"down\"/></node>\n"
+    "  <output name=\"out\" from=\"mix\"/>\n"
+    "</wetgraph>\n";
+
+static void count_progress(void *user, int done, int total, const char *node)
+{
+    (void)done;
+    (void)total;
+    (void)node;
+    ++*(int *)user;
+}
+
+static void test_memory_budget_fails_early(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(budget_xml);
+    WgRequest *r = wg_request_new(g);
+    int calls = 0;
+    wg_request_set_progress(r, count_progress, &calls);
+    size_t big = wg_image_bytes_for(512, 512, 4);
+    assert_int_equal(big, 4u << 20);
+    for (int threads = 1; threads <= 8; threads *= 8) {
+        WgEngine *e = engine(threads, 1u << 20);
+        assert_int_equal(wg_engine_memory_budget(e), 1u << 20);
+        WgResult *res = NULL;
+        WgError err = {0};
+        assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_BUDGET);
+        assert_null(res);
+        assert_non_null(strstr(err.message, "node 'big'"));
+        assert_non_null(strstr(err.message, "--memory-budget"));
+        assert_non_null(strstr(err.message, "budget is 1.0 MiB"));
+        assert_int_equal(calls, 0); /* nothing was evaluated */
+        wg_engine_free(e);
+    }
+    /* a budget that fits */
+    WgEngine *e = engine(4, 64u << 20);
+    WgResult *res = render_ok(e, r);
+    assert_true(calls > 0);
+    assert_int_equal(wg_result_evaluated_count(res), 5);
+    const WgImage *out = wg_result_output_image(res, 0);
+    assert_int_equal(out->channels, 4);
+    /* levels maps 0.1 to 0.2; multiplied by 0.5 */
+    assert_float_equal(wgt_px(out, 3, 3, 0), 0.1, 1e-6);
+    size_t peak = wg_result_peak_bytes(res), sum = 0, largest = 0;
+    for (int i = 0; i < wg_result_stat_count(res); i++) {
+        size_t b = wg_result_stat(res, i)->bytes;
+        sum += b;
+        if (b > largest) largest = b;
+    }
+    assert_int_equal(largest, big);
+    assert_true(peak >= largest);
+    assert_true(peak <= sum);
+    /* big and medium are both alive while medium runs */
+    assert_true(peak >= big + wg_image_bytes_for(256, 256, 4));
+    wg_result_free(res);
+    wg_engine_free(e);
+
+    /* just enough for the sequential working set */
+    e = engine(1, big + wg_image_bytes_for(256, 256, 4) + (64u << 10));
+    res = render_ok(e, r);
+    assert_true(wg_result_peak_bytes(res) <= wg_engine_memory_budget(e));
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_peak_bytes_is_plausible(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(branches_xml);
+    WgRequest *r = branches_request(g);
+    for (int threads = 1; threads <= 8; threads *= 2) {
+        WgEngine *e = engine(threads, 0);
+        WgResult *res = render_ok(e, r);
+        size_t peak = wg_result_peak_bytes(res), sum = 0, largest = 0, outputs = 0;
+        for (int i = 0; i < wg_result_stat_count(res); i++) {
+            size_t b = wg_result_stat(res, i)->bytes;
+            assert_int_equal(b, wg_image_bytes_for(wg_result_stat(res, i)->width,
+                                                   wg_result_stat(res, i)->height,
+                                                   wg_result_stat(res, i)->channels));
+            sum += b;
+            if (b > largest) largest = b;
+        }
+        for (int i = 0; i < wg_result_output_count(res); i++)
+            outputs += wg_image_bytes(wg_result_output_image(res, i));
+        if (peak < largest || peak > sum)
+            fail_msg("%d threads: peak %zu outside [%zu, %zu]", threads, peak, largest, sum);
+        /* the requested outputs are all alive at the end */
+        assert_true(peak >= outputs);
+        wg_result_free(res);
+        wg_engine_free(e);
+    }
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void test_engine_options(void **state)
+{
+    (void)state;
+    WgEngineOptions opt = {300, 0, NULL};
+    WgEngine *e = (WgEngine *)(uintptr_t)1;
+    WgError err = {0};
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_ERR_RANGE);
+    assert_null(e);
+    assert_non_null(strstr(err.message, "300 threads"));
+    assert_int_equal(wg_engine_new(NULL, &e, &err), WG_OK);
+    assert_true(wg_engine_memory_budget(e) > 0);
+    assert_true(wg_engine_memory_budget(e) <= (size_t)16 << 30);
+    wg_engine_free(e);
+}
+
+/* ---- progress ---------------------------------------------------------------------------- */
+
+typedef struct {
+    int calls, last_done, last_total;
+} Progress;
+
+static void slow_progress(void *user, int done, int total, const char *node)
+{
+    (void)node;
+    Progress *p = user;
+    p->calls++;
+    p->last_done = done;
+    p->last_total = total;
+    /* give the workers time to finish more nodes while the callback runs */
+    usleep(20000);
+}
+
+static void test_progress_reaches_the_total(void **state)
+{
+    (void)state;
+    /* one source, then four independent blurs that finish while the callback sleeps */
+    WgGraph *g = wgt_load(
+        "<wetgraph version=\"1\" size=\"256\">\n"
+        "  <node id=\"u\" type=\"uniform\" value=\"0.1\"/>\n"
+        "  <node id=\"a\" type=\"blur\" sigma=\"4\"><in name=\"source\" from=\"u\"/></node>\n"
+        "  <node id=\"b\" type=\"blur\" sigma=\"5\"><in name=\"source\" from=\"u\"/></node>\n"
+        "  <node id=\"c\" type=\"blur\" sigma=\"6\"><in name=\"source\" from=\"u\"/></node>\n"
+        "  <node id=\"d\" type=\"blur\" sigma=\"7\"><in name=\"source\" from=\"u\"/></node>\n"
+        "  <output name=\"a\" from=\"a\"/>\n"
+        "  <output name=\"b\" from=\"b\"/>\n"
+        "  <output name=\"c\" from=\"c\"/>\n"
+        "  <output name=\"d\" from=\"d\"/>\n"
+        "</wetgraph>\n");
+    for (int threads = 1; threads <= 4; threads *= 4) {
+        WgRequest *r = wg_request_new(g);
+        Progress p = {0};
+        wg_request_set_progress(r, slow_progress, &p);
+        WgEngine *e = engine(threads, 0);
+        WgResult *res = render_ok(e, r);
+        assert_true(p.calls >= 1);
+        assert_int_equal(p.last_total, 5);
+        assert_int_equal(p.last_done, 5);
+        wg_result_free(res);
+        wg_engine_free(e);
+        wg_request_free(r);
+    }
+    wg_graph_free(g);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_output_is_identical_for_any_thread_count),
+        cmocka_unit_test(test_only_needed_nodes_run),
+        cmocka_unit_test(test_broken_unused_node_is_never_resolved),
+        cmocka_unit_test(test_failing_node_stops_the_render),
+        cmocka_unit_test(test_missing_input_image_file_fails_cleanly),
+        cmocka_unit_test(test_memory_budget_fails_early),
+        cmocka_unit_test(test_peak_bytes_is_plausible),
+        cmocka_unit_test(test_engine_options),
+        cmocka_unit_test(test_progress_reaches_the_total),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
