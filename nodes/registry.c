@@ -10,8 +10,14 @@ extern const WgNodeType wg_node_blend;
 extern const WgNodeType wg_node_levels, wg_node_invert, wg_node_grayscale;
 extern const WgNodeType wg_node_blur;
 /* issue 3: generators */
+extern const WgNodeType wg_node_noise, wg_node_cells, wg_node_gradient, wg_node_checker,
+    wg_node_sine, wg_node_shape, wg_node_bricks;
 /* issue 3: colour and value */
+extern const WgNodeType wg_node_curve, wg_node_clamp, wg_node_threshold, wg_node_auto_levels;
+extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, wg_node_split,
+    wg_node_merge, wg_node_shuffle;
 /* issue 3: pixel */
+extern const WgNodeType wg_node_pixel;
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -26,8 +32,26 @@ const WgNodeType *const wg_node_types[] = {
     /* filters */
     &wg_node_blur,
     /* generators (issue 3) */
+    &wg_node_noise,
+    &wg_node_cells,
+    &wg_node_gradient,
+    &wg_node_checker,
+    &wg_node_sine,
+    &wg_node_shape,
+    &wg_node_bricks,
     /* colour and value (issue 3) */
+    &wg_node_curve,
+    &wg_node_clamp,
+    &wg_node_threshold,
+    &wg_node_auto_levels,
+    &wg_node_gradient_map,
+    &wg_node_hsl,
+    &wg_node_colorspace,
+    &wg_node_split,
+    &wg_node_merge,
+    &wg_node_shuffle,
     /* per-pixel expressions (issue 3) */
+    &wg_node_pixel,
     NULL,
 };
 
