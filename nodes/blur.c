@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* `blur`: a plain, exact Gaussian blur with wrap-around edges (the reference the fast blur of a
- * later release is measured against). Separable; the kernel exp(-d²/2σ²) is sampled at integer
+ * later release is measured against). Weights and sums are double, rounded once to float. Separable; the kernel exp(-d²/2σ²) is sampled at integer
  * offsets out to ceil(6σ) (the dropped tail weighs < 2e-9 of the total), folded modulo the
  * image side so kernels wider than the image wrap correctly, and normalised to sum 1, so a
  * constant image stays exactly constant. When σ ≥ the side, the periodic Gaussian differs from
@@ -25,7 +25,7 @@ static const WgPortSpec blur_out[] = {WG_PORT("output", WG_ANY), WG_PORT_END};
 typedef struct {
     int taps;      /* kernel covers offsets -radius .. taps-1-radius */
     int radius;
-    float *weight; /* taps entries; NULL means "use the mean" */
+    double *weight; /* taps entries; NULL means "use the mean" */
 } Kernel;
 
 static int kernel_build(Kernel *k, double sigma, int n)
@@ -40,7 +40,7 @@ static int kernel_build(Kernel *k, double sigma, int n)
     int taps = 2 * r + 1 < n ? 2 * r + 1 : n;
     int radius = taps == n ? n / 2 : r;
     double *acc = wg_calloc((size_t)taps, sizeof(double));
-    k->weight = wg_malloc(sizeof(float) * (size_t)taps);
+    k->weight = wg_malloc(sizeof(double) * (size_t)taps);
     if (!acc || !k->weight) {
         wg_free(acc);
         wg_free(k->weight);
@@ -54,7 +54,7 @@ static int kernel_build(Kernel *k, double sigma, int n)
         acc[slot % taps] += w;
         sum += w;
     }
-    for (int t = 0; t < taps; t++) k->weight[t] = (float)(acc[t] / sum);
+    for (int t = 0; t < taps; t++) k->weight[t] = acc[t] / sum;
     wg_free(acc);
     k->taps = taps;
     k->radius = radius;
@@ -83,16 +83,16 @@ static void horizontal(void *user, int y0, int y1)
             continue;
         }
         for (int x = 0; x < w; x++) {
-            float acc[4] = {0, 0, 0, 0};
+            double acc[4] = {0, 0, 0, 0};
             int sx = x - j->kx.radius;
             sx = ((sx % w) + w) % w;
             for (int t = 0; t < j->kx.taps; t++) {
                 const float *p = s + (size_t)sx * (size_t)c;
-                float wt = j->kx.weight[t];
+                double wt = j->kx.weight[t];
                 for (int k = 0; k < c; k++) acc[k] += wt * p[k];
                 if (++sx == w) sx = 0;
             }
-            for (int k = 0; k < c; k++) d[x * c + k] = acc[k];
+            for (int k = 0; k < c; k++) d[x * c + k] = (float)acc[k];
         }
     }
 }
@@ -111,13 +111,18 @@ static void vertical(void *user, int y0, int y1)
             }
             continue;
         }
-        memset(d, 0, sizeof(float) * (size_t)n);
-        int sy = ((y - j->ky.radius) % h + h) % h;
-        for (int t = 0; t < j->ky.taps; t++) {
-            const float *s = wg_image_row(j->tmp, sy);
-            float wt = j->ky.weight[t];
-            for (int i = 0; i < n; i++) d[i] += wt * s[i];
-            if (++sy == h) sy = 0;
+        /* accumulate in double, a block of columns at a time */
+        for (int i0 = 0; i0 < n; i0 += 256) {
+            int len = n - i0 < 256 ? n - i0 : 256;
+            double acc[256] = {0};
+            int sy = ((y - j->ky.radius) % h + h) % h;
+            for (int t = 0; t < j->ky.taps; t++) {
+                const float *s = wg_image_row(j->tmp, sy) + i0;
+                double wt = j->ky.weight[t];
+                for (int i = 0; i < len; i++) acc[i] += wt * s[i];
+                if (++sy == h) sy = 0;
+            }
+            for (int i = 0; i < len; i++) d[i0 + i] = (float)acc[i];
         }
     }
 }
