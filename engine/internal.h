@@ -188,7 +188,7 @@ struct WgRequest {
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);
 void wg__plan_free(WgPlan *plan);
-extern const WgNodeType wg__node_constant;
+extern const WgNodeType wg__node_constant, wg__node_promote;
 
 /* ---- cache ------------------------------------------------------------------------------- */
 

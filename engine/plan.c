@@ -410,8 +410,9 @@ static int count_ports(const WgPortSpec *p)
 static int engine_source(Builder *b, const char *type_name, const char *id, const char *file,
                          int line, int w, int h, int *index)
 {
-    const WgNodeType *t = !strcmp(type_name, "constant") ? &wg__node_constant
-                                                         : wg_node_type_find(type_name);
+    const WgNodeType *t = !strcmp(type_name, "constant")  ? &wg__node_constant
+                          : !strcmp(type_name, "promote") ? &wg__node_promote
+                                                          : wg_node_type_find(type_name);
     if (!t) return wg_error_set(b->err, WG_ERR_TYPE, NULL, "internal: no node '%s'", type_name);
     WgInst *in = inst_push(b);
     if (!in) return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -653,6 +654,40 @@ out:
 
 /* ---- subgraph nodes ---------------------------------------------------------------------- */
 
+/* A subgraph input declared gray refuses colour; one declared colour promotes gray through an
+ * engine-made `promote` instance, as a colour port of a built-in node would. */
+static int match_input_kind(Builder *b, Frame *f, const NodeDef *n, const InDef *in, WgRef *ref)
+{
+    const InputDef *d = &n->sub->inputs[in->port_index];
+    const WgInst *src = &b->plan->insts[ref->inst];
+    int channels = src->out_channels[ref->port];
+    if (d->info.kind == WG_GRAY && channels == 4)
+        return wg_error_set_at(b->err, WG_ERR_TYPE, f->g->path, in->line, 0,
+                               "input '%s' of subgraph '%s' takes a gray image but gets a colour "
+                               "one; convert it with a 'grayscale' node",
+                               in->port, n->type_name);
+    if (d->info.kind != WG_COLOR || channels == 4) return WG_OK;
+    char id[600];
+    snprintf(id, sizeof id, "%s%s/$%s", f->prefix, n->id, in->port);
+    int index;
+    int rc = engine_source(b, "promote", id, f->g->path, in->line, src->width, src->height, &index);
+    if (rc) return rc;
+    WgInst *p = &b->plan->insts[index];
+    wg_free(p->in);
+    wg_free(p->in_names);
+    wg_free(p->in_channels);
+    wg_free(p->in_lines);
+    wg_free(p->out_channels);
+    if (alloc_ports(p, 1, 1) || !(p->in_names[0] = wg_strdup("source")))
+        return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
+    p->in[0] = *ref;
+    p->in_lines[0] = in->line;
+    if ((rc = finish_inst(b, &index))) return rc;
+    ref->inst = index;
+    ref->port = 0;
+    return WG_OK;
+}
+
 static int inst_sub(Builder *b, Frame *f, int idx, Frame **out)
 {
     const WgGraph *g = f->g;
@@ -674,6 +709,7 @@ static int inst_sub(Builder *b, Frame *f, int idx, Frame **out)
         const InDef *in = &n->ins[k];
         rc = resolve_ref(b, f, in->from_node, in->from_port, in->from_input, in->line,
                          &refs[in->port_index]);
+        if (!rc) rc = match_input_kind(b, f, n, in, &refs[in->port_index]);
     }
     if (!rc) rc = resolve_size(b, f, n, refs, sg->n_inputs, &c->width, &c->height);
     if (!rc) {
@@ -920,4 +956,28 @@ const WgNodeType wg__node_constant = {
     .outputs = constant_out,
     .flags = WG_NODE_SOURCE,
     .eval = constant_eval,
+};
+
+/* The engine-internal node that turns a gray image into colour for a subgraph's colour input
+ * (the engine promotes the input of a colour port; the node copies it). */
+static int promote_eval(WgNodeContext *ctx, WgError *err)
+{
+    (void)err;
+    const WgImage *in = ctx->inputs[0];
+    WgImage *out = ctx->outputs[0];
+    for (int y = 0; y < out->height; y++)
+        memcpy(wg_image_row(out, y), wg_image_row(in, y), sizeof(float) * 4 * (size_t)out->width);
+    return WG_OK;
+}
+
+static const WgPortSpec promote_in[] = {WG_PORT("source", WG_COLOR), WG_PORT_END};
+static const WgPortSpec promote_out[] = {WG_PORT("output", WG_COLOR), WG_PORT_END};
+const WgNodeType wg__node_promote = {
+    .name = "promote",
+    .summary = "Gray to colour for a subgraph's colour input",
+    .category = "internal",
+    .inputs = promote_in,
+    .outputs = promote_out,
+    .flags = WG_NODE_POINT | WG_NODE_CHEAP,
+    .eval = promote_eval,
 };

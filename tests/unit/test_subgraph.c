@@ -785,6 +785,52 @@ static void test_missing_subgraph(void **state)
     assert_int_equal(load_file_error(path, &err), WG_ERR_TYPE);
 }
 
+/* Subgraph inputs keep their declared kind: gray into a colour input is promoted (R = G = B,
+ * alpha 1), colour into a gray input is an error at the <in> line. */
+static void test_input_kinds_are_enforced(void **state)
+{
+    (void)state;
+    const char *folder = dir("kinds");
+    write_in(folder, "inner.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <input name=\"c\" type=\"color\" default=\"0 0 0 1\"/>\n"
+             "  <input name=\"g\" type=\"gray\" default=\"0\"/>\n"
+             "  <output name=\"c\" from=\"$c\"/>\n"
+             "  <output name=\"g\" from=\"$g\"/>\n"
+             "</wetgraph>\n");
+    write_in(folder, "promote.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <node id=\"u\" type=\"uniform\" value=\"0.25\"/>\n"
+             "  <node id=\"i\" type=\"inner\"><in name=\"c\" from=\"u\"/></node>\n"
+             "  <output name=\"c\" from=\"i.c\"/>\n"
+             "</wetgraph>\n");
+    WgGraph *g = load_file(file_in(folder, "promote.wetgraph"));
+    WgResult *res = render_with(g, NULL, NULL);
+    const WgImage *c = wgt_output(res, "c");
+    assert_int_equal(c->channels, 4);
+    for (int x = 0; x < 4; x++) {
+        assert_true(wgt_px(c, x, 1, 0) == 0.25f && wgt_px(c, x, 1, 1) == 0.25f);
+        assert_true(wgt_px(c, x, 1, 2) == 0.25f && wgt_px(c, x, 1, 3) == 1.0f);
+    }
+    wg_result_free(res);
+    wg_graph_free(g);
+
+    write_in(folder, "refuse.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <node id=\"u\" type=\"uniform\" kind=\"color\" color=\"1 0 0 1\"/>\n"
+             "  <node id=\"i\" type=\"inner\">\n"
+             "    <in name=\"g\" from=\"u\"/>\n"
+             "  </node>\n"
+             "  <output name=\"g\" from=\"i.g\"/>\n"
+             "</wetgraph>\n");
+    g = load_file(file_in(folder, "refuse.wetgraph"));
+    WgError err;
+    assert_int_equal(render_error(g, NULL, NULL, &err), WG_ERR_TYPE);
+    assert_error(&err, WG_ERR_TYPE, 4,
+                 "node 'i' (inner)|input 'g' of subgraph 'inner' takes a gray image|grayscale");
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -800,6 +846,7 @@ int main(void)
         cmocka_unit_test(test_indirect_recursion),
         cmocka_unit_test(test_errors_located_in_the_subgraph_file),
         cmocka_unit_test(test_missing_subgraph),
+        cmocka_unit_test(test_input_kinds_are_enforced),
     };
     setenv("WETGRAPH_PATH", "", 1);
     unsetenv("WETGRAPH_GRAPHS_DIR");
