@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* WgImage allocation, reference counting and conversion (resampling, channel changes), and the
  * allocation hook. Resampling is separable with a tent filter of support max(1, scale) source
- * pixels, wrapping around the edges: exact bilinear interpolation when enlarging, an area-like
+ * pixels, wrapping around the edges: exact bilinear interpolation when enlarging, a triangle
  * average when shrinking. The weights are normalised per output sample, and a sample whose taps
  * all read the same value is that value, so a constant image stays exactly constant (a float sum
  * of weights times v can be off by an ulp). */

@@ -7,8 +7,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Load `xml` expecting failure with `code` at `line` (0: don't check) and `needle` in the
- * formatted message ("file:line:col: node 'x': message"). */
 /* Like wgt_assert_error, but `needles` may hold several parts separated by '|', each of which
  * must appear in the formatted error; the node is checked apart from the message ("node 'b'|...")
  * so either may carry it. */
@@ -23,6 +21,8 @@ static void assert_error(const WgError *err, int code, int line, const char *nee
         if (!strstr(buf, p)) fail_msg("expected '%s' in: %s", p, buf);
 }
 
+/* Load `xml` expecting failure with `code` at `line` (0: don't check) and `needle` (as for
+ * assert_error) in the formatted message. */
 static void load_fails(const char *xml, int code, int line, const char *needle)
 {
     WgError err;

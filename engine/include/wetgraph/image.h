@@ -45,8 +45,10 @@ size_t wg_image_bytes_for(int width, int height, int channels);
 
 /* A new image of another size and/or channel count. Resampling wraps around the edges and uses
  * a separable tent filter whose support is max(1, source/target) pixels per axis: bilinear when
- * enlarging, an area average when shrinking. Gray to colour copies the value to R, G, B with
- * alpha 1; colour to gray takes Rec.709 luminance (exactly R when R = G = B).
+ * enlarging; when shrinking by k, a triangle k source pixels wide on each side (for 2x, weights
+ * 1 3 3 1 / 8 per axis), which keeps the mean and suppresses aliasing. Gray to colour copies the
+ * value to R, G, B with alpha 1; colour to gray takes Rec.709 luminance (exactly R when
+ * R = G = B).
  * The caller owns the result. */
 WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels);
 
