@@ -2,6 +2,7 @@
 /* Test helpers; see wgtest.h. */
 #include "wgtest.h"
 
+#include <ftw.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,15 +10,33 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+static char tmp_dir[512];
+
+static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st;
+    (void)flag;
+    (void)ftw;
+    remove(path);
+    return 0;
+}
+
+/* Scratch folders go away with the process (set WGTEST_KEEP=1 to keep them for debugging). */
+static void remove_tmpdir(void)
+{
+    if (tmp_dir[0] && !getenv("WGTEST_KEEP")) nftw(tmp_dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+}
+
 const char *wgt_tmpdir(void)
 {
-    static char dir[512];
-    if (!dir[0]) {
+    if (!tmp_dir[0]) {
         const char *base = getenv("TMPDIR");
-        snprintf(dir, sizeof dir, "%s/wgtest-%ld", base && base[0] ? base : "/tmp", (long)getpid());
-        mkdir(dir, 0777);
+        snprintf(tmp_dir, sizeof tmp_dir, "%s/wgtest-%ld", base && base[0] ? base : "/tmp",
+                 (long)getpid());
+        mkdir(tmp_dir, 0777);
+        atexit(remove_tmpdir);
     }
-    return dir;
+    return tmp_dir;
 }
 
 const char *wgt_path(const char *name)
