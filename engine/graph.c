@@ -278,13 +278,22 @@ static int line_of(xmlNodePtr n)
     return (int)xmlGetLineNo(n);
 }
 
-static char *attr(xmlNodePtr n, const char *name)
+/* Out of memory, with a message like every other error (the bare code would leave it empty). */
+static int nomem(WgError *err)
 {
+    return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+}
+
+/* Copy of attribute `name` in *out, NULL when it is absent. A failed copy is WG_ERR_NOMEM:
+ * it must not pass for a missing attribute. */
+static int attr(Doc *d, xmlNodePtr n, const char *name, char **out)
+{
+    *out = NULL;
     xmlChar *v = xmlGetProp(n, (const xmlChar *)name);
-    if (!v) return NULL;
-    char *s = wg_strdup((const char *)v);
+    if (!v) return WG_OK;
+    *out = wg_strdup((const char *)v);
     xmlFree(v);
-    return s;
+    return *out ? WG_OK : nomem(d->err);
 }
 
 /* Report the first attribute of `n` not in `allowed` (NULL-terminated). */
@@ -309,11 +318,11 @@ static int check_attrs(Doc *d, xmlNodePtr n, const char *const *allowed)
 
 static int need_attr(Doc *d, xmlNodePtr n, const char *name, char **out)
 {
-    *out = attr(n, name);
-    if (!*out)
+    int rc = attr(d, n, name, out);
+    if (!rc && !*out)
         return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(n), 0,
                                "<%s> needs a '%s' attribute", (const char *)n->name, name);
-    return WG_OK;
+    return rc;
 }
 
 static int check_no_text(Doc *d, xmlNodePtr n)
@@ -375,8 +384,13 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
     ParamDef *p = &g->params[g->n_params];
     memset(p, 0, sizeof *p);
     p->info.line = line;
-    char *name = NULL, *type = NULL, *def = NULL, *min = NULL, *max = NULL, *values = NULL;
-    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type))) goto out;
+    char *name = NULL, *type = NULL, *label = NULL, *def = NULL, *min = NULL, *max = NULL,
+         *values = NULL;
+    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type)) ||
+        (rc = attr(d, x, "label", &label)) || (rc = attr(d, x, "default", &def)) ||
+        (rc = attr(d, x, "min", &min)) || (rc = attr(d, x, "max", &max)) ||
+        (rc = attr(d, x, "values", &values)))
+        goto out;
     if (!valid_id(name) || strchr(name, '-')) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                              "parameter name '%s' must start with a letter and contain only "
@@ -401,13 +415,10 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
     p->info.name = name;
     name = NULL;
     p->info.type = param_type_values[t];
-    p->info.label = attr(x, "label");
+    p->info.label = label;
+    label = NULL;
     p->desc.name = p->info.name;
     p->desc.type = p->info.type;
-    def = attr(x, "default");
-    min = attr(x, "min");
-    max = attr(x, "max");
-    values = attr(x, "values");
     bool numeric = p->info.type == WG_PARAM_FLOAT_T || p->info.type == WG_PARAM_INT_T;
     if ((min || max) && !numeric) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
@@ -427,7 +438,7 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
         }
         int n = parse_enum_values(p, values);
         if (n <= 0) {
-            rc = n < 0 ? n
+            rc = n < 0 ? nomem(d->err)
                        : wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                                          "enum parameter '%s' has no values", p->info.name);
             goto out;
@@ -462,6 +473,10 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
         } else {
             def = wg_strdup(text);
         }
+        if (!def) {
+            rc = nomem(d->err);
+            goto out;
+        }
     }
     if ((rc = wg__value_parse(&p->desc, def, &p->def, d->err))) goto located;
     p->info.default_text = def;
@@ -481,6 +496,7 @@ out:
     }
     wg_free(name);
     wg_free(type);
+    wg_free(label);
     wg_free(def);
     wg_free(min);
     wg_free(max);
@@ -496,10 +512,12 @@ static int parse_input(Doc *d, WgGraph *g, xmlNodePtr x)
     int line = line_of(x);
     int rc = check_attrs(d, x, allowed);
     if (rc) return rc;
-    char *name = NULL, *type = NULL, *cs = attr(x, "colorspace"), *def = attr(x, "default");
+    char *name = NULL, *type = NULL, *cs = NULL, *def = NULL;
     InputDef *in = &g->inputs[g->n_inputs];
     memset(in, 0, sizeof *in);
-    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type))) goto out;
+    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type)) ||
+        (rc = attr(d, x, "colorspace", &cs)) || (rc = attr(d, x, "default", &def)))
+        goto out;
     if (!valid_id(name)) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "bad input name '%s'", name);
         goto out;
@@ -560,9 +578,21 @@ static bool is_reserved(const char *name)
     return false;
 }
 
+/* *found = dir/file when that file exists. A path that cannot be built is WG_ERR_NOMEM: it
+ * must not pass for a missing file. */
+static int try_path(const char *dir, const char *file, char **found, WgError *err)
+{
+    char *cand = join_path(dir, file);
+    if (!cand) return nomem(err);
+    if (file_exists(cand)) *found = cand;
+    else wg_free(cand);
+    return WG_OK;
+}
+
 static int resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError *err)
 {
     char *found = NULL;
+    int rc = WG_OK;
     if (ends_with(n->type_name, ".wetgraph")) {
         found = join_path(g->dir, n->type_name);
         if (found && !file_exists(found)) {
@@ -574,28 +604,21 @@ static int resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError
     } else {
         size_t fl = strlen(n->type_name) + 10;
         char *file = wg_malloc(fl);
-        if (!file) return WG_ERR_NOMEM;
+        if (!file) return nomem(err);
         snprintf(file, fl, "%s.wetgraph", n->type_name);
-        char *cand = join_path(g->dir, file);
-        if (cand && file_exists(cand)) found = cand;
-        else wg_free(cand);
+        rc = try_path(g->dir, file, &found, err);
         const char *env = getenv("WETGRAPH_PATH");
-        if (!found && env) {
+        if (!rc && !found && env) {
             char *copy = wg_strdup(env);
-            for (char *save = NULL, *tok = strtok_r(copy, ":", &save); tok && !found;
-                 tok = strtok_r(NULL, ":", &save)) {
-                cand = join_path(tok, file);
-                if (cand && file_exists(cand)) found = cand;
-                else wg_free(cand);
-            }
+            if (!copy) rc = nomem(err);
+            for (char *save = NULL, *tok = copy ? strtok_r(copy, ":", &save) : NULL;
+                 tok && !found && !rc; tok = strtok_r(NULL, ":", &save))
+                rc = try_path(tok, file, &found, err);
             wg_free(copy);
         }
-        if (!found) {
-            cand = join_path(wg_builtin_graphs_dir(), file);
-            if (cand && file_exists(cand)) found = cand;
-            else wg_free(cand);
-        }
+        if (!rc && !found) rc = try_path(wg_builtin_graphs_dir(), file, &found, err);
         wg_free(file);
+        if (rc) return rc;
         if (!found) {
             const char *names[256];
             int count = 0;
@@ -612,8 +635,8 @@ static int resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError
                                    n->type_name, n->type_name, wg_builtin_graphs_dir());
         }
     }
-    if (!found) return WG_ERR_NOMEM;
-    int rc = load_file(lc, found, &n->sub, err);
+    if (!found) return nomem(err);
+    rc = load_file(lc, found, &n->sub, err);
     if (rc && err && !err->file[0]) wg_error_locate(err, d->path, n->line, n->id);
     if (rc == WG_ERR_CYCLE || rc == WG_ERR_PARSE || rc == WG_ERR_TYPE || rc == WG_ERR_RANGE ||
         rc == WG_ERR_IO) {
@@ -626,6 +649,11 @@ static int resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError
     }
     wg_free(found);
     return rc;
+}
+
+static const char *article(const char *word)
+{
+    return strchr("aeiou", word[0]) ? "an" : "a";
 }
 
 typedef struct ScopeResolve {
@@ -671,10 +699,10 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
             int p = wg__graph_find_param(g, s, len);
             if (p < 0 || g->params[p].info.type != desc->type)
                 return wg_error_set_at(d->err, WG_ERR_TYPE, d->path, n->line, 0,
-                                       "node '%s': '%s' is a %s parameter: its value can only be "
-                                       "a literal or '=name' of a graph %s parameter",
-                                       n->id, a->name, wg__type_name(desc->type),
-                                       wg__type_name(desc->type));
+                                       "node '%s': '%s' is %s %s parameter: its value can only "
+                                       "be a literal or '=name' of a graph %s parameter",
+                                       n->id, a->name, article(wg__type_name(desc->type)),
+                                       wg__type_name(desc->type), wg__type_name(desc->type));
             a->ref_param = p;
             return WG_OK;
         }
@@ -682,9 +710,25 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
         WgExprOptions opt = {resolve_scope, &sr, false};
         WgError e = {0};
         int rc = wg_expr_parse(src, &opt, &a->expr, &e);
+        if (rc == WG_ERR_NOMEM) return nomem(d->err);
         if (rc) {
-            char extra[128] = "";
-            if (sr.bad) snprintf(extra, sizeof extra, " (it is a %s parameter, not a number)", sr.bad);
+            char extra[160] = "";
+            if (sr.bad) {
+                snprintf(extra, sizeof extra, " (it is %s %s parameter, not a number)",
+                         article(sr.bad), sr.bad);
+            } else if (!strncmp(e.message, "unknown name '", 14)) {
+                char name[128];
+                snprintf(name, sizeof name, "%s", e.message + 14);
+                char *q = strchr(name, '\'');
+                if (q) *q = '\0';
+                const char *names[260];
+                int count = 0;
+                static const char *const specials[] = {"$time", "$seed", "$width", "$height"};
+                for (int i = 0; i < 4; i++) names[count++] = specials[i];
+                for (int i = 0; i < g->n_params && count < 260; i++) names[count++] = g->params[i].info.name;
+                const char *sug = wg_suggest(name, names, count);
+                if (sug) snprintf(extra, sizeof extra, "; did you mean '%s'?", sug);
+            }
             return wg_error_set_at(d->err, rc, d->path, n->line, e.column + 1,
                                    "node '%s', attribute '%s', column %d: %s%s", n->id, a->name,
                                    e.column + 1, e.message, extra);
@@ -726,9 +770,9 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
     }
     n->type = wg_node_type_find(n->type_name);
     if (!n->type && (rc = resolve_subgraph(lc, d, g, n, d->err))) goto fail;
-    n->size_text = attr(x, "size");
-    n->seed_text = attr(x, "seed");
-    n->label = attr(x, "label");
+    if ((rc = attr(d, x, "size", &n->size_text)) || (rc = attr(d, x, "seed", &n->seed_text)) ||
+        (rc = attr(d, x, "label", &n->label)))
+        goto fail;
     if (n->seed_text) {
         char *end;
         errno = 0;
@@ -763,19 +807,18 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
     for (xmlAttrPtr a = x->properties; a; a = a->next) n_props++;
     n->attrs = wg_calloc((size_t)n_props + 1, sizeof(AttrDef));
     if (!n->attrs) {
-        rc = WG_ERR_NOMEM;
+        rc = nomem(d->err);
         goto fail;
     }
     for (xmlAttrPtr xa = x->properties; xa; xa = xa->next) {
         const char *name = (const char *)xa->name;
         if (is_reserved(name)) continue;
         AttrDef *a = &n->attrs[n->n_attrs++];
-        a->name = wg_strdup(name);
-        a->text = attr(x, name);
         a->param = -1;
         a->ref_param = -1;
-        if (!a->name || !a->text) {
-            rc = WG_ERR_NOMEM;
+        if ((rc = attr(d, x, name, &a->text))) goto fail;
+        if (!a->text || !(a->name = wg_strdup(name))) {
+            rc = nomem(d->err);
             goto fail;
         }
         WgParamDesc desc;
@@ -836,7 +879,7 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
     for (xmlNodePtr c = x->children; c; c = c->next) n_children += c->type == XML_ELEMENT_NODE;
     n->ins = wg_calloc((size_t)n_children + 1, sizeof(InDef));
     if (!n->ins) {
-        rc = WG_ERR_NOMEM;
+        rc = nomem(d->err);
         goto fail;
     }
     if ((rc = check_no_text(d, x))) goto fail;
@@ -851,11 +894,10 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         }
         static const char *const in_allowed[] = {"name", "from", NULL};
         if ((rc = check_attrs(d, c, in_allowed)) || (rc = check_leaf(d, c))) goto fail;
-        InDef *in = &n->ins[n->n_ins];
+        InDef *in = &n->ins[n->n_ins++]; /* counted now so that a failure frees its port */
         in->line = line_of(c);
         if ((rc = need_attr(d, c, "name", &in->port)) || (rc = need_attr(d, c, "from", &in->from)))
             goto fail;
-        n->n_ins++;
     }
     g->n_nodes++;
     return WG_OK;
@@ -987,7 +1029,7 @@ static int find_cycle(Doc *d, WgGraph *g)
     int *edge = wg_calloc((size_t)n + 1, sizeof(int));
     int rc = WG_OK;
     if (!state || !stack || !edge) {
-        rc = WG_ERR_NOMEM;
+        rc = nomem(d->err);
         goto out;
     }
     for (int start = 0; start < n && !rc; start++) {
@@ -1040,8 +1082,10 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
     WgGraphOutputInfo *o = &g->outputs[g->n_outputs];
     memset(o, 0, sizeof *o);
     o->line = line;
-    char *name = NULL, *from = NULL, *format = attr(x, "format"), *cs = attr(x, "colorspace");
-    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "from", &from))) goto out;
+    char *name = NULL, *from = NULL, *format = NULL, *cs = NULL;
+    if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "from", &from)) ||
+        (rc = attr(d, x, "format", &format)) || (rc = attr(d, x, "colorspace", &cs)))
+        goto out;
     if (!valid_id(name)) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "bad output name '%s'", name);
         goto out;
@@ -1093,7 +1137,8 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     static const char *const allowed[] = {"version", "size", "seed", "label", "description", NULL};
     int rc = check_attrs(&d, root, allowed);
     if (rc) return rc;
-    char *version = attr(root, "version");
+    char *version;
+    if ((rc = attr(&d, root, "version", &version))) return rc;
     if (!version || strcmp(version, "1")) {
         rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
                              version ? "unsupported version '%s' (this engine reads version 1)"
@@ -1105,18 +1150,20 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     wg_free(version);
 
     WgGraph *g = wg_calloc(1, sizeof *g);
-    if (!g) return WG_ERR_NOMEM;
+    if (!g) return nomem(err);
     g->refs = 1;
     g->path = wg_strdup(path);
     g->dir = dir_of(path);
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     g->name = wg_strdup(base);
-    if (g->name && ends_with(g->name, ".wetgraph")) g->name[strlen(g->name) - 9] = '\0';
-    g->size_text = attr(root, "size");
-    if (!g->size_text) g->size_text = wg_strdup("1024");
+    char *seed = NULL;
+    if (!g->path || !g->dir || !g->name) rc = nomem(err);
+    if (!rc && ends_with(g->name, ".wetgraph")) g->name[strlen(g->name) - 9] = '\0';
+    if (!rc) rc = attr(&d, root, "size", &g->size_text);
+    if (!rc && !g->size_text && !(g->size_text = wg_strdup("1024"))) rc = nomem(err);
     g->size_line = line_of(root);
-    char *seed = attr(root, "seed");
+    if (!rc) rc = attr(&d, root, "seed", &seed);
     if (seed) {
         char *end;
         errno = 0;
@@ -1145,11 +1192,11 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
         counts[k]++;
     }
     if (!rc) rc = check_no_text(&d, root);
-    if (!rc && !(g->params = wg_calloc((size_t)counts[0] + 1, sizeof(ParamDef)))) rc = WG_ERR_NOMEM;
-    if (!rc && !(g->inputs = wg_calloc((size_t)counts[1] + 1, sizeof(InputDef)))) rc = WG_ERR_NOMEM;
-    if (!rc && !(g->nodes = wg_calloc((size_t)counts[2] + 1, sizeof(NodeDef)))) rc = WG_ERR_NOMEM;
+    if (!rc && !(g->params = wg_calloc((size_t)counts[0] + 1, sizeof(ParamDef)))) rc = nomem(err);
+    if (!rc && !(g->inputs = wg_calloc((size_t)counts[1] + 1, sizeof(InputDef)))) rc = nomem(err);
+    if (!rc && !(g->nodes = wg_calloc((size_t)counts[2] + 1, sizeof(NodeDef)))) rc = nomem(err);
     if (!rc && !(g->outputs = wg_calloc((size_t)counts[3] + 1, sizeof(WgGraphOutputInfo))))
-        rc = WG_ERR_NOMEM;
+        rc = nomem(err);
     /* declarations first so node attributes can refer to any parameter */
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
         if (c->type != XML_ELEMENT_NODE) continue;
@@ -1170,7 +1217,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
         g->output_node = wg_calloc((size_t)g->n_outputs, sizeof(int));
         g->output_port = wg_calloc((size_t)g->n_outputs, sizeof(int));
         g->output_input = wg_calloc((size_t)g->n_outputs, sizeof(int));
-        if (!g->output_node || !g->output_port || !g->output_input) rc = WG_ERR_NOMEM;
+        if (!g->output_node || !g->output_port || !g->output_input) rc = nomem(err);
     }
     for (int i = 0; i < g->n_outputs && !rc; i++)
         rc = resolve_from(&d, g, g->outputs[i].from, g->outputs[i].line, &g->output_node[i],
@@ -1190,14 +1237,14 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     }
     if (!rc) {
         g->node_info = wg_calloc((size_t)g->n_nodes + 1, sizeof(WgGraphNodeInfo));
-        if (!g->node_info) rc = WG_ERR_NOMEM;
+        if (!g->node_info) rc = nomem(err);
         for (int i = 0; i < g->n_nodes && !rc; i++) {
             NodeDef *n = &g->nodes[i];
             WgGraphNodeInfo *ni = &g->node_info[i];
             n->info_ports = wg_calloc((size_t)n->n_ins + 1, sizeof(char *));
             n->info_from = wg_calloc((size_t)n->n_ins + 1, sizeof(char *));
             if (!n->info_ports || !n->info_from) {
-                rc = WG_ERR_NOMEM;
+                rc = nomem(err);
                 break;
             }
             for (int k = 0; k < n->n_ins; k++) {

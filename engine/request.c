@@ -90,8 +90,9 @@ int wg_request_set(WgRequest *r, const char *name, const char *value, WgError *e
         wg_expr_free(e);
         if (p->info.type != WG_PARAM_FLOAT_T && p->info.type != WG_PARAM_INT_T &&
             p->info.type != WG_PARAM_BOOL_T)
-            return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' is a %s parameter, not a number",
-                                name, wg__type_name(p->info.type));
+            return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' is %s %s parameter, not a number",
+                                name, p->info.type == WG_PARAM_ENUM_T ? "an" : "a",
+                                wg__type_name(p->info.type));
         rc = wg__value_check(&p->desc, &v, err);
     } else {
         rc = wg__value_parse(&p->desc, value, &v, err);

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 const char *wg__type_name(WgParamType t)
 {
@@ -127,8 +128,9 @@ int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgErro
         return wg__value_check(d, out, err);
     }
     case WG_PARAM_BOOL_T:
-        if (!strcmp(text, "true") || !strcmp(text, "1") || !strcmp(text, "yes")) out->num = 1;
-        else if (!strcmp(text, "false") || !strcmp(text, "0") || !strcmp(text, "no")) out->num = 0;
+        if (!strcasecmp(text, "true") || !strcmp(text, "1") || !strcasecmp(text, "yes")) out->num = 1;
+        else if (!strcasecmp(text, "false") || !strcmp(text, "0") || !strcasecmp(text, "no"))
+            out->num = 0;
         else
             return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects true or false, got '%s'",
                                 d->name, text);
@@ -139,7 +141,7 @@ int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgErro
             if (!strcmp(d->values[count], text)) {
                 out->num = count;
                 out->str = wg_strdup(text);
-                return out->str ? WG_OK : WG_ERR_NOMEM;
+                return out->str ? WG_OK : wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
             }
         }
         char list[512] = "";

@@ -1015,7 +1015,7 @@ static void test_non_numeric_forwarding(void **state)
                "  <node id=\"u\" type=\"uniform\" kind=\"=mode\"/>\n"
                "  <output name=\"o\" from=\"u\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_TYPE, 2, "'kind' is a enum parameter");
+               WG_ERR_TYPE, 2, "'kind' is an enum parameter");
     load_fails("<wetgraph version=\"1\">\n"
                "  <param name=\"p\" type=\"string\"/>\n"
                "  <node id=\"u\" type=\"image\" path=\"=q\"/>\n"
