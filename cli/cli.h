@@ -15,6 +15,9 @@ int cmd_info(int argc, char **argv);
 int cmd_nodes(int argc, char **argv);
 int cmd_dot(int argc, char **argv);
 
+/* Exit code for an error: 1 for I/O, evaluation, memory and budget failures, 2 for usage and
+ * graph errors (parse, type, range, cycle). */
+int cli_exit_for(int code);
 /* "wetgraph: error: <location>: <message>" on stderr. */
 void cli_report(const WgError *err);
 /* Usage error with a hint to --help; returns EXIT_USAGE. */

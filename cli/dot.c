@@ -24,7 +24,7 @@ int cmd_dot(int argc, char **argv)
     WgGraph *g;
     if (wg_graph_load(file, &g, &err)) {
         cli_report(&err);
-        return EXIT_USAGE;
+        return cli_exit_for(err.code);
     }
     int rc = wg_graph_write_dot(g, stdout);
     wg_graph_free(g);

@@ -128,7 +128,7 @@ int cmd_info(int argc, char **argv)
     WgGraph *g;
     if (wg_graph_load(file, &g, &err)) {
         cli_report(&err);
-        return EXIT_USAGE;
+        return cli_exit_for(err.code);
     }
     if (json) print_json(g);
     else print_text(g);

@@ -311,6 +311,8 @@ int cmd_render(int argc, char **argv)
     goto out;
 fail:
     cli_report(&err);
+    /* once evaluation has started every failure is an evaluation failure */
+    if (status != EXIT_FAILED) status = cli_exit_for(err.code);
 out:
     wg_result_free(res);
     wg_engine_free(e);

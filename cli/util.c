@@ -6,6 +6,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+int cli_exit_for(int code)
+{
+    switch (code) {
+    case WG_ERR_IO:
+    case WG_ERR_EVAL:
+    case WG_ERR_NOMEM:
+    case WG_ERR_BUDGET:
+    case WG_ERR_CANCELLED: return EXIT_FAILED;
+    default: return EXIT_USAGE;
+    }
+}
+
 void cli_report(const WgError *err)
 {
     char buf[4096];
