@@ -41,7 +41,8 @@ gegl_ms() {
 
 gp="" gs=""
 if command -v gegl >/dev/null 2>&1; then
-    gegl gegl:perlin-noise >/dev/null 2>&1 || true # warm the plug-in cache once
+    # warm the plug-in cache once (the very first start can take seconds)
+    gegl -o "$tmp/warm.ppm" -- gegl:perlin-noise gegl:crop width=8 height=8 >/dev/null 2>&1 || true
     gp=$(gegl_ms gegl:perlin-noise n=8)
     gs=$(gegl_ms gegl:simplex-noise iterations=8)
 else

@@ -6,9 +6,12 @@
  * and the seed. Cell indices wrap modulo the counts, so distances are measured on the torus and
  * the result tiles exactly. f1 and f2 are the distances, in cell widths, to the nearest and
  * second-nearest feature point under the chosen metric. The search is exact: the 3×3 block
- * around the pixel's cell is always visited, then the ring(s) beyond only for cells whose
- * box could still hold a point nearer than the current f2 (f2 ≤ 1.81 Euclidean, 1.5 Chebyshev,
- * 2.5 Manhattan, so two rings suffice for the first two metrics and three for Manhattan). */
+ * around the pixel's cell is always visited, then further cells only when their box could still
+ * hold a point nearer than the current f2. Since f2 ≤ 1.81 cell widths (Euclidean), 1.5
+ * (Chebyshev) or 2.5 (Manhattan) anywhere, the 5×5 block suffices for the first two metrics and
+ * 7×7 for Manhattan. Speed: when cells are at least a pixel wide, the feature points of the
+ * rows around the current cell row are cached and each cell's run of pixels is processed in
+ * vectorised loops; finer cells are hashed per pixel. */
 #include "wetgraph/node.h"
 
 #include <math.h>
@@ -87,9 +90,12 @@ static inline float metric_dist(int metric, float dx, float dy)
     dx = fabsf(dx);
     dy = fabsf(dy);
     switch (metric) {
-    case EUCLIDEAN: return dx * dx + dy * dy; /* squared until the end */
-    case MANHATTAN: return dx + dy;
-    default: return dx > dy ? dx : dy;
+    case EUCLIDEAN:
+        return dx * dx + dy * dy; /* squared until the end */
+    case MANHATTAN:
+        return dx + dy;
+    default:
+        return dx > dy ? dx : dy;
     }
 }
 
@@ -130,15 +136,21 @@ static void row_keys(const Job *j, uint64_t iy, uint32_t *ry)
         d2[x] = d2[x] < far ? d2[x] : far;                                                         \
         d1[x] = d < a ? d : a;                                                                     \
     }
-static inline void candidate(int metric, float cx, float cy, float cid,
-                             const float *restrict fx, float fy, float *restrict d1,
-                             float *restrict d2, float *restrict i1, int x0, int x1)
+static inline void candidate(int metric, float cx, float cy, float cid, const float *restrict fx,
+                             float fy, float *restrict d1, float *restrict d2, float *restrict i1,
+                             int x0, int x1)
 {
     float dy = fabsf(cy - fy);
     switch (metric) {
-    case EUCLIDEAN: CANDIDATE_LOOP(dx * dx + dy * dy); break;
-    case MANHATTAN: CANDIDATE_LOOP(dx + dy); break;
-    default: CANDIDATE_LOOP(dx > dy ? dx : dy); break;
+    case EUCLIDEAN:
+        CANDIDATE_LOOP(dx * dx + dy * dy);
+        break;
+    case MANHATTAN:
+        CANDIDATE_LOOP(dx + dy);
+        break;
+    default:
+        CANDIDATE_LOOP(dx > dy ? dx : dy);
+        break;
     }
 }
 #undef CANDIDATE_LOOP
@@ -169,8 +181,8 @@ HOT static void coarse_row(const Job *j, Scratch *s, uint64_t iy, float fy)
         for (int dj = -1; dj <= 1; dj++)
             for (int di = -1; di <= 1; di++) {
                 size_t k = (size_t)(dj + R) * st + (size_t)(c + di + R);
-                candidate(metric, (float)di + s->ox[k], (float)dj + s->oy[k], s->id[k], fx, fy,
-                          d1, d2, i1, x0, x1);
+                candidate(metric, (float)di + s->ox[k], (float)dj + s->oy[k], s->id[k], fx, fy, d1,
+                          d2, i1, x0, x1);
             }
         float worst = 0;
         for (int x = x0; x < x1; x++) worst = d2[x] > worst ? d2[x] : worst;
@@ -183,8 +195,8 @@ HOT static void coarse_row(const Job *j, Scratch *s, uint64_t iy, float fy)
                 float gx = gap(di, di > 0 ? fx[x1 - 1] : fx[x0], lo, hi);
                 if (metric_dist(metric, gx, gy) >= worst) continue;
                 size_t k = (size_t)(dj + R) * st + (size_t)(c + di + R);
-                candidate(metric, (float)di + s->ox[k], (float)dj + s->oy[k], s->id[k], fx, fy,
-                          d1, d2, i1, x0, x1);
+                candidate(metric, (float)di + s->ox[k], (float)dj + s->oy[k], s->id[k], fx, fy, d1,
+                          d2, i1, x0, x1);
             }
         }
     }
@@ -257,8 +269,10 @@ static void cells_bands(void *user, int b0, int b1)
             uint64_t iy;
             float fy;
             axis_coord(j->py, h, y, &iy, &fy);
-            if (j->coarse) coarse_row(j, s, iy, fy);
-            else fine_row(j, s, iy, fy);
+            if (j->coarse)
+                coarse_row(j, s, iy, fy);
+            else
+                fine_row(j, s, iy, fy);
             finish_row(j->p->metric, s, w, wg_image_row(j->f1, y), wg_image_row(j->f2, y),
                        wg_image_row(j->edges, y), wg_image_row(j->id, y));
         }
@@ -345,7 +359,8 @@ static int cells_eval(WgNodeContext *ctx, WgError *err)
     int rc = job_init(&j, w, h);
     if (rc) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     /* one call per band of rows, so each band owns its scratch (bands depend on h only) */
-    else rc = wg_parallel_rows(ctx, j.n_bands, cells_bands, &j);
+    else
+        rc = wg_parallel_rows(ctx, j.n_bands, cells_bands, &j);
     job_free(&j);
     return rc;
 }

@@ -50,12 +50,14 @@ static const WgPortSpec noise_out[] = {WG_PORT("output", WG_GRAY), WG_PORT_END};
 #define C8 0.92387953251128674f
 #define S8 0.38268343236508977f
 #define R2 0.70710678118654752f
+/* clang-format off */
 #define DIRS(s)                                                                                    \
     {(s) * 1, (s) * C8, (s) * R2, (s) * S8, 0, -(s) * S8, -(s) * R2, -(s) * C8,                    \
      -(s) * 1, -(s) * C8, -(s) * R2, -(s) * S8, 0, (s) * S8, (s) * R2, (s) * C8}
 #define DIRS_Y(s)                                                                                  \
     {0, (s) * S8, (s) * R2, (s) * C8, (s) * 1, (s) * C8, (s) * R2, (s) * S8,                       \
      0, -(s) * S8, -(s) * R2, -(s) * C8, -(s) * 1, -(s) * C8, -(s) * R2, -(s) * S8}
+/* clang-format on */
 /* Perlin 2D with unit gradients peaks at √2/2 (cell centre, all gradients pointing in). */
 static const float perlin_gx[16] = DIRS(1.41421356237309505f);
 static const float perlin_gy[16] = DIRS_Y(1.41421356237309505f);
@@ -308,10 +310,9 @@ static inline float corner(float gx, float gy, float dx, float dy)
 }
 
 /* Pixels [x0, x1) of one parallelogram cell (cache index i): constant gradients. */
-static inline void simplex_span(float *out, const float *fxs, int x0, int x1, float base,
-                                float k, float shty, float sh, float dy0, float dy1,
-                                const float *g0x, const float *g0y, const float *g1x,
-                                const float *g1y, int32_t i)
+static inline void simplex_span(float *out, const float *fxs, int x0, int x1, float base, float k,
+                                float shty, float sh, float dy0, float dy1, const float *g0x,
+                                const float *g0y, const float *g1x, const float *g1y, int32_t i)
 {
     float ax = g0x[i], ay = g0y[i], bx = g0x[i + 1], by = g0y[i + 1];
     float cx = g1x[i], cy = g1y[i], dx_ = g1x[i + 1], dy_ = g1y[i + 1];
@@ -360,8 +361,8 @@ HOT static void simplex_row(const Octave *o, Scratch *s, int oi, const RowCoord 
             for (uint64_t j = 0; j < n; j++) {
                 int e = o->run[j + 1], m = o->run[j];
                 while (m < e && (fxs[m] + base) + 1.0f < 1.0f) m++;
-                simplex_span(out, fxs, o->run[j], m, base, -1.0f, shty, sh, dy0, dy1, g0x, g0y,
-                             g1x, g1y, (int32_t)j);
+                simplex_span(out, fxs, o->run[j], m, base, -1.0f, shty, sh, dy0, dy1, g0x, g0y, g1x,
+                             g1y, (int32_t)j);
                 simplex_span(out, fxs, m, e, base, 0.0f, shty, sh, dy0, dy1, g0x, g0y, g1x, g1y,
                              (int32_t)j + 1);
             }
@@ -458,16 +459,26 @@ static void noise_bands(void *user, int b0, int b1)
                 const Octave *o = &j->oct[oi];
                 RowCoord rc = row_coord(o, h, y);
                 switch (p->kind) {
-                case K_VALUE: value_row(o, s, oi, &rc, w, s->row); break;
-                case K_PERLIN: perlin_row(o, s, oi, &rc, w, s->row); break;
-                case K_SIMPLEX: simplex_row(o, s, oi, &rc, w, s->row); break;
-                default: white_row(o, s, oi, &rc, w, s->row); break;
+                case K_VALUE:
+                    value_row(o, s, oi, &rc, w, s->row);
+                    break;
+                case K_PERLIN:
+                    perlin_row(o, s, oi, &rc, w, s->row);
+                    break;
+                case K_SIMPLEX:
+                    simplex_row(o, s, oi, &rc, w, s->row);
+                    break;
+                default:
+                    white_row(o, s, oi, &rc, w, s->row);
+                    break;
                 }
                 accumulate(p->mode, oi == 0, o->amp, s->row, w, out);
             }
             float k = (float)(1.0 / j->amp_sum);
-            if (p->mode == M_NORMAL) finish(0.5f, 0.5f * k, w, out);
-            else finish(0.0f, k, w, out);
+            if (p->mode == M_NORMAL)
+                finish(0.5f, 0.5f * k, w, out);
+            else
+                finish(0.0f, k, w, out);
         }
     }
 }
@@ -613,15 +624,18 @@ const WgNodeType wg_node_noise = {
            "bilinear); `perlin` (Perlin 2002 gradient noise, 16 gradient directions); "
            "`simplex` (simplex-style radial kernels (3/4 − d²)⁴ on a triangular lattice with an "
            "even number 2·max(1, round(scale·H/(W·√3))) of rows, so it tiles; its triangles are "
-           "stretched vertically by round(t)/t, t = scale·H/(W·√3): up to 8% at scale 8, 2% at "
-           "scale 32); `white` (an independent uniform value per cell, no interpolation: set "
+           "stretched vertically by round(t)/t, t = scale·H/(W·√3), at most 0.5/t off: 8% on a "
+           "square tile at scale 8, 3% at scale 32); `white` (an independent uniform value per "
+           "cell, no interpolation: set "
            "`scale` to the image width for per-pixel noise). Each octave n is normalised to "
            "[−1, 1] by its exact bound, and the weighted mean over octaves is mapped to [0, 1]: "
            "`normal` 0.5 + 0.5·Σwn/Σw; `turbulence` Σw|n|/Σw; `ridged` Σw(1−|n|)²/Σw. The "
            "range is guaranteed without clipping, so contrast is modest: Perlin fbm with the "
            "defaults has mean 0.5 and standard deviation about 0.1 (follow with levels or "
            "auto_levels for full range). `octaves=\"0\"` gives a flat 0.5. Cells finer than a "
-           "pixel are point-sampled (they alias like white noise). Lacunarity is a whole number "
+           "pixel are point-sampled (they alias like white noise); Perlin noise is 0 at lattice "
+           "points, so when scale·lacunarity^o / W is an even whole number that octave samples "
+           "only zeros. Lacunarity is a whole number "
            "so every octave tiles. Same seed and parameters give the same pixels at any thread "
            "count.",
     .params = noise_params,

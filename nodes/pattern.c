@@ -11,13 +11,22 @@
  * exceptions: `gradient` linear with repeat="none" and `angular` (any repeat) are not periodic.
  * Hard edges (checker, bricks mask, shapes with no falloff) are point-sampled, not
  * antialiased. The shape distance is the exact Euclidean distance to the outline for points
- * inside (Quílez's wedge reduction for polygons and stars). Only `bricks` uses the seed. */
+ * inside (polygons and stars are folded into one symmetric wedge, where the outline is a single
+ * segment). Only `bricks` uses the seed. */
 #include "wetgraph/node.h"
 
 #include <math.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
+
+/* Row loops get an AVX2 clone picked at load time (same IEEE operations, no FMA contraction,
+ * so both clones give bit-identical pixels; floor and friends inline there). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
 
 /* Pixel p of n samples the axis at (p + 0.5)/n of the tile, i.e. at lattice coordinate
  * (2p+1)·period/(2n) = cell + frac, computed exactly. */
@@ -83,8 +92,10 @@ static const WgParamSpec gradient_params[] = {
     WG_PARAM_ENUM(GradientParams, kind, "Gradient shape", 0, gradient_kind_values),
     WG_PARAM_ENUM(GradientParams, repeat, "Beyond the first ramp: clamp, repeat or mirror", 0,
                   repeat_values),
-    WG_PARAM_FLOAT_UI(GradientParams, angle, "Direction in degrees (0: left to right, 90: top "
-                      "to bottom)", 0.0, -1e6, 1e6, -180, 180),
+    WG_PARAM_FLOAT_UI(GradientParams, angle,
+                      "Direction in degrees (0: left to right, 90: top "
+                      "to bottom)",
+                      0.0, -1e6, 1e6, -180, 180),
     WG_PARAM_FLOAT_UI(GradientParams, count, "Ramps across the tile (linear, angular)", 1.0, 0.0,
                       16384.0, 0, 16),
     WG_PARAM_FLOAT(GradientParams, center_x, "Centre x (radial, angular), tile units", 0.5, 0.0,
@@ -103,13 +114,16 @@ typedef struct {
     double cosa, sina, aspect; /* aspect = H/W */
     int64_t kx, ky;            /* linear repeat/mirror: periods across and down */
     double lo, span;           /* linear none: projection range over the image */
+    double *dx;                /* radial, angular: per column, offset to the nearest centre */
 } GradientJob;
 
 static inline float apply_repeat(int repeat, double s)
 {
     switch (repeat) {
-    case R_NONE: return clamp01((float)s);
-    case R_REPEAT: return (float)(s - floor(s));
+    case R_NONE:
+        return clamp01((float)s);
+    case R_REPEAT:
+        return (float)(s - floor(s));
     default: { /* period 2: rises over [0, 1], falls over [1, 2] */
         double m = s - 2 * floor(s / 2);
         return clamp01((float)(1 - fabs(1 - m)));
@@ -117,7 +131,7 @@ static inline float apply_repeat(int repeat, double s)
     }
 }
 
-static void gradient_rows(void *user, int y0, int y1)
+HOT static void gradient_rows(void *user, int y0, int y1)
 {
     const GradientJob *j = user;
     const GradientParams *p = j->p;
@@ -146,8 +160,7 @@ static void gradient_rows(void *user, int y0, int y1)
         double dy = v - p->center_y;
         dy = (dy - floor(dy + 0.5)) * j->aspect;
         for (int x = 0; x < w; x++) {
-            double dx = (x + 0.5) / w - p->center_x;
-            dx -= floor(dx + 0.5);
+            double dx = j->dx[x];
             double s;
             if (p->kind == G_RADIAL) {
                 s = sqrt(dx * dx + dy * dy) / p->radius;
@@ -165,9 +178,8 @@ static void gradient_rows(void *user, int y0, int y1)
 
 static int gradient_eval(WgNodeContext *ctx, WgError *err)
 {
-    (void)err;
     const GradientParams *p = ctx->params;
-    GradientJob j = {p, ctx->outputs[0], 0, 0, 0, 0, 0, 0, 1};
+    GradientJob j = {p, ctx->outputs[0], 0, 0, 0, 0, 0, 0, 1, NULL};
     double a = p->angle * PI / 180;
     j.cosa = cos(a);
     j.sina = sin(a);
@@ -177,7 +189,17 @@ static int gradient_eval(WgNodeContext *ctx, WgError *err)
     double ex = j.cosa, ey = j.aspect * j.sina;
     j.lo = (ex < 0 ? ex : 0) + (ey < 0 ? ey : 0);
     j.span = fabs(ex) + fabs(ey);
-    return wg_parallel_rows(ctx, ctx->height, gradient_rows, &j);
+    if (p->kind != G_LINEAR) {
+        j.dx = wg_malloc(sizeof(double) * (size_t)ctx->width);
+        if (!j.dx) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        for (int x = 0; x < ctx->width; x++) {
+            double dx = (x + 0.5) / ctx->width - p->center_x;
+            j.dx[x] = dx - floor(dx + 0.5);
+        }
+    }
+    int rc = wg_parallel_rows(ctx, ctx->height, gradient_rows, &j);
+    wg_free(j.dx);
+    return rc;
 }
 
 const WgNodeType wg_node_gradient = {
@@ -253,8 +275,8 @@ const WgNodeType wg_node_checker = {
     .doc = "2·scale squares across the width and 2·max(1, round(scale·H/W)) down (the lattice "
            "rule of every generator, counted in pairs of squares so the board always tiles); "
            "the top-left square is 1. Hard edges, point-sampled at pixel centres: when a "
-           "square is a whole odd or even number of pixels the edges fall between pixels "
-           "exactly.",
+           "square is a whole number of pixels wide and high, every pixel lies wholly in one "
+           "square.",
     .params = checker_params,
     .params_size = sizeof(CheckerParams),
     .outputs = gray_out,
@@ -271,8 +293,10 @@ typedef struct {
 } SineParams;
 
 static const WgParamSpec sine_params[] = {
-    WG_PARAM_FLOAT_UI(SineParams, angle, "Direction of travel in degrees (0: along x, 90: "
-                      "along y)", 0.0, -1e6, 1e6, -180, 180),
+    WG_PARAM_FLOAT_UI(SineParams, angle,
+                      "Direction of travel in degrees (0: along x, 90: "
+                      "along y)",
+                      0.0, -1e6, 1e6, -180, 180),
     WG_PARAM_FLOAT_UI(SineParams, frequency, "Waves across the tile", 4.0, 0.0, 16384.0, 0, 64),
     WG_PARAM_FLOAT_UI(SineParams, phase, "Phase in turns", 0.0, -1e6, 1e6, 0, 1),
     WG_PARAM_END,
@@ -284,7 +308,7 @@ typedef struct {
     double ky, phase;
 } SineJob;
 
-static void sine_rows(void *user, int y0, int y1)
+HOT static void sine_rows(void *user, int y0, int y1)
 {
     const SineJob *j = user;
     int w = j->out->width, h = j->out->height;
@@ -304,8 +328,8 @@ static int sine_eval(WgNodeContext *ctx, WgError *err)
     double a = p->angle * PI / 180;
     int64_t kx = snap(p->frequency * cos(a));
     SineJob j = {ctx->outputs[0], wg_malloc(sizeof(float) * (size_t)w),
-                 wg_malloc(sizeof(float) * (size_t)w),
-                 (double)snap(p->frequency * sin(a) * h / w), p->phase - floor(p->phase)};
+                 wg_malloc(sizeof(float) * (size_t)w), (double)snap(p->frequency * sin(a) * h / w),
+                 p->phase - floor(p->phase)};
     int rc;
     if (!j.cs || !j.sn) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -358,10 +382,10 @@ typedef struct {
 static const WgParamSpec shape_params[] = {
     WG_PARAM_ENUM(ShapeParams, kind, "Shape", 0, shape_kind_values),
     WG_PARAM_INT(ShapeParams, scale, "Shapes across the width (tiled count)", 1, 1, 4096),
-    WG_PARAM_FLOAT(ShapeParams, radius, "Radius (square: half side), in half cell widths",
-                   0.8, 0.0, 2.0),
-    WG_PARAM_FLOAT_UI(ShapeParams, rotation, "Clockwise rotation in degrees", 0.0, -1e6, 1e6,
-                      -180, 180),
+    WG_PARAM_FLOAT(ShapeParams, radius, "Radius (square: half side), in half cell widths", 0.8, 0.0,
+                   2.0),
+    WG_PARAM_FLOAT_UI(ShapeParams, rotation, "Clockwise rotation in degrees", 0.0, -1e6, 1e6, -180,
+                      180),
     WG_PARAM_INT(ShapeParams, sides, "Sides of the polygon, points of the star", 5, 3, 64),
     WG_PARAM_FLOAT(ShapeParams, inner_radius, "Star: inner radius over outer radius", 0.5, 0.05,
                    1.0),
@@ -374,15 +398,15 @@ typedef struct {
     const ShapeParams *p;
     WgImage *out;
     uint64_t nx, ny;
-    float *lx; /* per column: local x in [-1, 1) */
-    double rc, rs; /* cos, sin of the rotation */
-    float outer;   /* outer radius of the distance function */
+    float *lx;                                  /* per column: local x in [-1, 1) */
+    double rc, rs;                              /* cos, sin of the rotation */
+    float outer;                                /* outer radius of the distance function */
     float an, tip_x, tip_y, vx, vy, ex, ey, ee; /* wedge: tip A, valley B, edge e = B - A */
-    int n;                       /* corners */
+    int n;                                      /* corners */
     float tip_sin[64], tip_cos[64]; /* direction of corner k: angle 2πk/n clockwise from up */
-    float depth;   /* falloff depth, 0: hard edge */
-    float outer2;  /* outer², nothing beyond */
-    int reach;     /* 0: own cell only, 1: also the 8 neighbours */
+    float depth;                    /* falloff depth, 0: hard edge */
+    float outer2;                   /* outer², nothing beyond */
+    int reach;                      /* 0: own cell only, 1: also the 8 neighbours */
 } ShapeJob;
 
 /* Signed distance (negative inside) in half cell widths, point already rotated. Polygons and
@@ -399,8 +423,8 @@ static inline float shape_sd(const ShapeJob *j, float qx, float qy)
     int k = (int)floorf((phi + j->an) / (2 * j->an));
     k = k < 0 ? k + j->n : k >= j->n ? k - j->n : k;
     float ts = j->tip_sin[k], tc = j->tip_cos[k];
-    float px = qx * ts - qy * tc;           /* along the tip direction (ts, −tc) */
-    float py = fabsf(qx * tc + qy * ts);    /* across it, mirrored */
+    float px = qx * ts - qy * tc;        /* along the tip direction (ts, −tc) */
+    float py = fabsf(qx * tc + qy * ts); /* across it, mirrored */
     float ax = px - j->tip_x, ay = py;
     float t = (ax * j->ex + ay * j->ey) / j->ee;
     t = t < 0 ? 0 : t > 1 ? 1 : t;
@@ -416,7 +440,7 @@ static inline float shape_value(const ShapeJob *j, float sd)
     return smoothstep01(-sd / j->depth);
 }
 
-static void shape_rows(void *user, int y0, int y1)
+HOT static void shape_rows(void *user, int y0, int y1)
 {
     const ShapeJob *j = user;
     int w = j->out->width, h = j->out->height;
@@ -534,18 +558,18 @@ typedef struct {
 static const WgParamSpec bricks_params[] = {
     WG_PARAM_INT(BricksParams, columns, "Bricks per row", 4, 1, 4096),
     WG_PARAM_INT(BricksParams, rows, "Rows of bricks", 8, 1, 4096),
-    WG_PARAM_FLOAT(BricksParams, row_offset, "Shift of every other row, in brick widths", 0.5,
-                   0.0, 1.0),
-    WG_PARAM_FLOAT(BricksParams, random_offset, "Random shift per row, in brick widths", 0.0,
-                   0.0, 1.0),
+    WG_PARAM_FLOAT(BricksParams, row_offset, "Shift of every other row, in brick widths", 0.5, 0.0,
+                   1.0),
+    WG_PARAM_FLOAT(BricksParams, random_offset, "Random shift per row, in brick widths", 0.0, 0.0,
+                   1.0),
     WG_PARAM_FLOAT(BricksParams, mortar, "Joint width, as a fraction of the brick's short side",
                    0.1, 0.0, 1.0),
-    WG_PARAM_FLOAT(BricksParams, bevel, "Height ramp width, fraction of the half short side",
-                   0.1, 0.0, 1.0),
+    WG_PARAM_FLOAT(BricksParams, bevel, "Height ramp width, fraction of the half short side", 0.1,
+                   0.0, 1.0),
     WG_PARAM_FLOAT(BricksParams, height_variation, "Random height decrease per brick", 0.0, 0.0,
                    1.0),
-    WG_PARAM_FLOAT(BricksParams, luminance_variation, "Spread of the per-brick random value",
-                   1.0, 0.0, 1.0),
+    WG_PARAM_FLOAT(BricksParams, luminance_variation, "Spread of the per-brick random value", 1.0,
+                   0.0, 1.0),
     WG_PARAM_END,
 };
 static const WgPortSpec bricks_out[] = {
@@ -570,7 +594,7 @@ static inline float unit(uint32_t h)
     return (float)(h >> 8) * 0x1p-24f;
 }
 
-static void bricks_rows(void *user, int y0, int y1)
+HOT static void bricks_rows(void *user, int y0, int y1)
 {
     const BricksJob *j = user;
     const BricksParams *p = j->p;
@@ -586,6 +610,8 @@ static void bricks_rows(void *user, int y0, int y1)
         float dy = (float)((fy < 0.5 ? fy : 1 - fy) * j->bh);
         float *oh = wg_image_row(j->height, y), *om = wg_image_row(j->mask, y);
         float *orr = wg_image_row(j->random, y), *oi = wg_image_row(j->id, y);
+        int64_t last = -1;
+        float top = 0, rnd = 0, id = 0;
         for (int x = 0; x < w; x++) {
             float t = j->fx[x] - shift;
             float k = floorf(t);
@@ -595,13 +621,20 @@ static void bricks_rows(void *user, int y0, int y1)
             float dx = (f < 0.5f ? f : 1 - f) * bw;
             float e = (dx < dy ? dx : dy) * inv_half; /* 0 on the brick outline, <= 1 inside */
             bool in = mortar == 0 || e > mortar;
-            uint32_t hb = wg_hash_u32((uint32_t)col ^ rkey);
-            float r1 = unit(wg_hash_u32(hb ^ 0x2545f491u)), r2 = unit(wg_hash_u32(hb ^ 0x9e3779b9u));
+            if (col != last) { /* per-brick values, once per brick along the row */
+                uint32_t hb = wg_hash_u32((uint32_t)col ^ rkey);
+                float r1 = unit(wg_hash_u32(hb ^ 0x2545f491u));
+                float r2 = unit(wg_hash_u32(hb ^ 0x9e3779b9u));
+                top = 1 - p->height_variation * r2;
+                rnd = 1 - p->luminance_variation + p->luminance_variation * r1;
+                id = (float)(((double)row * cols + (double)col + 0.5) / ((double)p->rows * cols));
+                last = col;
+            }
             float ramp = bevel > 0 ? smoothstep01((e - mortar) / bevel) : 1.0f;
             om[x] = in ? 1.0f : 0.0f;
-            oh[x] = in ? (1 - p->height_variation * r2) * ramp : 0.0f;
-            orr[x] = 1 - p->luminance_variation + p->luminance_variation * r1;
-            oi[x] = (float)(((double)row * cols + (double)col + 0.5) / ((double)p->rows * cols));
+            oh[x] = in ? top * ramp : 0.0f;
+            orr[x] = rnd;
+            oi[x] = id;
         }
     }
 }

@@ -23,12 +23,13 @@
 #include "wgtest.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Render a generator (no inputs) at w×h, output `port`, with `threads` workers. */
-static inline WgImage *gen(const char *type, const char *attrs, int w, int h, int port,
-                           int threads)
+static inline WgImage *gen(const char *type, const char *attrs, int w, int h, int port, int threads)
 {
     return wgt_node(type, attrs, w, h, 0, NULL, NULL, port, threads);
 }
@@ -48,10 +49,14 @@ static inline double wrap_jump_ratio(const WgImage *img)
             double f = gt_px(img, x, y);
             double dx = fabs(gt_px(img, (x + 1) % w, y) - f);
             double dy = fabs(gt_px(img, x, (y + 1) % h) - f);
-            if (x + 1 < w) inner = dx > inner ? dx : inner;
-            else if (w > 1) wrap = dx > wrap ? dx : wrap;
-            if (y + 1 < h) inner = dy > inner ? dy : inner;
-            else if (h > 1) wrap = dy > wrap ? dy : wrap;
+            if (x + 1 < w)
+                inner = dx > inner ? dx : inner;
+            else if (w > 1)
+                wrap = dx > wrap ? dx : wrap;
+            if (y + 1 < h)
+                inner = dy > inner ? dy : inner;
+            else if (h > 1)
+                wrap = dy > wrap ? dy : wrap;
         }
     if (wrap <= 1e-6) return 0;
     return inner > 0 ? wrap / inner : INFINITY;
@@ -66,10 +71,14 @@ static inline double wrap_kink_ratio(const WgImage *img)
             double f = gt_px(img, x, y);
             double sx = fabs(gt_px(img, (x + w - 1) % w, y) - 2 * f + gt_px(img, (x + 1) % w, y));
             double sy = fabs(gt_px(img, x, (y + h - 1) % h) - 2 * f + gt_px(img, x, (y + 1) % h));
-            if (x > 0 && x + 1 < w) inner = sx > inner ? sx : inner;
-            else wrap = sx > wrap ? sx : wrap;
-            if (y > 0 && y + 1 < h) inner = sy > inner ? sy : inner;
-            else wrap = sy > wrap ? sy : wrap;
+            if (x > 0 && x + 1 < w)
+                inner = sx > inner ? sx : inner;
+            else
+                wrap = sx > wrap ? sx : wrap;
+            if (y > 0 && y + 1 < h)
+                inner = sy > inner ? sy : inner;
+            else
+                wrap = sy > wrap ? sy : wrap;
         }
     if (wrap <= 1e-5) return 0;
     return inner > 0 ? wrap / inner : INFINITY;
@@ -109,13 +118,17 @@ static inline void assert_tiles(const char *type, const char *attrs, int w, int 
     wg_image_unref(img);
     wg_image_unref(fine);
     if (!(j <= (smooth ? 1.05 : 1.5)))
-        fail_msg("%s %s (%dx%d port %d): wrap jump %.3g x the interior maximum", type, attrs, w, h, port, j);
+        fail_msg("%s %s (%dx%d port %d): wrap jump %.3g x the interior maximum", type, attrs, w, h,
+                 port, j);
     if (!(k <= 1.5))
-        fail_msg("%s %s (%dx%d port %d): wrap kink %.3g x the interior maximum", type, attrs, w, h, port, k);
+        fail_msg("%s %s (%dx%d port %d): wrap kink %.3g x the interior maximum", type, attrs, w, h,
+                 port, k);
     if (!(j3 <= 0.6 * j1 + 1e-4))
-        fail_msg("%s %s (%dx%d port %d): wrap jump %.3g does not shrink 3x finer (%.3g)", type, attrs, w, h, port, j1, j3);
+        fail_msg("%s %s (%dx%d port %d): wrap jump %.3g does not shrink 3x finer (%.3g)", type,
+                 attrs, w, h, port, j1, j3);
     if (smooth && !(k3 <= 0.25 * k1 + 1e-5))
-        fail_msg("%s %s (%dx%d port %d): wrap kink %.3g does not shrink 3x finer (%.3g)", type, attrs, w, h, port, k1, k3);
+        fail_msg("%s %s (%dx%d port %d): wrap kink %.3g does not shrink 3x finer (%.3g)", type,
+                 attrs, w, h, port, k1, k3);
 }
 
 /* The 3w×3h render at pixels (3x+1, 3y+1) reproduces the w×h render within tol. */
@@ -137,7 +150,8 @@ static inline void assert_subsample(const char *type, const char *attrs, int w, 
     wg_image_unref(a);
     wg_image_unref(b);
     if (!(worst <= tol))
-        fail_msg("%s %s: %dx%d vs 3x render differ by %.3g at (%d, %d) (tolerance %.3g)", type, attrs, w, h, worst, wx, wy, tol);
+        fail_msg("%s %s: %dx%d vs 3x render differ by %.3g at (%d, %d) (tolerance %.3g)", type,
+                 attrs, w, h, worst, wx, wy, tol);
 }
 
 /* The (f·n)² render box-downsampled by f is close to the n² render: mean and max |diff|. */
@@ -159,7 +173,8 @@ static inline void assert_downsample(const char *type, const char *attrs, int n,
     wg_image_unref(b);
     double mean = sum / ((double)n * n);
     if (!(mean <= tol_mean) || !(worst <= tol_max))
-        fail_msg("%s %s: %d vs %d box-downsampled: mean %.3g (tol %.3g), max %.3g (tol %.3g)", type, attrs, n, f * n, mean, tol_mean, worst, tol_max);
+        fail_msg("%s %s: %d vs %d box-downsampled: mean %.3g (tol %.3g), max %.3g (tol %.3g)", type,
+                 attrs, n, f * n, mean, tol_mean, worst, tol_max);
 }
 
 /* Bit-identical for 1 and 4 threads (tall enough for many row chunks). */
@@ -186,7 +201,8 @@ static inline void assert_seeded(const char *type, const char *attrs, int port)
     wg_image_unref(x);
     wg_image_unref(y);
     wg_image_unref(z);
-    if (same > 64 * 48 / 4) fail_msg("%s %s: seeds 11 and 12 agree on %d of %d pixels", type, attrs, same, 64 * 48);
+    if (same > 64 * 48 / 4)
+        fail_msg("%s %s: seeds 11 and 12 agree on %d of %d pixels", type, attrs, same, 64 * 48);
 }
 
 static inline void image_stats(const WgImage *img, double *mean, double *sd)
@@ -209,6 +225,95 @@ static inline void assert_error_range(const char *type, const char *attrs, const
     WgError err = {0};
     assert_int_equal(wgt_node_error(type, attrs, 32, 32, 0, NULL, NULL, &err), WG_ERR_RANGE);
     wgt_assert_error(&err, WG_ERR_RANGE, 0, needle);
+}
+
+/* Allocation failures during the render: the k-th and every later engine allocation fails,
+ * for every k up to a normal render's count. The render must fail with WG_ERR_NOMEM or give
+ * the normal picture, and every block the hook handed out must be freed. */
+static atomic_long gt_allocs, gt_live, gt_fail_at = -1;
+
+static inline void *gt_alloc(size_t size, void *user)
+{
+    (void)user;
+    long i = atomic_fetch_add(&gt_allocs, 1);
+    long f = atomic_load(&gt_fail_at);
+    if (f >= 0 && i >= f) return NULL;
+    void *p = aligned_alloc(64, (size + 63) & ~(size_t)63);
+    if (p) atomic_fetch_add(&gt_live, 1);
+    return p;
+}
+
+static inline void gt_free(void *ptr, void *user)
+{
+    (void)user;
+    atomic_fetch_sub(&gt_live, 1);
+    free(ptr);
+}
+
+/* Render with the failing hook installed from request creation to result release; a
+ * successful render's pixels are copied to a plain malloc'd array (*copy, *n floats). */
+static inline int gt_render_failing(const WgGraph *g, long fail_at, float **copy, size_t *n)
+{
+    atomic_store(&gt_allocs, 0);
+    atomic_store(&gt_live, 0);
+    atomic_store(&gt_fail_at, fail_at);
+    wg_set_allocator(gt_alloc, gt_free, NULL);
+    WgEngineOptions opt = {2, 0, NULL};
+    WgEngine *e = NULL;
+    WgResult *res = NULL;
+    WgError err = {0};
+    WgRequest *r = wg_request_new(g);
+    int rc = r ? wg_engine_new(&opt, &e, &err) : WG_ERR_NOMEM;
+    if (!rc) rc = wg_render(e, r, &res, &err);
+    if (!rc) {
+        const WgImage *img = wg_result_output_image(res, 0);
+        size_t row = (size_t)img->width * (size_t)img->channels;
+        *n = row * (size_t)img->height;
+        *copy = malloc(sizeof(float) * *n);
+        assert_non_null(*copy);
+        for (int y = 0; y < img->height; y++)
+            memcpy(*copy + row * (size_t)y, wg_image_row(img, y), sizeof(float) * row);
+    }
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    long live = atomic_load(&gt_live);
+    wg_set_allocator(NULL, NULL, NULL);
+    if (rc && rc != WG_ERR_NOMEM)
+        fail_msg("failure at allocation %ld gave status %d: %s", fail_at, rc, err.message);
+    if (live != 0) fail_msg("failure at allocation %ld leaks %ld blocks", fail_at, live);
+    return rc;
+}
+
+static inline void assert_alloc_failures(const char *type, const char *attrs, int port)
+{
+    const WgNodeType *t = wg_node_type_find(type);
+    assert_non_null(t);
+    char xml[1024];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"37x29\" seed=\"5\">\n"
+             "  <node id=\"n\" type=\"%s\" %s/>\n"
+             "  <output name=\"out\" from=\"n%s%s\"/>\n</wetgraph>\n",
+             type, attrs, port ? "." : "", port ? t->outputs[port].name : "");
+    WgGraph *g = wgt_load(xml);
+    float *ref = NULL, *img = NULL;
+    size_t n_ref = 0, n = 0;
+    assert_int_equal(gt_render_failing(g, -1, &ref, &n_ref), WG_OK);
+    long total = atomic_load(&gt_allocs);
+    assert_true(total > 0);
+    int failed = 0;
+    for (long k = 0; k <= total; k++) {
+        if (gt_render_failing(g, k, &img, &n) == WG_OK) {
+            if (n != n_ref || memcmp(ref, img, sizeof(float) * n))
+                fail_msg("%s %s: render with allocation %ld failing differs", type, attrs, k);
+            free(img);
+        } else {
+            failed++;
+        }
+    }
+    assert_true(failed > 0);
+    free(ref);
+    wg_graph_free(g);
 }
 
 #endif

@@ -20,10 +20,12 @@ static double ref_e(int cols, int rows, double offset, int w, int h, int x, int 
     return d / (0.5 * fmin(bw, bh));
 }
 
-static void check_reference(int cols, int rows, double offset, double mortar, double bevel, int w, int h)
+static void check_reference(int cols, int rows, double offset, double mortar, double bevel, int w,
+                            int h)
 {
     char a[256];
-    snprintf(a, sizeof a, "columns=\"%d\" rows=\"%d\" row_offset=\"%g\" mortar=\"%g\" bevel=\"%g\"", cols, rows, offset, mortar, bevel);
+    snprintf(a, sizeof a, "columns=\"%d\" rows=\"%d\" row_offset=\"%g\" mortar=\"%g\" bevel=\"%g\"",
+             cols, rows, offset, mortar, bevel);
     WgImage *ht = gen("bricks", a, w, h, 0, 2), *mask = gen("bricks", a, w, h, 1, 2);
     WgImage *id = gen("bricks", a, w, h, 3, 2);
     for (int y = 0; y < h; y++)
@@ -37,7 +39,8 @@ static void check_reference(int cols, int rows, double offset, double mortar, do
             double want_id = (n + 0.5) / (rows * cols);
             if (gt_px(mask, x, y) != m || !(fabs(gt_px(ht, x, y) - hh) <= 1e-5) ||
                 !(fabs(gt_px(id, x, y) - want_id) <= 1e-6))
-                fail_msg("%s %dx%d at (%d,%d): mask %g height %g id %g, want %g %g %g", a, w, h, x, y, gt_px(mask, x, y), gt_px(ht, x, y), gt_px(id, x, y), m, hh, want_id);
+                fail_msg("%s %dx%d at (%d,%d): mask %g height %g id %g, want %g %g %g", a, w, h, x,
+                         y, gt_px(mask, x, y), gt_px(ht, x, y), gt_px(id, x, y), m, hh, want_id);
         }
     wg_image_unref(ht);
     wg_image_unref(mask);
@@ -56,7 +59,8 @@ static void test_exact(void **state)
     for (int y = 0; y < 8; y++)
         for (int x = 0; x < 16; x++) {
             double v = want[y][x] - '0';
-            if (gt_px(m, x, y) != v) fail_msg("mask at (%d,%d) = %g, want %g", x, y, gt_px(m, x, y), v);
+            if (gt_px(m, x, y) != v)
+                fail_msg("mask at (%d,%d) = %g, want %g", x, y, gt_px(m, x, y), v);
         }
     wg_image_unref(m);
     check_reference(2, 2, 0.5, 0.5, 0, 16, 8);
@@ -68,7 +72,8 @@ static void test_exact(void **state)
 static void test_per_brick_values(void **state)
 {
     (void)state;
-    const char *a = "columns=\"4\" rows=\"6\" height_variation=\"0.8\" luminance_variation=\"0.5\" bevel=\"0\" seed=\"3\"";
+    const char *a = "columns=\"4\" rows=\"6\" height_variation=\"0.8\" luminance_variation=\"0.5\" "
+                    "bevel=\"0\" seed=\"3\"";
     WgImage *id = gen("bricks", a, 64, 48, 3, 2), *rnd = gen("bricks", a, 64, 48, 2, 2);
     WgImage *ht = gen("bricks", a, 64, 48, 0, 2), *mask = gen("bricks", a, 64, 48, 1, 2);
     double by_id_r[24], by_id_h[24];
@@ -96,8 +101,10 @@ static void test_per_brick_values(void **state)
     /* odd rows are shifted half a brick: the brick across the left/right edge is one brick */
     for (int y = 0; y < 48; y++) {
         int row = y / 8;
-        if (row & 1) assert_float_equal(gt_px(id, 0, y), gt_px(id, 63, y), 0);
-        else assert_true(gt_px(id, 0, y) != gt_px(id, 63, y));
+        if (row & 1)
+            assert_float_equal(gt_px(id, 0, y), gt_px(id, 63, y), 0);
+        else
+            assert_true(gt_px(id, 0, y) != gt_px(id, 63, y));
     }
     wg_image_unref(id);
     wg_image_unref(rnd);
@@ -112,7 +119,8 @@ static void test_tiling_resolution_threads(void **state)
      * edge (there the mask may fall either way with float rounding) */
     const char *cases[] = {
         "columns=\"4\" rows=\"8\" bevel=\"0.5\" mortar=\"0.1\"",
-        "columns=\"3\" rows=\"6\" bevel=\"0.8\" mortar=\"0.21\" random_offset=\"0.5\" height_variation=\"0.5\"",
+        "columns=\"3\" rows=\"6\" bevel=\"0.8\" mortar=\"0.21\" random_offset=\"0.5\" "
+        "height_variation=\"0.5\"",
         "columns=\"5\" rows=\"5\" bevel=\"0.6\" mortar=\"0.17\" row_offset=\"0.3\"",
     };
     for (int i = 0; i < 3; i++)
@@ -135,6 +143,7 @@ static void test_tiling_resolution_threads(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("bricks", "bevel=\"0.3\"", 3);
     WgImage *img = gen("bricks", "mortar=\"0\" bevel=\"0\"", 33, 17, 1, 1);
     wgt_assert_range(img, 1, 1); /* zero-width mortar: no joints at all */
     wg_image_unref(img);

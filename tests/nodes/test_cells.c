@@ -50,7 +50,8 @@ static void ref_cells(int metric, int scale, double jit, uint64_t seed, int w, i
 static void check_reference(int metric, int scale, double jit, int w, int h)
 {
     char a[256];
-    snprintf(a, sizeof a, "metric=\"%s\" scale=\"%d\" jitter=\"%g\" seed=\"9\"", metrics[metric], scale, jit);
+    snprintf(a, sizeof a, "metric=\"%s\" scale=\"%d\" jitter=\"%g\" seed=\"9\"", metrics[metric],
+             scale, jit);
     WgImage *o[4];
     for (int p = 0; p < 4; p++) o[p] = gen("cells", a, w, h, p, 2);
     for (int y = 0; y < h; y++)
@@ -63,7 +64,9 @@ static void check_reference(int metric, int scale, double jit, int w, int h)
                 /* id may legitimately differ where two points tie for nearest */
                 if (p == 3 && f2 - f1 < 1e-5) continue;
                 if (!(fabs(got - want[p]) <= 2e-5))
-                    fail_msg("%s scale %d jitter %g %dx%d: port %d at (%d,%d) = %.7g, reference %.7g", metrics[metric], scale, jit, w, h, p, x, y, got, want[p]);
+                    fail_msg(
+                        "%s scale %d jitter %g %dx%d: port %d at (%d,%d) = %.7g, reference %.7g",
+                        metrics[metric], scale, jit, w, h, p, x, y, got, want[p]);
             }
         }
     for (int p = 0; p < 4; p++) wg_image_unref(o[p]);
@@ -74,8 +77,8 @@ static void test_matches_brute_force_reference(void **state)
     (void)state;
     for (int m = 0; m < 3; m++) {
         check_reference(m, 5, 1.0, 60, 60);
-        check_reference(m, 4, 0.7, 50, 30);  /* non-square: 2 rows */
-        check_reference(m, 1, 1.0, 24, 24);  /* one cell: all neighbours are its own copies */
+        check_reference(m, 4, 0.7, 50, 30); /* non-square: 2 rows */
+        check_reference(m, 1, 1.0, 24, 24); /* one cell: all neighbours are its own copies */
         check_reference(m, 2, 1.0, 20, 44);
         check_reference(m, 80, 1.0, 40, 40); /* cells smaller than pixels */
     }
@@ -120,9 +123,11 @@ static void assert_lipschitz(const char *attrs, int scale, int w, int h)
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) {
                 double f = gt_px(img, x, y);
-                double dx = fabs(gt_px(img, (x + 1) % w, y) - f), dy = fabs(gt_px(img, x, (y + 1) % h) - f);
+                double dx = fabs(gt_px(img, (x + 1) % w, y) - f),
+                       dy = fabs(gt_px(img, x, (y + 1) % h) - f);
                 if (!(dx <= sx * (1 + 1e-4) + 1e-6) || !(dy <= sy * (1 + 1e-4) + 1e-6))
-                    fail_msg("%s port %d %dx%d: step at (%d,%d) is %.4g, %.4g (bounds %.4g, %.4g)", attrs, p, w, h, x, y, dx, dy, sx, sy);
+                    fail_msg("%s port %d %dx%d: step at (%d,%d) is %.4g, %.4g (bounds %.4g, %.4g)",
+                             attrs, p, w, h, x, y, dx, dy, sx, sy);
             }
         wg_image_unref(img);
     }
@@ -165,6 +170,8 @@ static void test_resolution_and_determinism(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("cells", "scale=\"5\"", 2);
+    assert_alloc_failures("cells", "scale=\"60\" metric=\"manhattan\"", 0);
     assert_error_range("cells", "scale=\"0\"", "'scale' = 0 is outside");
     assert_error_range("cells", "jitter=\"1.5\"", "jitter");
     for (int m = 0; m < 3; m++) {

@@ -48,6 +48,7 @@ static void test_tiling_resolution_threads(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("checker", "scale=\"3\"", 0);
     assert_error_range("checker", "scale=\"0\"", "'scale' = 0 is outside");
     WgImage *img = gen("checker", "scale=\"8192\"", 64, 64, 0, 1);
     wgt_assert_range(img, 0, 1);

@@ -17,20 +17,58 @@ static void expect(const char *attrs, int w, int h, double (*f)(double u, double
         for (int x = 0; x < w; x++) {
             double want = f((x + 0.5) / w, (y + 0.5) / h, (double)h / w);
             if (!(fabs(gt_px(img, x, y) - want) <= 1e-5))
-                fail_msg("%s %dx%d at (%d,%d): %.7g, want %.7g", attrs, w, h, x, y, gt_px(img, x, y), want);
+                fail_msg("%s %dx%d at (%d,%d): %.7g, want %.7g", attrs, w, h, x, y,
+                         gt_px(img, x, y), want);
         }
     wg_image_unref(img);
 }
 
-static double lin0(double u, double v, double a) { (void)v; (void)a; return u; }
-static double lin90(double u, double v, double a) { (void)u; (void)a; return v; }
-static double lin180(double u, double v, double a) { (void)v; (void)a; return 1 - u; }
-static double lin45(double u, double v, double a) { return (u + v * a) / (1 + a); }
-static double lin_count2(double u, double v, double a) { (void)v; (void)a; return fmin(1, 2 * u); }
-static double rep3(double u, double v, double a) { (void)v; (void)a; return 3 * u - floor(3 * u); }
-static double mir1(double u, double v, double a) { (void)v; (void)a; return mirror2(2 * u); }
+static double lin0(double u, double v, double a)
+{
+    (void)v;
+    (void)a;
+    return u;
+}
+static double lin90(double u, double v, double a)
+{
+    (void)u;
+    (void)a;
+    return v;
+}
+static double lin180(double u, double v, double a)
+{
+    (void)v;
+    (void)a;
+    return 1 - u;
+}
+static double lin45(double u, double v, double a)
+{
+    return (u + v * a) / (1 + a);
+}
+static double lin_count2(double u, double v, double a)
+{
+    (void)v;
+    (void)a;
+    return fmin(1, 2 * u);
+}
+static double rep3(double u, double v, double a)
+{
+    (void)v;
+    (void)a;
+    return 3 * u - floor(3 * u);
+}
+static double mir1(double u, double v, double a)
+{
+    (void)v;
+    (void)a;
+    return mirror2(2 * u);
+}
 /* angle 45, count 2 on a square: wave vector (1.41, 1.41) rounds to (1, 1) */
-static double rep_diag(double u, double v, double a) { (void)a; return u + v - floor(u + v); }
+static double rep_diag(double u, double v, double a)
+{
+    (void)a;
+    return u + v - floor(u + v);
+}
 static double radial(double u, double v, double a)
 {
     double dx = u - 0.25, dy = v - 0.5;
@@ -128,6 +166,7 @@ static void test_resolution_and_threads(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("gradient", "kind=\"radial\"", 0);
     assert_error_range("gradient", "radius=\"0\"", "radius");
     assert_error_range("gradient", "center_x=\"2\"", "center_x");
     /* a count too small to round to a whole period: flat 0 */

@@ -74,11 +74,14 @@ static void check_reference(const char *kind_name, int kind, int scale, int octa
     double worst = 0;
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
-            double d = fabs(gt_px(img, x, y) - ref_fbm(kind, scale, octaves, 0.5, 2, 77, w, h, x, y));
+            double d =
+                fabs(gt_px(img, x, y) - ref_fbm(kind, scale, octaves, 0.5, 2, 77, w, h, x, y));
             worst = d > worst ? d : worst;
         }
     wg_image_unref(img);
-    if (!(worst <= 2e-6)) fail_msg("%s scale %d octaves %d at %dx%d: %.3g from the float64 reference", kind_name, scale, octaves, w, h, worst);
+    if (!(worst <= 2e-6))
+        fail_msg("%s scale %d octaves %d at %dx%d: %.3g from the float64 reference", kind_name,
+                 scale, octaves, w, h, worst);
 }
 
 static void test_matches_float64_reference(void **state)
@@ -98,17 +101,21 @@ static void test_tiles_every_kind_mode_and_seed(void **state)
 {
     (void)state;
     const char *sizes[][2] = {{"256", "256"}, {"240", "160"}, {"96", "224"}};
-    for (int k = 0; k < 3; k++)            /* smooth kinds */
+    for (int k = 0; k < 3; k++) /* smooth kinds */
         for (int seed = 1; seed <= 3; seed++)
             for (int s = 0; s < 3; s++) {
                 char a[256];
                 int w = atoi(sizes[s][0]), h = atoi(sizes[s][1]);
-                snprintf(a, sizeof a, "kind=\"%s\" scale=\"3\" octaves=\"1\" seed=\"%d\"", kinds[k], seed);
+                snprintf(a, sizeof a, "kind=\"%s\" scale=\"3\" octaves=\"1\" seed=\"%d\"", kinds[k],
+                         seed);
                 assert_tiles("noise", a, w, h, 0, true);
-                snprintf(a, sizeof a, "kind=\"%s\" scale=\"2\" octaves=\"4\" seed=\"%d\"", kinds[k], seed);
+                snprintf(a, sizeof a, "kind=\"%s\" scale=\"2\" octaves=\"4\" seed=\"%d\"", kinds[k],
+                         seed);
                 assert_tiles("noise", a, w, h, 0, true);
                 for (int m = 1; m < 3; m++) {
-                    snprintf(a, sizeof a, "kind=\"%s\" scale=\"3\" octaves=\"3\" mode=\"%s\" seed=\"%d\"", kinds[k], modes[m], seed);
+                    snprintf(a, sizeof a,
+                             "kind=\"%s\" scale=\"3\" octaves=\"3\" mode=\"%s\" seed=\"%d\"",
+                             kinds[k], modes[m], seed);
                     assert_tiles("noise", a, w, h, 0, false);
                 }
             }
@@ -183,7 +190,8 @@ static void check_stats(const char *attrs, double mlo, double mhi, double slo, d
         image_stats(img, &mean, &sd);
         wg_image_unref(img);
         if (!(mean >= mlo && mean <= mhi && sd >= slo && sd <= shi))
-            fail_msg("%s: mean %.4f (want %.2f..%.2f), sd %.4f (want %.2f..%.2f)", a, mean, mlo, mhi, sd, slo, shi);
+            fail_msg("%s: mean %.4f (want %.2f..%.2f), sd %.4f (want %.2f..%.2f)", a, mean, mlo,
+                     mhi, sd, slo, shi);
     }
 }
 
@@ -198,8 +206,10 @@ static void test_statistics(void **state)
     check_stats("kind=\"value\" scale=\"8\" octaves=\"1\"", 0.40, 0.60, 0.14, 0.30);
     check_stats("kind=\"value\" scale=\"8\" octaves=\"6\"", 0.42, 0.58, 0.09, 0.22);
     check_stats("kind=\"white\" scale=\"256\" octaves=\"1\"", 0.48, 0.52, 0.27, 0.31);
-    check_stats("kind=\"perlin\" scale=\"8\" octaves=\"6\" mode=\"turbulence\"", 0.10, 0.30, 0.04, 0.16);
-    check_stats("kind=\"perlin\" scale=\"8\" octaves=\"6\" mode=\"ridged\"", 0.55, 0.85, 0.04, 0.16);
+    check_stats("kind=\"perlin\" scale=\"8\" octaves=\"6\" mode=\"turbulence\"", 0.10, 0.30, 0.04,
+                0.16);
+    check_stats("kind=\"perlin\" scale=\"8\" octaves=\"6\" mode=\"ridged\"", 0.55, 0.85, 0.04,
+                0.16);
 }
 
 /* ---- hard cases -------------------------------------------------------------------------- */
@@ -226,11 +236,14 @@ static void test_octaves_zero_is_flat_half(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("noise", "kind=\"perlin\" scale=\"3\" octaves=\"8\"", 0);
+    assert_alloc_failures("noise", "kind=\"simplex\" scale=\"60\" octaves=\"2\"", 0);
     assert_error_range("noise", "scale=\"0\"", "'scale' = 0 is outside");
     assert_error_range("noise", "octaves=\"17\"", "octaves");
     assert_error_range("noise", "lacunarity=\"0\"", "lacunarity");
     WgError err = {0};
-    assert_int_equal(wgt_node_error("noise", "lacunarity=\"2.5\"", 8, 8, 0, NULL, NULL, &err), WG_ERR_TYPE);
+    assert_int_equal(wgt_node_error("noise", "lacunarity=\"2.5\"", 8, 8, 0, NULL, NULL, &err),
+                     WG_ERR_TYPE);
     for (int k = 0; k < 4; k++) {
         char a[256];
         double mean, sd;
@@ -247,7 +260,9 @@ static void test_hard_cases(void **state)
         assert_true(sd > 0.03);
         wg_image_unref(img);
         /* 16 octaves at the largest lacunarity and scale: lattice periods up to 2^44 */
-        snprintf(a, sizeof a, "kind=\"%s\" scale=\"16384\" octaves=\"16\" lacunarity=\"4\" persistence=\"1\"", kinds[k]);
+        snprintf(a, sizeof a,
+                 "kind=\"%s\" scale=\"16384\" octaves=\"16\" lacunarity=\"4\" persistence=\"1\"",
+                 kinds[k]);
         img = gen("noise", a, 40, 40, 0, 2);
         wgt_assert_range(img, 0, 1);
         wg_image_unref(img);

@@ -24,7 +24,8 @@ static void expect(const char *shape, int scale, int w, int h, double (*f)(doubl
             local(scale, w, h, x, y, &lx, &ly);
             double want = f(lx, ly);
             if (!(fabs(gt_px(img, x, y) - want) <= 2e-5))
-                fail_msg("%s at (%d,%d) [%.3f %.3f]: %.7g, want %.7g", attrs, x, y, lx, ly, gt_px(img, x, y), want);
+                fail_msg("%s at (%d,%d) [%.3f %.3f]: %.7g, want %.7g", attrs, x, y, lx, ly,
+                         gt_px(img, x, y), want);
         }
     wg_image_unref(img);
 }
@@ -34,10 +35,22 @@ static double smooth(double t)
     t = fmin(1, fmax(0, t));
     return t * t * (3 - 2 * t);
 }
-static double disk_hard(double x, double y) { return x * x + y * y < 0.25 ? 1 : 0; }
-static double disk_soft(double x, double y) { return smooth((0.8 - sqrt(x * x + y * y)) / 0.4); }
-static double square_hard(double x, double y) { return fmax(fabs(x), fabs(y)) < 0.6 ? 1 : 0; }
-static double square_soft(double x, double y) { return smooth((0.6 - fmax(fabs(x), fabs(y))) / 0.3); }
+static double disk_hard(double x, double y)
+{
+    return x * x + y * y < 0.25 ? 1 : 0;
+}
+static double disk_soft(double x, double y)
+{
+    return smooth((0.8 - sqrt(x * x + y * y)) / 0.4);
+}
+static double square_hard(double x, double y)
+{
+    return fmax(fabs(x), fabs(y)) < 0.6 ? 1 : 0;
+}
+static double square_soft(double x, double y)
+{
+    return smooth((0.6 - fmax(fabs(x), fabs(y))) / 0.3);
+}
 /* hexagon, corner up, outer radius 0.9: inside distance = apothem − max projection on the
  * edge normals (at 30° + k·60° from up) */
 static double hexagon_soft(double x, double y)
@@ -50,7 +63,10 @@ static double hexagon_soft(double x, double y)
     return smooth((0.9 * cos(M_PI / 6) - m) / (0.5 * 0.9));
 }
 /* square rotated by 45°: a diamond |x| + |y| < 0.6·√2 */
-static double diamond_hard(double x, double y) { return fabs(x) + fabs(y) < 0.6 * sqrt(2) ? 1 : 0; }
+static double diamond_hard(double x, double y)
+{
+    return fabs(x) + fabs(y) < 0.6 * sqrt(2) ? 1 : 0;
+}
 /* a square of half side 1.3 overlaps its neighbours (centres 2 apart): inside when within
  * 1.3 (max norm) of the own centre or of a neighbour's */
 static double big_square(double x, double y)
@@ -72,12 +88,13 @@ static void test_exact(void **state)
     expect("kind=\"square\" radius=\"0.6\" rotation=\"45\"", 1, 31, 31, diamond_hard);
     expect("kind=\"square\" radius=\"1.3\"", 2, 40, 40, big_square);
     /* star: full at the centre, 0 in the valleys between the points, 1 along a point */
-    WgImage *img = gen("shape", "kind=\"star\" sides=\"5\" radius=\"1\" inner_radius=\"0.4\"", 101, 101, 0, 1);
+    WgImage *img =
+        gen("shape", "kind=\"star\" sides=\"5\" radius=\"1\" inner_radius=\"0.4\"", 101, 101, 0, 1);
     assert_float_equal(gt_px(img, 50, 50), 1, 0);
-    assert_float_equal(gt_px(img, 50, 10), 1, 0);  /* up: a point, radius 0.8 < 1 */
-    assert_float_equal(gt_px(img, 50, 90), 0, 0);  /* down: a valley (inner radius 0.4) */
-    assert_float_equal(gt_px(img, 50, 65), 1, 0);  /* down at radius 0.30 < 0.4: inside */
-    assert_float_equal(gt_px(img, 50, 75), 0, 0);  /* down at radius 0.50 > 0.4: outside */
+    assert_float_equal(gt_px(img, 50, 10), 1, 0); /* up: a point, radius 0.8 < 1 */
+    assert_float_equal(gt_px(img, 50, 90), 0, 0); /* down: a valley (inner radius 0.4) */
+    assert_float_equal(gt_px(img, 50, 65), 1, 0); /* down at radius 0.30 < 0.4: inside */
+    assert_float_equal(gt_px(img, 50, 75), 0, 0); /* down at radius 0.50 > 0.4: outside */
     wg_image_unref(img);
 }
 
@@ -114,6 +131,7 @@ static void test_tiling_symmetry_resolution_threads(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("shape", "kind=\"star\" scale=\"2\"", 0);
     assert_error_range("shape", "scale=\"0\"", "'scale' = 0 is outside");
     assert_error_range("shape", "radius=\"3\"", "radius");
     assert_error_range("shape", "sides=\"2\"", "sides");

@@ -54,6 +54,7 @@ static void test_tiling_resolution_threads(void **state)
 static void test_hard_cases(void **state)
 {
     (void)state;
+    assert_alloc_failures("sine", "angle=\"20\"", 0);
     assert_error_range("sine", "frequency=\"-1\"", "frequency");
     WgImage *img = gen("sine", "frequency=\"16384\" angle=\"17\" phase=\"1e5\"", 64, 3, 0, 1);
     wgt_assert_range(img, 0, 1);
