@@ -6,7 +6,7 @@ set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev libcmocka-dev)
 if [[ "${1:-}" == "--bench" ]]; then
-    pkgs+=(python3 python3-numpy python3-scipy python3-opencv gegl)
+    pkgs+=(gegl)  # peers of the benchmarks (OpenCV and scipy join with the filters that need them)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

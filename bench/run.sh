@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Run every benchmark against its peers in one go (timings are measured and reported, never
+# asserted by the tests). Installs the peers first (scripts/install-deps.sh --bench) and builds.
+# Results vary with machine load: run on an idle machine. bench/README.md records a run.
+#   bench/run.sh [BUILD_DIR]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$root/build}
+"$root/scripts/install-deps.sh" --bench
+[[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
+ninja -C "$build" >/dev/null
+echo "== generators vs GEGL (2048², 2 threads)"
+"$root/bench/run_generators.sh" "$build" 2048 2 9
+echo
+echo "== pixel node vs the same maths in C (2048²)"
+"$root/bench/run_pixel.sh" "$build" 2048 7
