@@ -20,7 +20,8 @@ int cmd_check(int argc, char **argv)
             fputs(help, stdout);
             return EXIT_OK;
         }
-        if (argv[i][0] == '-' && argv[i][1]) return cli_usage_error("check", "unknown option '%s'", argv[i]);
+        if (argv[i][0] == '-' && argv[i][1])
+            return cli_usage_error("check", "unknown option '%s'", argv[i]);
     }
     for (int i = 1; i < argc; i++) {
         files++;
@@ -28,7 +29,8 @@ int cmd_check(int argc, char **argv)
         WgGraph *g = NULL;
         WgRequest *r = NULL;
         int rc = wg_graph_load(argv[i], &g, &err);
-        if (!rc && !(r = wg_request_new(g))) rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        if (!rc && !(r = wg_request_new(g)))
+            rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         if (!rc) rc = cli_fill_placeholders(g, r, &err);
         if (!rc) rc = wg_request_check(r, &err);
         if (rc) {

@@ -15,7 +15,8 @@ int cmd_dot(int argc, char **argv)
             fputs(help, stdout);
             return EXIT_OK;
         }
-        if (argv[i][0] == '-' && argv[i][1]) return cli_usage_error("dot", "unknown option '%s'", argv[i]);
+        if (argv[i][0] == '-' && argv[i][1])
+            return cli_usage_error("dot", "unknown option '%s'", argv[i]);
         if (file) return cli_usage_error("dot", "one graph file at a time");
         file = argv[i];
     }

@@ -49,7 +49,8 @@ static void print_json(const WgGraph *g)
         const WgGraphInputInfo *in = wg_graph_input_info(g, i);
         printf("%s\n    {\"name\": ", i ? "," : "");
         cli_json_string(stdout, in->name);
-        printf(", \"type\": \"%s\", \"colorspace\": \"%s\"", in->kind == WG_COLOR ? "color" : "gray",
+        printf(", \"type\": \"%s\", \"colorspace\": \"%s\"",
+               in->kind == WG_COLOR ? "color" : "gray",
                in->colorspace == WG_SRGB ? "srgb" : "linear");
         if (in->has_default) {
             printf(", \"default\": ");
@@ -98,7 +99,8 @@ static void print_text(const WgGraph *g)
         const WgGraphInputInfo *in = wg_graph_input_info(g, i);
         printf("  %-20s %-6s %s%s%s\n", in->name, in->kind == WG_COLOR ? "color" : "gray",
                in->colorspace == WG_SRGB ? "srgb" : "linear",
-               in->has_default ? "  default " : "  required", in->has_default ? in->default_text : "");
+               in->has_default ? "  default " : "  required",
+               in->has_default ? in->default_text : "");
     }
     printf("outputs:\n");
     for (int i = 0; i < wg_graph_output_count(g); i++) {
@@ -118,10 +120,14 @@ int cmd_info(int argc, char **argv)
             fputs(help, stdout);
             return EXIT_OK;
         }
-        if (!strcmp(argv[i], "--json")) json = true;
-        else if (argv[i][0] == '-' && argv[i][1]) return cli_usage_error("info", "unknown option '%s'", argv[i]);
-        else if (file) return cli_usage_error("info", "one graph file at a time");
-        else file = argv[i];
+        if (!strcmp(argv[i], "--json"))
+            json = true;
+        else if (argv[i][0] == '-' && argv[i][1])
+            return cli_usage_error("info", "unknown option '%s'", argv[i]);
+        else if (file)
+            return cli_usage_error("info", "one graph file at a time");
+        else
+            file = argv[i];
     }
     if (!file) return cli_usage_error("info", "no graph file given");
     WgError err = {0};
@@ -130,8 +136,10 @@ int cmd_info(int argc, char **argv)
         cli_report(&err);
         return cli_exit_for(err.code);
     }
-    if (json) print_json(g);
-    else print_text(g);
+    if (json)
+        print_json(g);
+    else
+        print_text(g);
     wg_graph_free(g);
     return EXIT_OK;
 }

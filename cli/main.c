@@ -37,8 +37,11 @@ int main(int argc, char **argv)
     static const struct {
         const char *name;
         int (*fn)(int, char **);
-    } cmds[] = {{"render", cmd_render}, {"check", cmd_check}, {"info", cmd_info},
-                {"nodes", cmd_nodes},   {"dot", cmd_dot}};
+    } cmds[] = {{"render", cmd_render},
+                {"check", cmd_check},
+                {"info", cmd_info},
+                {"nodes", cmd_nodes},
+                {"dot", cmd_dot}};
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
         if (!strcmp(cmd, cmds[i].name)) return cmds[i].fn(argc - 1, argv + 1);
     const char *names[] = {"render", "check", "info", "nodes", "dot"};

@@ -25,11 +25,21 @@ static const char *kind(int k)
 static void default_text(const WgParamSpec *s, char *buf, size_t n)
 {
     switch (s->type) {
-    case WG_PARAM_FLOAT_T: snprintf(buf, n, "%g", s->def); break;
-    case WG_PARAM_INT_T: snprintf(buf, n, "%.0f", s->def); break;
-    case WG_PARAM_BOOL_T: snprintf(buf, n, "%s", s->def != 0 ? "true" : "false"); break;
-    case WG_PARAM_ENUM_T: snprintf(buf, n, "%s", s->values[(int)s->def]); break;
-    default: snprintf(buf, n, "%s", s->def_string ? s->def_string : ""); break;
+    case WG_PARAM_FLOAT_T:
+        snprintf(buf, n, "%g", s->def);
+        break;
+    case WG_PARAM_INT_T:
+        snprintf(buf, n, "%.0f", s->def);
+        break;
+    case WG_PARAM_BOOL_T:
+        snprintf(buf, n, "%s", s->def != 0 ? "true" : "false");
+        break;
+    case WG_PARAM_ENUM_T:
+        snprintf(buf, n, "%s", s->values[(int)s->def]);
+        break;
+    default:
+        snprintf(buf, n, "%s", s->def_string ? s->def_string : "");
+        break;
     }
 }
 
@@ -55,9 +65,12 @@ static void flags_text(unsigned f, char *buf, size_t n)
     static const struct {
         unsigned bit;
         const char *name;
-    } names[] = {{WG_NODE_POINT, "point operation"},   {WG_NODE_NEIGHBOURHOOD, "neighbourhood"},
-                 {WG_NODE_GLOBAL, "whole image"},      {WG_NODE_SOURCE, "source"},
-                 {WG_NODE_SEEDED, "uses the seed"},    {WG_NODE_TIMED, "uses $time"},
+    } names[] = {{WG_NODE_POINT, "point operation"},
+                 {WG_NODE_NEIGHBOURHOOD, "neighbourhood"},
+                 {WG_NODE_GLOBAL, "whole image"},
+                 {WG_NODE_SOURCE, "source"},
+                 {WG_NODE_SEEDED, "uses the seed"},
+                 {WG_NODE_TIMED, "uses $time"},
                  {WG_NODE_DYNAMIC_INPUTS, "named inputs of your choice"},
                  {WG_NODE_EXTRA_PARAMS, "extra numeric attributes"}};
     buf[0] = '\0';
@@ -130,10 +143,14 @@ int cmd_nodes(int argc, char **argv)
             fputs(help, stdout);
             return EXIT_OK;
         }
-        if (!strcmp(argv[i], "--markdown")) md = true;
-        else if (argv[i][0] == '-') return cli_usage_error("nodes", "unknown option '%s'", argv[i]);
-        else if (type) return cli_usage_error("nodes", "one node type at a time");
-        else type = argv[i];
+        if (!strcmp(argv[i], "--markdown"))
+            md = true;
+        else if (argv[i][0] == '-')
+            return cli_usage_error("nodes", "unknown option '%s'", argv[i]);
+        else if (type)
+            return cli_usage_error("nodes", "one node type at a time");
+        else
+            type = argv[i];
     }
     if (type) {
         const WgNodeType *t = wg_node_type_find(type);
@@ -146,8 +163,10 @@ int cmd_nodes(int argc, char **argv)
                     s ? "; did you mean '" : "", s ? s : "", s ? "'?" : "");
             return EXIT_USAGE;
         }
-        if (md) markdown(t);
-        else text(t);
+        if (md)
+            markdown(t);
+        else
+            text(t);
         return EXIT_OK;
     }
     if (md) {

@@ -73,8 +73,10 @@ static bool take(int argc, char **argv, int *i, const char *opt, const char **va
     const char *a = argv[*i];
     size_t n = strlen(opt);
     if (!strcmp(a, opt)) {
-        if (*i + 1 >= argc) *missing = true;
-        else *val = argv[++*i];
+        if (*i + 1 >= argc)
+            *missing = true;
+        else
+            *val = argv[++*i];
         return true;
     }
     if (!strncmp(a, opt, n) && a[n] == '=') {
@@ -106,11 +108,13 @@ static int parse_args(int argc, char **argv, Options *o)
             o->out_dir = val;
         } else if (TAKE("--set")) {
             NEED;
-            if (!strchr(val, '=')) return cli_usage_error("render", "--set wants NAME=VALUE, not '%s'", val);
+            if (!strchr(val, '='))
+                return cli_usage_error("render", "--set wants NAME=VALUE, not '%s'", val);
             o->sets[o->n_sets++] = val;
         } else if (TAKE("--input")) {
             NEED;
-            if (!strchr(val, '=')) return cli_usage_error("render", "--input wants NAME=PATH, not '%s'", val);
+            if (!strchr(val, '='))
+                return cli_usage_error("render", "--input wants NAME=PATH, not '%s'", val);
             o->inputs[o->n_inputs++] = val;
         } else if (TAKE("--output")) {
             NEED;
@@ -138,7 +142,8 @@ static int parse_args(int argc, char **argv, Options *o)
             NEED;
             o->format = wg_format_parse(val);
             if (o->format < 0)
-                return cli_usage_error("render", "unknown --format '%s' (png, png16, tif16, exr, exr32)", val);
+                return cli_usage_error(
+                    "render", "unknown --format '%s' (png, png16, tif16, exr, exr32)", val);
         } else if (TAKE("--layered")) {
             NEED;
             o->layered = val;
@@ -172,7 +177,8 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (!o->file) {
             o->file = a;
         } else {
-            return cli_usage_error("render", "one graph file at a time ('%s' and '%s')", o->file, a);
+            return cli_usage_error("render", "one graph file at a time ('%s' and '%s')", o->file,
+                                   a);
         }
 #undef TAKE
 #undef NEED
@@ -185,7 +191,8 @@ static void print_stats(const WgResult *res, bool json)
 {
     int n = wg_result_stat_count(res);
     if (json) {
-        printf("{\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"evaluated\": %d,\n  \"nodes\": [\n",
+        printf("{\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"evaluated\": %d,\n  "
+               "\"nodes\": [\n",
                wg_result_total_ms(res), wg_result_peak_bytes(res), wg_result_evaluated_count(res));
         for (int i = 0; i < n; i++) {
             const WgNodeStat *s = wg_result_stat(res, i);

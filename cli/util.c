@@ -13,8 +13,10 @@ int cli_exit_for(int code)
     case WG_ERR_EVAL:
     case WG_ERR_NOMEM:
     case WG_ERR_BUDGET:
-    case WG_ERR_CANCELLED: return EXIT_FAILED;
-    default: return EXIT_USAGE;
+    case WG_ERR_CANCELLED:
+        return EXIT_FAILED;
+    default:
+        return EXIT_USAGE;
     }
 }
 
@@ -46,11 +48,16 @@ void cli_json_string(FILE *f, const char *s)
     fputc('"', f);
     for (; s && *s; s++) {
         unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
-        else if (c == '\n') fputs("\\n", f);
-        else if (c == '\t') fputs("\\t", f);
-        else if (c < 0x20) fprintf(f, "\\u%04x", c);
-        else fputc(c, f);
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c == '\n')
+            fputs("\\n", f);
+        else if (c == '\t')
+            fputs("\\t", f);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
     }
     fputc('"', f);
 }

@@ -190,8 +190,10 @@ const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, i
     XXH3_64bits_update(st, &h, sizeof h);
     for (int y = 0; y < height && !bad; y++) {
         float *r = wg_image_row(img, y);
-        if (fread(r, sizeof(float), row, f) != row) bad = true;
-        else XXH3_64bits_update(st, r, sizeof(float) * row);
+        if (fread(r, sizeof(float), row, f) != row)
+            bad = true;
+        else
+            XXH3_64bits_update(st, r, sizeof(float) * row);
     }
     uint64_t sum, expect = XXH3_64bits_digest(st);
     XXH3_freeState(st);
@@ -239,8 +241,10 @@ int wg__cache_disk_put(WgCache *c, const uint64_t key[2], int port, const WgImag
         }
         if (st) XXH3_freeState(st);
         ok = (fclose(f) == 0) && ok;
-        if (ok && rename(tmp, path) == 0) rc = WG_OK;
-        else unlink(tmp);
+        if (ok && rename(tmp, path) == 0)
+            rc = WG_OK;
+        else
+            unlink(tmp);
     }
     wg_free(tmp);
     wg_free(path);

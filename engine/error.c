@@ -27,8 +27,8 @@ int wg_error_set(WgError *err, int code, const char *node, const char *fmt, ...)
     return code;
 }
 
-int wg_error_set_at(WgError *err, int code, const char *file, int line, int column,
-                    const char *fmt, ...)
+int wg_error_set_at(WgError *err, int code, const char *file, int line, int column, const char *fmt,
+                    ...)
 {
     if (!err) return code;
     err->code = code;
@@ -79,8 +79,10 @@ void wg_error_format(const WgError *err, char *buf, size_t size)
         if (err->line > 0 && err->column > 0) PUT(":%d", err->column);
         PUT(": ");
     }
-    if (err->node[0] && err->node_type[0]) PUT("node '%s' (%s): ", err->node, err->node_type);
-    else if (err->node[0]) PUT("node '%s': ", err->node);
+    if (err->node[0] && err->node_type[0])
+        PUT("node '%s' (%s): ", err->node, err->node_type);
+    else if (err->node[0])
+        PUT("node '%s': ", err->node);
     PUT("%s", err->message[0] ? err->message : wg_status_name(err->code));
 #undef PUT
 }
@@ -88,17 +90,29 @@ void wg_error_format(const WgError *err, char *buf, size_t size)
 const char *wg_status_name(int code)
 {
     switch (code) {
-    case WG_OK: return "ok";
-    case WG_ERR_NOMEM: return "out of memory";
-    case WG_ERR_PARSE: return "parse error";
-    case WG_ERR_TYPE: return "type error";
-    case WG_ERR_RANGE: return "value out of range";
-    case WG_ERR_IO: return "I/O error";
-    case WG_ERR_CYCLE: return "cycle";
-    case WG_ERR_USAGE: return "usage error";
-    case WG_ERR_EVAL: return "evaluation error";
-    case WG_ERR_CANCELLED: return "cancelled";
-    case WG_ERR_BUDGET: return "memory budget exceeded";
-    default: return "error";
+    case WG_OK:
+        return "ok";
+    case WG_ERR_NOMEM:
+        return "out of memory";
+    case WG_ERR_PARSE:
+        return "parse error";
+    case WG_ERR_TYPE:
+        return "type error";
+    case WG_ERR_RANGE:
+        return "value out of range";
+    case WG_ERR_IO:
+        return "I/O error";
+    case WG_ERR_CYCLE:
+        return "cycle";
+    case WG_ERR_USAGE:
+        return "usage error";
+    case WG_ERR_EVAL:
+        return "evaluation error";
+    case WG_ERR_CANCELLED:
+        return "cancelled";
+    case WG_ERR_BUDGET:
+        return "memory budget exceeded";
+    default:
+        return "error";
     }
 }

@@ -98,11 +98,11 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     e->pool = wg__pool_new(threads);
     e->cache = wg__cache_new(opt->cache_dir);
     if (!e->pool || !e->cache) {
-        int rc = opt->cache_dir && e->pool
-                     ? wg_error_set(err, WG_ERR_IO, NULL, "cannot create the cache folder '%s'",
-                                    opt->cache_dir)
-                     : wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot start %d worker threads",
-                                    threads);
+        int rc =
+            opt->cache_dir && e->pool
+                ? wg_error_set(err, WG_ERR_IO, NULL, "cannot create the cache folder '%s'",
+                               opt->cache_dir)
+                : wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot start %d worker threads", threads);
         wg_engine_free(e);
         return rc;
     }
@@ -175,8 +175,8 @@ static int eval_node(Run *run, Node *node, WgError *err)
     for (int o = 0; o < in->n_out; o++) {
         outputs[o] = wg_image_new(in->width, in->height, in->out_channels[o]);
         if (!outputs[o]) {
-            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image",
-                              in->width, in->height);
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image", in->width,
+                              in->height);
             goto out;
         }
     }
@@ -311,8 +311,8 @@ static bool lookup_cache(Run *run, int i)
     if (!wg__cache_has_disk(c) || !disk_cacheable(in)) return false;
     all = true;
     for (int o = 0; o < in->n_out && all; o++)
-        all = (n->out[o] = wg__cache_disk_get(c, in->key, o, in->width, in->height,
-                                              in->out_channels[o]));
+        all = (n->out[o] =
+                   wg__cache_disk_get(c, in->key, o, in->width, in->height, in->out_channels[o]));
     if (all) {
         for (int o = 0; o < in->n_out; o++) wg__cache_put(c, in->key, o, n->out[o]);
         n->stat.cache = WG_HIT_DISK;
@@ -353,9 +353,9 @@ static int plan_work(Run *run, WgError *err)
             run->nodes[s].consumers++;
             if (run->nodes[s].evaluate) {
                 n->pending++;
-                int *d = wg_realloc_array(run->nodes[s].dependents,
-                                          (size_t)run->nodes[s].n_dependents,
-                                          (size_t)run->nodes[s].n_dependents + 1, sizeof(int));
+                int *d =
+                    wg_realloc_array(run->nodes[s].dependents, (size_t)run->nodes[s].n_dependents,
+                                     (size_t)run->nodes[s].n_dependents + 1, sizeof(int));
                 if (!d) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
                 d[run->nodes[s].n_dependents++] = i;
                 run->nodes[s].dependents = d;
@@ -382,7 +382,8 @@ static int plan_work(Run *run, WgError *err)
         if (live > peak) peak = live;
         for (int k = 0; k < in->n_in; k++) {
             int s = in->in[k].inst;
-            if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested) live -= run->nodes[s].out_bytes;
+            if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
+                live -= run->nodes[s].out_bytes;
         }
         if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
     }
@@ -393,8 +394,7 @@ static int plan_work(Run *run, WgError *err)
                             "this render needs at least %.1f MiB of image memory but the budget "
                             "is %.1f MiB (--memory-budget)%s%s%s",
                             peak / 1048576.0, run->e->budget / 1048576.0,
-                            b ? "; the largest image is node '" : "", b ? b->id : "",
-                            b ? "'" : "");
+                            b ? "; the largest image is node '" : "", b ? b->id : "", b ? "'" : "");
     }
     return WG_OK;
 }
@@ -559,13 +559,43 @@ done:
     return rc;
 }
 
-int wg_result_output_count(const WgResult *r) { return r->n_outputs; }
-const char *wg_result_output_name(const WgResult *r, int i) { return r->names[i]; }
-const WgImage *wg_result_output_image(const WgResult *r, int i) { return r->images[i]; }
-WgFormat wg_result_output_format(const WgResult *r, int i) { return r->formats[i]; }
-WgColorspace wg_result_output_colorspace(const WgResult *r, int i) { return r->colorspaces[i]; }
-int wg_result_stat_count(const WgResult *r) { return r->n_stats; }
-const WgNodeStat *wg_result_stat(const WgResult *r, int i) { return &r->stats[i]; }
-int wg_result_evaluated_count(const WgResult *r) { return r->evaluated; }
-size_t wg_result_peak_bytes(const WgResult *r) { return r->peak; }
-double wg_result_total_ms(const WgResult *r) { return r->total_ms; }
+int wg_result_output_count(const WgResult *r)
+{
+    return r->n_outputs;
+}
+const char *wg_result_output_name(const WgResult *r, int i)
+{
+    return r->names[i];
+}
+const WgImage *wg_result_output_image(const WgResult *r, int i)
+{
+    return r->images[i];
+}
+WgFormat wg_result_output_format(const WgResult *r, int i)
+{
+    return r->formats[i];
+}
+WgColorspace wg_result_output_colorspace(const WgResult *r, int i)
+{
+    return r->colorspaces[i];
+}
+int wg_result_stat_count(const WgResult *r)
+{
+    return r->n_stats;
+}
+const WgNodeStat *wg_result_stat(const WgResult *r, int i)
+{
+    return &r->stats[i];
+}
+int wg_result_evaluated_count(const WgResult *r)
+{
+    return r->evaluated;
+}
+size_t wg_result_peak_bytes(const WgResult *r)
+{
+    return r->peak;
+}
+double wg_result_total_ms(const WgResult *r)
+{
+    return r->total_ms;
+}

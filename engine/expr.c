@@ -14,20 +14,34 @@ static const struct {
     int min_args, max_args;
     bool pixel_only;
 } funcs[WG_FN_COUNT_] = {
-    [WG_FN_ABS] = {"abs", 1, 1},           [WG_FN_MIN] = {"min", 2, 4},
-    [WG_FN_MAX] = {"max", 2, 4},           [WG_FN_CLAMP] = {"clamp", 3, 3},
-    [WG_FN_LERP] = {"lerp", 3, 3},         [WG_FN_SMOOTHSTEP] = {"smoothstep", 3, 3},
-    [WG_FN_STEP] = {"step", 2, 2},         [WG_FN_FLOOR] = {"floor", 1, 1},
-    [WG_FN_CEIL] = {"ceil", 1, 1},         [WG_FN_FRACT] = {"fract", 1, 1},
-    [WG_FN_MOD] = {"mod", 2, 2},           [WG_FN_SQRT] = {"sqrt", 1, 1},
-    [WG_FN_POW] = {"pow", 2, 2},           [WG_FN_EXP] = {"exp", 1, 1},
-    [WG_FN_LOG] = {"log", 1, 1},           [WG_FN_SIN] = {"sin", 1, 1},
-    [WG_FN_COS] = {"cos", 1, 1},           [WG_FN_TAN] = {"tan", 1, 1},
-    [WG_FN_ATAN2] = {"atan2", 2, 2},       [WG_FN_ROUND] = {"round", 1, 1},
-    [WG_FN_SIGN] = {"sign", 1, 1},         [WG_FN_ASIN] = {"asin", 1, 1},
-    [WG_FN_ACOS] = {"acos", 1, 1},         [WG_FN_ATAN] = {"atan", 1, 1},
-    [WG_FN_SAMPLE] = {"sample", 3, 3, true}, [WG_FN_NOISE] = {"noise", 3, 3, true},
-    [WG_FN_RGB] = {"rgb", 3, 3, true},     [WG_FN_RGBA] = {"rgba", 4, 4, true},
+    [WG_FN_ABS] = {"abs", 1, 1},
+    [WG_FN_MIN] = {"min", 2, 4},
+    [WG_FN_MAX] = {"max", 2, 4},
+    [WG_FN_CLAMP] = {"clamp", 3, 3},
+    [WG_FN_LERP] = {"lerp", 3, 3},
+    [WG_FN_SMOOTHSTEP] = {"smoothstep", 3, 3},
+    [WG_FN_STEP] = {"step", 2, 2},
+    [WG_FN_FLOOR] = {"floor", 1, 1},
+    [WG_FN_CEIL] = {"ceil", 1, 1},
+    [WG_FN_FRACT] = {"fract", 1, 1},
+    [WG_FN_MOD] = {"mod", 2, 2},
+    [WG_FN_SQRT] = {"sqrt", 1, 1},
+    [WG_FN_POW] = {"pow", 2, 2},
+    [WG_FN_EXP] = {"exp", 1, 1},
+    [WG_FN_LOG] = {"log", 1, 1},
+    [WG_FN_SIN] = {"sin", 1, 1},
+    [WG_FN_COS] = {"cos", 1, 1},
+    [WG_FN_TAN] = {"tan", 1, 1},
+    [WG_FN_ATAN2] = {"atan2", 2, 2},
+    [WG_FN_ROUND] = {"round", 1, 1},
+    [WG_FN_SIGN] = {"sign", 1, 1},
+    [WG_FN_ASIN] = {"asin", 1, 1},
+    [WG_FN_ACOS] = {"acos", 1, 1},
+    [WG_FN_ATAN] = {"atan", 1, 1},
+    [WG_FN_SAMPLE] = {"sample", 3, 3, true},
+    [WG_FN_NOISE] = {"noise", 3, 3, true},
+    [WG_FN_RGB] = {"rgb", 3, 3, true},
+    [WG_FN_RGBA] = {"rgba", 4, 4, true},
 };
 
 const char *wg_expr_func_name(WgExprFunc f)
@@ -199,8 +213,7 @@ static WgExprNode *parse_atom(Parser *ps)
         if (!ps->opt->resolve || !ps->opt->resolve(ps->opt->user, s, len, &slot)) {
             WgExprFunc f;
             if (find_func(s, len, &f))
-                return fail(ps, at, WG_ERR_PARSE, "'%s' is a function: write it with (...)",
-                            name);
+                return fail(ps, at, WG_ERR_PARSE, "'%s' is a function: write it with (...)", name);
             return fail(ps, at, WG_ERR_PARSE, "unknown name '%s'", name);
         }
         WgExprNode *n = new_node(ps, WG_EX_VAR, at);
@@ -251,10 +264,14 @@ static WgExprNode *parse_mul(Parser *ps)
     while (a) {
         skip_space(ps);
         const char *at = ps->p;
-        if (accept(ps, "*")) a = binary(ps, WG_EX_MUL, at, a, parse_unary(ps));
-        else if (accept(ps, "/")) a = binary(ps, WG_EX_DIV, at, a, parse_unary(ps));
-        else if (accept(ps, "%")) a = binary(ps, WG_EX_MOD, at, a, parse_unary(ps));
-        else break;
+        if (accept(ps, "*"))
+            a = binary(ps, WG_EX_MUL, at, a, parse_unary(ps));
+        else if (accept(ps, "/"))
+            a = binary(ps, WG_EX_DIV, at, a, parse_unary(ps));
+        else if (accept(ps, "%"))
+            a = binary(ps, WG_EX_MOD, at, a, parse_unary(ps));
+        else
+            break;
     }
     return a;
 }
@@ -265,9 +282,12 @@ static WgExprNode *parse_add(Parser *ps)
     while (a) {
         skip_space(ps);
         const char *at = ps->p;
-        if (accept(ps, "+")) a = binary(ps, WG_EX_ADD, at, a, parse_mul(ps));
-        else if (accept(ps, "-")) a = binary(ps, WG_EX_SUB, at, a, parse_mul(ps));
-        else break;
+        if (accept(ps, "+"))
+            a = binary(ps, WG_EX_ADD, at, a, parse_mul(ps));
+        else if (accept(ps, "-"))
+            a = binary(ps, WG_EX_SUB, at, a, parse_mul(ps));
+        else
+            break;
     }
     return a;
 }
@@ -277,8 +297,8 @@ static WgExprNode *parse_cmp(Parser *ps)
     static const struct {
         const char *tok;
         WgExprOp op;
-    } ops[] = {{"<=", WG_EX_LE}, {">=", WG_EX_GE}, {"==", WG_EX_EQ}, {"!=", WG_EX_NE},
-               {"<", WG_EX_LT},  {">", WG_EX_GT}};
+    } ops[] = {{"<=", WG_EX_LE}, {">=", WG_EX_GE}, {"==", WG_EX_EQ},
+               {"!=", WG_EX_NE}, {"<", WG_EX_LT},  {">", WG_EX_GT}};
     WgExprNode *a = parse_add(ps);
     while (a) {
         skip_space(ps);
@@ -357,8 +377,10 @@ int wg_expr_parse(const char *src, const WgExprOptions *opt, WgExpr **out, WgErr
     }
     Parser ps = {.src = src, .p = src, .e = e, .opt = opt, .err = err};
     skip_space(&ps);
-    if (!*ps.p) fail(&ps, ps.p, WG_ERR_PARSE, "%s", "empty expression");
-    else e->root = parse_expr(&ps);
+    if (!*ps.p)
+        fail(&ps, ps.p, WG_ERR_PARSE, "%s", "empty expression");
+    else
+        e->root = parse_expr(&ps);
     skip_space(&ps);
     if (ps.status == WG_OK && *ps.p) {
         char c[2] = {*ps.p, 0};
@@ -383,30 +405,48 @@ void wg_expr_free(WgExpr *e)
 double wg_expr_apply(WgExprOp op, double a, double b)
 {
     switch (op) {
-    case WG_EX_NEG: return -a;
-    case WG_EX_NOT: return a == 0 ? 1 : 0;
-    case WG_EX_ADD: return a + b;
-    case WG_EX_SUB: return a - b;
-    case WG_EX_MUL: return a * b;
-    case WG_EX_DIV: return a / b;
-    case WG_EX_MOD: return a - b * floor(a / b);
-    case WG_EX_POW: return pow(a, b);
-    case WG_EX_LT: return a < b;
-    case WG_EX_LE: return a <= b;
-    case WG_EX_GT: return a > b;
-    case WG_EX_GE: return a >= b;
-    case WG_EX_EQ: return a == b;
-    case WG_EX_NE: return a != b;
-    case WG_EX_AND: return (a != 0) && (b != 0);
-    case WG_EX_OR: return (a != 0) || (b != 0);
-    default: return NAN;
+    case WG_EX_NEG:
+        return -a;
+    case WG_EX_NOT:
+        return a == 0 ? 1 : 0;
+    case WG_EX_ADD:
+        return a + b;
+    case WG_EX_SUB:
+        return a - b;
+    case WG_EX_MUL:
+        return a * b;
+    case WG_EX_DIV:
+        return a / b;
+    case WG_EX_MOD:
+        return a - b * floor(a / b);
+    case WG_EX_POW:
+        return pow(a, b);
+    case WG_EX_LT:
+        return a < b;
+    case WG_EX_LE:
+        return a <= b;
+    case WG_EX_GT:
+        return a > b;
+    case WG_EX_GE:
+        return a >= b;
+    case WG_EX_EQ:
+        return a == b;
+    case WG_EX_NE:
+        return a != b;
+    case WG_EX_AND:
+        return (a != 0) && (b != 0);
+    case WG_EX_OR:
+        return (a != 0) || (b != 0);
+    default:
+        return NAN;
     }
 }
 
 double wg_expr_call(WgExprFunc f, const double *x, int n)
 {
     switch (f) {
-    case WG_FN_ABS: return fabs(x[0]);
+    case WG_FN_ABS:
+        return fabs(x[0]);
     case WG_FN_MIN: {
         double m = x[0];
         for (int i = 1; i < n; i++) m = x[i] < m ? x[i] : m;
@@ -417,41 +457,64 @@ double wg_expr_call(WgExprFunc f, const double *x, int n)
         for (int i = 1; i < n; i++) m = x[i] > m ? x[i] : m;
         return m;
     }
-    case WG_FN_CLAMP: return x[0] < x[1] ? x[1] : x[0] > x[2] ? x[2] : x[0];
-    case WG_FN_LERP: return x[0] + (x[1] - x[0]) * x[2];
+    case WG_FN_CLAMP:
+        return x[0] < x[1] ? x[1] : x[0] > x[2] ? x[2] : x[0];
+    case WG_FN_LERP:
+        return x[0] + (x[1] - x[0]) * x[2];
     case WG_FN_SMOOTHSTEP: {
         if (x[0] == x[1]) return x[2] < x[0] ? 0 : 1; /* degenerate: a step */
         double t = (x[2] - x[0]) / (x[1] - x[0]);
         t = t < 0 ? 0 : t > 1 ? 1 : t;
         return t * t * (3 - 2 * t);
     }
-    case WG_FN_STEP: return x[1] < x[0] ? 0 : 1;
-    case WG_FN_FLOOR: return floor(x[0]);
-    case WG_FN_CEIL: return ceil(x[0]);
-    case WG_FN_FRACT: return x[0] - floor(x[0]);
-    case WG_FN_MOD: return x[0] - x[1] * floor(x[0] / x[1]);
-    case WG_FN_SQRT: return sqrt(x[0]);
-    case WG_FN_POW: return pow(x[0], x[1]);
-    case WG_FN_EXP: return exp(x[0]);
-    case WG_FN_LOG: return log(x[0]);
-    case WG_FN_SIN: return sin(x[0]);
-    case WG_FN_COS: return cos(x[0]);
-    case WG_FN_TAN: return tan(x[0]);
-    case WG_FN_ATAN2: return atan2(x[0], x[1]);
-    case WG_FN_ROUND: return floor(x[0] + 0.5);
-    case WG_FN_SIGN: return x[0] > 0 ? 1 : x[0] < 0 ? -1 : 0;
-    case WG_FN_ASIN: return asin(x[0]);
-    case WG_FN_ACOS: return acos(x[0]);
-    case WG_FN_ATAN: return atan(x[0]);
-    default: return NAN;
+    case WG_FN_STEP:
+        return x[1] < x[0] ? 0 : 1;
+    case WG_FN_FLOOR:
+        return floor(x[0]);
+    case WG_FN_CEIL:
+        return ceil(x[0]);
+    case WG_FN_FRACT:
+        return x[0] - floor(x[0]);
+    case WG_FN_MOD:
+        return x[0] - x[1] * floor(x[0] / x[1]);
+    case WG_FN_SQRT:
+        return sqrt(x[0]);
+    case WG_FN_POW:
+        return pow(x[0], x[1]);
+    case WG_FN_EXP:
+        return exp(x[0]);
+    case WG_FN_LOG:
+        return log(x[0]);
+    case WG_FN_SIN:
+        return sin(x[0]);
+    case WG_FN_COS:
+        return cos(x[0]);
+    case WG_FN_TAN:
+        return tan(x[0]);
+    case WG_FN_ATAN2:
+        return atan2(x[0], x[1]);
+    case WG_FN_ROUND:
+        return floor(x[0] + 0.5);
+    case WG_FN_SIGN:
+        return x[0] > 0 ? 1 : x[0] < 0 ? -1 : 0;
+    case WG_FN_ASIN:
+        return asin(x[0]);
+    case WG_FN_ACOS:
+        return acos(x[0]);
+    case WG_FN_ATAN:
+        return atan(x[0]);
+    default:
+        return NAN;
     }
 }
 
 static double eval_node(const WgExprNode *n, const double *slots)
 {
     switch (n->op) {
-    case WG_EX_NUM: return n->value;
-    case WG_EX_VAR: return slots[n->slot];
+    case WG_EX_NUM:
+        return n->value;
+    case WG_EX_VAR:
+        return slots[n->slot];
     case WG_EX_COND:
         return eval_node(n->args[0], slots) != 0 ? eval_node(n->args[1], slots)
                                                  : eval_node(n->args[2], slots);
@@ -461,7 +524,8 @@ static double eval_node(const WgExprNode *n, const double *slots)
         return wg_expr_call(n->func, a, n->nargs);
     }
     case WG_EX_NEG:
-    case WG_EX_NOT: return wg_expr_apply(n->op, eval_node(n->args[0], slots), 0);
+    case WG_EX_NOT:
+        return wg_expr_apply(n->op, eval_node(n->args[0], slots), 0);
     default:
         return wg_expr_apply(n->op, eval_node(n->args[0], slots), eval_node(n->args[1], slots));
     }

@@ -376,8 +376,8 @@ static int parse_enum_values(ParamDef *p, const char *text)
 
 static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
 {
-    static const char *const allowed[] = {"name", "type", "default", "min", "max", "label",
-                                          "values", NULL};
+    static const char *const allowed[] = {"name", "type",  "default", "min",
+                                          "max",  "label", "values",  NULL};
     int line = line_of(x);
     int rc = check_attrs(d, x, allowed);
     if (rc) return rc;
@@ -523,12 +523,14 @@ static int parse_input(Doc *d, WgGraph *g, xmlNodePtr x)
         goto out;
     }
     if (wg__graph_find_input(g, name) >= 0) {
-        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
-                             "input '%s' is declared twice", name);
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "input '%s' is declared twice",
+                             name);
         goto out;
     }
-    if (!strcmp(type, "gray")) in->info.kind = WG_GRAY;
-    else if (!strcmp(type, "color")) in->info.kind = WG_COLOR;
+    if (!strcmp(type, "gray"))
+        in->info.kind = WG_GRAY;
+    else if (!strcmp(type, "color"))
+        in->info.kind = WG_COLOR;
     else {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                              "input type must be 'gray' or 'color', not '%s'", type);
@@ -536,7 +538,8 @@ static int parse_input(Doc *d, WgGraph *g, xmlNodePtr x)
     }
     in->info.colorspace = WG_LINEAR;
     if (cs) {
-        if (!strcmp(cs, "srgb")) in->info.colorspace = WG_SRGB;
+        if (!strcmp(cs, "srgb"))
+            in->info.colorspace = WG_SRGB;
         else if (strcmp(cs, "linear")) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                                  "colorspace must be 'linear' or 'srgb', not '%s'", cs);
@@ -568,8 +571,8 @@ out:
 
 /* ---- <node> ------------------------------------------------------------------------------ */
 
-static const char *const reserved_node_attrs[] = {"id", "type", "size", "seed", "label", "pos",
-                                                  NULL};
+static const char *const reserved_node_attrs[] = {"id",    "type", "size", "seed",
+                                                  "label", "pos",  NULL};
 
 static bool is_reserved(const char *name)
 {
@@ -584,8 +587,10 @@ static int try_path(const char *dir, const char *file, char **found, WgError *er
 {
     char *cand = join_path(dir, file);
     if (!cand) return nomem(err);
-    if (file_exists(cand)) *found = cand;
-    else wg_free(cand);
+    if (file_exists(cand))
+        *found = cand;
+    else
+        wg_free(cand);
     return WG_OK;
 }
 
@@ -627,12 +632,13 @@ static int resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError
             const char *s = wg_suggest(n->type_name, names, count);
             if (s)
                 return wg_error_set_at(err, WG_ERR_TYPE, d->path, n->line, 0,
-                                       "unknown node type '%s'; did you mean '%s'?",
-                                       n->type_name, s);
-            return wg_error_set_at(err, WG_ERR_TYPE, d->path, n->line, 0,
-                                   "unknown node type '%s' (not a built-in node, and no %s.wetgraph "
-                                   "next to this file, in WETGRAPH_PATH or in %s)",
-                                   n->type_name, n->type_name, wg_builtin_graphs_dir());
+                                       "unknown node type '%s'; did you mean '%s'?", n->type_name,
+                                       s);
+            return wg_error_set_at(
+                err, WG_ERR_TYPE, d->path, n->line, 0,
+                "unknown node type '%s' (not a built-in node, and no %s.wetgraph "
+                "next to this file, in WETGRAPH_PATH or in %s)",
+                n->type_name, n->type_name, wg_builtin_graphs_dir());
         }
     }
     if (!found) return nomem(err);
@@ -725,7 +731,8 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
                 int count = 0;
                 static const char *const specials[] = {"$time", "$seed", "$width", "$height"};
                 for (int i = 0; i < 4; i++) names[count++] = specials[i];
-                for (int i = 0; i < g->n_params && count < 260; i++) names[count++] = g->params[i].info.name;
+                for (int i = 0; i < g->n_params && count < 260; i++)
+                    names[count++] = g->params[i].info.name;
                 const char *sug = wg_suggest(name, names, count);
                 if (sug) snprintf(extra, sizeof extra, "; did you mean '%s'?", sug);
             }
@@ -918,11 +925,12 @@ static int resolve_from(Doc *d, WgGraph *g, const char *from, int line, int *nod
         if (*input < 0) {
             const char *names[256];
             int count = 0;
-            for (int i = 0; i < g->n_inputs && count < 256; i++) names[count++] = g->inputs[i].info.name;
+            for (int i = 0; i < g->n_inputs && count < 256; i++)
+                names[count++] = g->inputs[i].info.name;
             const char *s = wg_suggest(from + 1, names, count);
             return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
-                                   "no graph input '%s'%s%s%s", from + 1, s ? "; did you mean '$" : "",
-                                   s ? s : "", s ? "'?" : "");
+                                   "no graph input '%s'%s%s%s", from + 1,
+                                   s ? "; did you mean '$" : "", s ? s : "", s ? "'?" : "");
         }
         return WG_OK;
     }
@@ -1002,12 +1010,13 @@ static int link_node(Doc *d, WgGraph *g, NodeDef *n)
                                        n->type_name, in->port, count ? list : "none");
             }
         }
-        int rc = resolve_from(d, g, in->from, in->line, &in->from_node, &in->from_port,
-                              &in->from_input);
+        int rc =
+            resolve_from(d, g, in->from, in->line, &in->from_node, &in->from_port, &in->from_input);
         if (rc) return rc;
     }
     for (int i = 0; i < n_ports; i++) {
-        bool required = n->type ? !n->type->inputs[i].optional : !n->sub->inputs[i].info.has_default;
+        bool required =
+            n->type ? !n->type->inputs[i].optional : !n->sub->inputs[i].info.has_default;
         if (!required) continue;
         bool connected = false;
         for (int k = 0; k < n->n_ins; k++) connected |= n->ins[k].port_index == i;
@@ -1015,7 +1024,8 @@ static int link_node(Doc *d, WgGraph *g, NodeDef *n)
             return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, n->line, 0,
                                    "node '%s' (%s): required input '%s' is not connected; add "
                                    "<in name=\"%s\" from=\"...\"/>",
-                                   n->id, n->type_name, node_input_name(n, i), node_input_name(n, i));
+                                   n->id, n->type_name, node_input_name(n, i),
+                                   node_input_name(n, i));
     }
     return WG_OK;
 }
@@ -1105,7 +1115,8 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
         o->format = (WgFormat)f;
     }
     if (cs) {
-        if (!strcmp(cs, "srgb")) o->colorspace = WG_SRGB;
+        if (!strcmp(cs, "srgb"))
+            o->colorspace = WG_SRGB;
         else if (strcmp(cs, "linear")) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                                  "colorspace must be 'linear' or 'srgb', not '%s'", cs);
@@ -1183,10 +1194,11 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             if (!strcmp(elements[i], (const char *)c->name)) k = i;
         if (k < 0) {
             const char *s = wg_suggest((const char *)c->name, elements, 4);
-            rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(c), 0,
-                                 "unknown element <%s>%s%s%s", (const char *)c->name,
-                                 s ? "; did you mean <" : " (expected param, input, node or output)",
-                                 s ? s : "", s ? ">?" : "");
+            rc =
+                wg_error_set_at(err, WG_ERR_PARSE, path, line_of(c), 0,
+                                "unknown element <%s>%s%s%s", (const char *)c->name,
+                                s ? "; did you mean <" : " (expected param, input, node or output)",
+                                s ? s : "", s ? ">?" : "");
             break;
         }
         counts[k]++;
@@ -1200,9 +1212,12 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     /* declarations first so node attributes can refer to any parameter */
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
         if (c->type != XML_ELEMENT_NODE) continue;
-        if (!strcmp((const char *)c->name, "param")) rc = parse_param(&d, g, c);
-        else if (!strcmp((const char *)c->name, "input")) rc = parse_input(&d, g, c);
-        else if (!strcmp((const char *)c->name, "output")) rc = parse_output(&d, g, c);
+        if (!strcmp((const char *)c->name, "param"))
+            rc = parse_param(&d, g, c);
+        else if (!strcmp((const char *)c->name, "input"))
+            rc = parse_input(&d, g, c);
+        else if (!strcmp((const char *)c->name, "output"))
+            rc = parse_output(&d, g, c);
         if (!rc && strcmp((const char *)c->name, "node")) rc = check_leaf(&d, c);
     }
     for (xmlNodePtr c = root->children; c && !rc; c = c->next)
@@ -1284,12 +1299,10 @@ static void first_xml_error(void *user, const xmlError *e)
         xmlCopyError((xmlErrorPtr)e, first);
 }
 
-static int xml_error(const char *path, xmlParserCtxtPtr ctxt, const xmlError *first,
-                     WgError *err)
+static int xml_error(const char *path, xmlParserCtxtPtr ctxt, const xmlError *first, WgError *err)
 {
     const xmlError *e = first->code ? first : xmlCtxtGetLastError(ctxt);
-    if (!e)
-        return wg_error_set_at(err, WG_ERR_PARSE, path, 0, 0, "not a readable XML file");
+    if (!e) return wg_error_set_at(err, WG_ERR_PARSE, path, 0, 0, "not a readable XML file");
     char msg[512];
     snprintf(msg, sizeof msg, "%s", e->message ? e->message : "malformed XML");
     size_t l = strlen(msg);
@@ -1312,8 +1325,10 @@ static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len,
                         : xmlCtxtReadFile(ctxt, path, NULL, opts);
     xmlSetStructuredErrorFunc(NULL, (xmlStructuredErrorFunc)silent_xml_error);
     int rc;
-    if (!doc) rc = xml_error(path, ctxt, &first, err);
-    else rc = load_doc(lc, doc, path, out, err);
+    if (!doc)
+        rc = xml_error(path, ctxt, &first, err);
+    else
+        rc = load_doc(lc, doc, path, out, err);
     xmlResetError(&first);
     if (doc) xmlFreeDoc(doc);
     xmlFreeParserCtxt(ctxt);
@@ -1324,7 +1339,8 @@ static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err)
 {
     char real[PATH_MAX];
     if (!realpath(path, real))
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot open the graph file: no such file");
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0,
+                               "cannot open the graph file: no such file");
     for (int i = 0; i < lc->depth; i++) {
         if (!strcmp(lc->stack[i], real)) {
             char chain[1024] = "";
@@ -1336,8 +1352,7 @@ static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err)
             const char *b = strrchr(real, '/');
             size_t l = strlen(chain);
             snprintf(chain + l, sizeof chain - l, "%s", b ? b + 1 : real);
-            return wg_error_set_at(err, WG_ERR_CYCLE, path, 0, 0,
-                                   "subgraph recursion: %s", chain);
+            return wg_error_set_at(err, WG_ERR_CYCLE, path, 0, 0, "subgraph recursion: %s", chain);
         }
     }
     if (lc->depth >= 64)
@@ -1374,8 +1389,7 @@ int wg_graph_load(const char *path, WgGraph **out, WgError *err)
     return rc;
 }
 
-int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph **out,
-                         WgError *err)
+int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph **out, WgError *err)
 {
     LoadCtx lc = {0};
     char real[PATH_MAX];
@@ -1388,18 +1402,54 @@ int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph 
 
 /* ---- introspection ----------------------------------------------------------------------- */
 
-const char *wg_graph_name(const WgGraph *g) { return g->name; }
-const char *wg_graph_path(const WgGraph *g) { return g->path; }
-const char *wg_graph_size_text(const WgGraph *g) { return g->size_text; }
-uint64_t wg_graph_seed(const WgGraph *g) { return g->seed; }
-int wg_graph_param_count(const WgGraph *g) { return g->n_params; }
-const WgGraphParamInfo *wg_graph_param_info(const WgGraph *g, int i) { return &g->params[i].info; }
-int wg_graph_input_count(const WgGraph *g) { return g->n_inputs; }
-const WgGraphInputInfo *wg_graph_input_info(const WgGraph *g, int i) { return &g->inputs[i].info; }
-int wg_graph_output_count(const WgGraph *g) { return g->n_outputs; }
-const WgGraphOutputInfo *wg_graph_output_info(const WgGraph *g, int i) { return &g->outputs[i]; }
-int wg_graph_node_count(const WgGraph *g) { return g->n_nodes; }
-const WgGraphNodeInfo *wg_graph_node_info(const WgGraph *g, int i) { return &g->node_info[i]; }
+const char *wg_graph_name(const WgGraph *g)
+{
+    return g->name;
+}
+const char *wg_graph_path(const WgGraph *g)
+{
+    return g->path;
+}
+const char *wg_graph_size_text(const WgGraph *g)
+{
+    return g->size_text;
+}
+uint64_t wg_graph_seed(const WgGraph *g)
+{
+    return g->seed;
+}
+int wg_graph_param_count(const WgGraph *g)
+{
+    return g->n_params;
+}
+const WgGraphParamInfo *wg_graph_param_info(const WgGraph *g, int i)
+{
+    return &g->params[i].info;
+}
+int wg_graph_input_count(const WgGraph *g)
+{
+    return g->n_inputs;
+}
+const WgGraphInputInfo *wg_graph_input_info(const WgGraph *g, int i)
+{
+    return &g->inputs[i].info;
+}
+int wg_graph_output_count(const WgGraph *g)
+{
+    return g->n_outputs;
+}
+const WgGraphOutputInfo *wg_graph_output_info(const WgGraph *g, int i)
+{
+    return &g->outputs[i];
+}
+int wg_graph_node_count(const WgGraph *g)
+{
+    return g->n_nodes;
+}
+const WgGraphNodeInfo *wg_graph_node_info(const WgGraph *g, int i)
+{
+    return &g->node_info[i];
+}
 
 static void dot_string(FILE *f, const char *s)
 {
@@ -1417,9 +1467,11 @@ int wg_graph_write_dot(const WgGraph *g, FILE *f)
     dot_string(f, g->name);
     fprintf(f, " {\n  rankdir=LR;\n  node [fontname=\"Helvetica\", fontsize=10];\n");
     for (int i = 0; i < g->n_inputs; i++) {
-        fprintf(f, "  \"$%s\" [shape=ellipse, style=filled, fillcolor=\"#dde8f0\", label=\"$%s\\n%s\"];\n",
-                g->inputs[i].info.name, g->inputs[i].info.name,
-                g->inputs[i].info.kind == WG_COLOR ? "color" : "gray");
+        fprintf(
+            f,
+            "  \"$%s\" [shape=ellipse, style=filled, fillcolor=\"#dde8f0\", label=\"$%s\\n%s\"];\n",
+            g->inputs[i].info.name, g->inputs[i].info.name,
+            g->inputs[i].info.kind == WG_COLOR ? "color" : "gray");
     }
     for (int i = 0; i < g->n_nodes; i++) {
         const NodeDef *n = &g->nodes[i];
@@ -1432,8 +1484,8 @@ int wg_graph_write_dot(const WgGraph *g, FILE *f)
         for (int k = 0; k < n->n_ins; k++) {
             const InDef *in = &n->ins[k];
             if (in->from_node >= 0)
-                fprintf(f, "  \"n:%s\" -> \"n:%s\" [label=\"%s\"];\n",
-                        g->nodes[in->from_node].id, n->id, in->port);
+                fprintf(f, "  \"n:%s\" -> \"n:%s\" [label=\"%s\"];\n", g->nodes[in->from_node].id,
+                        n->id, in->port);
             else
                 fprintf(f, "  \"$%s\" -> \"n:%s\" [label=\"%s\"];\n",
                         g->inputs[in->from_input].info.name, n->id, in->port);

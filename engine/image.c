@@ -56,8 +56,10 @@ void *wg_realloc_array(void *ptr, size_t old_count, size_t new_count, size_t siz
 void wg_free(void *ptr)
 {
     if (!ptr) return;
-    if (free_hook) free_hook(ptr, hook_user);
-    else free(ptr);
+    if (free_hook)
+        free_hook(ptr, hook_user);
+    else
+        free(ptr);
 }
 
 char *wg_strndup(const char *s, size_t n)

@@ -13,9 +13,9 @@
 
 typedef struct WgValue {
     WgParamType type;
-    double num;      /* float, int, bool (0/1), enum (index) */
-    float color[4];  /* colour */
-    char *str;       /* string; enum: value name */
+    double num;     /* float, int, bool (0/1), enum (index) */
+    float color[4]; /* colour */
+    char *str;      /* string; enum: value name */
 } WgValue;
 
 /* What a value must satisfy: built from a node's WgParamSpec or a graph's <param>. */
@@ -53,11 +53,11 @@ typedef struct AttrDef {
 
 typedef struct InDef {
     char *port;
-    char *from;      /* as written */
-    int from_node;   /* node index, or -1 for a graph input */
-    int from_input;  /* graph input index when from_node < 0 */
-    int from_port;   /* output port index of the source node */
-    int port_index;  /* input port index on this node (dynamic inputs: order of <in>) */
+    char *from;     /* as written */
+    int from_node;  /* node index, or -1 for a graph input */
+    int from_input; /* graph input index when from_node < 0 */
+    int from_port;  /* output port index of the source node */
+    int port_index; /* input port index on this node (dynamic inputs: order of <in>) */
     int line;
 } InDef;
 
@@ -133,8 +133,8 @@ typedef struct WgInst {
     char *id; /* path: "sub/node" inside subgraphs */
     const char *file;
     int line;
-    void *params;     /* resolved params struct */
-    char **strings;   /* owned strings referenced by params */
+    void *params;   /* resolved params struct */
+    char **strings; /* owned strings referenced by params */
     int n_strings;
     int width, height;
     uint64_t seed;
@@ -152,7 +152,7 @@ typedef struct WgInst {
     int n_scope;
     char **scope_names;
     double *scope_values;
-    uint64_t key[2]; /* xxh3-128 of everything that determines the outputs */
+    uint64_t key[2];         /* xxh3-128 of everything that determines the outputs */
     const WgImage *constant; /* internal "constant" node: the image itself */
 } WgInst;
 
@@ -172,9 +172,9 @@ typedef struct WgPlan {
 
 struct WgRequest {
     const WgGraph *graph;
-    WgValue *values;   /* per graph param */
+    WgValue *values; /* per graph param */
     bool *value_set;
-    char **input_paths;        /* per graph input */
+    char **input_paths; /* per graph input */
     const WgImage **input_images;
     char **outputs;
     int n_outputs;
@@ -229,11 +229,10 @@ double wg__now_ms(void);
 bool wg__hash_file(const char *path, uint64_t out[2]);
 /* OpenImageIO bridge (io_oiio.cpp) */
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
-                  size_t msg_size);
+int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size);
 /* bits: 8, 16 (unsigned integers), -16 (half), 32 (float); data packed, `c` channels of that
  * type for 8/16, float for -16/32. */
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h,
-                   int c, int bits, char *msg, size_t msg_size);
+int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
+                   int bits, char *msg, size_t msg_size);
 
 #endif

@@ -31,10 +31,13 @@ const char *wg_format_name(WgFormat f)
 const char *wg_format_extension(WgFormat f)
 {
     switch (f) {
-    case WG_FORMAT_TIF16: return "tif";
+    case WG_FORMAT_TIF16:
+        return "tif";
     case WG_FORMAT_EXR:
-    case WG_FORMAT_EXR32: return "exr";
-    default: return "png";
+    case WG_FORMAT_EXR32:
+        return "exr";
+    default:
+        return "png";
     }
 }
 
@@ -102,8 +105,8 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
     if (wg__oiio_probe(path, width, height, channels, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (*width < 1 || *height < 1 || *width > WG_MAX_SIDE || *height > WG_MAX_SIDE)
-        return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0,
-                               "image is %dx%d; sides must be 1..%d", *width, *height, WG_MAX_SIDE);
+        return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0, "image is %dx%d; sides must be 1..%d",
+                               *width, *height, WG_MAX_SIDE);
     return WG_OK;
 }
 
@@ -113,8 +116,7 @@ int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out
     int w, h, c;
     int rc = wg_image_probe(path, &w, &h, &c, err);
     if (rc) return rc;
-    if (c < 1)
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "image has no channels");
+    if (c < 1) return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "image has no channels");
     size_t count = (size_t)w * (size_t)h * (size_t)c;
     float *buf = wg_malloc(count * sizeof(float));
     if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
@@ -190,9 +192,10 @@ int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColo
         }
         if (opaque) c = 3;
     }
-    int bits = format == WG_FORMAT_PNG ? 8 : format == WG_FORMAT_EXR ? -16
-               : format == WG_FORMAT_EXR32                           ? 32
-                                                                     : 16;
+    int bits = format == WG_FORMAT_PNG     ? 8
+               : format == WG_FORMAT_EXR   ? -16
+               : format == WG_FORMAT_EXR32 ? 32
+                                           : 16;
     size_t count = (size_t)img->width * (size_t)img->height * (size_t)c;
     size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
     void *buf = wg_malloc(count * elem);
@@ -204,9 +207,12 @@ int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColo
             for (int k = 0; k < c; k++, i++) {
                 float v = r[x * img->channels + k];
                 bool colour = k < 3; /* gray is a colour channel too; alpha never is */
-                if (bits == 8) ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
-                else if (bits == 16) ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
-                else ((float *)buf)[i] = v;
+                if (bits == 8)
+                    ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
+                else if (bits == 16)
+                    ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
+                else
+                    ((float *)buf)[i] = v;
             }
         }
     }

@@ -43,7 +43,8 @@ static int write_part(exr_context_t ctx, const char *path, int count, const char
     }
     if ((rv = exr_write_header(ctx))) return exr_fail(err, path, rv, "header");
     int32_t lines;
-    if ((rv = exr_get_scanlines_per_chunk(ctx, part, &lines))) return exr_fail(err, path, rv, "chunks");
+    if ((rv = exr_get_scanlines_per_chunk(ctx, part, &lines)))
+        return exr_fail(err, path, rv, "chunks");
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     bool initialised = false;
     int rc = WG_OK;
@@ -84,7 +85,8 @@ static int write_part(exr_context_t ctx, const char *path, int count, const char
             ci->encode_from_ptr = (const uint8_t *)(wg_image_row(im, cinfo.start_y) + comp);
         }
         if (rc) break;
-        if (!enc.convert_and_pack_fn && (rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
+        if (!enc.convert_and_pack_fn &&
+            (rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
             rc = exr_fail(err, path, rv, "encoder");
             break;
         }

@@ -10,10 +10,9 @@
 
 extern "C" {
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
-                  size_t msg_size);
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h,
-                   int c, int bits, char *msg, size_t msg_size);
+int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size);
+int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
+                   int bits, char *msg, size_t msg_size);
 }
 
 using namespace OIIO;
@@ -71,8 +70,8 @@ int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
     }
 }
 
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h,
-                   int c, int bits, char *msg, size_t msg_size)
+int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
+                   int bits, char *msg, size_t msg_size)
 {
     try {
         auto out = ImageOutput::create(format_ext);
@@ -80,7 +79,9 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
             set_msg(msg, msg_size, OIIO::geterror());
             return -1;
         }
-        TypeDesc in_type = bits == 8 ? TypeDesc::UINT8 : bits == 16 ? TypeDesc::UINT16 : TypeDesc::FLOAT;
+        TypeDesc in_type = bits == 8    ? TypeDesc::UINT8
+                           : bits == 16 ? TypeDesc::UINT16
+                                        : TypeDesc::FLOAT;
         TypeDesc file_type = bits == -16 ? TypeDesc::HALF : in_type;
         ImageSpec spec(w, h, c, file_type);
         if (c == 4) spec.alpha_channel = 3;

@@ -145,8 +145,10 @@ int wg__pool_submit(WgPool *p, WgJobFn fn, void *user)
     j->user = user;
     j->next = NULL;
     pthread_mutex_lock(&p->mu);
-    if (p->tail) p->tail->next = j;
-    else p->head = j;
+    if (p->tail)
+        p->tail->next = j;
+    else
+        p->head = j;
     p->tail = j;
     pthread_cond_signal(&p->work);
     pthread_mutex_unlock(&p->mu);

@@ -21,7 +21,7 @@ typedef struct Frame {
     const WgGraph *g;
     char *prefix;
     WgValue *values;
-    WgRef *inputs;   /* bound input refs; inst -1 = unbound */
+    WgRef *inputs;      /* bound input refs; inst -1 = unbound */
     int *input_default; /* memo of the default uniform per input, -1 */
     int width, height;
     uint64_t seed;
@@ -38,8 +38,7 @@ typedef struct Builder {
     int n_frames, cap_frames;
 } Builder;
 
-static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line,
-                       WgRef *out);
+static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out);
 
 /* ---- frames ------------------------------------------------------------------------------ */
 
@@ -172,12 +171,21 @@ static int write_param(WgInst *in, const WgParamSpec *s, const WgValue *v)
 {
     char *field = (char *)in->params + s->offset;
     switch (s->type) {
-    case WG_PARAM_FLOAT_T: *(float *)field = (float)v->num; break;
+    case WG_PARAM_FLOAT_T:
+        *(float *)field = (float)v->num;
+        break;
     case WG_PARAM_INT_T:
-    case WG_PARAM_ENUM_T: *(int *)field = (int)v->num; break;
-    case WG_PARAM_BOOL_T: *(bool *)field = v->num != 0; break;
-    case WG_PARAM_COLOR_T: memcpy(field, v->color, 4 * sizeof(float)); break;
-    case WG_PARAM_STRING_T: return keep_string(in, v->str, (const char **)field);
+    case WG_PARAM_ENUM_T:
+        *(int *)field = (int)v->num;
+        break;
+    case WG_PARAM_BOOL_T:
+        *(bool *)field = v->num != 0;
+        break;
+    case WG_PARAM_COLOR_T:
+        memcpy(field, v->color, 4 * sizeof(float));
+        break;
+    case WG_PARAM_STRING_T:
+        return keep_string(in, v->str, (const char **)field);
     }
     return WG_OK;
 }
@@ -190,8 +198,8 @@ static int write_defaults(WgInst *in, WgError *err)
     for (int i = 0; t->params && t->params[i].name; i++) {
         const WgParamSpec *s = &t->params[i];
         WgValue v = {.type = s->type, .num = s->def};
-        if (s->type == WG_PARAM_COLOR_T && wg__color_parse(s->def_string ? s->def_string : "0",
-                                                           v.color))
+        if (s->type == WG_PARAM_COLOR_T &&
+            wg__color_parse(s->def_string ? s->def_string : "0", v.color))
             return wg_error_set(err, WG_ERR_TYPE, NULL, "bad colour default in '%s'", t->name);
         if (s->type == WG_PARAM_STRING_T) v.str = (char *)(s->def_string ? s->def_string : "");
         if (s->type == WG_PARAM_ENUM_T) v.str = (char *)s->values[(int)s->def];
@@ -239,11 +247,19 @@ static int compute_key(Builder *b, WgInst *in)
         const char *field = (const char *)in->params + s->offset;
         ADD_STR(s->name);
         switch (s->type) {
-        case WG_PARAM_FLOAT_T: ADD(field, sizeof(float)); break;
+        case WG_PARAM_FLOAT_T:
+            ADD(field, sizeof(float));
+            break;
         case WG_PARAM_INT_T:
-        case WG_PARAM_ENUM_T: ADD(field, sizeof(int)); break;
-        case WG_PARAM_BOOL_T: ADD(field, sizeof(bool)); break;
-        case WG_PARAM_COLOR_T: ADD(field, 4 * sizeof(float)); break;
+        case WG_PARAM_ENUM_T:
+            ADD(field, sizeof(int));
+            break;
+        case WG_PARAM_BOOL_T:
+            ADD(field, sizeof(bool));
+            break;
+        case WG_PARAM_COLOR_T:
+            ADD(field, 4 * sizeof(float));
+            break;
         case WG_PARAM_STRING_T: {
             const char *str = *(const char *const *)field;
             ADD_STR(str ? str : "");
@@ -333,8 +349,7 @@ static int finish_inst(Builder *b, int *index)
     int n_fixed = 0;
     while (t->inputs && t->inputs[n_fixed].name) n_fixed++;
     for (int i = 0; i < in->n_in && i < n_fixed; i++) {
-        if (t->inputs[i].kind == WG_GRAY && in->in_channels[i] == 4)
-        {
+        if (t->inputs[i].kind == WG_GRAY && in->in_channels[i] == 4) {
             wg_error_set_at(b->err, WG_ERR_TYPE, in->file, in->in_lines[i], 0,
                             "input '%s' takes a gray image but gets a colour one; convert it "
                             "with a 'grayscale' node",
@@ -454,8 +469,8 @@ static int resolve_size(Builder *b, Frame *f, const NodeDef *n, const WgRef *inp
         long lw = lround(fw), lh = lround(fh);
         if (lw < 1 || lh < 1 || lw > WG_MAX_SIDE || lh > WG_MAX_SIDE)
             return wg_error_set_at(b->err, WG_ERR_RANGE, f->g->path, n->line, 0,
-                                   "size '%s' of %dx%d gives %.0fx%.0f, outside 1..%d", s,
-                                   f->width, f->height, fw, fh, WG_MAX_SIDE);
+                                   "size '%s' of %dx%d gives %.0fx%.0f, outside 1..%d", s, f->width,
+                                   f->height, fw, fh, WG_MAX_SIDE);
         *w = (int)lw;
         *h = (int)lh;
         return WG_OK;
@@ -466,8 +481,8 @@ static int resolve_size(Builder *b, Frame *f, const NodeDef *n, const WgRef *inp
 
 /* ---- attribute values -------------------------------------------------------------------- */
 
-static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a,
-                     const WgParamDesc *d, const double *slots, WgValue *out)
+static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a, const WgParamDesc *d,
+                     const double *slots, WgValue *out)
 {
     int rc;
     if (a->expr) {
@@ -490,8 +505,7 @@ static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a,
             /* match by name: the graph's enum may list other values */
             WgError e = {0};
             rc = wg__value_parse(d, src->str ? src->str : "", out, &e);
-            if (rc)
-                return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "%s", e.message);
+            if (rc) return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "%s", e.message);
             return WG_OK;
         }
         return wg__value_copy(out, src);
@@ -611,8 +625,8 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
                 goto out_slots;
             }
             if (!file_readable(full)) {
-                rc = wg_error_set_at(b->err, WG_ERR_IO, g->path, n->line, 0,
-                                     "file '%s' not found", full);
+                rc = wg_error_set_at(b->err, WG_ERR_IO, g->path, n->line, 0, "file '%s' not found",
+                                     full);
                 wg__value_clear(&v);
                 goto out_slots;
             }
@@ -717,8 +731,10 @@ static int inst_sub(Builder *b, Frame *f, int idx, Frame **out)
         c->seed = n->seed_text ? strtoull(n->seed_text, NULL, 10) : f->seed;
         c->time = f->time;
         double *slots = wg_calloc((size_t)g->n_params + WG_SCOPE_COUNT_, sizeof(double));
-        if (!slots) rc = WG_ERR_NOMEM;
-        else fill_scope(f, slots, c->seed, c->width, c->height);
+        if (!slots)
+            rc = WG_ERR_NOMEM;
+        else
+            fill_scope(f, slots, c->seed, c->width, c->height);
         for (int k = 0; k < n->n_attrs && !rc; k++) {
             const AttrDef *a = &n->attrs[k];
             WgValue v;
@@ -755,8 +771,8 @@ static int input_default(Builder *b, Frame *f, int input, int line, WgRef *out)
         char id[512];
         snprintf(id, sizeof id, "%s$%s", f->prefix, d->info.name);
         int index;
-        int rc = engine_source(b, "uniform", id, g->path, d->info.line, f->width, f->height,
-                               &index);
+        int rc =
+            engine_source(b, "uniform", id, g->path, d->info.line, f->width, f->height, &index);
         if (rc) return rc;
         WgInst *in = &b->plan->insts[index];
         char text[160];
@@ -775,8 +791,7 @@ static int input_default(Builder *b, Frame *f, int input, int line, WgRef *out)
     return WG_OK;
 }
 
-static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line,
-                       WgRef *out)
+static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out)
 {
     if (node < 0) {
         if (f->inputs[input].inst >= 0) {
@@ -827,9 +842,8 @@ static int top_size(Builder *b, const WgGraph *g, int *w, int *h)
     const WgRequest *r = b->r;
     if (r->width != 0 || r->height != 0) {
         if (r->width < 1 || r->height < 1 || r->width > WG_MAX_SIDE || r->height > WG_MAX_SIDE)
-            return wg_error_set(b->err, WG_ERR_RANGE, NULL,
-                                "size %dx%d is outside 1..%d per side", r->width, r->height,
-                                WG_MAX_SIDE);
+            return wg_error_set(b->err, WG_ERR_RANGE, NULL, "size %dx%d is outside 1..%d per side",
+                                r->width, r->height, WG_MAX_SIDE);
         *w = r->width;
         *h = r->height;
         return WG_OK;
@@ -892,8 +906,8 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
             in->constant = wg_image_ref(r->input_images[i]);
             in->out_channels[0] = d->info.kind == WG_COLOR ? 4 : 1;
         } else if (r->input_paths[i]) {
-            if ((rc = engine_source(&b, "image", id, g->path, d->info.line, top->width,
-                                    top->height, &index)))
+            if ((rc = engine_source(&b, "image", id, g->path, d->info.line, top->width, top->height,
+                                    &index)))
                 goto out;
             WgInst *in = &plan->insts[index];
             if ((rc = set_param(in, "path", r->input_paths[i], err)) ||
@@ -934,7 +948,8 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
     }
 out:
     if (rc && err && err->code == WG_OK)
-        wg_error_set(err, rc, NULL, "%s", rc == WG_ERR_NOMEM ? "out of memory" : wg_status_name(rc));
+        wg_error_set(err, rc, NULL, "%s",
+                     rc == WG_ERR_NOMEM ? "out of memory" : wg_status_name(rc));
     for (int i = 0; i < b.n_frames; i++) frame_free(b.frames[i]);
     wg_free(b.frames);
     if (rc) wg__plan_free(plan);

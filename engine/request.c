@@ -55,9 +55,18 @@ static int list_names(char *buf, size_t size, int count, const char *(*name)(con
     return count;
 }
 
-static const char *param_name(const WgGraph *g, int i) { return g->params[i].info.name; }
-static const char *input_name(const WgGraph *g, int i) { return g->inputs[i].info.name; }
-static const char *output_name(const WgGraph *g, int i) { return g->outputs[i].name; }
+static const char *param_name(const WgGraph *g, int i)
+{
+    return g->params[i].info.name;
+}
+static const char *input_name(const WgGraph *g, int i)
+{
+    return g->inputs[i].info.name;
+}
+static const char *output_name(const WgGraph *g, int i)
+{
+    return g->outputs[i].name;
+}
 
 int wg_request_set(WgRequest *r, const char *name, const char *value, WgError *err)
 {

@@ -15,12 +15,18 @@
 const char *wg__type_name(WgParamType t)
 {
     switch (t) {
-    case WG_PARAM_FLOAT_T: return "float";
-    case WG_PARAM_INT_T: return "int";
-    case WG_PARAM_BOOL_T: return "bool";
-    case WG_PARAM_ENUM_T: return "enum";
-    case WG_PARAM_COLOR_T: return "color";
-    case WG_PARAM_STRING_T: return "string";
+    case WG_PARAM_FLOAT_T:
+        return "float";
+    case WG_PARAM_INT_T:
+        return "int";
+    case WG_PARAM_BOOL_T:
+        return "bool";
+    case WG_PARAM_ENUM_T:
+        return "enum";
+    case WG_PARAM_COLOR_T:
+        return "color";
+    case WG_PARAM_STRING_T:
+        return "string";
     }
     return "?";
 }
@@ -119,8 +125,8 @@ int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgErro
     case WG_PARAM_INT_T: {
         double v;
         if (!parse_double(text, &v))
-            return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects a number, got '%s'",
-                                d->name, text);
+            return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects a number, got '%s'", d->name,
+                                text);
         if (d->type == WG_PARAM_INT_T && isfinite(v) && v != floor(v))
             return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects a whole number, got '%s'",
                                 d->name, text);
@@ -128,7 +134,8 @@ int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgErro
         return wg__value_check(d, out, err);
     }
     case WG_PARAM_BOOL_T:
-        if (!strcasecmp(text, "true") || !strcmp(text, "1") || !strcasecmp(text, "yes")) out->num = 1;
+        if (!strcasecmp(text, "true") || !strcmp(text, "1") || !strcasecmp(text, "yes"))
+            out->num = 1;
         else if (!strcasecmp(text, "false") || !strcmp(text, "0") || !strcasecmp(text, "no"))
             out->num = 0;
         else
@@ -152,10 +159,10 @@ int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgErro
         const char *s = wg_suggest(text, d->values, count);
         if (s)
             return wg_error_set(err, WG_ERR_TYPE, NULL,
-                                "'%s' has no value '%s'; did you mean '%s'? (one of: %s)",
-                                d->name, text, s, list);
-        return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' has no value '%s' (one of: %s)",
-                            d->name, text, list);
+                                "'%s' has no value '%s'; did you mean '%s'? (one of: %s)", d->name,
+                                text, s, list);
+        return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' has no value '%s' (one of: %s)", d->name,
+                            text, list);
     }
     case WG_PARAM_COLOR_T:
         if (wg__color_parse(text, out->color))
@@ -182,13 +189,13 @@ int wg__value_check(const WgParamDesc *d, WgValue *v, WgError *err)
     if (d->type == WG_PARAM_BOOL_T) v->num = v->num != 0;
     if ((d->has_min && v->num < d->min) || (d->has_max && v->num > d->max)) {
         if (d->has_min && d->has_max)
-            return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is outside [%g, %g]",
-                                d->name, v->num, d->min, d->max);
+            return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is outside [%g, %g]", d->name,
+                                v->num, d->min, d->max);
         if (d->has_min)
             return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is below its minimum %g",
                                 d->name, v->num, d->min);
-        return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is above its maximum %g",
-                            d->name, v->num, d->max);
+        return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is above its maximum %g", d->name,
+                            v->num, d->max);
     }
     return WG_OK;
 }
@@ -210,13 +217,21 @@ void wg__value_clear(WgValue *v)
 void wg__value_format(const WgValue *v, char *buf, size_t size)
 {
     switch (v->type) {
-    case WG_PARAM_FLOAT_T: snprintf(buf, size, "%.9g", v->num); break;
-    case WG_PARAM_INT_T: snprintf(buf, size, "%.0f", v->num); break;
-    case WG_PARAM_BOOL_T: snprintf(buf, size, "%s", v->num != 0 ? "true" : "false"); break;
+    case WG_PARAM_FLOAT_T:
+        snprintf(buf, size, "%.9g", v->num);
+        break;
+    case WG_PARAM_INT_T:
+        snprintf(buf, size, "%.0f", v->num);
+        break;
+    case WG_PARAM_BOOL_T:
+        snprintf(buf, size, "%s", v->num != 0 ? "true" : "false");
+        break;
     case WG_PARAM_COLOR_T:
         snprintf(buf, size, "%.9g %.9g %.9g %.9g", v->color[0], v->color[1], v->color[2],
                  v->color[3]);
         break;
-    default: snprintf(buf, size, "%s", v->str ? v->str : ""); break;
+    default:
+        snprintf(buf, size, "%s", v->str ? v->str : "");
+        break;
     }
 }

@@ -46,8 +46,10 @@ static const WgParamSpec levels_params[] = {
 static float levels_one(const LevelsParams *p, float gamma, float x)
 {
     float t;
-    if (p->in_high == p->in_low) t = x >= p->in_low ? 1.0f : 0.0f;
-    else t = (x - p->in_low) / (p->in_high - p->in_low);
+    if (p->in_high == p->in_low)
+        t = x >= p->in_low ? 1.0f : 0.0f;
+    else
+        t = (x - p->in_low) / (p->in_high - p->in_low);
     t = t < 0 ? 0 : t > 1 ? 1 : t;
     if (gamma != 1.0f) t = powf(t, gamma);
     return p->out_low + t * (p->out_high - p->out_low);

@@ -12,12 +12,22 @@
 #include <math.h>
 
 enum {
-    M_COPY, M_ADD, M_SUBTRACT, M_MULTIPLY, M_ADD_SUB, M_MAX, M_MIN, M_SWITCH, M_DIVIDE,
-    M_OVERLAY, M_SCREEN, M_SOFT_LIGHT
+    M_COPY,
+    M_ADD,
+    M_SUBTRACT,
+    M_MULTIPLY,
+    M_ADD_SUB,
+    M_MAX,
+    M_MIN,
+    M_SWITCH,
+    M_DIVIDE,
+    M_OVERLAY,
+    M_SCREEN,
+    M_SOFT_LIGHT
 };
-static const char *const mode_values[] = {"copy",   "add",     "subtract", "multiply",
-                                          "add_sub", "max",    "min",      "switch",
-                                          "divide", "overlay", "screen",   "soft_light", NULL};
+static const char *const mode_values[] = {"copy",   "add",        "subtract", "multiply", "add_sub",
+                                          "max",    "min",        "switch",   "divide",   "overlay",
+                                          "screen", "soft_light", NULL};
 
 typedef struct {
     int mode;
@@ -55,18 +65,30 @@ static inline float soft_light(float a, float b)
 static inline float blend_one(int mode, float a, float b)
 {
     switch (mode) {
-    case M_COPY: return a;
-    case M_ADD: return b + a;
-    case M_SUBTRACT: return b - a;
-    case M_MULTIPLY: return a * b;
-    case M_ADD_SUB: return b + 2 * a - 1;
-    case M_MAX: return a > b ? a : b;
-    case M_MIN: return a < b ? a : b;
-    case M_DIVIDE: return b / (a > 0x1p-16f ? a : 0x1p-16f);
-    case M_OVERLAY: return b < 0.5f ? 2 * a * b : 1 - 2 * (1 - a) * (1 - b);
-    case M_SCREEN: return 1 - (1 - a) * (1 - b);
-    case M_SOFT_LIGHT: return soft_light(a, b);
-    default: return a;
+    case M_COPY:
+        return a;
+    case M_ADD:
+        return b + a;
+    case M_SUBTRACT:
+        return b - a;
+    case M_MULTIPLY:
+        return a * b;
+    case M_ADD_SUB:
+        return b + 2 * a - 1;
+    case M_MAX:
+        return a > b ? a : b;
+    case M_MIN:
+        return a < b ? a : b;
+    case M_DIVIDE:
+        return b / (a > 0x1p-16f ? a : 0x1p-16f);
+    case M_OVERLAY:
+        return b < 0.5f ? 2 * a * b : 1 - 2 * (1 - a) * (1 - b);
+    case M_SCREEN:
+        return 1 - (1 - a) * (1 - b);
+    case M_SOFT_LIGHT:
+        return soft_light(a, b);
+    default:
+        return a;
     }
 }
 
@@ -98,9 +120,12 @@ static void blend_rows(void *user, int y0, int y1)
                 float v;
                 /* (1-t)B + tF rather than B + (F-B)t: exact at t = 0 and t = 1 even when B is
                  * much larger than F (HDR heights) */
-                if (p->mode == M_SWITCH) v = t >= 0.5f ? a : b;
-                else if (k == 3) v = (1 - t) * b + t * a;
-                else v = (1 - t) * b + t * blend_one(p->mode, a, b);
+                if (p->mode == M_SWITCH)
+                    v = t >= 0.5f ? a : b;
+                else if (k == 3)
+                    v = (1 - t) * b + t * a;
+                else
+                    v = (1 - t) * b + t * blend_one(p->mode, a, b);
                 if (p->clamp) v = v < 0 ? 0 : v > 1 ? 1 : v;
                 o[x * c + k] = v;
             }

@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /* `blur`: a plain, exact Gaussian blur with wrap-around edges (the reference the fast blur of a
- * later release is measured against). Weights and sums are double, rounded once to float. Separable; the kernel exp(-d²/2σ²) is sampled at integer
- * offsets out to ceil(6σ) (the dropped tail weighs < 2e-9 of the total), folded modulo the
- * image side so kernels wider than the image wrap correctly, and normalised to sum 1, so a
- * constant image stays exactly constant. When σ ≥ the side, the periodic Gaussian differs from
- * the mean by < 3e-9 relative and the mean is used. σ = 0 copies. All channels are blurred,
- * alpha included. Cost: O(σ) per pixel per axis. */
+ * later release is measured against). Weights and sums are double, rounded once to float.
+ * Separable; the kernel exp(-d²/2σ²) is sampled at integer offsets out to ceil(6σ) (the dropped
+ * tail weighs < 2e-9 of the total), folded modulo the image side so kernels wider than the image
+ * wrap correctly, and normalised to sum 1, so a constant image stays exactly constant. When σ ≥ the
+ * side, the periodic Gaussian differs from the mean by < 3e-9 relative and the mean is used. σ = 0
+ * copies. All channels are blurred, alpha included. Cost: O(σ) per pixel per axis. */
 #include "wetgraph/node.h"
 
 #include <math.h>
@@ -23,7 +23,7 @@ static const WgPortSpec blur_in[] = {WG_PORT("source", WG_ANY), WG_PORT_END};
 static const WgPortSpec blur_out[] = {WG_PORT("output", WG_ANY), WG_PORT_END};
 
 typedef struct {
-    int taps;      /* kernel covers offsets -radius .. taps-1-radius */
+    int taps; /* kernel covers offsets -radius .. taps-1-radius */
     int radius;
     double *weight; /* taps entries; NULL means "use the mean" */
 } Kernel;

@@ -131,7 +131,8 @@ const WgNodeType wg_node_image = {
            "data maps such as height, normal and roughness are linear). `kind=\"auto\"` gives "
            "gray for 1-2 channel files and colour for 3-4; `gray` takes Rec.709 luminance "
            "(exactly the value when R = G = B). The picture is resampled to the node's size "
-           "with a wrapping tent filter (bilinear when enlarging; when shrinking by k, a triangle k source pixels wide on each side, e.g. weights 1 3 3 1 / 8 for 2x). "
+           "with a wrapping tent filter (bilinear when enlarging; when shrinking by k, a triangle "
+           "k source pixels wide on each side, e.g. weights 1 3 3 1 / 8 for 2x). "
            "Files with NaN or infinite values are rejected.",
     .params = image_params,
     .params_size = sizeof(ImageParams),

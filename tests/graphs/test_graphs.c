@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* Reference renders: every .wetgraph file in tests/graphs is rendered with the library and each output
- * compared with tests/graphs/ref/<graph>_<output>.exr (float32) within TOLERANCE. References
+/* Reference renders: every .wetgraph file in tests/graphs is rendered with the library and each
+ * output compared with tests/graphs/ref/<graph>_<output>.exr (float32) within TOLERANCE. References
  * change only through scripts/update-references.sh (WETGRAPH_UPDATE_REFERENCES=1), never by a
  * test run. */
 #include "wgtest.h"
@@ -33,19 +33,23 @@ static void check_graph(const char *dir, const char *file)
         fail_msg("%s", buf);
     }
     WgResult *res = wgt_render(g, 2);
-    bool update = getenv("WETGRAPH_UPDATE_REFERENCES") && !strcmp(getenv("WETGRAPH_UPDATE_REFERENCES"), "1");
+    bool update =
+        getenv("WETGRAPH_UPDATE_REFERENCES") && !strcmp(getenv("WETGRAPH_UPDATE_REFERENCES"), "1");
     for (int i = 0; i < wg_result_output_count(res); i++) {
         const WgImage *img = wg_result_output_image(res, i);
         char ref[2048];
-        snprintf(ref, sizeof ref, "%s/ref/%s_%s.exr", dir, wg_graph_name(g), wg_result_output_name(res, i));
+        snprintf(ref, sizeof ref, "%s/ref/%s_%s.exr", dir, wg_graph_name(g),
+                 wg_result_output_name(res, i));
         if (update) {
-            if (wg_image_write(ref, img, WG_FORMAT_EXR32, WG_LINEAR, &err)) fail_msg("%s: %s", ref, err.message);
+            if (wg_image_write(ref, img, WG_FORMAT_EXR32, WG_LINEAR, &err))
+                fail_msg("%s: %s", ref, err.message);
             printf("updated %s\n", ref);
             continue;
         }
         WgImage *want = NULL;
         if (wg_image_read(ref, img->channels, WG_LINEAR, &want, &err))
-            fail_msg("%s: %s (create references with scripts/update-references.sh)", ref, err.message);
+            fail_msg("%s: %s (create references with scripts/update-references.sh)", ref,
+                     err.message);
         double d = wgt_max_abs_diff(img, want);
         printf("%s %s: max difference %.3g\n", file, wg_result_output_name(res, i), d);
         if (!(d <= TOLERANCE))
@@ -69,7 +73,8 @@ static void test_reference_graphs(void **state)
     char names[256][256];
     while ((e = readdir(d)) && count < 256) {
         size_t l = strlen(e->d_name);
-        if (l > 9 && !strcmp(e->d_name + l - 9, ".wetgraph")) snprintf(names[count++], 256, "%s", e->d_name);
+        if (l > 9 && !strcmp(e->d_name + l - 9, ".wetgraph"))
+            snprintf(names[count++], 256, "%s", e->d_name);
     }
     closedir(d);
     qsort(names, (size_t)count, sizeof names[0], (int (*)(const void *, const void *))strcmp);

@@ -73,7 +73,8 @@ WgImage *wgt_image_fn(int w, int h, int channels, double (*fn)(int x, int y, int
     assert_non_null(img);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++)
-            for (int k = 0; k < channels; k++) wg_image_row(img, y)[x * channels + k] = (float)fn(x, y, k);
+            for (int k = 0; k < channels; k++)
+                wg_image_row(img, y)[x * channels + k] = (float)fn(x, y, k);
     return img;
 }
 
@@ -145,7 +146,8 @@ static char *node_xml(const char *type, const char *attrs, int w, int h, int n, 
                               images[i]->channels == 4 ? "color" : "gray");
     l += (size_t)snprintf(xml + l, cap - l, "  <node id=\"n\" type=\"%s\" %s>\n", type, attrs);
     for (int i = 0; i < n; i++)
-        l += (size_t)snprintf(xml + l, cap - l, "    <in name=\"%s\" from=\"$in%d\"/>\n", names[i], i);
+        l += (size_t)snprintf(xml + l, cap - l, "    <in name=\"%s\" from=\"$in%d\"/>\n", names[i],
+                              i);
     snprintf(xml + l, cap - l, "  </node>\n  <output name=\"out\" from=\"n%s%s\"/>\n</wetgraph>\n",
              port ? "." : "", port ? port : "");
     return xml;
@@ -223,9 +225,8 @@ void wgt_assert_identical(const WgImage *a, const WgImage *b)
                    sizeof(float) * (size_t)a->width * a->channels)) {
             for (int i = 0; i < a->width * a->channels; i++)
                 if (memcmp(&wg_image_row(a, y)[i], &wg_image_row(b, y)[i], sizeof(float)))
-                    fail_msg("images differ at x=%d y=%d channel %d: %.9g vs %.9g",
-                             i / a->channels, y, i % a->channels, wg_image_row(a, y)[i],
-                             wg_image_row(b, y)[i]);
+                    fail_msg("images differ at x=%d y=%d channel %d: %.9g vs %.9g", i / a->channels,
+                             y, i % a->channels, wg_image_row(a, y)[i], wg_image_row(b, y)[i]);
         }
 }
 
@@ -253,7 +254,8 @@ void wgt_assert_range(const WgImage *img, double lo, double hi)
         for (int i = 0; i < img->width * img->channels; i++) {
             float v = wg_image_row(img, y)[i];
             if (!(v >= lo && v <= hi))
-                fail_msg("value %.9g at x=%d y=%d outside [%g, %g]", v, i / img->channels, y, lo, hi);
+                fail_msg("value %.9g at x=%d y=%d outside [%g, %g]", v, i / img->channels, y, lo,
+                         hi);
         }
 }
 

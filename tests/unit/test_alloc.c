@@ -67,8 +67,8 @@ static void assert_nomem(const char *what, long k, int rc, const WgError *err)
     if (rc == WG_ERR_NOMEM && err->code == WG_ERR_NOMEM && err->message[0]) return;
     char buf[2048];
     wg_error_format(err, buf, sizeof buf);
-    fail_msg("%s with allocation %ld failing: status %d, error code %d, message '%s'", what, k,
-             rc, err->code, buf);
+    fail_msg("%s with allocation %ld failing: status %d, error code %d, message '%s'", what, k, rc,
+             err->code, buf);
 }
 
 /* ---- the graphs -------------------------------------------------------------------------- */
@@ -169,8 +169,10 @@ static const char *main_path(void)
 
 static void assert_same_text(const char *a, const char *b)
 {
-    if (!a || !b) assert_ptr_equal(a, b);
-    else assert_string_equal(a, b);
+    if (!a || !b)
+        assert_ptr_equal(a, b);
+    else
+        assert_string_equal(a, b);
 }
 
 static void assert_same_list(const char *const *a, const char *const *b, int n)
@@ -354,20 +356,34 @@ static void test_load(void **state)
 static int request_step(WgRequest *r, int i, const WgImage *img, WgError *err)
 {
     switch (i) {
-    case 0: return wg_request_set(r, "gain", "1.25", err);
-    case 1: return wg_request_set(r, "octs", "=2 + 3", err);
-    case 2: return wg_request_set(r, "mode", "overlay", err);
-    case 3: return wg_request_set(r, "pts", "0:0.2 1:0.9", err);
-    case 4: return wg_request_set(r, "tint", "#3080c0", err);
-    case 5: return wg_request_set(r, "flip", "false", err);
-    case 6: return wg_request_set(r, "how", "multiply", err);
-    case 7: return wg_request_set(r, "mode", "multiply", err); /* replaces a set value */
-    case 8: return wg_request_set_input_image(r, "mask", img, err);
-    case 9: return wg_request_add_output(r, "sub", err);
-    case 10: return wg_request_add_output(r, "gray", err);
-    case 11: return wg_request_add_output(r, "sub", err);
-    case 12: return wg_request_add_output(r, "px", err);
-    default: return -100;
+    case 0:
+        return wg_request_set(r, "gain", "1.25", err);
+    case 1:
+        return wg_request_set(r, "octs", "=2 + 3", err);
+    case 2:
+        return wg_request_set(r, "mode", "overlay", err);
+    case 3:
+        return wg_request_set(r, "pts", "0:0.2 1:0.9", err);
+    case 4:
+        return wg_request_set(r, "tint", "#3080c0", err);
+    case 5:
+        return wg_request_set(r, "flip", "false", err);
+    case 6:
+        return wg_request_set(r, "how", "multiply", err);
+    case 7:
+        return wg_request_set(r, "mode", "multiply", err); /* replaces a set value */
+    case 8:
+        return wg_request_set_input_image(r, "mask", img, err);
+    case 9:
+        return wg_request_add_output(r, "sub", err);
+    case 10:
+        return wg_request_add_output(r, "gray", err);
+    case 11:
+        return wg_request_add_output(r, "sub", err);
+    case 12:
+        return wg_request_add_output(r, "px", err);
+    default:
+        return -100;
     }
 }
 enum { REQUEST_STEPS = 13 };

@@ -22,7 +22,8 @@ static double eval(const char *src)
     WgExprOptions opt = {resolve_ab, NULL, false};
     WgExpr *e = NULL;
     WgError err = {0};
-    if (wg_expr_parse(src, &opt, &e, &err)) fail_msg("parse '%s': %s (column %d)", src, err.message, err.column);
+    if (wg_expr_parse(src, &opt, &e, &err))
+        fail_msg("parse '%s': %s (column %d)", src, err.message, err.column);
     double slots[4] = {2, 3, 0.5, 0.4};
     double v = wg_expr_eval(e, slots);
     wg_expr_free(e);
@@ -38,8 +39,10 @@ static void parse_fails(const char *src, int column, const char *needle)
     if (rc == WG_OK) fail_msg("'%s' should not parse", src);
     assert_null(e);
     assert_int_equal(rc, WG_ERR_PARSE);
-    if (err.column != column) fail_msg("'%s': column %d, expected %d (%s)", src, err.column, column, err.message);
-    if (!strstr(err.message, needle)) fail_msg("'%s': message '%s' lacks '%s'", src, err.message, needle);
+    if (err.column != column)
+        fail_msg("'%s': column %d, expected %d (%s)", src, err.column, column, err.message);
+    if (!strstr(err.message, needle))
+        fail_msg("'%s': message '%s' lacks '%s'", src, err.message, needle);
 }
 
 static void test_arithmetic(void **state)
@@ -47,7 +50,7 @@ static void test_arithmetic(void **state)
     (void)state;
     assert_float_equal(eval("1 + 2 * 3"), 7, 0);
     assert_float_equal(eval("(1 + 2) * 3"), 9, 0);
-    assert_float_equal(eval("-a ^ 2"), -4, 0); /* unary minus binds looser than ^ */
+    assert_float_equal(eval("-a ^ 2"), -4, 0);     /* unary minus binds looser than ^ */
     assert_float_equal(eval("2 ^ 3 ^ 2"), 512, 0); /* right-associative */
     assert_float_equal(eval("2 + water_level * 8"), 5.2, 1e-12);
     assert_float_equal(eval("a / b"), 2.0 / 3.0, 0);

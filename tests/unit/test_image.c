@@ -121,16 +121,16 @@ static void check_resample(const WgImage *s, int w, int h, double tol)
 static void test_new_limits(void **state)
 {
     (void)state;
-    static const int bad[][3] = {{0, 5, 1},     {5, 0, 1},   {-1, 5, 1},  {5, -3, 4},
-                                 {16385, 1, 1}, {1, 16385, 4}, {4, 4, 0}, {4, 4, 2},
-                                 {4, 4, 3},     {4, 4, 5},   {4, 4, -1}, {-16384, -16384, 1}};
+    static const int bad[][3] = {{0, 5, 1},     {5, 0, 1},     {-1, 5, 1}, {5, -3, 4},
+                                 {16385, 1, 1}, {1, 16385, 4}, {4, 4, 0},  {4, 4, 2},
+                                 {4, 4, 3},     {4, 4, 5},     {4, 4, -1}, {-16384, -16384, 1}};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         if (wg_image_new(bad[i][0], bad[i][1], bad[i][2]))
             fail_msg("wg_image_new(%d, %d, %d) should fail", bad[i][0], bad[i][1], bad[i][2]);
         assert_null(wg_image_new_zero(bad[i][0], bad[i][1], bad[i][2]));
     }
-    static const int good[][3] = {{1, 1, 1}, {1, 1, 4}, {3, 2, 4}, {17, 5, 1}, {16384, 1, 1},
-                                  {1, 16384, 4}};
+    static const int good[][3] = {{1, 1, 1},  {1, 1, 4},     {3, 2, 4},
+                                  {17, 5, 1}, {16384, 1, 1}, {1, 16384, 4}};
     for (size_t i = 0; i < sizeof good / sizeof *good; i++) {
         int w = good[i][0], h = good[i][1], c = good[i][2];
         WgImage *img = wg_image_new(w, h, c);
@@ -188,7 +188,7 @@ static void test_constant_stays_constant(void **state)
 {
     (void)state;
     static const float values[] = {0.3f, 0.7f, 1.0f / 3.0f, 123.456f, -2.5e-3f, 0.1f};
-    static const int sizes[][2] = {{13, 11}, {3, 2}, {1, 1}, {14, 10}, {7, 5}, {16, 3},
+    static const int sizes[][2] = {{13, 11}, {3, 2},   {1, 1}, {14, 10}, {7, 5}, {16, 3},
                                    {2, 9},   {100, 1}, {6, 4}, {21, 15}, {5, 7}};
     for (int c = 1; c <= 4; c += 3) {
         for (size_t v = 0; v < sizeof values / sizeof *values; v++) {
@@ -280,7 +280,7 @@ static void test_upsample_is_bilinear_with_wrap(void **state)
     /* every pixel, several factors */
     check_resample(s, 8, 6, 1e-6);
     check_resample(s, 10, 7, 1e-6);
-    check_resample(s, 13, 3, 1e-6);  /* one axis only */
+    check_resample(s, 13, 3, 1e-6); /* one axis only */
     check_resample(s, 37, 29, 1e-6);
     wg_image_unref(s);
 

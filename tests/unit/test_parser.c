@@ -41,28 +41,28 @@ static bool ends_with(const char *s, const char *suffix)
 
 static const char *const valid_xml =
     "<wetgraph version=\"1\" size=\"32x16\" seed=\"42\" label=\"Demo\">\n"                /* 1 */
-    "  <param name=\"amount\" type=\"float\" default=\"0.25\" min=\"0\" max=\"1\"\n"        /* 2 */
-    "         label=\"Amount\"/>\n"                                                         /* 3 */
-    "  <param name=\"count\" type=\"int\" min=\"2\"/>\n"                                    /* 4 */
-    "  <param name=\"flip\" type=\"bool\"/>\n"                                              /* 5 */
-    "  <param name=\"tint\" type=\"color\" default=\"#ff8000\"/>\n"                         /* 6 */
-    "  <param name=\"mode\" type=\"enum\" values=\"multiply|screen|add\"/>\n"               /* 7 */
-    "  <param name=\"note\" type=\"string\" default=\"hello\"/>\n"                          /* 8 */
-    "  <input name=\"base\" type=\"color\" colorspace=\"srgb\" default=\"#808080\"/>\n"     /* 9 */
-    "  <input name=\"mask\" type=\"gray\"/>\n"                                              /* 10 */
-    "  <node id=\"fg\" type=\"uniform\" kind=\"color\" color=\"=tint\" pos=\"10 20\"/>\n"   /* 11 */
-    "  <node id=\"mix\" type=\"blend\" mode=\"=mode\" opacity=\"=amount * 2 - 0.1\"\n"      /* 12 */
-    "        clamp=\"=!flip\" label=\"Mix\">\n"                                             /* 13 */
-    "    <in name=\"foreground\" from=\"fg\"/>\n"                                           /* 14 */
-    "    <in name=\"background\" from=\"$base\"/>\n"                                        /* 15 */
-    "    <in name=\"mask\" from=\"$mask\"/>\n"                                              /* 16 */
-    "  </node>\n"                                                                           /* 17 */
-    "  <!-- a comment is fine -->\n"                                                        /* 18 */
-    "  <node id=\"soft\" type=\"blur\" sigma=\"=$width / 16\" size=\"/2\" seed=\"7\">\n"    /* 19 */
-    "    <in name=\"source\" from=\"mix.output\"/>\n"                                       /* 20 */
-    "  </node>\n"                                                                           /* 21 */
-    "  <output name=\"color\" from=\"soft\" format=\"exr\" colorspace=\"linear\"/>\n"      /* 22 */
-    "  <output name=\"raw\" from=\"$base\" format=\"png16\" colorspace=\"srgb\"/>\n"       /* 23 */
+    "  <param name=\"amount\" type=\"float\" default=\"0.25\" min=\"0\" max=\"1\"\n"      /* 2 */
+    "         label=\"Amount\"/>\n"                                                       /* 3 */
+    "  <param name=\"count\" type=\"int\" min=\"2\"/>\n"                                  /* 4 */
+    "  <param name=\"flip\" type=\"bool\"/>\n"                                            /* 5 */
+    "  <param name=\"tint\" type=\"color\" default=\"#ff8000\"/>\n"                       /* 6 */
+    "  <param name=\"mode\" type=\"enum\" values=\"multiply|screen|add\"/>\n"             /* 7 */
+    "  <param name=\"note\" type=\"string\" default=\"hello\"/>\n"                        /* 8 */
+    "  <input name=\"base\" type=\"color\" colorspace=\"srgb\" default=\"#808080\"/>\n"   /* 9 */
+    "  <input name=\"mask\" type=\"gray\"/>\n"                                            /* 10 */
+    "  <node id=\"fg\" type=\"uniform\" kind=\"color\" color=\"=tint\" pos=\"10 20\"/>\n" /* 11 */
+    "  <node id=\"mix\" type=\"blend\" mode=\"=mode\" opacity=\"=amount * 2 - 0.1\"\n"    /* 12 */
+    "        clamp=\"=!flip\" label=\"Mix\">\n"                                           /* 13 */
+    "    <in name=\"foreground\" from=\"fg\"/>\n"                                         /* 14 */
+    "    <in name=\"background\" from=\"$base\"/>\n"                                      /* 15 */
+    "    <in name=\"mask\" from=\"$mask\"/>\n"                                            /* 16 */
+    "  </node>\n"                                                                         /* 17 */
+    "  <!-- a comment is fine -->\n"                                                      /* 18 */
+    "  <node id=\"soft\" type=\"blur\" sigma=\"=$width / 16\" size=\"/2\" seed=\"7\">\n"  /* 19 */
+    "    <in name=\"source\" from=\"mix.output\"/>\n"                                     /* 20 */
+    "  </node>\n"                                                                         /* 21 */
+    "  <output name=\"color\" from=\"soft\" format=\"exr\" colorspace=\"linear\"/>\n"     /* 22 */
+    "  <output name=\"raw\" from=\"$base\" format=\"png16\" colorspace=\"srgb\"/>\n"      /* 23 */
     "</wetgraph>\n";
 
 static void test_valid_file_and_info(void **state)
@@ -218,7 +218,8 @@ static void test_malformed_xml(void **state)
                                     &err),
                      WG_ERR_PARSE);
     /* the first error, not the cascade that follows ("Premature end of data" at the end) */
-    assert_error(&err, WG_ERR_PARSE, 4, "XML: Opening and ending tag mismatch: node line 2 and wetgraph");
+    assert_error(&err, WG_ERR_PARSE, 4,
+                 "XML: Opening and ending tag mismatch: node line 2 and wetgraph");
     assert_true(ends_with(err.file, "test.wetgraph"));
 
     /* an unquoted attribute on line 2 */
@@ -257,7 +258,8 @@ static void test_unknown_elements(void **state)
                "\n"
                "  <texture/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 3, "unknown element <texture> (expected param, input, node or output)");
+               WG_ERR_PARSE, 3,
+               "unknown element <texture> (expected param, input, node or output)");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\">\n"
                "    <input name=\"x\" from=\"v\"/>\n"
@@ -279,7 +281,8 @@ static void test_unknown_attributes(void **state)
     load_fails("<wetgraph version=\"1\">\n"
                "  <input name=\"a\" type=\"gray\" colourspace=\"srgb\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 2, "unknown attribute 'colourspace' on <input>; did you mean 'colorspace'?");
+               WG_ERR_PARSE, 2,
+               "unknown attribute 'colourspace' on <input>; did you mean 'colorspace'?");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\"/>\n"
                "  <output name=\"o\" from=\"u\" formatt=\"png\"/>\n"
@@ -305,7 +308,8 @@ static void test_unknown_attributes(void **state)
                "  </node>\n"
                "  <output name=\"o\" from=\"b\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 3, "node \'b\'|node type 'blur' has no parameter 'sigam'; did you mean 'sigma'?");
+               WG_ERR_PARSE, 3,
+               "node \'b\'|node type 'blur' has no parameter 'sigam'; did you mean 'sigma'?");
     /* the reserved node attributes are suggested too */
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\" sized=\"8\"/>\n"
@@ -363,8 +367,9 @@ static void test_unknown_node_type(void **state)
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"zzqxv_nothing\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_TYPE, 2, "unknown node type 'zzqxv_nothing' (not a built-in node, and no "
-                               "zzqxv_nothing.wetgraph next to this file, in WETGRAPH_PATH");
+               WG_ERR_TYPE, 2,
+               "unknown node type 'zzqxv_nothing' (not a built-in node, and no "
+               "zzqxv_nothing.wetgraph next to this file, in WETGRAPH_PATH");
 }
 
 static void test_graph_param_declarations(void **state)
@@ -373,7 +378,8 @@ static void test_graph_param_declarations(void **state)
     load_fails("<wetgraph version=\"1\">\n"
                "  <param name=\"a\" type=\"double\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 2, "unknown parameter type 'double' (float, int, bool, color, enum, string)");
+               WG_ERR_PARSE, 2,
+               "unknown parameter type 'double' (float, int, bool, color, enum, string)");
     load_fails("<wetgraph version=\"1\">\n"
                "  <param name=\"a\" type=\"color\" min=\"0\"/>\n"
                "</wetgraph>\n",
@@ -453,7 +459,8 @@ static void test_malformed_literals(void **state)
                "  </node>\n"
                "  <output name=\"o\" from=\"b\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_TYPE, 3, "'mode' has no value 'multipy'; did you mean 'multiply'? (one of: copy, add,");
+               WG_ERR_TYPE, 3,
+               "'mode' has no value 'multipy'; did you mean 'multiply'? (one of: copy, add,");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\" kind=\"rgb\"/>\n"
                "  <output name=\"o\" from=\"u\"/>\n"
@@ -464,8 +471,8 @@ static void test_malformed_literals(void **state)
                "</wetgraph>\n",
                WG_ERR_TYPE, 2, "'m' has no value 'c'");
     /* color */
-    static const char *const bad_colors[] = {"#12345", "#ggg", "red", "0.1 0.2", "1 2 3 4 5",
-                                             "0.5 x 1", "#"};
+    static const char *const bad_colors[] = {"#12345",    "#ggg",    "red", "0.1 0.2",
+                                             "1 2 3 4 5", "0.5 x 1", "#"};
     for (size_t i = 0; i < sizeof bad_colors / sizeof *bad_colors; i++) {
         char xml[512];
         snprintf(xml, sizeof xml,
@@ -475,8 +482,9 @@ static void test_malformed_literals(void **state)
                  "</wetgraph>\n",
                  bad_colors[i]);
         char needle[128];
-        snprintf(needle, sizeof needle, "'color' expects a colour (#rrggbb, #rrggbbaa, 'r g b', "
-                                        "'r g b a' or one gray value), got '%s'",
+        snprintf(needle, sizeof needle,
+                 "'color' expects a colour (#rrggbb, #rrggbbaa, 'r g b', "
+                 "'r g b a' or one gray value), got '%s'",
                  bad_colors[i]);
         load_fails(xml, WG_ERR_TYPE, 2, needle);
     }
@@ -495,18 +503,19 @@ static void test_good_literals(void **state)
 {
     (void)state;
     /* the accepted spellings of each type load */
-    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"4\">\n"
-                          "  <param name=\"b1\" type=\"bool\" default=\"yes\"/>\n"
-                          "  <param name=\"b2\" type=\"bool\" default=\"0\"/>\n"
-                          "  <param name=\"i\" type=\"int\" default=\"-3\"/>\n"
-                          "  <param name=\"f\" type=\"float\" default=\" 1e-3 \"/>\n"
-                          "  <param name=\"c1\" type=\"color\" default=\"#abc\"/>\n"
-                          "  <param name=\"c2\" type=\"color\" default=\"#aabbccdd\"/>\n"
-                          "  <param name=\"c3\" type=\"color\" default=\"0.1, 0.2, 0.3\"/>\n"
-                          "  <param name=\"c4\" type=\"color\" default=\"0.5\"/>\n"
-                          "  <node id=\"u\" type=\"uniform\" kind=\"color\" color=\"1 0.5 0.25 0.125\"/>\n"
-                          "  <output name=\"o\" from=\"u\"/>\n"
-                          "</wetgraph>\n");
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"4\">\n"
+                 "  <param name=\"b1\" type=\"bool\" default=\"yes\"/>\n"
+                 "  <param name=\"b2\" type=\"bool\" default=\"0\"/>\n"
+                 "  <param name=\"i\" type=\"int\" default=\"-3\"/>\n"
+                 "  <param name=\"f\" type=\"float\" default=\" 1e-3 \"/>\n"
+                 "  <param name=\"c1\" type=\"color\" default=\"#abc\"/>\n"
+                 "  <param name=\"c2\" type=\"color\" default=\"#aabbccdd\"/>\n"
+                 "  <param name=\"c3\" type=\"color\" default=\"0.1, 0.2, 0.3\"/>\n"
+                 "  <param name=\"c4\" type=\"color\" default=\"0.5\"/>\n"
+                 "  <node id=\"u\" type=\"uniform\" kind=\"color\" color=\"1 0.5 0.25 0.125\"/>\n"
+                 "  <output name=\"o\" from=\"u\"/>\n"
+                 "</wetgraph>\n");
     WgResult *r = wgt_render(g, 1);
     const WgImage *img = wgt_output(r, "o");
     assert_int_equal(img->channels, 4);
@@ -728,7 +737,8 @@ static void test_ports(void **state)
                "  </node>\n"
                "  <output name=\"o\" from=\"b\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 6, "node \'b\'|has no input 'alpha' (inputs: foreground, background, mask)");
+               WG_ERR_PARSE, 6,
+               "node \'b\'|has no input 'alpha' (inputs: foreground, background, mask)");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\"/>\n"
                "  <node id=\"v\" type=\"uniform\">\n"
@@ -774,8 +784,9 @@ static void test_ports(void **state)
                "  </node>\n"
                "  <output name=\"o\" from=\"b\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 3, "node \'b\'|required input 'background' is not connected; "
-                                "add <in name=\"background\" from=\"...\"/>");
+               WG_ERR_PARSE, 3,
+               "node \'b\'|required input 'background' is not connected; "
+               "add <in name=\"background\" from=\"...\"/>");
 }
 
 static void test_cycles(void **state)
@@ -829,8 +840,8 @@ static void test_no_outputs(void **state)
 static void test_sizes(void **state)
 {
     (void)state;
-    static const char *const bad_graph_sizes[] = {"0", "abc", "16385", "8x", "x8", "8x0", "-4",
-                                                  "8 x 8", "100000x1", ""};
+    static const char *const bad_graph_sizes[] = {"0",   "abc", "16385", "8x",       "x8",
+                                                  "8x0", "-4",  "8 x 8", "100000x1", ""};
     for (size_t i = 0; i < sizeof bad_graph_sizes / sizeof *bad_graph_sizes; i++) {
         char xml[512], needle[128];
         snprintf(xml, sizeof xml,
@@ -839,8 +850,8 @@ static void test_sizes(void **state)
                  "  <output name=\"o\" from=\"u\"/>\n"
                  "</wetgraph>\n",
                  bad_graph_sizes[i]);
-        snprintf(needle, sizeof needle,
-                 "bad graph size '%s' (N, WxH or $input; sides 1..16384)", bad_graph_sizes[i]);
+        snprintf(needle, sizeof needle, "bad graph size '%s' (N, WxH or $input; sides 1..16384)",
+                 bad_graph_sizes[i]);
         load_fails(xml, WG_ERR_PARSE, 1, needle);
     }
     load_fails("<wetgraph version=\"1\" size=\"$img\">\n"
@@ -850,8 +861,8 @@ static void test_sizes(void **state)
                "</wetgraph>\n",
                WG_ERR_PARSE, 1, "size '$img' names no graph input");
 
-    static const char *const bad_node_sizes[] = {"0", "x0", "/0", "x", "/abc", "x-2", "0x5",
-                                                 "inputs", "x99999", "half", "16385"};
+    static const char *const bad_node_sizes[] = {"0",   "x0",     "/0",     "x",    "/abc", "x-2",
+                                                 "0x5", "inputs", "x99999", "half", "16385"};
     for (size_t i = 0; i < sizeof bad_node_sizes / sizeof *bad_node_sizes; i++) {
         char xml[512], needle[160];
         snprintf(xml, sizeof xml,
@@ -866,8 +877,8 @@ static void test_sizes(void **state)
         load_fails(xml, WG_ERR_PARSE, 2, needle);
     }
     /* every accepted form loads */
-    static const char *const good_node_sizes[] = {"16", "16x4", "x2", "x0.5", "/4", "/1.5",
-                                                  "graph", "16384"};
+    static const char *const good_node_sizes[] = {"16", "16x4", "x2",    "x0.5",
+                                                  "/4", "/1.5", "graph", "16384"};
     for (size_t i = 0; i < sizeof good_node_sizes / sizeof *good_node_sizes; i++) {
         char xml[512];
         snprintf(xml, sizeof xml,
@@ -979,12 +990,13 @@ static void test_non_numeric_forwarding(void **state)
 {
     (void)state;
     /* '=name' forwards a graph parameter of the same type to a colour/enum/string parameter */
-    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"2\">\n"
-                          "  <param name=\"tint\" type=\"color\" default=\"0.5 0.25 1 1\"/>\n"
-                          "  <param name=\"how\" type=\"enum\" values=\"gray|color\" default=\"color\"/>\n"
-                          "  <node id=\"u\" type=\"uniform\" kind=\"= how \" color=\"=tint\"/>\n"
-                          "  <output name=\"o\" from=\"u\"/>\n"
-                          "</wetgraph>\n");
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"2\">\n"
+                 "  <param name=\"tint\" type=\"color\" default=\"0.5 0.25 1 1\"/>\n"
+                 "  <param name=\"how\" type=\"enum\" values=\"gray|color\" default=\"color\"/>\n"
+                 "  <node id=\"u\" type=\"uniform\" kind=\"= how \" color=\"=tint\"/>\n"
+                 "  <output name=\"o\" from=\"u\"/>\n"
+                 "</wetgraph>\n");
     WgResult *r = wgt_render(g, 1);
     const WgImage *img = wgt_output(r, "o");
     assert_int_equal(img->channels, 4);
@@ -1093,8 +1105,8 @@ static void test_text_inside_elements(void **state)
 static void test_graph_seed(void **state)
 {
     (void)state;
-    static const char *const bad[] = {"abc", "-1", "1.5", "", " 3", "12abc",
-                                      "18446744073709551616"};
+    static const char *const bad[] = {
+        "abc", "-1", "1.5", "", " 3", "12abc", "18446744073709551616"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         char xml[512], needle[128];
         snprintf(xml, sizeof xml,
@@ -1122,12 +1134,12 @@ static void test_suggest(void **state)
     const char *const names[] = {"blend", "blur", "levels", NULL, "invert", "grayscale"};
     int n = 6;
     assert_string_equal(wg_suggest("blurr", names, n), "blur");
-    assert_string_equal(wg_suggest("bler", names, n), "blur");   /* 1 edit from blur, 2 from blend */
-    assert_string_equal(wg_suggest("BLUR", names, n), "blur");   /* case-insensitive */
-    assert_string_equal(wg_suggest("lveels", names, n), "levels"); /* 2 edits */
+    assert_string_equal(wg_suggest("bler", names, n), "blur"); /* 1 edit from blur, 2 from blend */
+    assert_string_equal(wg_suggest("BLUR", names, n), "blur"); /* case-insensitive */
+    assert_string_equal(wg_suggest("lveels", names, n), "levels");  /* 2 edits */
     assert_string_equal(wg_suggest("gray", names, n), "grayscale"); /* prefix */
-    assert_string_equal(wg_suggest("inv", names, n), "invert");  /* prefix, 3 letters */
-    assert_null(wg_suggest("in", names, n));                     /* too short for a prefix */
+    assert_string_equal(wg_suggest("inv", names, n), "invert");     /* prefix, 3 letters */
+    assert_null(wg_suggest("in", names, n));                        /* too short for a prefix */
     assert_null(wg_suggest("noise", names, n));
     assert_string_equal(wg_suggest("lvls", names, n), "levels"); /* 2 edits, 4 letters */
     assert_null(wg_suggest("lvl", names, n));                    /* 3 letters allow 1 edit */

@@ -81,7 +81,8 @@ static void set_fails(WgRequest *r, const char *name, const char *value, int cod
 {
     WgError err = {0};
     int rc = wg_request_set(r, name, value, &err);
-    if (rc != code) fail_msg("set %s=%s: status %d, expected %d (%s)", name, value, rc, code, err.message);
+    if (rc != code)
+        fail_msg("set %s=%s: status %d, expected %d (%s)", name, value, rc, code, err.message);
     assert_error(&err, code, 0, needle);
 }
 
@@ -163,7 +164,8 @@ static const char *const sizes_xml =
     "  <node id=\"third\" type=\"uniform\" size=\"/3\"/>\n"
     "  <node id=\"graph\" type=\"uniform\" size=\"graph\"/>\n"
     "  <node id=\"plain\" type=\"uniform\"/>\n"
-    "  <node id=\"follow\" type=\"blur\" size=\"input\"><in name=\"source\" from=\"fixed\"/></node>\n"
+    "  <node id=\"follow\" type=\"blur\" size=\"input\"><in name=\"source\" "
+    "from=\"fixed\"/></node>\n"
     "  <node id=\"resized\" type=\"blur\"><in name=\"source\" from=\"fixed\"/></node>\n"
     "  <output name=\"fixed\" from=\"fixed\"/>\n"
     "  <output name=\"double\" from=\"double\"/>\n"
@@ -248,7 +250,8 @@ static void test_size_errors(void **state)
              "  <output name=\"o\" from=\"u\"/>\n"
              "</wetgraph>\n");
     r = request(g);
-    render_fails(r, WG_ERR_RANGE, 2, "node \'u\'|size 'x2' of 16384x8 gives 32768x16, outside 1..16384");
+    render_fails(r, WG_ERR_RANGE, 2,
+                 "node \'u\'|size 'x2' of 16384x8 gives 32768x16, outside 1..16384");
     wg_request_set_size(r, 8192, 8);
     assert_int_equal(wg_request_check(r, &err), WG_OK);
     wg_request_set_size(r, 8193, 8);
@@ -270,16 +273,18 @@ static void test_size_errors(void **state)
 static void test_size_from_an_input(void **state)
 {
     (void)state;
-    WgGraph *g = load("<wetgraph version=\"1\" size=\"$photo\">\n"
-                      "  <input name=\"photo\" type=\"gray\"/>\n"
-                      "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"$photo\"/></node>\n"
-                      "  <node id=\"u\" type=\"uniform\" value=\"=$width + $height / 100\"/>\n"
-                      "  <output name=\"inv\" from=\"i\"/>\n"
-                      "  <output name=\"u\" from=\"u\"/>\n"
-                      "</wetgraph>\n");
+    WgGraph *g =
+        load("<wetgraph version=\"1\" size=\"$photo\">\n"
+             "  <input name=\"photo\" type=\"gray\"/>\n"
+             "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"$photo\"/></node>\n"
+             "  <node id=\"u\" type=\"uniform\" value=\"=$width + $height / 100\"/>\n"
+             "  <output name=\"inv\" from=\"i\"/>\n"
+             "  <output name=\"u\" from=\"u\"/>\n"
+             "</wetgraph>\n");
     WgRequest *r = request(g);
-    render_fails(r, WG_ERR_USAGE, 1, "the graph size is '$photo' but no image was given for input "
-                                     "'photo' (--input photo=FILE or --size WxH)");
+    render_fails(r, WG_ERR_USAGE, 1,
+                 "the graph size is '$photo' but no image was given for input "
+                 "'photo' (--input photo=FILE or --size WxH)");
 
     /* from an image given through the API */
     float px[12 * 6];
@@ -388,7 +393,8 @@ static void test_parameter_overrides(void **state)
     set_fails(r, "count", "2.5", WG_ERR_TYPE, "'count' expects a whole number, got '2.5'");
     set_fails(r, "count", "9", WG_ERR_RANGE, "'count' = 9 is outside [1, 8]");
     set_fails(r, "flag", "maybe", WG_ERR_TYPE, "'flag' expects true or false, got 'maybe'");
-    set_fails(r, "mode", "multipy", WG_ERR_TYPE, "'mode' has no value 'multipy'; did you mean 'multiply'?");
+    set_fails(r, "mode", "multipy", WG_ERR_TYPE,
+              "'mode' has no value 'multipy'; did you mean 'multiply'?");
     set_fails(r, "tint", "orange", WG_ERR_TYPE, "'tint' expects a colour");
     res = render(r);
     assert_constant(wgt_output(res, "w"), 1, 0.25);
@@ -411,9 +417,11 @@ static void test_parameter_overrides(void **state)
     wg_result_free(res);
 
     /* unknown names, with a suggestion and the list */
-    set_fails(r, "wter", "0.5", WG_ERR_USAGE, "graph 'test' has no parameter 'wter'; did you mean "
-                                              "'water'? (parameters: water, count, flag, mode, tint, note)");
-    set_fails(r, "level", "0.5", WG_ERR_USAGE, "graph 'test' has no parameter 'level' (parameters: ");
+    set_fails(r, "wter", "0.5", WG_ERR_USAGE,
+              "graph 'test' has no parameter 'wter'; did you mean "
+              "'water'? (parameters: water, count, flag, mode, tint, note)");
+    set_fails(r, "level", "0.5", WG_ERR_USAGE,
+              "graph 'test' has no parameter 'level' (parameters: ");
     wg_request_free(r);
     wg_graph_free(g);
 }
@@ -421,23 +429,24 @@ static void test_parameter_overrides(void **state)
 static void test_expressions_see_the_scope(void **state)
 {
     (void)state;
-    WgGraph *g = load("<wetgraph version=\"1\" size=\"32x16\" seed=\"7\">\n"
-                      "  <param name=\"k\" type=\"float\" default=\"0.5\"/>\n"
-                      "  <node id=\"w\" type=\"uniform\" value=\"=$width / 64\"/>\n"
-                      "  <node id=\"h\" type=\"uniform\" value=\"=$height / 64\"/>\n"
-                      "  <node id=\"own\" type=\"uniform\" size=\"8x4\" value=\"=$width * 10 + $height\"/>\n"
-                      "  <node id=\"s\" type=\"uniform\" value=\"=$seed\"/>\n"
-                      "  <node id=\"s2\" type=\"uniform\" seed=\"12\" value=\"=$seed\"/>\n"
-                      "  <node id=\"t\" type=\"uniform\" value=\"=$time * 2\"/>\n"
-                      "  <node id=\"k\" type=\"uniform\" value=\"=k * k + 1\"/>\n"
-                      "  <output name=\"w\" from=\"w\"/>\n"
-                      "  <output name=\"h\" from=\"h\"/>\n"
-                      "  <output name=\"own\" from=\"own\"/>\n"
-                      "  <output name=\"s\" from=\"s\"/>\n"
-                      "  <output name=\"s2\" from=\"s2\"/>\n"
-                      "  <output name=\"t\" from=\"t\"/>\n"
-                      "  <output name=\"k\" from=\"k\"/>\n"
-                      "</wetgraph>\n");
+    WgGraph *g =
+        load("<wetgraph version=\"1\" size=\"32x16\" seed=\"7\">\n"
+             "  <param name=\"k\" type=\"float\" default=\"0.5\"/>\n"
+             "  <node id=\"w\" type=\"uniform\" value=\"=$width / 64\"/>\n"
+             "  <node id=\"h\" type=\"uniform\" value=\"=$height / 64\"/>\n"
+             "  <node id=\"own\" type=\"uniform\" size=\"8x4\" value=\"=$width * 10 + $height\"/>\n"
+             "  <node id=\"s\" type=\"uniform\" value=\"=$seed\"/>\n"
+             "  <node id=\"s2\" type=\"uniform\" seed=\"12\" value=\"=$seed\"/>\n"
+             "  <node id=\"t\" type=\"uniform\" value=\"=$time * 2\"/>\n"
+             "  <node id=\"k\" type=\"uniform\" value=\"=k * k + 1\"/>\n"
+             "  <output name=\"w\" from=\"w\"/>\n"
+             "  <output name=\"h\" from=\"h\"/>\n"
+             "  <output name=\"own\" from=\"own\"/>\n"
+             "  <output name=\"s\" from=\"s\"/>\n"
+             "  <output name=\"s2\" from=\"s2\"/>\n"
+             "  <output name=\"t\" from=\"t\"/>\n"
+             "  <output name=\"k\" from=\"k\"/>\n"
+             "</wetgraph>\n");
     WgRequest *r = request(g);
     WgResult *res = render(r);
     assert_constant(wgt_output(res, "w"), 1, 0.5);
@@ -466,20 +475,19 @@ static void test_expressions_see_the_scope(void **state)
     wg_graph_free(g);
 }
 
-static const char *const range_xml =
-    "<wetgraph version=\"1\" size=\"4\">\n"
-    "  <param name=\"k\" type=\"float\" default=\"0.25\"/>\n"
-    "  <node id=\"u\" type=\"uniform\"/>\n"
-    "  <node id=\"b\" type=\"blend\" opacity=\"=k * 2\">\n"
-    "    <in name=\"foreground\" from=\"u\"/>\n"
-    "    <in name=\"background\" from=\"u\"/>\n"
-    "  </node>\n"
-    "  <node id=\"soft\" type=\"blur\" sigma=\"=k - 0.5\">\n"
-    "    <in name=\"source\" from=\"u\"/>\n"
-    "  </node>\n"
-    "  <output name=\"b\" from=\"b\"/>\n"
-    "  <output name=\"soft\" from=\"soft\"/>\n"
-    "</wetgraph>\n";
+static const char *const range_xml = "<wetgraph version=\"1\" size=\"4\">\n"
+                                     "  <param name=\"k\" type=\"float\" default=\"0.25\"/>\n"
+                                     "  <node id=\"u\" type=\"uniform\"/>\n"
+                                     "  <node id=\"b\" type=\"blend\" opacity=\"=k * 2\">\n"
+                                     "    <in name=\"foreground\" from=\"u\"/>\n"
+                                     "    <in name=\"background\" from=\"u\"/>\n"
+                                     "  </node>\n"
+                                     "  <node id=\"soft\" type=\"blur\" sigma=\"=k - 0.5\">\n"
+                                     "    <in name=\"source\" from=\"u\"/>\n"
+                                     "  </node>\n"
+                                     "  <output name=\"b\" from=\"b\"/>\n"
+                                     "  <output name=\"soft\" from=\"soft\"/>\n"
+                                     "</wetgraph>\n";
 
 static void test_expression_results_out_of_range(void **state)
 {
@@ -487,10 +495,12 @@ static void test_expression_results_out_of_range(void **state)
     WgGraph *g = load(range_xml);
     WgRequest *r = request(g);
     /* the default k gives a negative sigma */
-    render_fails(r, WG_ERR_RANGE, 8, "node \'soft\'|expression 'k - 0.5' gives: 'sigma' = -0.25 is "
-                                     "outside [0, 16384]");
+    render_fails(r, WG_ERR_RANGE, 8,
+                 "node \'soft\'|expression 'k - 0.5' gives: 'sigma' = -0.25 is "
+                 "outside [0, 16384]");
     set_ok(r, "k", "0.75");
-    render_fails(r, WG_ERR_RANGE, 4, "node \'b\'|expression 'k * 2' gives: 'opacity' = 1.5 is outside [0, 1]");
+    render_fails(r, WG_ERR_RANGE, 4,
+                 "node \'b\'|expression 'k * 2' gives: 'opacity' = 1.5 is outside [0, 1]");
     WgError err = {0};
     wg_request_check(r, &err);
     assert_string_equal(err.node, "b");
@@ -510,7 +520,8 @@ static void test_non_finite_expressions(void **state)
         const char *attrs;
         const char *needle;
     } cases[] = {
-        {"value=\"=1/0\"", "node \'u\'|expression '1/0' gives: 'value' is infinite, not a finite number"},
+        {"value=\"=1/0\"",
+         "node \'u\'|expression '1/0' gives: 'value' is infinite, not a finite number"},
         {"value=\"=-1/0\"", "'value' is infinite"},
         {"value=\"=0/0\"", "'value' is NaN, not a finite number"},
         {"value=\"=log(k)\"", "'value' is infinite"},
@@ -587,7 +598,8 @@ static void test_demand_driven(void **state)
     wg_result_free(res);
 
     assert_int_equal(wg_request_add_output(r, "nope", &err), WG_ERR_USAGE);
-    assert_error(&err, WG_ERR_USAGE, 0, "graph 'test' has no output 'nope' (outputs: good, bad, also)");
+    assert_error(&err, WG_ERR_USAGE, 0,
+                 "graph 'test' has no output 'nope' (outputs: good, bad, also)");
     wg_request_free(r);
 
     /* asking for the broken output alone fails the same way */
@@ -627,8 +639,9 @@ static void test_colour_into_gray_port(void **state)
                       "  <output name=\"o\" from=\"b\"/>\n"
                       "</wetgraph>\n");
     WgRequest *r = request(g);
-    render_fails(r, WG_ERR_TYPE, 7, "node \'b\'|input 'mask' takes a gray image but gets a "
-                                    "colour one; convert it with a 'grayscale' node");
+    render_fails(r, WG_ERR_TYPE, 7,
+                 "node \'b\'|input 'mask' takes a gray image but gets a "
+                 "colour one; convert it with a 'grayscale' node");
     wg_request_free(r);
     wg_graph_free(g);
 
@@ -692,10 +705,14 @@ static void test_gray_promoted_into_colour_port(void **state)
     (void)state;
     WgGraph *g = load("<wetgraph version=\"1\" size=\"4\">\n"
                       "  <node id=\"g\" type=\"uniform\" value=\"0.375\"/>\n"
-                      "  <node id=\"r\" type=\"grayscale\" weights=\"1 0 0 0\"><in name=\"source\" from=\"g\"/></node>\n"
-                      "  <node id=\"gr\" type=\"grayscale\" weights=\"0 1 0 0\"><in name=\"source\" from=\"g\"/></node>\n"
-                      "  <node id=\"b\" type=\"grayscale\" weights=\"0 0 1 0\"><in name=\"source\" from=\"g\"/></node>\n"
-                      "  <node id=\"sum\" type=\"grayscale\" weights=\"1 1 1 0\"><in name=\"source\" from=\"g\"/></node>\n"
+                      "  <node id=\"r\" type=\"grayscale\" weights=\"1 0 0 0\"><in name=\"source\" "
+                      "from=\"g\"/></node>\n"
+                      "  <node id=\"gr\" type=\"grayscale\" weights=\"0 1 0 0\"><in "
+                      "name=\"source\" from=\"g\"/></node>\n"
+                      "  <node id=\"b\" type=\"grayscale\" weights=\"0 0 1 0\"><in name=\"source\" "
+                      "from=\"g\"/></node>\n"
+                      "  <node id=\"sum\" type=\"grayscale\" weights=\"1 1 1 0\"><in "
+                      "name=\"source\" from=\"g\"/></node>\n"
                       "  <output name=\"r\" from=\"r\"/>\n"
                       "  <output name=\"g\" from=\"gr\"/>\n"
                       "  <output name=\"b\" from=\"b\"/>\n"
@@ -715,22 +732,25 @@ static void test_gray_promoted_into_colour_port(void **state)
 static void test_graph_inputs(void **state)
 {
     (void)state;
-    WgGraph *g = load("<wetgraph version=\"1\" size=\"4\">\n"
-                      "  <input name=\"height\" type=\"gray\"/>\n"
-                      "  <input name=\"base\" type=\"color\" default=\"0.5 0.25 0.125\"/>\n"
-                      "  <input name=\"level\" type=\"gray\" default=\"0.75\"/>\n"
-                      "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"$height\"/></node>\n"
-                      "  <output name=\"o\" from=\"i\"/>\n"
-                      "  <output name=\"base\" from=\"$base\"/>\n"
-                      "  <output name=\"level\" from=\"$level\"/>\n"
-                      "</wetgraph>\n");
+    WgGraph *g =
+        load("<wetgraph version=\"1\" size=\"4\">\n"
+             "  <input name=\"height\" type=\"gray\"/>\n"
+             "  <input name=\"base\" type=\"color\" default=\"0.5 0.25 0.125\"/>\n"
+             "  <input name=\"level\" type=\"gray\" default=\"0.75\"/>\n"
+             "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"$height\"/></node>\n"
+             "  <output name=\"o\" from=\"i\"/>\n"
+             "  <output name=\"base\" from=\"$base\"/>\n"
+             "  <output name=\"level\" from=\"$level\"/>\n"
+             "</wetgraph>\n");
     WgRequest *r = request(g);
-    render_fails(r, WG_ERR_USAGE, 2, "graph input 'height' has no default and no image was given "
-                                     "(--input height=FILE)");
+    render_fails(r, WG_ERR_USAGE, 2,
+                 "graph input 'height' has no default and no image was given "
+                 "(--input height=FILE)");
 
     WgError err = {0};
     assert_int_equal(wg_request_set_input_image(r, "hieght", NULL, &err), WG_ERR_USAGE);
-    assert_error(&err, WG_ERR_USAGE, 0, "graph 'test' has no input 'hieght' (inputs: height, base, level)");
+    assert_error(&err, WG_ERR_USAGE, 0,
+                 "graph 'test' has no input 'hieght' (inputs: height, base, level)");
     assert_int_equal(wg_request_set_input_file(r, "height", wgt_path("nothing_here.png"), &err),
                      WG_ERR_IO);
 
@@ -775,15 +795,16 @@ static void test_graph_inputs(void **state)
 static void test_evaluated_count(void **state)
 {
     (void)state;
-    WgGraph *g = load("<wetgraph version=\"1\" size=\"8\">\n"
-                      "  <node id=\"a\" type=\"uniform\" value=\"0.25\"/>\n"
-                      "  <node id=\"b\" type=\"invert\"><in name=\"source\" from=\"a\"/></node>\n"
-                      "  <node id=\"c\" type=\"uniform\" value=\"0.5\"/>\n"
-                      "  <node id=\"d\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"c\"/></node>\n"
-                      "  <node id=\"e\" type=\"levels\"><in name=\"source\" from=\"d\"/></node>\n"
-                      "  <output name=\"small\" from=\"b\"/>\n"
-                      "  <output name=\"big\" from=\"e\"/>\n"
-                      "</wetgraph>\n");
+    WgGraph *g =
+        load("<wetgraph version=\"1\" size=\"8\">\n"
+             "  <node id=\"a\" type=\"uniform\" value=\"0.25\"/>\n"
+             "  <node id=\"b\" type=\"invert\"><in name=\"source\" from=\"a\"/></node>\n"
+             "  <node id=\"c\" type=\"uniform\" value=\"0.5\"/>\n"
+             "  <node id=\"d\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"c\"/></node>\n"
+             "  <node id=\"e\" type=\"levels\"><in name=\"source\" from=\"d\"/></node>\n"
+             "  <output name=\"small\" from=\"b\"/>\n"
+             "  <output name=\"big\" from=\"e\"/>\n"
+             "</wetgraph>\n");
     WgRequest *r = request(g);
     WgError err = {0};
     assert_int_equal(wg_request_add_output(r, "small", &err), WG_OK);
@@ -814,28 +835,32 @@ static void test_evaluated_count(void **state)
 static void test_identical_nodes_are_merged(void **state)
 {
     (void)state;
-    WgGraph *g = load("<wetgraph version=\"1\" size=\"8\">\n"
-                      "  <node id=\"u1\" type=\"uniform\" value=\"0.25\"/>\n"
-                      "  <node id=\"u2\" type=\"uniform\" value=\"=0.125 * 2\" label=\"same\" pos=\"1 2\"/>\n"
-                      "  <node id=\"b1\" type=\"levels\" in_mid=\"0.5\"><in name=\"source\" from=\"u1\"/></node>\n"
-                      "  <node id=\"b2\" type=\"levels\"><in name=\"source\" from=\"u2\"/></node>\n"
-                      "  <node id=\"m\" type=\"blend\" mode=\"add\">\n"
-                      "    <in name=\"foreground\" from=\"b1\"/>\n"
-                      "    <in name=\"background\" from=\"b2\"/>\n"
-                      "  </node>\n"
-                      "  <node id=\"other\" type=\"uniform\" value=\"0.25\" size=\"4\"/>\n"
-                      "  <node id=\"o2\" type=\"levels\" out_high=\"0.5\"><in name=\"source\" from=\"u1\"/></node>\n"
-                      "  <output name=\"m\" from=\"m\"/>\n"
-                      "  <output name=\"b2\" from=\"b2\"/>\n"
-                      "  <output name=\"other\" from=\"other\"/>\n"
-                      "  <output name=\"o2\" from=\"o2\"/>\n"
-                      "</wetgraph>\n");
+    WgGraph *g = load(
+        "<wetgraph version=\"1\" size=\"8\">\n"
+        "  <node id=\"u1\" type=\"uniform\" value=\"0.25\"/>\n"
+        "  <node id=\"u2\" type=\"uniform\" value=\"=0.125 * 2\" label=\"same\" pos=\"1 2\"/>\n"
+        "  <node id=\"b1\" type=\"levels\" in_mid=\"0.5\"><in name=\"source\" "
+        "from=\"u1\"/></node>\n"
+        "  <node id=\"b2\" type=\"levels\"><in name=\"source\" from=\"u2\"/></node>\n"
+        "  <node id=\"m\" type=\"blend\" mode=\"add\">\n"
+        "    <in name=\"foreground\" from=\"b1\"/>\n"
+        "    <in name=\"background\" from=\"b2\"/>\n"
+        "  </node>\n"
+        "  <node id=\"other\" type=\"uniform\" value=\"0.25\" size=\"4\"/>\n"
+        "  <node id=\"o2\" type=\"levels\" out_high=\"0.5\"><in name=\"source\" "
+        "from=\"u1\"/></node>\n"
+        "  <output name=\"m\" from=\"m\"/>\n"
+        "  <output name=\"b2\" from=\"b2\"/>\n"
+        "  <output name=\"other\" from=\"other\"/>\n"
+        "  <output name=\"o2\" from=\"o2\"/>\n"
+        "</wetgraph>\n");
     WgRequest *r = request(g);
     WgError err = {0};
     assert_int_equal(wg_request_add_output(r, "m", &err), WG_OK);
     WgResult *res = render(r);
     assert_constant(wgt_output(res, "m"), 1, 0.5);
-    assert_int_equal(wg_result_evaluated_count(res), 3); /* u, b (a default written out is the same), m */
+    assert_int_equal(wg_result_evaluated_count(res),
+                     3); /* u, b (a default written out is the same), m */
     wg_result_free(res);
     wg_request_free(r);
 

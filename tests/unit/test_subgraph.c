@@ -160,11 +160,10 @@ static int teardown_env(void **state)
 
 /* ---- resolution order -------------------------------------------------------------------- */
 
-static const char *const uses_layer =
-    "<wetgraph version=\"1\" size=\"8\">\n"
-    "  <node id=\"s\" type=\"layer\"/>\n"
-    "  <output name=\"o\" from=\"s\"/>\n"
-    "</wetgraph>\n";
+static const char *const uses_layer = "<wetgraph version=\"1\" size=\"8\">\n"
+                                      "  <node id=\"s\" type=\"layer\"/>\n"
+                                      "  <output name=\"o\" from=\"s\"/>\n"
+                                      "</wetgraph>\n";
 
 static void test_resolution_order(void **state)
 {
@@ -209,8 +208,9 @@ static void test_resolution_order(void **state)
     }
     WgError err;
     load_file_error(main_path, &err);
-    assert_error(&err, WG_ERR_TYPE, 2, "unknown node type 'layer' (not a built-in node, and no "
-                                           "layer.wetgraph next to this file, in WETGRAPH_PATH or in");
+    assert_error(&err, WG_ERR_TYPE, 2,
+                 "unknown node type 'layer' (not a built-in node, and no "
+                 "layer.wetgraph next to this file, in WETGRAPH_PATH or in");
     assert_non_null(strstr(err.message, builtin));
 
     /* empty entries in WETGRAPH_PATH are skipped */
@@ -232,11 +232,12 @@ static void test_builtin_node_types_win(void **state)
     /* a file named after a built-in node is not a subgraph */
     write_constant(d, "invert.wetgraph", 0.5);
     const char *path = file_in(d, "main.wetgraph");
-    wgt_write_file(path, "<wetgraph version=\"1\" size=\"2\">\n"
-                         "  <node id=\"u\" type=\"uniform\" value=\"0.25\"/>\n"
-                         "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"u\"/></node>\n"
-                         "  <output name=\"o\" from=\"i\"/>\n"
-                         "</wetgraph>\n");
+    wgt_write_file(path,
+                   "<wetgraph version=\"1\" size=\"2\">\n"
+                   "  <node id=\"u\" type=\"uniform\" value=\"0.25\"/>\n"
+                   "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"u\"/></node>\n"
+                   "  <output name=\"o\" from=\"i\"/>\n"
+                   "</wetgraph>\n");
     WgGraph *g = load_file(path);
     assert_false(wg_graph_node_info(g, 1)->is_subgraph);
     WgResult *r = render_with(g, NULL, NULL);
@@ -320,17 +321,18 @@ static void test_params_passed_as_attributes(void **state)
              "  <output name=\"out\" from=\"u\"/>\n"
              "</wetgraph>\n");
     const char *path = file_in(d, "main.wetgraph");
-    wgt_write_file(path, "<wetgraph version=\"1\" size=\"16\">\n"
-                         "  <param name=\"amount\" type=\"float\" default=\"0.1\"/>\n"
-                         "  <node id=\"a\" type=\"scaled\"/>\n"
-                         "  <node id=\"b\" type=\"scaled\" v=\"0.25\"/>\n"
-                         "  <node id=\"c\" type=\"scaled\" v=\"=amount * 3\"/>\n"
-                         "  <node id=\"d\" type=\"scaled\" size=\"32x8\" v=\"=$width / 64 + $height / 64\"/>\n"
-                         "  <output name=\"a\" from=\"a\"/>\n"
-                         "  <output name=\"b\" from=\"b\"/>\n"
-                         "  <output name=\"c\" from=\"c.out\"/>\n"
-                         "  <output name=\"d\" from=\"d\"/>\n"
-                         "</wetgraph>\n");
+    wgt_write_file(
+        path, "<wetgraph version=\"1\" size=\"16\">\n"
+              "  <param name=\"amount\" type=\"float\" default=\"0.1\"/>\n"
+              "  <node id=\"a\" type=\"scaled\"/>\n"
+              "  <node id=\"b\" type=\"scaled\" v=\"0.25\"/>\n"
+              "  <node id=\"c\" type=\"scaled\" v=\"=amount * 3\"/>\n"
+              "  <node id=\"d\" type=\"scaled\" size=\"32x8\" v=\"=$width / 64 + $height / 64\"/>\n"
+              "  <output name=\"a\" from=\"a\"/>\n"
+              "  <output name=\"b\" from=\"b\"/>\n"
+              "  <output name=\"c\" from=\"c.out\"/>\n"
+              "  <output name=\"d\" from=\"d\"/>\n"
+              "</wetgraph>\n");
     WgGraph *g = load_file(path);
     WgResult *r = render_with(g, NULL, NULL);
     assert_constant(wgt_output(r, "a"), 1, 0.5 * 2);
@@ -353,8 +355,9 @@ static void test_params_passed_as_attributes(void **state)
     /* ... and its range is the subgraph parameter's */
     WgError err;
     render_error(g, "amount", "0.5", &err);
-    assert_error(&err, WG_ERR_RANGE, 5, "node \'c\'|expression 'amount * 3' gives: 'v' = 1.5 is "
-                                            "outside [0, 1]");
+    assert_error(&err, WG_ERR_RANGE, 5,
+                 "node \'c\'|expression 'amount * 3' gives: 'v' = 1.5 is "
+                 "outside [0, 1]");
     assert_true(ends_with(err.file, "/params/main.wetgraph"));
     wg_graph_free(g);
 
@@ -376,8 +379,9 @@ static void test_params_passed_as_attributes(void **state)
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "node \'a\'|subgraph 'scaled' has no parameter 'vv'; did "
-                                            "you mean 'v'?");
+    assert_error(&err, WG_ERR_PARSE, 2,
+                 "node \'a\'|subgraph 'scaled' has no parameter 'vv'; did "
+                 "you mean 'v'?");
     /* an expression in the parent may only use the parent's names */
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"16\">\n"
                          "  <node id=\"a\" type=\"scaled\" v=\"=v / 2\"/>\n"
@@ -401,15 +405,16 @@ static void test_non_numeric_params_and_seed(void **state)
              "  <output name=\"seed\" from=\"s\"/>\n"
              "</wetgraph>\n");
     const char *path = file_in(d, "main.wetgraph");
-    wgt_write_file(path, "<wetgraph version=\"1\" size=\"2\" seed=\"3\">\n"
-                         "  <param name=\"c\" type=\"color\" default=\"0.25 0.5 0.75 1\"/>\n"
-                         "  <node id=\"a\" type=\"tinted\" tint=\"=c\"/>\n"
-                         "  <node id=\"b\" type=\"tinted\" tint=\"1 0 0.5\" kind=\"gray\" seed=\"11\"/>\n"
-                         "  <output name=\"a\" from=\"a\"/>\n"
-                         "  <output name=\"b\" from=\"b.out\"/>\n"
-                         "  <output name=\"a_seed\" from=\"a.seed\"/>\n"
-                         "  <output name=\"b_seed\" from=\"b.seed\"/>\n"
-                         "</wetgraph>\n");
+    wgt_write_file(path,
+                   "<wetgraph version=\"1\" size=\"2\" seed=\"3\">\n"
+                   "  <param name=\"c\" type=\"color\" default=\"0.25 0.5 0.75 1\"/>\n"
+                   "  <node id=\"a\" type=\"tinted\" tint=\"=c\"/>\n"
+                   "  <node id=\"b\" type=\"tinted\" tint=\"1 0 0.5\" kind=\"gray\" seed=\"11\"/>\n"
+                   "  <output name=\"a\" from=\"a\"/>\n"
+                   "  <output name=\"b\" from=\"b.out\"/>\n"
+                   "  <output name=\"a_seed\" from=\"a.seed\"/>\n"
+                   "  <output name=\"b_seed\" from=\"b.seed\"/>\n"
+                   "</wetgraph>\n");
     WgGraph *g = load_file(path);
     WgResult *r = render_with(g, NULL, NULL);
     const WgImage *a = wgt_output(r, "a");
@@ -504,7 +509,8 @@ static void test_inputs_defaults_and_outputs(void **state)
                          "  <output name=\"a\" from=\"a.result\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 3, "node 'a' has no output 'result' (outputs: out, through, tint)");
+    assert_error(&err, WG_ERR_PARSE, 3,
+                 "node 'a' has no output 'result' (outputs: out, through, tint)");
 
     /* an input without a default must be connected */
     write_in(d, "needs.wetgraph",
@@ -568,11 +574,12 @@ static void test_shared_subgraph_is_not_a_cycle(void **state)
     /* a diamond: main uses b and c, both use d */
     const char *d = dir("diamond");
     write_constant(d, "d.wetgraph", 0.25);
-    const char *uses_d = "<wetgraph version=\"1\">\n"
-                         "  <node id=\"n\" type=\"d\"/>\n"
-                         "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"n\"/></node>\n"
-                         "  <output name=\"out\" from=\"i\"/>\n"
-                         "</wetgraph>\n";
+    const char *uses_d =
+        "<wetgraph version=\"1\">\n"
+        "  <node id=\"n\" type=\"d\"/>\n"
+        "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"n\"/></node>\n"
+        "  <output name=\"out\" from=\"i\"/>\n"
+        "</wetgraph>\n";
     write_in(d, "b.wetgraph", uses_d);
     write_in(d, "c.wetgraph", uses_d);
     const char *path = file_in(d, "main.wetgraph");
@@ -615,16 +622,18 @@ static void test_direct_recursion(void **state)
     /* the same text loaded from memory under that file's name */
     WgGraph *g = NULL;
     memset(&err, 0, sizeof err);
-    assert_int_equal(wg_graph_load_memory(self, strlen(self), file_in(d, "self.wetgraph"), &g, &err),
-                     WG_ERR_CYCLE);
+    assert_int_equal(
+        wg_graph_load_memory(self, strlen(self), file_in(d, "self.wetgraph"), &g, &err),
+        WG_ERR_CYCLE);
     assert_null(g);
     assert_non_null(strstr(err.message, "self.wetgraph -> self.wetgraph"));
 
     /* through an explicit path spelled differently */
-    write_in(d, "spelled.wetgraph", "<wetgraph version=\"1\">\n"
-                                    "  <node id=\"again\" type=\"./../recursion_direct/spelled.wetgraph\"/>\n"
-                                    "  <output name=\"o\" from=\"again\"/>\n"
-                                    "</wetgraph>\n");
+    write_in(d, "spelled.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"again\" type=\"./../recursion_direct/spelled.wetgraph\"/>\n"
+             "  <output name=\"o\" from=\"again\"/>\n"
+             "</wetgraph>\n");
     assert_int_equal(load_file_error(file_in(d, "spelled.wetgraph"), &err), WG_ERR_CYCLE);
     assert_error(&err, WG_ERR_CYCLE, 0, "spelled.wetgraph -> spelled.wetgraph");
 }
@@ -633,23 +642,27 @@ static void test_indirect_recursion(void **state)
 {
     (void)state;
     const char *d = dir("recursion_indirect");
-    write_in(d, "a.wetgraph", "<wetgraph version=\"1\">\n"
-                              "  <node id=\"to_b\" type=\"b\"/>\n"
-                              "  <output name=\"o\" from=\"to_b\"/>\n"
-                              "</wetgraph>\n");
-    write_in(d, "b.wetgraph", "<wetgraph version=\"1\">\n"
-                              "  <node id=\"u\" type=\"uniform\"/>\n"
-                              "  <node id=\"to_c\" type=\"c\"/>\n"
-                              "  <output name=\"o\" from=\"u\"/>\n"
-                              "</wetgraph>\n");
-    write_in(d, "c.wetgraph", "<wetgraph version=\"1\">\n"
-                              "  <node id=\"to_a\" type=\"a\"/>\n"
-                              "  <output name=\"o\" from=\"to_a\"/>\n"
-                              "</wetgraph>\n");
+    write_in(d, "a.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"to_b\" type=\"b\"/>\n"
+             "  <output name=\"o\" from=\"to_b\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "b.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"u\" type=\"uniform\"/>\n"
+             "  <node id=\"to_c\" type=\"c\"/>\n"
+             "  <output name=\"o\" from=\"u\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "c.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"to_a\" type=\"a\"/>\n"
+             "  <output name=\"o\" from=\"to_a\"/>\n"
+             "</wetgraph>\n");
     WgError err;
     assert_int_equal(load_file_error(file_in(d, "a.wetgraph"), &err), WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0, "subgraph recursion: a.wetgraph -> b.wetgraph -> "
-                                            "c.wetgraph -> a.wetgraph");
+    assert_error(&err, WG_ERR_CYCLE, 0,
+                 "subgraph recursion: a.wetgraph -> b.wetgraph -> "
+                 "c.wetgraph -> a.wetgraph");
     /* where each link is used */
     assert_non_null(strstr(err.message, "used by node 'to_a' at "));
     assert_non_null(strstr(err.message, "c.wetgraph:2"));
@@ -662,10 +675,11 @@ static void test_indirect_recursion(void **state)
     assert_error(&err, WG_ERR_CYCLE, 0, "b.wetgraph -> c.wetgraph -> a.wetgraph -> b.wetgraph");
 
     /* a graph that only uses the loop from outside is rejected too */
-    write_in(d, "outer.wetgraph", "<wetgraph version=\"1\">\n"
-                                  "  <node id=\"x\" type=\"c\"/>\n"
-                                  "  <output name=\"o\" from=\"x\"/>\n"
-                                  "</wetgraph>\n");
+    write_in(d, "outer.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"x\" type=\"c\"/>\n"
+             "  <output name=\"o\" from=\"x\"/>\n"
+             "</wetgraph>\n");
     assert_int_equal(load_file_error(file_in(d, "outer.wetgraph"), &err), WG_ERR_CYCLE);
     assert_error(&err, WG_ERR_CYCLE, 0, "c.wetgraph -> a.wetgraph -> b.wetgraph -> c.wetgraph");
 }
@@ -676,18 +690,20 @@ static void test_errors_located_in_the_subgraph_file(void **state)
 {
     (void)state;
     const char *d = dir("sub_errors");
-    write_in(d, "broken.wetgraph", "<wetgraph version=\"1\">\n"
-                                   "  <node id=\"u\" type=\"uniform\"/>\n"
-                                   "  <node id=\"b\" type=\"blur\" sigma=\"wide\">\n"
-                                   "    <in name=\"source\" from=\"u\"/>\n"
-                                   "  </node>\n"
-                                   "  <output name=\"o\" from=\"b\"/>\n"
-                                   "</wetgraph>\n");
-    write_in(d, "middle.wetgraph", "<wetgraph version=\"1\">\n"
-                                   "\n"
-                                   "  <node id=\"inner\" type=\"broken\"/>\n"
-                                   "  <output name=\"o\" from=\"inner\"/>\n"
-                                   "</wetgraph>\n");
+    write_in(d, "broken.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"u\" type=\"uniform\"/>\n"
+             "  <node id=\"b\" type=\"blur\" sigma=\"wide\">\n"
+             "    <in name=\"source\" from=\"u\"/>\n"
+             "  </node>\n"
+             "  <output name=\"o\" from=\"b\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "middle.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "\n"
+             "  <node id=\"inner\" type=\"broken\"/>\n"
+             "  <output name=\"o\" from=\"inner\"/>\n"
+             "</wetgraph>\n");
     const char *path = file_in(d, "main.wetgraph");
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"4\">\n"
                          "  <node id=\"outer\" type=\"middle\"/>\n"
@@ -704,9 +720,10 @@ static void test_errors_located_in_the_subgraph_file(void **state)
     assert_non_null(strstr(err.message, where));
 
     /* malformed XML in a subgraph */
-    write_in(d, "broken.wetgraph", "<wetgraph version=\"1\">\n"
-                                   "  <node id=\"u\" type=\"uniform\"\n"
-                                   "</wetgraph>\n");
+    write_in(d, "broken.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"u\" type=\"uniform\"\n"
+             "</wetgraph>\n");
     load_file_error(path, &err);
     assert_int_equal(err.code, WG_ERR_PARSE);
     assert_true(ends_with(err.file, "/sub_errors/broken.wetgraph"));
@@ -715,29 +732,32 @@ static void test_errors_located_in_the_subgraph_file(void **state)
     assert_non_null(strstr(err.message, "(used by node 'outer' at "));
 
     /* an unknown type inside the subgraph */
-    write_in(d, "broken.wetgraph", "<wetgraph version=\"1\">\n"
-                                   "  <node id=\"u\" type=\"unifrom\"/>\n"
-                                   "  <output name=\"o\" from=\"u\"/>\n"
-                                   "</wetgraph>\n");
+    write_in(d, "broken.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <node id=\"u\" type=\"unifrom\"/>\n"
+             "  <output name=\"o\" from=\"u\"/>\n"
+             "</wetgraph>\n");
     load_file_error(path, &err);
     assert_error(&err, WG_ERR_TYPE, 2, "unknown node type 'unifrom'; did you mean 'uniform'?");
     assert_true(ends_with(err.file, "/sub_errors/broken.wetgraph"));
 
     /* errors found while instantiating are located in the subgraph too, with the node's path */
-    write_in(d, "broken.wetgraph", "<wetgraph version=\"1\">\n"
-                                   "  <param name=\"k\" type=\"float\" default=\"0\"/>\n"
-                                   "  <node id=\"u\" type=\"uniform\"/>\n"
-                                   "  <node id=\"b\" type=\"blend\" opacity=\"=k\">\n"
-                                   "    <in name=\"foreground\" from=\"u\"/>\n"
-                                   "    <in name=\"background\" from=\"u\"/>\n"
-                                   "  </node>\n"
-                                   "  <output name=\"o\" from=\"b\"/>\n"
-                                   "</wetgraph>\n");
-    write_in(d, "middle.wetgraph", "<wetgraph version=\"1\">\n"
-                                   "  <param name=\"k\" type=\"float\" default=\"0\"/>\n"
-                                   "  <node id=\"inner\" type=\"broken\" k=\"=k * 4\"/>\n"
-                                   "  <output name=\"o\" from=\"inner\"/>\n"
-                                   "</wetgraph>\n");
+    write_in(d, "broken.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <param name=\"k\" type=\"float\" default=\"0\"/>\n"
+             "  <node id=\"u\" type=\"uniform\"/>\n"
+             "  <node id=\"b\" type=\"blend\" opacity=\"=k\">\n"
+             "    <in name=\"foreground\" from=\"u\"/>\n"
+             "    <in name=\"background\" from=\"u\"/>\n"
+             "  </node>\n"
+             "  <output name=\"o\" from=\"b\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "middle.wetgraph",
+             "<wetgraph version=\"1\">\n"
+             "  <param name=\"k\" type=\"float\" default=\"0\"/>\n"
+             "  <node id=\"inner\" type=\"broken\" k=\"=k * 4\"/>\n"
+             "  <output name=\"o\" from=\"inner\"/>\n"
+             "</wetgraph>\n");
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"4\">\n"
                          "  <param name=\"k\" type=\"float\" default=\"0.125\"/>\n"
                          "  <node id=\"outer\" type=\"middle\" k=\"=k\"/>\n"
@@ -765,8 +785,9 @@ static void test_missing_subgraph(void **state)
                          "</wetgraph>\n");
     WgError err;
     assert_int_equal(load_file_error(path, &err), WG_ERR_TYPE);
-    assert_error(&err, WG_ERR_TYPE, 2, "unknown node type 'water_ripples' (not a built-in node, "
-                                           "and no water_ripples.wetgraph next to this file");
+    assert_error(&err, WG_ERR_TYPE, 2,
+                 "unknown node type 'water_ripples' (not a built-in node, "
+                 "and no water_ripples.wetgraph next to this file");
     assert_string_equal(err.file, path);
 
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"4\">\n"

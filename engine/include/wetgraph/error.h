@@ -28,10 +28,10 @@ enum {
 typedef struct WgError {
     int code;
     char message[1024];
-    char file[1024]; /* empty when unknown */
-    int line;        /* 1-based, 0 when unknown */
-    int column;      /* 1-based, 0 when unknown */
-    char node[256];  /* node id (path for nodes inside subgraphs), empty when unknown */
+    char file[1024];    /* empty when unknown */
+    int line;           /* 1-based, 0 when unknown */
+    int column;         /* 1-based, 0 when unknown */
+    char node[256];     /* node id (path for nodes inside subgraphs), empty when unknown */
     char node_type[64]; /* that node's type, empty when unknown */
 } WgError;
 
@@ -41,8 +41,8 @@ int wg_error_set(WgError *err, int code, const char *node, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
 
 /* Same, with a source location. */
-int wg_error_set_at(WgError *err, int code, const char *file, int line, int column,
-                    const char *fmt, ...) __attribute__((format(printf, 6, 7)));
+int wg_error_set_at(WgError *err, int code, const char *file, int line, int column, const char *fmt,
+                    ...) __attribute__((format(printf, 6, 7)));
 
 /* Fill in a location if the error has none yet (used when an error bubbles up). */
 void wg_error_locate(WgError *err, const char *file, int line, const char *node);

@@ -24,9 +24,9 @@ typedef struct WgRequest WgRequest;
 typedef struct WgResult WgResult;
 
 typedef struct WgEngineOptions {
-    int threads;          /* worker threads; 0 = number of cores */
-    size_t memory_budget; /* bytes of image memory (working set + cache); 0 = default: half
-                             of physical memory, at most 16 GiB */
+    int threads;           /* worker threads; 0 = number of cores */
+    size_t memory_budget;  /* bytes of image memory (working set + cache); 0 = default: half
+                              of physical memory, at most 16 GiB */
     const char *cache_dir; /* persistent cache folder (created if missing); NULL = none */
 } WgEngineOptions;
 
@@ -45,8 +45,7 @@ void wg_request_free(WgRequest *r);
 int wg_request_set(WgRequest *r, const char *name, const char *value, WgError *err);
 /* Feed a graph input from a file or from an image (the request takes its own reference). */
 int wg_request_set_input_file(WgRequest *r, const char *name, const char *path, WgError *err);
-int wg_request_set_input_image(WgRequest *r, const char *name, const WgImage *img,
-                               WgError *err);
+int wg_request_set_input_image(WgRequest *r, const char *name, const WgImage *img, WgError *err);
 /* Restrict to some outputs (default: all). */
 int wg_request_add_output(WgRequest *r, const char *name, WgError *err);
 void wg_request_set_size(WgRequest *r, int width, int height); /* override root size */
@@ -76,7 +75,7 @@ typedef struct WgNodeStat {
 int wg_result_output_count(const WgResult *r);
 const char *wg_result_output_name(const WgResult *r, int i);
 const WgImage *wg_result_output_image(const WgResult *r, int i); /* owned by the result */
-WgFormat wg_result_output_format(const WgResult *r, int i);     /* resolved, never DEFAULT */
+WgFormat wg_result_output_format(const WgResult *r, int i);      /* resolved, never DEFAULT */
 WgColorspace wg_result_output_colorspace(const WgResult *r, int i);
 int wg_result_stat_count(const WgResult *r);
 const WgNodeStat *wg_result_stat(const WgResult *r, int i);

@@ -28,24 +28,58 @@ extern "C" {
 #endif
 
 typedef enum {
-    WG_EX_NUM,     /* value */
-    WG_EX_VAR,     /* slot (resolved by the caller's callback) */
-    WG_EX_NEG,     /* -a */
-    WG_EX_NOT,     /* !a */
-    WG_EX_ADD, WG_EX_SUB, WG_EX_MUL, WG_EX_DIV, WG_EX_MOD, WG_EX_POW,
-    WG_EX_LT, WG_EX_LE, WG_EX_GT, WG_EX_GE, WG_EX_EQ, WG_EX_NE,
-    WG_EX_AND, WG_EX_OR,
-    WG_EX_COND,    /* a ? b : c */
-    WG_EX_CALL,    /* func(args) */
+    WG_EX_NUM, /* value */
+    WG_EX_VAR, /* slot (resolved by the caller's callback) */
+    WG_EX_NEG, /* -a */
+    WG_EX_NOT, /* !a */
+    WG_EX_ADD,
+    WG_EX_SUB,
+    WG_EX_MUL,
+    WG_EX_DIV,
+    WG_EX_MOD,
+    WG_EX_POW,
+    WG_EX_LT,
+    WG_EX_LE,
+    WG_EX_GT,
+    WG_EX_GE,
+    WG_EX_EQ,
+    WG_EX_NE,
+    WG_EX_AND,
+    WG_EX_OR,
+    WG_EX_COND, /* a ? b : c */
+    WG_EX_CALL, /* func(args) */
 } WgExprOp;
 
 typedef enum {
-    WG_FN_ABS, WG_FN_MIN, WG_FN_MAX, WG_FN_CLAMP, WG_FN_LERP, WG_FN_SMOOTHSTEP, WG_FN_STEP,
-    WG_FN_FLOOR, WG_FN_CEIL, WG_FN_FRACT, WG_FN_MOD, WG_FN_SQRT, WG_FN_POW, WG_FN_EXP,
-    WG_FN_LOG, WG_FN_SIN, WG_FN_COS, WG_FN_TAN, WG_FN_ATAN2, WG_FN_ROUND, WG_FN_SIGN,
-    WG_FN_ASIN, WG_FN_ACOS, WG_FN_ATAN,
+    WG_FN_ABS,
+    WG_FN_MIN,
+    WG_FN_MAX,
+    WG_FN_CLAMP,
+    WG_FN_LERP,
+    WG_FN_SMOOTHSTEP,
+    WG_FN_STEP,
+    WG_FN_FLOOR,
+    WG_FN_CEIL,
+    WG_FN_FRACT,
+    WG_FN_MOD,
+    WG_FN_SQRT,
+    WG_FN_POW,
+    WG_FN_EXP,
+    WG_FN_LOG,
+    WG_FN_SIN,
+    WG_FN_COS,
+    WG_FN_TAN,
+    WG_FN_ATAN2,
+    WG_FN_ROUND,
+    WG_FN_SIGN,
+    WG_FN_ASIN,
+    WG_FN_ACOS,
+    WG_FN_ATAN,
     /* only where the caller enables them (the pixel node): */
-    WG_FN_SAMPLE, WG_FN_NOISE, WG_FN_RGB, WG_FN_RGBA,
+    WG_FN_SAMPLE,
+    WG_FN_NOISE,
+    WG_FN_RGB,
+    WG_FN_RGBA,
     WG_FN_COUNT_
 } WgExprFunc;
 

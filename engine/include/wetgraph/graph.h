@@ -25,8 +25,8 @@ typedef struct WgGraphParamInfo {
     const char *default_text; /* as written in the file (or the type's natural default) */
     bool has_min, has_max;
     double min, max;
-    const char *label;          /* may be NULL */
-    const char *const *values;  /* enum values, NULL-terminated; NULL for other types */
+    const char *label;         /* may be NULL */
+    const char *const *values; /* enum values, NULL-terminated; NULL for other types */
     int line;
 } WgGraphParamInfo;
 
@@ -49,7 +49,7 @@ typedef struct WgGraphOutputInfo {
 
 typedef struct WgGraphNodeInfo {
     const char *id;
-    const char *type;    /* as written */
+    const char *type; /* as written */
     bool is_subgraph;
     const char *subgraph_path; /* resolved file for subgraphs, else NULL */
     int n_inputs;

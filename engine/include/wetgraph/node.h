@@ -56,30 +56,47 @@ typedef struct WgParamSpec {
     WgParamType type;
     size_t offset;
     const char *label;
-    double def;            /* float/int/bool/enum default */
-    double min, max;       /* hard range (float/int) */
-    double ui_min, ui_max; /* suggested slider range */
+    double def;                /* float/int/bool/enum default */
+    double min, max;           /* hard range (float/int) */
+    double ui_min, ui_max;     /* suggested slider range */
     const char *const *values; /* enum value names, NULL-terminated */
     const char *def_string;    /* string default; colour default as text */
     unsigned flags;
 } WgParamSpec;
 
 #define WG_PARAM_FLOAT_UI(S, f, label, def, lo, hi, ulo, uhi)                                      \
-    {#f, WG_PARAM_FLOAT_T, offsetof(S, f), label, def, lo, hi, ulo, uhi, NULL, NULL, 0}
+    {                                                                                              \
+#f, WG_PARAM_FLOAT_T, offsetof(S, f), label, def, lo, hi, ulo, uhi, NULL, NULL, 0          \
+    }
 #define WG_PARAM_FLOAT(S, f, label, def, lo, hi) WG_PARAM_FLOAT_UI(S, f, label, def, lo, hi, lo, hi)
 #define WG_PARAM_INT(S, f, label, def, lo, hi)                                                     \
-    {#f, WG_PARAM_INT_T, offsetof(S, f), label, def, lo, hi, lo, hi, NULL, NULL, 0}
+    {                                                                                              \
+#f, WG_PARAM_INT_T, offsetof(S, f), label, def, lo, hi, lo, hi, NULL, NULL, 0              \
+    }
 #define WG_PARAM_BOOL(S, f, label, def)                                                            \
-    {#f, WG_PARAM_BOOL_T, offsetof(S, f), label, (def) ? 1 : 0, 0, 1, 0, 1, NULL, NULL, 0}
+    {                                                                                              \
+#f, WG_PARAM_BOOL_T, offsetof(S, f), label, (def) ? 1 : 0, 0, 1, 0, 1, NULL, NULL, 0       \
+    }
 #define WG_PARAM_ENUM(S, f, label, def_index, values)                                              \
-    {#f, WG_PARAM_ENUM_T, offsetof(S, f), label, def_index, 0, 0, 0, 0, values, NULL, 0}
+    {                                                                                              \
+#f, WG_PARAM_ENUM_T, offsetof(S, f), label, def_index, 0, 0, 0, 0, values, NULL, 0         \
+    }
 #define WG_PARAM_COLOR(S, f, label, def_text)                                                      \
-    {#f, WG_PARAM_COLOR_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, def_text, 0}
+    {                                                                                              \
+#f, WG_PARAM_COLOR_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, def_text, 0              \
+    }
 #define WG_PARAM_STRING(S, f, label, def_text)                                                     \
-    {#f, WG_PARAM_STRING_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, def_text, 0}
+    {                                                                                              \
+#f, WG_PARAM_STRING_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, def_text, 0             \
+    }
 #define WG_PARAM_PATH_STRING(S, f, label)                                                          \
-    {#f, WG_PARAM_STRING_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, "", WG_PARAM_PATH}
-#define WG_PARAM_END {NULL, 0, 0, NULL, 0, 0, 0, 0, 0, NULL, NULL, 0}
+    {                                                                                              \
+#f, WG_PARAM_STRING_T, offsetof(S, f), label, 0, 0, 0, 0, 0, NULL, "", WG_PARAM_PATH       \
+    }
+#define WG_PARAM_END                                                                               \
+    {                                                                                              \
+        NULL, 0, 0, NULL, 0, 0, 0, 0, 0, NULL, NULL, 0                                             \
+    }
 
 enum { WG_ANY = 0, WG_GRAY = 1, WG_COLOR = 4 };
 
@@ -90,21 +107,30 @@ typedef struct WgPortSpec {
     const char *doc;
 } WgPortSpec;
 
-#define WG_PORT(name, kind) {name, kind, false, NULL}
-#define WG_PORT_OPT(name, kind) {name, kind, true, NULL}
-#define WG_PORT_END {NULL, 0, false, NULL}
+#define WG_PORT(name, kind)                                                                        \
+    {                                                                                              \
+        name, kind, false, NULL                                                                    \
+    }
+#define WG_PORT_OPT(name, kind)                                                                    \
+    {                                                                                              \
+        name, kind, true, NULL                                                                     \
+    }
+#define WG_PORT_END                                                                                \
+    {                                                                                              \
+        NULL, 0, false, NULL                                                                       \
+    }
 
 enum {
-    WG_NODE_POINT = 1 << 0,         /* each pixel depends only on the same pixel of the inputs */
-    WG_NODE_NEIGHBOURHOOD = 1 << 1, /* reads a window around each pixel */
-    WG_NODE_GLOBAL = 1 << 2,        /* needs the whole image (statistics, transforms) */
-    WG_NODE_SOURCE = 1 << 3,        /* no image inputs */
-    WG_NODE_SEEDED = 1 << 4,        /* output depends on the seed */
-    WG_NODE_TIMED = 1 << 5,         /* output depends on $time directly (not only via params) */
+    WG_NODE_POINT = 1 << 0,          /* each pixel depends only on the same pixel of the inputs */
+    WG_NODE_NEIGHBOURHOOD = 1 << 1,  /* reads a window around each pixel */
+    WG_NODE_GLOBAL = 1 << 2,         /* needs the whole image (statistics, transforms) */
+    WG_NODE_SOURCE = 1 << 3,         /* no image inputs */
+    WG_NODE_SEEDED = 1 << 4,         /* output depends on the seed */
+    WG_NODE_TIMED = 1 << 5,          /* output depends on $time directly (not only via params) */
     WG_NODE_DYNAMIC_INPUTS = 1 << 6, /* any <in name=...>; `inputs` lists none or fixed ones */
-    WG_NODE_EXTRA_PARAMS = 1 << 7,  /* undeclared numeric attributes are passed as extras */
-    WG_NODE_CHEAP = 1 << 8,         /* cheaper to recompute than to read from the disk cache */
-    WG_NODE_SCOPED = 1 << 9,        /* reads ctx->scope_* (graph params etc.) in its own maths */
+    WG_NODE_EXTRA_PARAMS = 1 << 7,   /* undeclared numeric attributes are passed as extras */
+    WG_NODE_CHEAP = 1 << 8,          /* cheaper to recompute than to read from the disk cache */
+    WG_NODE_SCOPED = 1 << 9,         /* reads ctx->scope_* (graph params etc.) in its own maths */
 };
 
 typedef struct WgPool WgPool;
@@ -119,8 +145,8 @@ typedef struct WgNodeContext {
 
     int n_inputs;
     const char *const *input_names;
-    const int *input_channels;       /* 0 for an unconnected optional input */
-    const WgImage *const *inputs;    /* eval only; NULL for unconnected */
+    const int *input_channels;    /* 0 for an unconnected optional input */
+    const WgImage *const *inputs; /* eval only; NULL for unconnected */
 
     int n_outputs;
     WgImage **outputs; /* eval only: allocated by the engine */
@@ -134,7 +160,7 @@ typedef struct WgNodeContext {
     const char *const *scope_names;
     const double *scope_values;
 
-    WgPool *pool_; /* private */
+    WgPool *pool_;         /* private */
     volatile int *cancel_; /* private */
 } WgNodeContext;
 
