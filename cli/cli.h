@@ -25,8 +25,6 @@ int cli_usage_error(const char *cmd, const char *fmt, ...) __attribute__((format
 bool cli_is_help(const char *arg);
 /* JSON string literal. */
 void cli_json_string(FILE *f, const char *s);
-/* Parse "N" or "WxH". */
-bool cli_parse_size(const char *text, int *w, int *h);
 /* Make a graph runnable for checking: placeholder images for inputs without a default. */
 int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err);
 

@@ -121,7 +121,7 @@ static int parse_args(int argc, char **argv, Options *o)
             o->outputs[o->n_outputs++] = val;
         } else if (TAKE("--size")) {
             NEED;
-            if (!cli_parse_size(val, &o->width, &o->height))
+            if (!wg_parse_size(val, &o->width, &o->height))
                 return cli_usage_error("render", "bad --size '%s' (N or WxH, sides 1..%d)", val,
                                        WG_MAX_SIDE);
         } else if (TAKE("--seed")) {

@@ -62,23 +62,6 @@ void cli_json_string(FILE *f, const char *s)
     fputc('"', f);
 }
 
-bool cli_parse_size(const char *text, int *w, int *h)
-{
-    char *end;
-    long a = strtol(text, &end, 10);
-    if (end == text) return false;
-    long b = a;
-    if (*end == 'x' || *end == 'X') {
-        const char *s = end + 1;
-        b = strtol(s, &end, 10);
-        if (end == s) return false;
-    }
-    if (*end || a < 1 || b < 1 || a > WG_MAX_SIDE || b > WG_MAX_SIDE) return false;
-    *w = (int)a;
-    *h = (int)b;
-    return true;
-}
-
 int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err)
 {
     const char *size = wg_graph_size_text(g);

@@ -180,25 +180,9 @@ static int eval_node(Run *run, Node *node, WgError *err)
             goto out;
         }
     }
-    WgNodeContext ctx = {0};
-    ctx.node_id = in->id;
-    ctx.params = in->params;
-    ctx.width = in->width;
-    ctx.height = in->height;
-    ctx.seed = in->seed;
-    ctx.time = in->time;
-    ctx.n_inputs = in->n_in;
-    ctx.input_names = (const char *const *)in->in_names;
-    ctx.input_channels = in->in_channels;
+    WgNodeContext ctx = wg__inst_context(in);
     ctx.inputs = inputs;
-    ctx.n_outputs = in->n_out;
     ctx.outputs = outputs;
-    ctx.n_extra = in->n_extra;
-    ctx.extra_names = (const char *const *)in->extra_names;
-    ctx.extra_values = in->extra_values;
-    ctx.n_scope = in->n_scope;
-    ctx.scope_names = (const char *const *)in->scope_names;
-    ctx.scope_values = in->scope_values;
     ctx.pool_ = run->e->pool;
     ctx.cancel_ = &run->cancel;
     rc = t->eval(&ctx, err);

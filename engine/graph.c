@@ -130,7 +130,7 @@ static bool valid_id(const char *s)
     return true;
 }
 
-bool wg__parse_size(const char *text, int *w, int *h)
+bool wg_parse_size(const char *text, int *w, int *h)
 {
     char *end;
     long a = strtol(text, &end, 10);
@@ -794,7 +794,7 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
     if (n->size_text) {
         const char *s = n->size_text;
         int w, h;
-        bool ok = !strcmp(s, "graph") || !strcmp(s, "input") || wg__parse_size(s, &w, &h);
+        bool ok = !strcmp(s, "graph") || !strcmp(s, "input") || wg_parse_size(s, &w, &h);
         if (!ok && (s[0] == 'x' || s[0] == '/')) {
             char *end;
             double f = strtod(s + 1, &end);
@@ -1244,7 +1244,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             if (wg__graph_find_input(g, s + 1) < 0)
                 rc = wg_error_set_at(err, WG_ERR_PARSE, path, g->size_line, 0,
                                      "size '%s' names no graph input", s);
-        } else if (!wg__parse_size(s, &w, &h)) {
+        } else if (!wg_parse_size(s, &w, &h)) {
             rc = wg_error_set_at(err, WG_ERR_PARSE, path, g->size_line, 0,
                                  "bad graph size '%s' (N, WxH or $input; sides 1..%d)", s,
                                  WG_MAX_SIDE);

@@ -118,8 +118,6 @@ int wg__graph_find_output(const WgGraph *g, const char *name);
 /* Output port names of a node def (built-in ports, or the subgraph's outputs). */
 int wg__node_output_count(const NodeDef *n);
 const char *wg__node_output_name(const NodeDef *n, int i);
-/* Parse "N", "WxH" into a size; returns false when malformed or out of range. */
-bool wg__parse_size(const char *text, int *w, int *h);
 
 /* ---- instances (a request flattened into concrete nodes) --------------------------------- */
 
@@ -187,6 +185,8 @@ struct WgRequest {
 };
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);
+/* The context a node sees, without images (eval adds inputs, outputs and the pool). */
+WgNodeContext wg__inst_context(const WgInst *in);
 void wg__plan_free(WgPlan *plan);
 extern const WgNodeType wg__node_constant, wg__node_promote;
 

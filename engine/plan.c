@@ -311,7 +311,7 @@ static int compute_key(Builder *b, WgInst *in)
     return WG_OK;
 }
 
-static WgNodeContext check_context(const WgInst *in)
+WgNodeContext wg__inst_context(const WgInst *in)
 {
     WgNodeContext ctx = {0};
     ctx.node_id = in->id;
@@ -362,7 +362,7 @@ static int finish_inst(Builder *b, int *index)
     for (int o = 0; o < in->n_out && !in->constant; o++) { /* constants: set by the caller */
         int kind = t->outputs[o].kind;
         if (kind == WG_ANY) {
-            WgNodeContext ctx = check_context(in);
+            WgNodeContext ctx = wg__inst_context(in);
             if (t->output_channels) {
                 kind = t->output_channels(&ctx, o);
             } else {
@@ -374,7 +374,7 @@ static int finish_inst(Builder *b, int *index)
         in->out_channels[o] = kind == WG_COLOR ? 4 : 1;
     }
     if (t->check) {
-        WgNodeContext ctx = check_context(in);
+        WgNodeContext ctx = wg__inst_context(in);
         WgError e = {0};
         if ((rc = t->check(&ctx, &e))) {
             wg_error_set_at(b->err, rc, in->file, in->line, e.column, "%s", e.message);
@@ -475,7 +475,7 @@ static int resolve_size(Builder *b, Frame *f, const NodeDef *n, const WgRef *inp
         *h = (int)lh;
         return WG_OK;
     }
-    wg__parse_size(s, w, h); /* validated at load */
+    wg_parse_size(s, w, h); /* validated at load */
     return WG_OK;
 }
 
@@ -850,7 +850,7 @@ static int top_size(Builder *b, const WgGraph *g, int *w, int *h)
     }
     const char *s = g->size_text;
     if (s[0] != '$') {
-        wg__parse_size(s, w, h);
+        wg_parse_size(s, w, h);
         return WG_OK;
     }
     int i = wg__graph_find_input(g, s + 1);

@@ -84,6 +84,9 @@ const WgGraphNodeInfo *wg_graph_node_info(const WgGraph *g, int i);
 /* Graphviz description of the graph (its own nodes; subgraphs as single boxes). */
 int wg_graph_write_dot(const WgGraph *g, FILE *f);
 
+/* Parse "N" or "WxH" (sides 1..WG_MAX_SIDE); false when malformed or out of range. */
+bool wg_parse_size(const char *text, int *width, int *height);
+
 /* Folder of the built-in graph library used as the last search location. */
 const char *wg_builtin_graphs_dir(void);
 
