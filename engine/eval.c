@@ -41,8 +41,9 @@ struct Run {
     pthread_mutex_t mu;
     pthread_cond_t cv;
     int running, completed, total;
-    int *ready;
-    int ready_head, ready_tail;
+    int *ready; /* nodes whose inputs are done, not started; taken lowest plan index first, so
+                   one thread follows the plan order the budget estimate assumes */
+    int n_ready;
     size_t live, peak;
     volatile int cancel;
     int rc;
@@ -259,10 +260,14 @@ static void node_job(void *user)
         }
         for (int k = 0; k < node->n_dependents; k++) {
             Node *d = &run->nodes[node->dependents[k]];
-            if (--d->pending == 0) run->ready[run->ready_tail++] = node->dependents[k];
+            if (--d->pending == 0) run->ready[run->n_ready++] = node->dependents[k];
         }
         if (node->consumers == 0) release(run, node->index);
     }
+    /* The cache may hold what the working set leaves of the budget (images in both are counted
+     * twice, so this errs towards evicting). */
+    size_t budget = run->e->budget;
+    wg__cache_trim(run->e->cache, run->live < budget ? budget - run->live : 0);
     pthread_cond_signal(&run->cv);
     pthread_mutex_unlock(&run->mu);
 }
@@ -483,15 +488,18 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
         if (run.nodes[i].needed && !run.nodes[i].evaluate) run.live += run.nodes[i].out_bytes;
     run.peak = run.live;
     for (int i = 0; i < plan->n_insts; i++)
-        if (run.nodes[i].evaluate && run.nodes[i].pending == 0) run.ready[run.ready_tail++] = i;
+        if (run.nodes[i].evaluate && run.nodes[i].pending == 0) run.ready[run.n_ready++] = i;
 
     int reported = 0;
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total) {
-        while (!run.cancel && run.ready_head < run.ready_tail) {
-            Node *n = &run.nodes[run.ready[run.ready_head]];
+        while (!run.cancel && run.n_ready > 0) {
+            int first = 0;
+            for (int k = 1; k < run.n_ready; k++)
+                if (run.ready[k] < run.ready[first]) first = k;
+            Node *n = &run.nodes[run.ready[first]];
             if (run.running > 0 && run.live + n->out_bytes > e->budget) break;
-            run.ready_head++;
+            run.ready[first] = run.ready[--run.n_ready];
             run.running++;
             run.live += n->out_bytes;
             if (run.live > run.peak) run.peak = run.live;
