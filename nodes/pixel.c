@@ -534,7 +534,7 @@ const WgNodeType wg_node_pixel = {
     .params = pixel_params,
     .params_size = sizeof(PixelParams),
     .outputs = pixel_out,
-    .flags = WG_NODE_POINT | WG_NODE_DYNAMIC_INPUTS | WG_NODE_EXTRA_PARAMS | WG_NODE_SCOPED |
+    .flags = WG_NODE_GLOBAL | WG_NODE_DYNAMIC_INPUTS | WG_NODE_EXTRA_PARAMS | WG_NODE_SCOPED |
              WG_NODE_TIMED | WG_NODE_SEEDED,
     .output_channels = pixel_channels,
     .check = pixel_check,
