@@ -126,6 +126,46 @@ WgResult *wgt_render(const WgGraph *g, int threads)
     return res;
 }
 
+WgEngine *wgt_engine(int threads, size_t memory_budget, const char *cache_dir)
+{
+    WgEngineOptions opt = {threads, memory_budget, cache_dir};
+    WgEngine *e = NULL;
+    WgError err = {0};
+    if (wg_engine_new(&opt, &e, &err)) fail_with("engine", &err);
+    return e;
+}
+
+WgResult *wgt_render_request(WgEngine *e, const WgRequest *r)
+{
+    WgResult *res = NULL;
+    WgError err = {0};
+    if (wg_render(e, r, &res, &err)) fail_with("render", &err);
+    return res;
+}
+
+const WgNodeStat *wgt_stat(const WgResult *r, const char *id)
+{
+    for (int i = 0; i < wg_result_stat_count(r); i++)
+        if (!strcmp(wg_result_stat(r, i)->id, id)) return wg_result_stat(r, i);
+    return NULL;
+}
+
+char *wgt_read_file(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) fail_msg("cannot open %s", path);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
+    buf[n] = '\0';
+    fclose(f);
+    if (size) *size = (size_t)n;
+    return buf;
+}
+
 const WgImage *wgt_output(const WgResult *r, const char *name)
 {
     for (int i = 0; i < wg_result_output_count(r); i++)

@@ -40,6 +40,15 @@ int wgt_load_error(const char *xml, WgError *err);
 
 /* Render all outputs of a graph with `threads` workers and no cache. */
 WgResult *wgt_render(const WgGraph *g, int threads);
+/* An engine with these options; fails the test on error. */
+WgEngine *wgt_engine(int threads, size_t memory_budget, const char *cache_dir);
+/* Render a request on an engine; fails the test (with the formatted error) on failure. */
+WgResult *wgt_render_request(WgEngine *e, const WgRequest *r);
+/* The stats of node `id` in a result, or NULL. */
+const WgNodeStat *wgt_stat(const WgResult *r, const char *id);
+/* A whole file, NUL-terminated (malloc'd; free it); fails the test if it cannot be read. */
+char *wgt_read_file(const char *path, size_t *size);
+
 /* Output image by name from a result (borrowed). */
 const WgImage *wgt_output(const WgResult *r, const char *name);
 

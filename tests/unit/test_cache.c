@@ -15,38 +15,10 @@
 
 /* ---- helpers ----------------------------------------------------------------------------- */
 
-static WgEngine *engine(int threads, const char *cache_dir)
-{
-    WgEngineOptions opt = {threads, 0, cache_dir};
-    WgEngine *e = NULL;
-    WgError err = {0};
-    if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
-    return e;
-}
-
-static WgResult *render_ok(WgEngine *e, const WgRequest *r)
-{
-    WgResult *res = NULL;
-    WgError err = {0};
-    if (wg_render(e, r, &res, &err)) {
-        char buf[2048];
-        wg_error_format(&err, buf, sizeof buf);
-        fail_msg("render: %s", buf);
-    }
-    return res;
-}
-
-static const WgNodeStat *stat_of(const WgResult *res, const char *id)
-{
-    for (int i = 0; i < wg_result_stat_count(res); i++)
-        if (!strcmp(wg_result_stat(res, i)->id, id)) return wg_result_stat(res, i);
-    return NULL;
-}
-
 /* The node has a stat with that outcome (or, for outcome -1, no stat at all). */
 static void expect_stat(const WgResult *res, const char *id, int outcome)
 {
-    const WgNodeStat *s = stat_of(res, id);
+    const WgNodeStat *s = wgt_stat(res, id);
     if (outcome < 0) {
         if (s) fail_msg("node '%s' should not have been needed (outcome %d)", id, s->cache);
         return;
@@ -121,8 +93,8 @@ static WgRequest *chain_request(const WgGraph *g, const char *gain)
 /* Render on a fresh engine without any cache. */
 static WgResult *cold(const WgRequest *r)
 {
-    WgEngine *e = engine(2, NULL);
-    WgResult *res = render_ok(e, r);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
     wg_engine_free(e);
     return res;
 }
@@ -191,21 +163,6 @@ static int cache_temp_files(const char *dir)
     return n;
 }
 
-static char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) fail_msg("cannot open %s", path);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *size = (size_t)n;
-    return buf;
-}
-
 static void spit(const char *path, const char *data, size_t n)
 {
     FILE *f = fopen(path, "wb");
@@ -228,13 +185,13 @@ static void test_rerender_uses_memory_cache(void **state)
     (void)state;
     WgGraph *g = chain_graph();
     WgRequest *r = chain_request(g, NULL);
-    WgEngine *e = engine(3, NULL);
-    WgResult *first = render_ok(e, r);
+    WgEngine *e = wgt_engine(3, 0, NULL);
+    WgResult *first = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(first), 5);
     static const char *const all[] = {"img", "soft", "sharp", "lev", "mix"};
     for (int i = 0; i < 5; i++) expect_stat(first, all[i], WG_COMPUTED);
 
-    WgResult *second = render_ok(e, r);
+    WgResult *second = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(second), 0);
     /* the outputs come straight from the cache: nothing upstream is even looked at */
     assert_int_equal(wg_result_stat_count(second), 2);
@@ -245,7 +202,7 @@ static void test_rerender_uses_memory_cache(void **state)
 
     /* clearing the cache recomputes everything, identically */
     wg_engine_clear_cache(e);
-    WgResult *third = render_ok(e, r);
+    WgResult *third = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(third), 5);
     expect_same_outputs(first, third);
 
@@ -261,13 +218,13 @@ static void test_edit_recomputes_only_dependents(void **state)
 {
     (void)state;
     WgGraph *g = chain_graph();
-    WgEngine *e = engine(2, NULL);
+    WgEngine *e = wgt_engine(2, 0, NULL);
     WgRequest *r = chain_request(g, NULL);
-    WgResult *base = render_ok(e, r);
+    WgResult *base = wgt_render_request(e, r);
     wg_request_free(r);
 
     r = chain_request(g, "0.5");
-    WgResult *edited = render_ok(e, r);
+    WgResult *edited = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(edited), 2);
     expect_stat(edited, "lev", WG_COMPUTED);
     expect_stat(edited, "mix", WG_COMPUTED);
@@ -285,7 +242,7 @@ static void test_edit_recomputes_only_dependents(void **state)
 
     /* going back to the old value is a pure cache hit */
     r = chain_request(g, "0.8");
-    WgResult *back = render_ok(e, r);
+    WgResult *back = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(back), 0);
     expect_same_outputs(back, base);
     wg_result_free(back);
@@ -293,7 +250,7 @@ static void test_edit_recomputes_only_dependents(void **state)
     /* the expression gives the same float as the default: same key */
     wg_request_free(r);
     r = chain_request(g, "=0.4 * 2");
-    back = render_ok(e, r);
+    back = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(back), 0);
     wg_result_free(back);
 
@@ -315,17 +272,17 @@ static void test_seed_does_not_invalidate_unseeded_nodes(void **state)
             assert_false(wg_node_types[i]->flags & WG_NODE_SEEDED);
     }
     WgGraph *g = chain_graph();
-    WgEngine *e = engine(2, NULL);
+    WgEngine *e = wgt_engine(2, 0, NULL);
     WgRequest *r = chain_request(g, NULL);
-    WgResult *base = render_ok(e, r);
+    WgResult *base = wgt_render_request(e, r);
     wg_request_set_seed(r, 123456789);
-    WgResult *seeded = render_ok(e, r);
+    WgResult *seeded = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(seeded), 0);
     expect_stat(seeded, "mix", WG_HIT_MEMORY);
     expect_same_outputs(base, seeded);
     /* time does not matter to untimed nodes either */
     wg_request_set_time(r, 2.5);
-    WgResult *timed = render_ok(e, r);
+    WgResult *timed = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(timed), 0);
     wg_result_free(timed);
     wg_result_free(seeded);
@@ -347,19 +304,19 @@ static void test_seed_in_an_expression_is_a_parameter_change(void **state)
                  "  <output name=\"b\" from=\"b\"/>\n"
                  "  <output name=\"i\" from=\"i\"/>\n"
                  "</wetgraph>\n");
-    WgEngine *e = engine(1, NULL);
+    WgEngine *e = wgt_engine(1, 0, NULL);
     WgRequest *r = wg_request_new(g);
-    WgResult *a = render_ok(e, r);
+    WgResult *a = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(a), 3);
     wg_request_set_seed(r, 6);
-    WgResult *b = render_ok(e, r);
+    WgResult *b = wgt_render_request(e, r);
     /* the blur's sigma changed (3 -> 2): it recomputes from the cached u; invert does not */
     assert_int_equal(wg_result_evaluated_count(b), 1);
     expect_stat(b, "b", WG_COMPUTED);
     expect_stat(b, "u", WG_HIT_MEMORY);
     expect_stat(b, "i", WG_HIT_MEMORY);
     wg_request_set_seed(r, 7); /* 7 % 4 = 3 as with seed 3 */
-    WgResult *c = render_ok(e, r);
+    WgResult *c = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(c), 0);
     wg_result_free(c);
     wg_result_free(b);
@@ -381,8 +338,8 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     WgRequest *r = chain_request(g, NULL);
     WgResult *ref = cold(r);
 
-    WgEngine *e1 = engine(2, dirbuf);
-    WgResult *computed = render_ok(e1, r);
+    WgEngine *e1 = wgt_engine(2, 0, dirbuf);
+    WgResult *computed = wgt_render_request(e1, r);
     assert_int_equal(wg_result_evaluated_count(computed), 5);
     wg_engine_free(e1);
     expect_same_outputs(computed, ref);
@@ -391,15 +348,15 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     assert_int_equal(cache_temp_files(dirbuf), 0);
 
     /* a new engine: no memory cache, the disk serves the outputs */
-    WgEngine *e2 = engine(3, dirbuf);
-    WgResult *warm = render_ok(e2, r);
+    WgEngine *e2 = wgt_engine(3, 0, dirbuf);
+    WgResult *warm = wgt_render_request(e2, r);
     assert_int_equal(wg_result_evaluated_count(warm), 0);
     assert_int_equal(wg_result_stat_count(warm), 2);
     expect_stat(warm, "mix", WG_HIT_DISK);
     expect_stat(warm, "soft", WG_HIT_DISK);
     expect_same_outputs(warm, ref);
     /* the same engine again: now from memory */
-    WgResult *again = render_ok(e2, r);
+    WgResult *again = wgt_render_request(e2, r);
     expect_stat(again, "mix", WG_HIT_MEMORY);
     wg_result_free(again);
     wg_engine_free(e2);
@@ -407,8 +364,8 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
 
     /* an edit in a new engine: the disk serves the upstream nodes */
     r = chain_request(g, "1.7");
-    WgEngine *e3 = engine(1, dirbuf);
-    WgResult *edited = render_ok(e3, r);
+    WgEngine *e3 = wgt_engine(1, 0, dirbuf);
+    WgResult *edited = wgt_render_request(e3, r);
     assert_int_equal(wg_result_evaluated_count(edited), 2);
     expect_stat(edited, "lev", WG_COMPUTED);
     expect_stat(edited, "mix", WG_COMPUTED);
@@ -448,14 +405,14 @@ static void test_cheap_nodes_are_not_written_to_disk(void **state)
     WgImage *src = wgt_image_fn(16, 16, 1, pic_fn);
     WgError err = {0};
     assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
-    WgEngine *e = engine(2, dirbuf);
-    WgResult *a = render_ok(e, r);
+    WgEngine *e = wgt_engine(2, 0, dirbuf);
+    WgResult *a = wgt_render_request(e, r);
     wg_engine_free(e);
     Entry entries[8];
     /* only the blend: the uniform is cheaper to recompute, the input image is not a node */
     assert_int_equal(cache_entries(dirbuf, entries, 8), 1);
-    e = engine(2, dirbuf);
-    WgResult *b = render_ok(e, r);
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *b = wgt_render_request(e, r);
     expect_stat(b, "m", WG_HIT_DISK);
     expect_stat(b, "u", WG_COMPUTED);
     assert_int_equal(wg_result_evaluated_count(b), 1);
@@ -481,7 +438,7 @@ enum { FLIP_PIXEL, FLIP_MAGIC, FLIP_SHAPE, FLIP_CHECKSUM, TRUNCATE, APPEND, EMPT
 static void damage(const char *path, int how)
 {
     size_t n;
-    char *data = slurp(path, &n);
+    char *data = wgt_read_file(path, &n);
     switch (how) {
     case FLIP_PIXEL:
         data[24 + 4 * 37 + 1] ^= 0x10;
@@ -520,8 +477,8 @@ static void test_damaged_entries_are_recomputed_and_rewritten(void **state)
     for (int how = 0; how < N_DAMAGE; how++) {
         char dir[1024];
         snprintf(dir, sizeof dir, "%s/damage%d", wgt_tmpdir(), how);
-        WgEngine *e = engine(2, dir);
-        WgResult *res = render_ok(e, r);
+        WgEngine *e = wgt_engine(2, 0, dir);
+        WgResult *res = wgt_render_request(e, r);
         wg_result_free(res);
         wg_engine_free(e);
         Entry entries[4];
@@ -533,12 +490,12 @@ static void test_damaged_entries_are_recomputed_and_rewritten(void **state)
         assert_int_equal(entries[soft].channels, 4);
         assert_int_equal(entries[1 - soft].width, 16);
         size_t n0;
-        char *original = slurp(entries[soft].path, &n0);
+        char *original = wgt_read_file(entries[soft].path, &n0);
         assert_int_equal(n0, 24 + 32 * 24 * 4 * sizeof(float) + 8);
 
         damage(entries[soft].path, how);
-        e = engine(2, dir);
-        res = render_ok(e, r);
+        e = wgt_engine(2, 0, dir);
+        res = wgt_render_request(e, r);
         /* the damaged entry is a miss; its input still comes from the disk */
         if (wg_result_evaluated_count(res) != 1)
             fail_msg("damage %d: %d nodes evaluated", how, wg_result_evaluated_count(res));
@@ -549,7 +506,7 @@ static void test_damaged_entries_are_recomputed_and_rewritten(void **state)
         wg_engine_free(e);
         /* rewritten, byte for byte as before */
         size_t n1;
-        char *rewritten = slurp(entries[soft].path, &n1);
+        char *rewritten = wgt_read_file(entries[soft].path, &n1);
         assert_int_equal(n1, n0);
         assert_memory_equal(original, rewritten, n0);
         assert_int_equal(cache_temp_files(dir), 0);
@@ -557,8 +514,8 @@ static void test_damaged_entries_are_recomputed_and_rewritten(void **state)
         free(original);
 
         /* and trusted again */
-        e = engine(1, dir);
-        res = render_ok(e, r);
+        e = wgt_engine(1, 0, dir);
+        res = wgt_render_request(e, r);
         assert_int_equal(wg_result_evaluated_count(res), 0);
         expect_stat(res, "soft", WG_HIT_DISK);
         expect_same_outputs(res, ref);
@@ -579,22 +536,22 @@ static void test_all_entries_damaged(void **state)
     const char *dir = cache_dir("damage_all");
     char dirbuf[1024];
     snprintf(dirbuf, sizeof dirbuf, "%s", dir);
-    WgEngine *e = engine(2, dirbuf);
-    WgResult *ref = render_ok(e, r);
+    WgEngine *e = wgt_engine(2, 0, dirbuf);
+    WgResult *ref = wgt_render_request(e, r);
     wg_engine_free(e);
     Entry entries[4];
     assert_int_equal(cache_entries(dirbuf, entries, 4), 2);
     damage(entries[0].path, FLIP_PIXEL);
     damage(entries[1].path, TRUNCATE);
-    e = engine(4, dirbuf);
-    WgResult *res = render_ok(e, r);
+    e = wgt_engine(4, 0, dirbuf);
+    WgResult *res = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(res), 2);
     expect_same_outputs(res, ref);
     wg_result_free(res);
     wg_engine_free(e);
     assert_int_equal(cache_entries(dirbuf, entries, 4), 2);
-    e = engine(1, dirbuf);
-    res = render_ok(e, r);
+    e = wgt_engine(1, 0, dirbuf);
+    res = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(res), 0);
     expect_same_outputs(res, ref);
     wg_result_free(res);
@@ -637,15 +594,15 @@ static void test_image_key_follows_file_content(void **state)
     const char *dir = cache_dir("swapcache");
     char dirbuf[1024];
     snprintf(dirbuf, sizeof dirbuf, "%s", dir);
-    WgEngine *e = engine(2, dirbuf);
-    WgResult *a = render_ok(e, r);
+    WgEngine *e = wgt_engine(2, 0, dirbuf);
+    WgResult *a = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(a), 2);
-    WgResult *a2 = render_ok(e, r);
+    WgResult *a2 = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(a2), 0);
 
     /* same path, other pixels */
     write_picture(png, other_fn);
-    WgResult *b = render_ok(e, r);
+    WgResult *b = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(b), 2);
     expect_stat(b, "img", WG_COMPUTED);
     expect_stat(b, "inv", WG_COMPUTED);
@@ -661,14 +618,14 @@ static void test_image_key_follows_file_content(void **state)
 
     /* a fresh engine with the disk cache does not serve the old picture either */
     wg_engine_free(e);
-    e = engine(2, dirbuf);
-    WgResult *c = render_ok(e, r);
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *c = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(c), 0);
     expect_stat(c, "inv", WG_HIT_DISK);
     expect_same_outputs(b, c);
     /* back to the first picture: both versions are cached */
     write_picture(png, pic_fn);
-    WgResult *d = render_ok(e, r);
+    WgResult *d = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(d), 0);
     expect_same_outputs(a, d);
 
@@ -691,23 +648,23 @@ static void test_input_images_are_part_of_the_key(void **state)
         "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"$src\"/></node>\n"
         "  <output name=\"b\" from=\"b\"/>\n"
         "</wetgraph>\n");
-    WgEngine *e = engine(2, NULL);
+    WgEngine *e = wgt_engine(2, 0, NULL);
     WgRequest *r = wg_request_new(g);
     WgImage *one = wgt_image_fn(16, 16, 1, pic_fn);
     WgImage *two = wgt_image_fn(16, 16, 1, other_fn);
     WgError err = {0};
     assert_int_equal(wg_request_set_input_image(r, "src", one, &err), WG_OK);
-    WgResult *a = render_ok(e, r);
+    WgResult *a = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(a), 2);
     assert_int_equal(wg_request_set_input_image(r, "src", two, &err), WG_OK);
-    WgResult *b = render_ok(e, r);
+    WgResult *b = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(b), 2);
     assert_true(wgt_max_abs_diff(wg_result_output_image(a, 0), wg_result_output_image(b, 0)) >
                 0.01);
     /* a copy of the first image (another object, same pixels) hits */
     WgImage *copy = wgt_image_fn(16, 16, 1, pic_fn);
     assert_int_equal(wg_request_set_input_image(r, "src", copy, &err), WG_OK);
-    WgResult *c = render_ok(e, r);
+    WgResult *c = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(c), 0);
     expect_same_outputs(a, c);
     wg_result_free(c);

@@ -71,21 +71,6 @@ static int list_dir(const char *dir, char names[][256], int max)
     return n;
 }
 
-static char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) fail_msg("cannot open %s", path);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-    fclose(f);
-    *size = (size_t)n;
-    return buf;
-}
-
 static const char *fresh_dir(const char *name)
 {
     const char *p = wgt_path(name);
@@ -615,7 +600,7 @@ static void test_failed_write_keeps_the_old_file(void **state)
     WgImage *old = wgt_image_fn(8, 8, 1, code_fn);
     write_ok(path, old, WG_FORMAT_PNG16, WG_LINEAR);
     size_t n0;
-    char *before = slurp(path, &n0);
+    char *before = wgt_read_file(path, &n0);
     /* make the temporary file impossible to create: a folder sits at its name */
     next_temp_path(path, blocker, sizeof blocker);
     assert_int_equal(mkdir(blocker, 0777), 0);
@@ -625,7 +610,7 @@ static void test_failed_write_keeps_the_old_file(void **state)
     assert_string_equal(err.file, path);
     rmdir(blocker);
     size_t n1;
-    char *after = slurp(path, &n1);
+    char *after = wgt_read_file(path, &n1);
     assert_int_equal(n0, n1);
     assert_memory_equal(before, after, n0);
     char names[8][256];
@@ -636,7 +621,7 @@ static void test_failed_write_keeps_the_old_file(void **state)
     const char *lnames[] = {"h"};
     assert_int_equal(wg_exr_write_layers(path, 1, lnames, imgs, false, &err), WG_OK);
     free(before);
-    before = slurp(path, &n0);
+    before = wgt_read_file(path, &n0);
     next_temp_path(path, blocker, sizeof blocker);
     assert_int_equal(mkdir(blocker, 0777), 0);
     const WgImage *imgs2[] = {other};
@@ -644,7 +629,7 @@ static void test_failed_write_keeps_the_old_file(void **state)
     assert_int_equal(wg_exr_write_layers(path, 1, lnames, imgs2, false, &err), WG_ERR_IO);
     rmdir(blocker);
     free(after);
-    after = slurp(path, &n1);
+    after = wgt_read_file(path, &n1);
     assert_int_equal(n0, n1);
     assert_memory_equal(before, after, n0);
     assert_int_equal(list_dir(dir, names, 8), 2);

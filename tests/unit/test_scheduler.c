@@ -67,34 +67,6 @@ static WgRequest *branches_request(const WgGraph *g)
     return r;
 }
 
-static WgEngine *engine(int threads, size_t budget)
-{
-    WgEngineOptions opt = {threads, budget, NULL};
-    WgEngine *e = NULL;
-    WgError err = {0};
-    if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
-    return e;
-}
-
-static WgResult *render_ok(WgEngine *e, const WgRequest *r)
-{
-    WgResult *res = NULL;
-    WgError err = {0};
-    if (wg_render(e, r, &res, &err)) {
-        char buf[2048];
-        wg_error_format(&err, buf, sizeof buf);
-        fail_msg("render: %s", buf);
-    }
-    return res;
-}
-
-static const WgNodeStat *find_stat(const WgResult *res, const char *id)
-{
-    for (int i = 0; i < wg_result_stat_count(res); i++)
-        if (!strcmp(wg_result_stat(res, i)->id, id)) return wg_result_stat(res, i);
-    return NULL;
-}
-
 static void test_output_is_identical_for_any_thread_count(void **state)
 {
     (void)state;
@@ -104,8 +76,8 @@ static void test_output_is_identical_for_any_thread_count(void **state)
     WgResult *ref = NULL;
     for (int t = 0; t < 4; t++) {
         for (int repeat = 0; repeat < 3; repeat++) {
-            WgEngine *e = engine(threads[t], 0);
-            WgResult *res = render_ok(e, r);
+            WgEngine *e = wgt_engine(threads[t], 0, NULL);
+            WgResult *res = wgt_render_request(e, r);
             assert_int_equal(wg_result_output_count(res), 5);
             assert_int_equal(wg_result_evaluated_count(res), 12);
             if (!ref) {
@@ -144,8 +116,8 @@ static void test_only_needed_nodes_run(void **state)
     WgRequest *r = branches_request(g);
     WgError err = {0};
     assert_int_equal(wg_request_add_output(r, "b", &err), WG_OK);
-    WgEngine *e = engine(4, 0);
-    WgResult *res = render_ok(e, r);
+    WgEngine *e = wgt_engine(4, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
     assert_int_equal(wg_result_output_count(res), 1);
     assert_string_equal(wg_result_output_name(res, 0), "b");
     /* the input image, its blur and the invert: nothing of the colour branches */
@@ -153,7 +125,7 @@ static void test_only_needed_nodes_run(void **state)
     assert_int_equal(wg_result_stat_count(res), 3);
     static const char *const ids[] = {"$h", "blur_b", "inv_b"};
     for (int i = 0; i < 3; i++) {
-        const WgNodeStat *s = find_stat(res, ids[i]);
+        const WgNodeStat *s = wgt_stat(res, ids[i]);
         if (!s) fail_msg("no stat for %s", ids[i]);
         assert_int_equal(s->cache, WG_COMPUTED);
         assert_int_equal(s->width, 48);
@@ -161,23 +133,23 @@ static void test_only_needed_nodes_run(void **state)
         assert_int_equal(s->channels, 1);
         assert_true(s->bytes >= 48 * 40 * sizeof(float));
     }
-    assert_string_equal(find_stat(res, "blur_b")->type, "blur");
-    assert_null(find_stat(res, "dead"));
-    assert_null(find_stat(res, "blur_a"));
+    assert_string_equal(wgt_stat(res, "blur_b")->type, "blur");
+    assert_null(wgt_stat(res, "dead"));
+    assert_null(wgt_stat(res, "blur_a"));
     wg_result_free(res);
     wg_request_free(r);
 
     /* every output: all but the unused node */
     r = branches_request(g);
     wg_engine_clear_cache(e);
-    res = render_ok(e, r);
+    res = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(res), 12);
     assert_int_equal(wg_result_stat_count(res), 12);
-    assert_null(find_stat(res, "dead"));
-    assert_non_null(find_stat(res, "tint"));
-    assert_string_equal(find_stat(res, "tint")->type, "uniform");
-    assert_int_equal(find_stat(res, "small")->width, 24);
-    assert_int_equal(find_stat(res, "mix")->channels, 4);
+    assert_null(wgt_stat(res, "dead"));
+    assert_non_null(wgt_stat(res, "tint"));
+    assert_string_equal(wgt_stat(res, "tint")->type, "uniform");
+    assert_int_equal(wgt_stat(res, "small")->width, 24);
+    assert_int_equal(wgt_stat(res, "mix")->channels, 4);
     wg_result_free(res);
     wg_request_free(r);
     wg_engine_free(e);
@@ -196,8 +168,8 @@ static void test_broken_unused_node_is_never_resolved(void **state)
     WgRequest *r = wg_request_new(g);
     WgError err = {0};
     assert_int_equal(wg_request_add_output(r, "out", &err), WG_OK);
-    WgEngine *e = engine(2, 0);
-    WgResult *res = render_ok(e, r);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(res), 1);
     assert_true(wgt_px(wg_result_output_image(res, 0), 7, 7, 0) == 0.25f);
     wg_result_free(res);
@@ -277,7 +249,7 @@ static void test_failing_node_stops_the_render(void **state)
                 truncate_file(png, 2000);
             else
                 wgt_write_file(png, "not an image at all\n");
-            WgEngine *e = engine(threads[t], 0);
+            WgEngine *e = wgt_engine(threads[t], 0, NULL);
             WgResult *res = (WgResult *)(uintptr_t)1;
             memset(&err, 0, sizeof err);
             int rc = wg_render(e, r, &res, &err);
@@ -300,7 +272,7 @@ static void test_failing_node_stops_the_render(void **state)
             wg_request_free(r);
             r = wg_request_new(g);
             assert_int_equal(wg_request_add_output(r, "side", &err), WG_OK);
-            res = render_ok(e, r);
+            res = wgt_render_request(e, r);
             assert_float_equal(wgt_px(wg_result_output_image(res, 0), 10, 10, 0), 0.5, 1e-6);
             wg_result_free(res);
             wg_request_free(r);
@@ -325,7 +297,7 @@ static void test_missing_input_image_file_fails_cleanly(void **state)
     assert_int_equal(wg_request_set_input_file(r, "src", missing, &err), WG_ERR_IO);
     assert_string_equal(err.file, missing);
     /* without any image the render says which input is missing */
-    WgEngine *e = engine(2, 0);
+    WgEngine *e = wgt_engine(2, 0, NULL);
     WgResult *res = NULL;
     memset(&err, 0, sizeof err);
     assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_USAGE);
@@ -368,7 +340,7 @@ static void test_memory_budget_fails_early(void **state)
     size_t big = wg_image_bytes_for(512, 512, 4);
     assert_int_equal(big, 4u << 20);
     for (int threads = 1; threads <= 8; threads *= 8) {
-        WgEngine *e = engine(threads, 1u << 20);
+        WgEngine *e = wgt_engine(threads, 1u << 20, NULL);
         assert_int_equal(wg_engine_memory_budget(e), 1u << 20);
         WgResult *res = NULL;
         WgError err = {0};
@@ -381,8 +353,8 @@ static void test_memory_budget_fails_early(void **state)
         wg_engine_free(e);
     }
     /* a budget that fits */
-    WgEngine *e = engine(4, 64u << 20);
-    WgResult *res = render_ok(e, r);
+    WgEngine *e = wgt_engine(4, 64u << 20, NULL);
+    WgResult *res = wgt_render_request(e, r);
     assert_true(calls > 0);
     assert_int_equal(wg_result_evaluated_count(res), 5);
     const WgImage *out = wg_result_output_image(res, 0);
@@ -404,8 +376,8 @@ static void test_memory_budget_fails_early(void **state)
     wg_engine_free(e);
 
     /* just enough for the sequential working set */
-    e = engine(1, big + wg_image_bytes_for(256, 256, 4) + (64u << 10));
-    res = render_ok(e, r);
+    e = wgt_engine(1, big + wg_image_bytes_for(256, 256, 4) + (64u << 10), NULL);
+    res = wgt_render_request(e, r);
     assert_true(wg_result_peak_bytes(res) <= wg_engine_memory_budget(e));
     wg_result_free(res);
     wg_engine_free(e);
@@ -419,8 +391,8 @@ static void test_peak_bytes_is_plausible(void **state)
     WgGraph *g = wgt_load(branches_xml);
     WgRequest *r = branches_request(g);
     for (int threads = 1; threads <= 8; threads *= 2) {
-        WgEngine *e = engine(threads, 0);
-        WgResult *res = render_ok(e, r);
+        WgEngine *e = wgt_engine(threads, 0, NULL);
+        WgResult *res = wgt_render_request(e, r);
         size_t peak = wg_result_peak_bytes(res), sum = 0, largest = 0, outputs = 0;
         for (int i = 0; i < wg_result_stat_count(res); i++) {
             size_t b = wg_result_stat(res, i)->bytes;
@@ -495,8 +467,8 @@ static void test_progress_reaches_the_total(void **state)
         WgRequest *r = wg_request_new(g);
         Progress p = {0};
         wg_request_set_progress(r, slow_progress, &p);
-        WgEngine *e = engine(threads, 0);
-        WgResult *res = render_ok(e, r);
+        WgEngine *e = wgt_engine(threads, 0, NULL);
+        WgResult *res = wgt_render_request(e, r);
         assert_true(p.calls >= 1);
         assert_int_equal(p.last_total, 5);
         assert_int_equal(p.last_done, 5);
