@@ -47,6 +47,25 @@ float wg_srgb_to_linear(float v)
     return (float)(x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4));
 }
 
+/* Decoding integer files: every 8- and 16-bit code k/255 or k/65535 is one of the 65536 values
+ * i/65535 (k/255 = 257k/65535 exactly), so a table gives the same floats as the formula. */
+static float srgb_lut[65536];
+static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
+
+static void srgb_lut_build(void)
+{
+    for (int i = 0; i < 65536; i++) srgb_lut[i] = wg_srgb_to_linear((float)(i / 65535.0));
+}
+
+static float srgb_decode(float v)
+{
+    if (v >= 0 && v <= 1) {
+        int i = (int)lrintf(v * 65535.0f);
+        if ((float)(i / 65535.0) == v) return srgb_lut[i];
+    }
+    return wg_srgb_to_linear(v);
+}
+
 float wg_linear_to_srgb(float v)
 {
     double x = v;
@@ -140,6 +159,7 @@ int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out
                                "pixel (%zu, %zu)",
                                bad, px % (size_t)w, px / (size_t)w);
     }
+    if (cs == WG_SRGB) pthread_once(&srgb_once, srgb_lut_build);
     int native = c <= 2 ? 1 : 4;
     WgImage *img = wg_image_new(w, h, native);
     if (!img) {
@@ -152,11 +172,10 @@ int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out
         for (int x = 0; x < w; x++) {
             const float *p = src + (size_t)x * (size_t)c;
             if (native == 1) {
-                dst[x] = cs == WG_SRGB ? wg_srgb_to_linear(p[0]) : p[0];
+                dst[x] = cs == WG_SRGB ? srgb_decode(p[0]) : p[0];
                 continue;
             }
-            for (int k = 0; k < 3; k++)
-                dst[4 * x + k] = cs == WG_SRGB ? wg_srgb_to_linear(p[k]) : p[k];
+            for (int k = 0; k < 3; k++) dst[4 * x + k] = cs == WG_SRGB ? srgb_decode(p[k]) : p[k];
             dst[4 * x + 3] = c >= 4 ? p[3] : 1.0f;
         }
     }

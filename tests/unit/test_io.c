@@ -313,6 +313,39 @@ static void test_srgb_png_round_trips_every_code(void **state)
     wg_image_unref(img);
 }
 
+/* sRGB decoding of integer files uses a table; it must give exactly the formula's result on the
+ * value read, for every 16-bit code (and so every 8-bit one), and the formula elsewhere. */
+static void test_srgb_decode_table_is_exact(void **state)
+{
+    (void)state;
+    WgImage *img = wg_image_new(256, 256, 1);
+    assert_non_null(img);
+    for (int i = 0; i < 65536; i++) wg_image_row(img, i / 256)[i % 256] = (float)(i / 65535.0);
+    const char *path = wgt_path("codes16.png");
+    WgError err = {0};
+    assert_int_equal(wg_image_write(path, img, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_OK);
+    WgImage *back = NULL, *raw = NULL;
+    assert_int_equal(wg_image_read(path, 1, WG_SRGB, &back, &err), WG_OK);
+    assert_int_equal(wg_image_read(path, 1, WG_LINEAR, &raw, &err), WG_OK);
+    for (int i = 0; i < 65536; i++) {
+        float want = wg_srgb_to_linear(wg_image_row(raw, i / 256)[i % 256]);
+        float got = wg_image_row(back, i / 256)[i % 256];
+        if (got != want) fail_msg("code %d: %.9g, formula %.9g", i, got, want);
+    }
+    wg_image_unref(back);
+    wg_image_unref(raw);
+    /* a float file takes the formula for values between codes and outside [0, 1] */
+    float odd[4] = {0.3f, -0.25f, 1.5f, 0.5f + 1e-6f};
+    WgImage *f = wgt_image(4, 1, 1, odd);
+    path = wgt_path("odd.exr");
+    assert_int_equal(wg_image_write(path, f, WG_FORMAT_EXR32, WG_LINEAR, &err), WG_OK);
+    assert_int_equal(wg_image_read(path, 1, WG_SRGB, &back, &err), WG_OK);
+    for (int x = 0; x < 4; x++) assert_true(wgt_px(back, x, 0, 0) == wg_srgb_to_linear(odd[x]));
+    wg_image_unref(back);
+    wg_image_unref(f);
+    wg_image_unref(img);
+}
+
 static void test_srgb_png16_gray(void **state)
 {
     (void)state;
@@ -921,6 +954,7 @@ int main(void)
         cmocka_unit_test(test_srgb_transfer_functions),
         cmocka_unit_test(test_srgb_png_round_trips_every_code),
         cmocka_unit_test(test_srgb_png16_gray),
+        cmocka_unit_test(test_srgb_decode_table_is_exact),
         cmocka_unit_test(test_gray_file_maps_to_gray_or_rgba),
         cmocka_unit_test(test_colour_file_maps_to_rgba_or_luminance),
         cmocka_unit_test(test_gray_alpha_file_reads_as_gray),
