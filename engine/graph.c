@@ -8,6 +8,7 @@
 #include "internal.h"
 
 #include <ctype.h>
+#include <stdint.h>
 #include <errno.h>
 #include <libxml/parser.h>
 #include <libxml/tree.h>
@@ -273,9 +274,101 @@ typedef struct Doc {
     WgError *err;
 } Doc;
 
+/* libxml2 numbers an element by the line where its start tag ends. People look for the line
+ * where it starts, and for the line of the attribute at fault, so after parsing, one pass over
+ * the text (elements appear in it in document order) stores both in the nodes' _private field. */
+typedef struct Scan {
+    const char *p, *end;
+    int line;
+    bool lost; /* the text did not match the tree: keep libxml2's lines */
+} Scan;
+
+static void scan_advance(Scan *sc, const char *to)
+{
+    for (; sc->p < to && sc->p < sc->end; sc->p++) sc->line += *sc->p == '\n';
+}
+
+static void scan_skip_past(Scan *sc, const char *token)
+{
+    size_t n = strlen(token);
+    const char *q = sc->p;
+    while (q + n <= sc->end && memcmp(q, token, n)) q++;
+    scan_advance(sc, q + n <= sc->end ? q + n : sc->end);
+}
+
+static void scan_element(Scan *sc, xmlNodePtr e)
+{
+    /* find the start tag of e, skipping comments, processing instructions and end tags */
+    for (;;) {
+        const char *lt = memchr(sc->p, '<', (size_t)(sc->end - sc->p));
+        if (!lt) {
+            sc->lost = true;
+            return;
+        }
+        scan_advance(sc, lt);
+        if (!strncmp(sc->p, "<!--", 4))
+            scan_skip_past(sc, "-->");
+        else if (!strncmp(sc->p, "<![CDATA[", 9))
+            scan_skip_past(sc, "]]>");
+        else if (!strncmp(sc->p, "<?", 2))
+            scan_skip_past(sc, "?>");
+        else if (sc->p[1] == '!' || sc->p[1] == '/')
+            scan_skip_past(sc, ">");
+        else
+            break;
+    }
+    size_t nl = strlen((const char *)e->name);
+    if ((size_t)(sc->end - sc->p) < nl + 1 || memcmp(sc->p + 1, e->name, nl)) {
+        sc->lost = true;
+        return;
+    }
+    e->_private = (void *)(intptr_t)sc->line;
+    scan_advance(sc, sc->p + 1 + nl);
+    /* attributes: name, '=', quoted value; until '>' or '/>' */
+    while (sc->p < sc->end && *sc->p != '>' && *sc->p != '/') {
+        if (isspace((unsigned char)*sc->p)) {
+            scan_advance(sc, sc->p + 1);
+            continue;
+        }
+        const char *name = sc->p;
+        int line = sc->line;
+        while (sc->p < sc->end && *sc->p != '=' && !isspace((unsigned char)*sc->p)) sc->p++;
+        size_t len = (size_t)(sc->p - name);
+        for (xmlAttrPtr a = e->properties; a; a = a->next)
+            if (strlen((const char *)a->name) == len && !memcmp(a->name, name, len))
+                a->_private = (void *)(intptr_t)line;
+        const char *quote = sc->p;
+        while (quote < sc->end && *quote != '"' && *quote != '\'') quote++;
+        if (quote >= sc->end) {
+            sc->lost = true;
+            return;
+        }
+        const char *close = memchr(quote + 1, *quote, (size_t)(sc->end - quote - 1));
+        if (!close) {
+            sc->lost = true;
+            return;
+        }
+        scan_advance(sc, close + 1);
+    }
+    for (xmlNodePtr c = e->children; c && !sc->lost; c = c->next)
+        if (c->type == XML_ELEMENT_NODE) scan_element(sc, c);
+}
+
+static void annotate_lines(xmlDocPtr doc, const char *text, size_t len)
+{
+    Scan sc = {text, text + len, 1, false};
+    xmlNodePtr root = xmlDocGetRootElement(doc);
+    if (root) scan_element(&sc, root);
+}
+
 static int line_of(xmlNodePtr n)
 {
-    return (int)xmlGetLineNo(n);
+    return n->_private ? (int)(intptr_t)n->_private : (int)xmlGetLineNo(n);
+}
+
+static int attr_line(xmlAttrPtr a, int fallback)
+{
+    return a && a->_private ? (int)(intptr_t)a->_private : fallback;
 }
 
 /* Out of memory, with a message like every other error (the bare code would leave it empty). */
@@ -307,10 +400,10 @@ static int check_attrs(Doc *d, xmlNodePtr n, const char *const *allowed)
         if (ok) continue;
         const char *s = wg_suggest(name, allowed, count);
         if (s)
-            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(n), 0,
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, attr_line(a, line_of(n)), 0,
                                    "unknown attribute '%s' on <%s>; did you mean '%s'?", name,
                                    (const char *)n->name, s);
-        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(n), 0,
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, attr_line(a, line_of(n)), 0,
                                "unknown attribute '%s' on <%s>", name, (const char *)n->name);
     }
     return WG_OK;
@@ -704,7 +797,7 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
             while (len && isspace((unsigned char)s[len - 1])) len--;
             int p = wg__graph_find_param(g, s, len);
             if (p < 0 || g->params[p].info.type != desc->type)
-                return wg_error_set_at(d->err, WG_ERR_TYPE, d->path, n->line, 0,
+                return wg_error_set_at(d->err, WG_ERR_TYPE, d->path, a->line, 0,
                                        "node '%s': '%s' is %s %s parameter: its value can only "
                                        "be a literal or '=name' of a graph %s parameter",
                                        n->id, a->name, article(wg__type_name(desc->type)),
@@ -736,7 +829,7 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
                 const char *sug = wg_suggest(name, names, count);
                 if (sug) snprintf(extra, sizeof extra, "; did you mean '%s'?", sug);
             }
-            return wg_error_set_at(d->err, rc, d->path, n->line, e.column + 1,
+            return wg_error_set_at(d->err, rc, d->path, a->line, e.column + 1,
                                    "node '%s', attribute '%s', column %d: %s%s", n->id, a->name,
                                    e.column + 1, e.message, extra);
         }
@@ -747,7 +840,7 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
     if (rc) {
         char msg[1024];
         snprintf(msg, sizeof msg, "node '%s': %s", n->id, d->err ? d->err->message : "");
-        return wg_error_set_at(d->err, rc, d->path, n->line, 0, "%s", msg);
+        return wg_error_set_at(d->err, rc, d->path, a->line, 0, "%s", msg);
     }
     return WG_OK;
 }
@@ -823,6 +916,7 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         AttrDef *a = &n->attrs[n->n_attrs++];
         a->param = -1;
         a->ref_param = -1;
+        a->line = attr_line(xa, line);
         if ((rc = attr(d, x, name, &a->text))) goto fail;
         if (!a->text || !(a->name = wg_strdup(name))) {
             rc = nomem(d->err);
@@ -852,7 +946,7 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         }
         for (int k = 0; k < n->n_attrs - 1; k++) {
             if (!strcmp(n->attrs[k].name, name)) {
-                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, a->line, 0,
                                      "node '%s': attribute '%s' given twice", n->id, name);
                 goto fail;
             }
@@ -862,19 +956,19 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
                 names[count++] = reserved_node_attrs[r];
             const char *s = wg_suggest(name, names, count);
             if (s)
-                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, a->line, 0,
                                      "node '%s': %s '%s' has no parameter '%s'; did you mean "
                                      "'%s'?",
                                      n->id, n->type ? "node type" : "subgraph", n->type_name, name,
                                      s);
             else
-                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, a->line, 0,
                                      "node '%s': %s '%s' has no parameter '%s'", n->id,
                                      n->type ? "node type" : "subgraph", n->type_name, name);
             goto fail;
         }
         if (a->param < 0 && !valid_id(name)) {
-            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, a->line, 0,
                                  "node '%s': bad parameter name '%s'", n->id, name);
             goto fail;
         }
@@ -1312,6 +1406,41 @@ static int xml_error(const char *path, xmlParserCtxtPtr ctxt, const xmlError *fi
     return wg_error_set_at(err, WG_ERR_PARSE, path, e->line, e->int2, "XML: %s", msg);
 }
 
+/* The whole file (the line annotation needs the text); graph files are small. */
+static int read_text(const char *path, char **text, size_t *len, WgError *err)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the graph file: %s",
+                               strerror(errno));
+    size_t cap = 1 << 16, n = 0;
+    char *buf = wg_malloc(cap);
+    while (buf) {
+        n += fread(buf + n, 1, cap - n, f);
+        if (n < cap) break;
+        if (cap >= ((size_t)1 << 30)) {
+            wg_free(buf);
+            fclose(f);
+            return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0, "graph file larger than 1 GiB");
+        }
+        char *bigger = wg_realloc_array(buf, cap, cap * 2, 1);
+        if (!bigger) wg_free(buf);
+        buf = bigger;
+        cap *= 2;
+    }
+    bool bad = buf && ferror(f);
+    fclose(f);
+    if (!buf) return nomem(err);
+    if (bad) {
+        wg_free(buf);
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the graph file: %s",
+                               strerror(errno));
+    }
+    *text = buf;
+    *len = n;
+    return WG_OK;
+}
+
 static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len, WgGraph **out,
                      WgError *err)
 {
@@ -1321,14 +1450,15 @@ static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len,
     xmlError first = {0};
     xmlSetStructuredErrorFunc(&first, (xmlStructuredErrorFunc)first_xml_error);
     int opts = XML_PARSE_NONET | XML_PARSE_NOCDATA;
-    xmlDocPtr doc = mem ? xmlCtxtReadMemory(ctxt, mem, (int)len, path, NULL, opts)
-                        : xmlCtxtReadFile(ctxt, path, NULL, opts);
+    xmlDocPtr doc = xmlCtxtReadMemory(ctxt, mem, (int)len, path, NULL, opts);
     xmlSetStructuredErrorFunc(NULL, (xmlStructuredErrorFunc)silent_xml_error);
     int rc;
-    if (!doc)
+    if (!doc) {
         rc = xml_error(path, ctxt, &first, err);
-    else
+    } else {
+        annotate_lines(doc, mem, len);
         rc = load_doc(lc, doc, path, out, err);
+    }
     xmlResetError(&first);
     if (doc) xmlFreeDoc(doc);
     xmlFreeParserCtxt(ctxt);
@@ -1366,7 +1496,11 @@ static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err)
         }
     }
     lc->stack[lc->depth++] = real;
-    int rc = parse_xml(lc, path, NULL, 0, out, err);
+    char *text = NULL;
+    size_t len = 0;
+    int rc = read_text(path, &text, &len, err);
+    if (!rc) rc = parse_xml(lc, path, text, len, out, err);
+    wg_free(text);
     lc->depth--;
     if (rc) return rc;
     if (lc->n_loaded == lc->cap_loaded) {

@@ -45,6 +45,7 @@ const char *wg__type_name(WgParamType t);
 typedef struct AttrDef {
     char *name;
     char *text;
+    int line;        /* where the attribute is written */
     int param;       /* index in the node type's params (or the subgraph's); -1 for extras */
     WgExpr *expr;    /* numeric expression (text starts with '=') */
     int ref_param;   /* '=name' forwarding a non-numeric graph param: its index, else -1 */

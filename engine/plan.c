@@ -495,7 +495,7 @@ static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a, c
             char msg[1024];
             snprintf(msg, sizeof msg, "expression '%s' gives: %s", a->text + 1,
                      b->err ? b->err->message : "");
-            return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "%s", msg);
+            return wg_error_set_at(b->err, rc, f->g->path, a->line, 0, "%s", msg);
         }
         return WG_OK;
     }
@@ -505,7 +505,7 @@ static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a, c
             /* match by name: the graph's enum may list other values */
             WgError e = {0};
             rc = wg__value_parse(d, src->str ? src->str : "", out, &e);
-            if (rc) return wg_error_set_at(b->err, rc, f->g->path, n->line, 0, "%s", e.message);
+            if (rc) return wg_error_set_at(b->err, rc, f->g->path, a->line, 0, "%s", e.message);
             return WG_OK;
         }
         return wg__value_copy(out, src);
@@ -625,7 +625,7 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
                 goto out_slots;
             }
             if (!file_readable(full)) {
-                rc = wg_error_set_at(b->err, WG_ERR_IO, g->path, n->line, 0, "file '%s' not found",
+                rc = wg_error_set_at(b->err, WG_ERR_IO, g->path, a->line, 0, "file '%s' not found",
                                      full);
                 wg__value_clear(&v);
                 goto out_slots;

@@ -1155,9 +1155,55 @@ static void test_suggest(void **state)
     assert_string_equal(wg_suggest("abcdeg", close, 3), "abcdef");
 }
 
+/* Elements are reported at the line where their start tag begins and attribute errors at the
+ * attribute's own line, also in tags written over several lines; comments and quoted '>' do not
+ * confuse the count. Loading from a file and from memory agree. */
+static void test_lines_of_multi_line_tags(void **state)
+{
+    (void)state;
+    const char *head = "<wetgraph version=\"1\" size=\"8\">\n"        /* 1 */
+                       "  <param name=\"level\" type=\"float\"/>\n"   /* 2 */
+                       "  <!-- <node id=\"fake\"> in a comment -->\n" /* 3 */
+                       "  <node id=\"u\"\n"                           /* 4 */
+                       "        type=\"uniform\"\n"                   /* 5 */
+                       "        label=\"a > b\"\n";                   /* 6 */
+    char xml[2048];
+    snprintf(xml, sizeof xml,
+             "%s        value=\"=levl * 2\"/>\n" /* 7 */
+             "  <output name=\"o\" from=\"u\"/>\n</wetgraph>\n",
+             head);
+    load_fails(xml, WG_ERR_PARSE, 7, "attribute 'value'|unknown name 'levl'|did you mean 'level'?");
+    snprintf(xml, sizeof xml,
+             "%s        valeu=\"1\"/>\n" /* 7 */
+             "  <output name=\"o\" from=\"u\"/>\n</wetgraph>\n",
+             head);
+    load_fails(xml, WG_ERR_PARSE, 7, "has no parameter 'valeu'; did you mean 'value'?");
+    snprintf(xml, sizeof xml,
+             "%s        value=\"1\">\n"          /* 7 */
+             "    <in name=\"x\" from=\"u\"/>\n" /* 8 */
+             "  </node>\n  <output name=\"o\" from=\"u\"/>\n</wetgraph>\n",
+             head);
+    load_fails(xml, WG_ERR_PARSE, 8, "has no input 'x'");
+    /* the node itself: the line of '<node' */
+    snprintf(xml, sizeof xml,
+             "%s        value=\"1\"/>\n"
+             "  <node id=\"b\"\n"        /* 8 */
+             "        type=\"blur\"/>\n" /* 9 */
+             "  <output name=\"o\" from=\"b\"/>\n</wetgraph>\n",
+             head);
+    load_fails(xml, WG_ERR_PARSE, 8, "required input 'source' is not connected");
+    const char *path = wgt_path("multi_line.wetgraph");
+    wgt_write_file(path, xml);
+    WgGraph *g = NULL;
+    WgError err = {0};
+    assert_int_equal(wg_graph_load(path, &g, &err), WG_ERR_PARSE);
+    assert_error(&err, WG_ERR_PARSE, 8, "required input 'source'");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_lines_of_multi_line_tags),
         cmocka_unit_test(test_valid_file_and_info),
         cmocka_unit_test(test_defaults_of_the_root),
         cmocka_unit_test(test_load_from_a_file),
