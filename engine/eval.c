@@ -528,7 +528,7 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
         req->progress(req->progress_user, run.total, run.total, NULL);
     if (run.rc) {
         rc = run.rc;
-        *err = run.err;
+        if (err) *err = run.err;
         goto done;
     }
     rc = collect(&run, out, t0, err);

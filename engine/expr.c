@@ -72,7 +72,12 @@ typedef struct {
     WgError *err;
     int status;
     int depth;
+    int *height; /* per node: height of its subtree */
 } Parser;
+
+/* The evaluators recurse over the tree, so its height is bounded as well as the nesting of the
+ * text: a chain such as 1 + 1 + ... + 1 is as tall as it is long. */
+#define MAX_HEIGHT 1000
 
 static int col(Parser *ps, const char *at)
 {
@@ -93,10 +98,26 @@ static WgExprNode *new_node(Parser *ps, WgExprOp op, const char *at)
 {
     WgExpr *e = ps->e;
     if (e->count_ == e->cap_) return fail(ps, at, WG_ERR_PARSE, "%s", "expression too long");
+    ps->height[e->count_] = 1;
     WgExprNode *n = &e->nodes_[e->count_++];
     memset(n, 0, sizeof *n);
     n->op = op;
     n->column = col(ps, at);
+    return n;
+}
+
+/* Record the height of n, whose operands are set; fails when it is too tall. */
+static WgExprNode *grown(Parser *ps, WgExprNode *n, const char *at)
+{
+    int h = 0;
+    for (int i = 0; i < n->nargs; i++) {
+        int c = ps->height[n->args[i] - ps->e->nodes_];
+        if (c > h) h = c;
+    }
+    ps->height[n - ps->e->nodes_] = h + 1;
+    if (h + 1 > MAX_HEIGHT)
+        return fail(ps, at, WG_ERR_PARSE, "%s",
+                    "expression too deep (more than 1000 operations inside one another)");
     return n;
 }
 
@@ -129,7 +150,7 @@ static WgExprNode *binary(Parser *ps, WgExprOp op, const char *at, WgExprNode *a
     n->nargs = 2;
     n->args[0] = a;
     n->args[1] = b;
-    return n;
+    return grown(ps, n, at);
 }
 
 static bool is_name_start(char c)
@@ -207,7 +228,7 @@ static WgExprNode *parse_atom(Parser *ps)
                              funcs[f].name, funcs[f].min_args, funcs[f].max_args, n->nargs);
                 return fail(ps, at, WG_ERR_PARSE, "%s", msg);
             }
-            return n;
+            return grown(ps, n, at);
         }
         int slot = -1;
         if (!ps->opt->resolve || !ps->opt->resolve(ps->opt->user, s, len, &slot)) {
@@ -248,6 +269,7 @@ static WgExprNode *parse_unary(Parser *ps)
         if (a && (r = new_node(ps, op, at))) {
             r->nargs = 1;
             r->args[0] = a;
+            r = grown(ps, r, at);
         }
     } else if (accept(ps, "+")) {
         r = parse_unary(ps);
@@ -355,7 +377,7 @@ static WgExprNode *parse_expr(Parser *ps)
         n->args[0] = c;
         n->args[1] = a;
         n->args[2] = b;
-        c = n;
+        c = grown(ps, n, at);
     }
     ps->depth--;
     return c;
@@ -376,6 +398,10 @@ int wg_expr_parse(const char *src, const WgExprOptions *opt, WgExpr **out, WgErr
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     }
     Parser ps = {.src = src, .p = src, .e = e, .opt = opt, .err = err};
+    if (!(ps.height = wg_calloc((size_t)e->cap_, sizeof(int)))) {
+        wg_expr_free(e);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
     skip_space(&ps);
     if (!*ps.p)
         fail(&ps, ps.p, WG_ERR_PARSE, "%s", "empty expression");
@@ -386,6 +412,7 @@ int wg_expr_parse(const char *src, const WgExprOptions *opt, WgExpr **out, WgErr
         char c[2] = {*ps.p, 0};
         fail(&ps, ps.p, WG_ERR_PARSE, "unexpected '%s'", c);
     }
+    wg_free(ps.height);
     if (ps.status != WG_OK) {
         wg_expr_free(e);
         return ps.status;

@@ -421,6 +421,12 @@ static int need_attr(Doc *d, xmlNodePtr n, const char *name, char **out)
 static int check_no_text(Doc *d, xmlNodePtr n)
 {
     for (xmlNodePtr c = n->children; c; c = c->next) {
+        /* entities are not expanded (that could read files): their text or elements would be
+         * skipped unseen */
+        if (c->type == XML_ENTITY_REF_NODE)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line_of(c), 0,
+                                   "unexpected entity reference '&%s;' inside <%s>",
+                                   (const char *)c->name, (const char *)n->name);
         if (c->type != XML_TEXT_NODE && c->type != XML_CDATA_SECTION_NODE) continue;
         for (const xmlChar *s = c->content; s && *s; s++)
             if (!isspace(*s))
@@ -645,6 +651,13 @@ static int parse_input(Doc *d, WgGraph *g, xmlNodePtr x)
                                  "bad default '%s' for input '%s' (a number, or a colour such "
                                  "as #808080 or '0.5 0.5 0.5')",
                                  def, name);
+            goto out;
+        }
+        /* a gray default is carried by a `uniform` value, whose range is +-1e6 */
+        if (in->info.kind == WG_GRAY && (in->def[0] < -1e6f || in->def[0] > 1e6f)) {
+            rc = wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line, 0,
+                                 "default '%s' of gray input '%s' is outside [-1e6, 1e6]", def,
+                                 name);
             goto out;
         }
         in->info.has_default = true;
@@ -1028,11 +1041,14 @@ static int resolve_from(Doc *d, WgGraph *g, const char *from, int line, int *nod
         }
         return WG_OK;
     }
+    /* looked up by length in `from` itself: a copy in a buffer could cut a long id short and
+     * find another node (id is only for messages) */
+    const char *dot = strchr(from, '.');
+    size_t len = dot ? (size_t)(dot - from) : strlen(from);
     char id[256];
-    snprintf(id, sizeof id, "%s", from);
-    char *dot = strchr(id, '.');
-    if (dot) *dot = '\0';
-    *node = wg__graph_find_node(g, id);
+    snprintf(id, sizeof id, "%.*s", (int)len, from);
+    for (int i = 0; i < g->n_nodes && *node < 0; i++)
+        if (strlen(g->nodes[i].id) == len && !strncmp(g->nodes[i].id, from, len)) *node = i;
     if (*node < 0) {
         const char *names[1024];
         int count = 0;

@@ -4,9 +4,10 @@
  * pixels, wrapping around the edges: exact bilinear interpolation when enlarging, a triangle
  * average when shrinking. The weights are normalised per output sample, and a sample whose taps
  * all read the same value is that value, so a constant image stays exactly constant (a float sum
- * of weights times v can be off by an ulp). */
+ * of weights times v can be off by an ulp). Other samples saturate at ±FLT_MAX. */
 #include "internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -172,6 +173,12 @@ static void axis_free(Axis *a)
     wg_free(a->weight);
 }
 
+/* Weights whose float sum rounds just above 1 can carry a sum of values near FLT_MAX past it. */
+static inline float saturate(float v)
+{
+    return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
+}
+
 static WgImage *resample(const WgImage *src, int width, int height)
 {
     int c = src->channels;
@@ -193,7 +200,7 @@ static WgImage *resample(const WgImage *src, int width, int height)
                     same &= v == first;
                     s += ax.weight[x * ax.taps + t] * v;
                 }
-                out[x * c + k] = same ? first : s;
+                out[x * c + k] = same ? first : saturate(s);
             }
         }
     }
@@ -211,7 +218,7 @@ static WgImage *resample(const WgImage *src, int width, int height)
             bool same = true;
             for (int t = 1; t < ay.taps && same; t++)
                 same = wg_image_row(tmp, ay.index[y * ay.taps + t])[i] == first[i];
-            if (same) out[i] = first[i];
+            out[i] = same ? first[i] : saturate(out[i]);
         }
     }
     goto done;

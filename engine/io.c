@@ -6,6 +6,7 @@
 #include "internal.h"
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -63,7 +64,8 @@ static float srgb_decode(float v)
         int i = (int)lrintf(v * 65535.0f);
         if ((float)(i / 65535.0) == v) return srgb_lut[i];
     }
-    return wg_srgb_to_linear(v);
+    float r = wg_srgb_to_linear(v);
+    return r > FLT_MAX ? FLT_MAX : r; /* from about 1e16 on, the curve leaves the float range */
 }
 
 float wg_linear_to_srgb(float v)

@@ -780,9 +780,11 @@ static int input_default(Builder *b, Frame *f, int input, int line, WgRef *out)
                  d->def[3]);
         char value[64];
         snprintf(value, sizeof value, "%.9g", d->def[0]);
-        if ((rc = set_param(in, "kind", d->info.kind == WG_COLOR ? "color" : "gray", b->err)) ||
-            (rc = set_param(in, "color", text, b->err)) ||
-            (rc = set_param(in, "value", value, b->err)) || (rc = finish_inst(b, &index)))
+        /* only the field in use: a colour default need not fit the gray value's range */
+        bool color = d->info.kind == WG_COLOR;
+        if ((rc = set_param(in, "kind", color ? "color" : "gray", b->err)) ||
+            (rc = set_param(in, color ? "color" : "value", color ? text : value, b->err)) ||
+            (rc = finish_inst(b, &index)))
             return rc;
         f->input_default[input] = index;
     }
@@ -863,7 +865,7 @@ static int top_size(Builder *b, const WgGraph *g, int *w, int *h)
         int c;
         WgError e = {0};
         if (wg_image_probe(r->input_paths[i], w, h, &c, &e)) {
-            *b->err = e;
+            if (b->err) *b->err = e;
             return e.code;
         }
         return WG_OK;

@@ -6,6 +6,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -88,7 +89,7 @@ int wg__color_parse(const char *text, float out[4])
         char *end;
         errno = 0;
         v[n] = strtod(p, &end);
-        if (end == p || !isfinite(v[n])) return -1;
+        if (end == p || !(fabs(v[n]) <= FLT_MAX)) return -1; /* also what float cannot hold */
         n++;
         p = end;
         if (*p && !isspace((unsigned char)*p) && *p != ',') return -1;

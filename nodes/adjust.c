@@ -3,6 +3,7 @@
  * alpha passes through unchanged. */
 #include "wetgraph/node.h"
 
+#include <float.h>
 #include <math.h>
 
 typedef struct {
@@ -141,8 +142,12 @@ static void grayscale_rows(void *user, int y0, int y1)
     for (int y = y0; y < y1; y++) {
         const float *s = wg_image_row(j->in, y);
         float *d = wg_image_row(j->out, y);
-        for (int x = 0; x < j->out->width; x++)
-            d[x] = w[0] * s[4 * x] + w[1] * s[4 * x + 1] + w[2] * s[4 * x + 2];
+        for (int x = 0; x < j->out->width; x++) {
+            /* in double, where products of floats cannot overflow; saturated to the float range */
+            double v =
+                (double)w[0] * s[4 * x] + (double)w[1] * s[4 * x + 1] + (double)w[2] * s[4 * x + 2];
+            d[x] = (float)(v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v);
+        }
     }
 }
 

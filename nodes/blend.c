@@ -6,9 +6,12 @@
  *   divide B/max(A, 2^-16) (never NaN or infinite) | overlay | screen | soft_light (W3C)
  * then result = B + (f(A,B) - B) * opacity * mask (switch excepted), clamped to [0,1] unless
  * clamp="false" (HDR mode). Colour alpha is mixed like `copy`. A gray input mixed with a colour
- * one counts as R = G = B with alpha 1. */
+ * one counts as R = G = B with alpha 1. Computed in double, where no product of floats
+ * overflows, and rounded once: finite inputs give finite outputs (saturating at ±FLT_MAX), never
+ * an infinity or a NaN made of one. */
 #include "wetgraph/node.h"
 
+#include <float.h>
 #include <math.h>
 
 enum {
@@ -55,14 +58,14 @@ static int blend_channels(const WgNodeContext *ctx, int port)
     return ctx->input_channels[0] == 4 || ctx->input_channels[1] == 4 ? 4 : 1;
 }
 
-static inline float soft_light(float a, float b)
+static inline double soft_light(double a, double b)
 {
-    if (a <= 0.5f) return b - (1 - 2 * a) * b * (1 - b);
-    float d = b <= 0.25f ? ((16 * b - 12) * b + 4) * b : sqrtf(b);
+    if (a <= 0.5) return b - (1 - 2 * a) * b * (1 - b);
+    double d = b <= 0.25 ? ((16 * b - 12) * b + 4) * b : sqrt(b);
     return b + (2 * a - 1) * (d - b);
 }
 
-static inline float blend_one(int mode, float a, float b)
+static inline double blend_one(int mode, double a, double b)
 {
     switch (mode) {
     case M_COPY:
@@ -80,9 +83,9 @@ static inline float blend_one(int mode, float a, float b)
     case M_MIN:
         return a < b ? a : b;
     case M_DIVIDE:
-        return b / (a > 0x1p-16f ? a : 0x1p-16f);
+        return b / (a > 0x1p-16 ? a : 0x1p-16);
     case M_OVERLAY:
-        return b < 0.5f ? 2 * a * b : 1 - 2 * (1 - a) * (1 - b);
+        return b < 0.5 ? 2 * a * b : 1 - 2 * (1 - a) * (1 - b);
     case M_SCREEN:
         return 1 - (1 - a) * (1 - b);
     case M_SOFT_LIGHT:
@@ -114,20 +117,20 @@ static void blend_rows(void *user, int y0, int y1)
         const float *mr = j->mask ? wg_image_row(j->mask, y) : NULL;
         float *o = wg_image_row(j->out, y);
         for (int x = 0; x < j->out->width; x++) {
-            float t = p->opacity * (mr ? mr[x] : 1.0f);
+            double t = (double)p->opacity * (mr ? mr[x] : 1.0f);
             for (int k = 0; k < c; k++) {
-                float a = channel(j->fg, fr, x, k), b = channel(j->bg, br, x, k);
-                float v;
+                double a = channel(j->fg, fr, x, k), b = channel(j->bg, br, x, k);
+                double v;
                 /* (1-t)B + tF rather than B + (F-B)t: exact at t = 0 and t = 1 even when B is
                  * much larger than F (HDR heights) */
                 if (p->mode == M_SWITCH)
-                    v = t >= 0.5f ? a : b;
+                    v = t >= 0.5 ? a : b;
                 else if (k == 3)
                     v = (1 - t) * b + t * a;
                 else
                     v = (1 - t) * b + t * blend_one(p->mode, a, b);
                 if (p->clamp) v = v < 0 ? 0 : v > 1 ? 1 : v;
-                o[x * c + k] = v;
+                o[x * c + k] = (float)(v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v);
             }
         }
     }

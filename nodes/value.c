@@ -117,6 +117,8 @@ static int curve_parse(const char *text, Curve *c, WgError *err)
     double d[CURVE_MAX_POINTS] = {0};
     for (int k = 0; k < n - 1; k++) {
         d[k] = (c->y[k + 1] - c->y[k]) / (c->x[k + 1] - c->x[k]);
+        /* points so close that the slope overflows: the steepest that still averages finitely */
+        if (isinf(d[k])) d[k] = copysign(DBL_MAX / 2, d[k]);
     }
     c->m[0] = d[0];
     c->m[n - 1] = d[n - 2];
@@ -130,10 +132,10 @@ static int curve_parse(const char *text, Curve *c, WgError *err)
         }
         double a = c->m[k] / d[k], b = c->m[k + 1] / d[k];
         double r = hypot(a, b);
-        if (r > 3) {
+        if (r > 3) { /* tau·a·d[k] is tau·m[k]; so written it stays 0 when a overflows */
             double tau = 3 / r;
-            c->m[k] = tau * a * d[k];
-            c->m[k + 1] = tau * b * d[k];
+            c->m[k] *= tau;
+            c->m[k + 1] *= tau;
         }
     }
     return WG_OK;

@@ -16,7 +16,9 @@
  * the callers decide what to do with non-finite results (parameters reject them).
  *
  * The parser resolves every name through a callback, so each caller decides what is in scope,
- * and reports errors with a 1-based column inside the source text. */
+ * and reports errors with a 1-based column inside the source text. Nesting deeper than 200
+ * levels, and trees more than 1000 operations tall (a chain like 1 + 1 + ... is as tall as it
+ * is long), are errors, so evaluating an expression never exhausts the stack. */
 #ifndef WETGRAPH_EXPR_H
 #define WETGRAPH_EXPR_H
 

@@ -34,7 +34,8 @@ const char *wg_format_extension(WgFormat f); /* "png", "tif", "exr" */
 int wg_image_probe(const char *path, int *width, int *height, int *channels, WgError *err);
 
 /* Read a file as float. channels: 1 or 4 to convert, 0 to keep (1-2 channels -> gray, 3-4 ->
- * RGBA). SRGB decodes the colour channels to linear. Non-finite values are an error.
+ * RGBA). SRGB decodes the colour channels to linear (values the curve takes past the float range
+ * saturate at FLT_MAX). Non-finite values are an error.
  * The caller owns *out. */
 int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out, WgError *err);
 
