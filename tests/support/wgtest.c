@@ -299,11 +299,15 @@ void wgt_assert_range(const WgImage *img, double lo, double hi)
         }
 }
 
-void wgt_assert_error(const WgError *err, int code, int line, const char *needle)
+void wgt_assert_error(const WgError *err, int code, int line, const char *needles)
 {
-    char buf[2048];
+    char buf[2048], parts[1024];
     wg_error_format(err, buf, sizeof buf);
     if (err->code != code) fail_msg("expected code %d, got %d: %s", code, err->code, buf);
     if (line && err->line != line) fail_msg("expected line %d, got %d: %s", line, err->line, buf);
-    if (needle && !strstr(buf, needle)) fail_msg("expected '%s' in: %s", needle, buf);
+    if (!needles) return;
+    snprintf(parts, sizeof parts, "%s", needles);
+    char *save = NULL;
+    for (char *p = strtok_r(parts, "|", &save); p; p = strtok_r(NULL, "|", &save))
+        if (!strstr(buf, p)) fail_msg("expected '%s' in: %s", p, buf);
 }

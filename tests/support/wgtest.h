@@ -70,7 +70,8 @@ void wgt_assert_near(const WgImage *a, const WgImage *b, double tol);
 double wgt_max_abs_diff(const WgImage *a, const WgImage *b);
 /* Every value within [lo, hi] and finite. */
 void wgt_assert_range(const WgImage *img, double lo, double hi);
-/* The error message contains `needle`, and the location line is `line` (0: don't check). */
-void wgt_assert_error(const WgError *err, int code, int line, const char *needle);
+/* The error has `code`, is located at `line` (0: don't check), and its formatted text contains
+ * every part of `needles` (parts separated by '|'; NULL: don't check). */
+void wgt_assert_error(const WgError *err, int code, int line, const char *needles);
 
 #endif

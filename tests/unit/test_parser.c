@@ -7,20 +7,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Like wgt_assert_error, but `needles` may hold several parts separated by '|', each of which
- * must appear in the formatted error; the node is checked apart from the message ("node 'b'|...")
- * so either may carry it. */
-static void assert_error(const WgError *err, int code, int line, const char *needles)
-{
-    wgt_assert_error(err, code, line, NULL);
-    char buf[2048], parts[1024];
-    wg_error_format(err, buf, sizeof buf);
-    snprintf(parts, sizeof parts, "%s", needles);
-    char *save = NULL;
-    for (char *p = strtok_r(parts, "|", &save); p; p = strtok_r(NULL, "|", &save))
-        if (!strstr(buf, p)) fail_msg("expected '%s' in: %s", p, buf);
-}
-
 /* Load `xml` expecting failure with `code` at `line` (0: don't check) and `needle` (as for
  * assert_error) in the formatted message. */
 static void load_fails(const char *xml, int code, int line, const char *needle)
@@ -28,7 +14,7 @@ static void load_fails(const char *xml, int code, int line, const char *needle)
     WgError err;
     int rc = wgt_load_error(xml, &err);
     assert_int_equal(rc, code);
-    assert_error(&err, code, line, needle);
+    wgt_assert_error(&err, code, line, needle);
 }
 
 static bool ends_with(const char *s, const char *suffix)
@@ -218,8 +204,8 @@ static void test_malformed_xml(void **state)
                                     &err),
                      WG_ERR_PARSE);
     /* the first error, not the cascade that follows ("Premature end of data" at the end) */
-    assert_error(&err, WG_ERR_PARSE, 4,
-                 "XML: Opening and ending tag mismatch: node line 2 and wetgraph");
+    wgt_assert_error(&err, WG_ERR_PARSE, 4,
+                     "XML: Opening and ending tag mismatch: node line 2 and wetgraph");
     assert_true(ends_with(err.file, "test.wetgraph"));
 
     /* an unquoted attribute on line 2 */
@@ -808,7 +794,7 @@ static void test_cycles(void **state)
                                     "</wetgraph>\n",
                                     &err),
                      WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0, "cycle between nodes: ");
+    wgt_assert_error(&err, WG_ERR_CYCLE, 0, "cycle between nodes: ");
     /* every node of the loop is named, in the order of the edges, and nothing else */
     const char *m = strstr(err.message, "cycle between nodes: ") + strlen("cycle between nodes: ");
     const char *const loops[] = {"a -> c -> b -> a", "c -> b -> a -> c", "b -> a -> c -> b"};
@@ -904,7 +890,7 @@ static void test_expression_syntax_errors(void **state)
                    "  <output name=\"o\" from=\"u\"/>\n"
                    "</wetgraph>\n",
                    &err);
-    assert_error(&err, WG_ERR_PARSE, 3, "node 'u'|attribute 'value'|unexpected end");
+    wgt_assert_error(&err, WG_ERR_PARSE, 3, "node 'u'|attribute 'value'|unexpected end");
     assert_int_equal(err.column, 11);
 
     wgt_load_error("<wetgraph version=\"1\">\n"
@@ -912,7 +898,7 @@ static void test_expression_syntax_errors(void **state)
                    "  <output name=\"o\" from=\"u\"/>\n"
                    "</wetgraph>\n",
                    &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "column 4: unexpected '3'");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2, "column 4: unexpected '3'");
     assert_int_equal(err.column, 4);
 
     wgt_load_error("<wetgraph version=\"1\">\n"
@@ -920,7 +906,7 @@ static void test_expression_syntax_errors(void **state)
                    "  <output name=\"o\" from=\"u\"/>\n"
                    "</wetgraph>\n",
                    &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "empty expression");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2, "empty expression");
     assert_int_equal(err.column, 2);
 
     wgt_load_error("<wetgraph version=\"1\">\n"
@@ -928,7 +914,7 @@ static void test_expression_syntax_errors(void **state)
                    "  <output name=\"o\" from=\"u\"/>\n"
                    "</wetgraph>\n",
                    &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "'clamp' takes 3 arguments, got 2");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2, "'clamp' takes 3 arguments, got 2");
     assert_int_equal(err.column, 2);
 
     /* the pixel functions are not available in attributes */
@@ -949,7 +935,7 @@ static void test_expression_names(void **state)
                    "  <output name=\"o\" from=\"u\"/>\n"
                    "</wetgraph>\n",
                    &err);
-    assert_error(&err, WG_ERR_PARSE, 3, "unknown name 'wter_level'");
+    wgt_assert_error(&err, WG_ERR_PARSE, 3, "unknown name 'wter_level'");
     assert_int_equal(err.column, 6);
 
     /* '$' names other than the four of the scope */
@@ -958,7 +944,7 @@ static void test_expression_names(void **state)
                    "  <output name=\"o\" from=\"u\"/>\n"
                    "</wetgraph>\n",
                    &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "unknown name '$frame'");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2, "unknown name '$frame'");
 
     /* colour and string parameters are not numbers */
     load_fails("<wetgraph version=\"1\">\n"
@@ -1197,7 +1183,7 @@ static void test_lines_of_multi_line_tags(void **state)
     WgGraph *g = NULL;
     WgError err = {0};
     assert_int_equal(wg_graph_load(path, &g, &err), WG_ERR_PARSE);
-    assert_error(&err, WG_ERR_PARSE, 8, "required input 'source'");
+    wgt_assert_error(&err, WG_ERR_PARSE, 8, "required input 'source'");
 }
 
 int main(void)

@@ -9,20 +9,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Like wgt_assert_error, but `needles` may hold several parts separated by '|', each of which
- * must appear in the formatted error; the node is checked apart from the message ("node 'b'|...")
- * so either may carry it. */
-static void assert_error(const WgError *err, int code, int line, const char *needles)
-{
-    wgt_assert_error(err, code, line, NULL);
-    char buf[2048], parts[1024];
-    wg_error_format(err, buf, sizeof buf);
-    snprintf(parts, sizeof parts, "%s", needles);
-    char *save = NULL;
-    for (char *p = strtok_r(parts, "|", &save); p; p = strtok_r(NULL, "|", &save))
-        if (!strstr(buf, p)) fail_msg("expected '%s' in: %s", p, buf);
-}
-
 /* ---- helpers ----------------------------------------------------------------------------- */
 
 static WgGraph *load(const char *xml)
@@ -58,7 +44,7 @@ static void render_fails(const WgRequest *r, int code, int line, const char *nee
 {
     WgError err = {0};
     assert_int_equal(wg_request_check(r, &err), code);
-    assert_error(&err, code, line, needle);
+    wgt_assert_error(&err, code, line, needle);
     WgEngineOptions opt = {1, 0, NULL};
     WgEngine *e = NULL;
     assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
@@ -66,7 +52,7 @@ static void render_fails(const WgRequest *r, int code, int line, const char *nee
     memset(&err, 0, sizeof err);
     assert_int_equal(wg_render(e, r, &res, &err), code);
     assert_null(res);
-    assert_error(&err, code, line, needle);
+    wgt_assert_error(&err, code, line, needle);
     wg_engine_free(e);
 }
 
@@ -83,7 +69,7 @@ static void set_fails(WgRequest *r, const char *name, const char *value, int cod
     int rc = wg_request_set(r, name, value, &err);
     if (rc != code)
         fail_msg("set %s=%s: status %d, expected %d (%s)", name, value, rc, code, err.message);
-    assert_error(&err, code, 0, needle);
+    wgt_assert_error(&err, code, 0, needle);
 }
 
 static void assert_size(const WgImage *img, int w, int h)
@@ -598,8 +584,8 @@ static void test_demand_driven(void **state)
     wg_result_free(res);
 
     assert_int_equal(wg_request_add_output(r, "nope", &err), WG_ERR_USAGE);
-    assert_error(&err, WG_ERR_USAGE, 0,
-                 "graph 'test' has no output 'nope' (outputs: good, bad, also)");
+    wgt_assert_error(&err, WG_ERR_USAGE, 0,
+                     "graph 'test' has no output 'nope' (outputs: good, bad, also)");
     wg_request_free(r);
 
     /* asking for the broken output alone fails the same way */
@@ -749,8 +735,8 @@ static void test_graph_inputs(void **state)
 
     WgError err = {0};
     assert_int_equal(wg_request_set_input_image(r, "hieght", NULL, &err), WG_ERR_USAGE);
-    assert_error(&err, WG_ERR_USAGE, 0,
-                 "graph 'test' has no input 'hieght' (inputs: height, base, level)");
+    wgt_assert_error(&err, WG_ERR_USAGE, 0,
+                     "graph 'test' has no input 'hieght' (inputs: height, base, level)");
     assert_int_equal(wg_request_set_input_file(r, "height", wgt_path("nothing_here.png"), &err),
                      WG_ERR_IO);
 

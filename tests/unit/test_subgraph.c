@@ -11,20 +11,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* Like wgt_assert_error, but `needles` may hold several parts separated by '|', each of which
- * must appear in the formatted error; the node is checked apart from the message ("node 'b'|...")
- * so either may carry it. */
-static void assert_error(const WgError *err, int code, int line, const char *needles)
-{
-    wgt_assert_error(err, code, line, NULL);
-    char buf[2048], parts[1024];
-    wg_error_format(err, buf, sizeof buf);
-    snprintf(parts, sizeof parts, "%s", needles);
-    char *save = NULL;
-    for (char *p = strtok_r(parts, "|", &save); p; p = strtok_r(NULL, "|", &save))
-        if (!strstr(buf, p)) fail_msg("expected '%s' in: %s", p, buf);
-}
-
 /* ---- helpers ----------------------------------------------------------------------------- */
 
 /* wgt_tmpdir()/a/b..., created; in a static rotating buffer like wgt_path. */
@@ -208,9 +194,9 @@ static void test_resolution_order(void **state)
     }
     WgError err;
     load_file_error(main_path, &err);
-    assert_error(&err, WG_ERR_TYPE, 2,
-                 "unknown node type 'layer' (not a built-in node, and no "
-                 "layer.wetgraph next to this file, in WETGRAPH_PATH or in");
+    wgt_assert_error(&err, WG_ERR_TYPE, 2,
+                     "unknown node type 'layer' (not a built-in node, and no "
+                     "layer.wetgraph next to this file, in WETGRAPH_PATH or in");
     assert_non_null(strstr(err.message, builtin));
 
     /* empty entries in WETGRAPH_PATH are skipped */
@@ -294,7 +280,8 @@ static void test_explicit_relative_paths(void **state)
                          "  <output name=\"o\" from=\"s\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_IO, 3, "subgraph file 'lib/nope.wetgraph' not found (relative to ");
+    wgt_assert_error(&err, WG_ERR_IO, 3,
+                     "subgraph file 'lib/nope.wetgraph' not found (relative to ");
     assert_true(ends_with(err.file, "/explicit/main.wetgraph"));
     /* explicit paths are not searched for elsewhere */
     write_constant(lib, "only_in_lib.wetgraph", 0.5);
@@ -304,7 +291,7 @@ static void test_explicit_relative_paths(void **state)
                          "  <output name=\"o\" from=\"s\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_IO, 2, "subgraph file 'only_in_lib.wetgraph' not found");
+    wgt_assert_error(&err, WG_ERR_IO, 2, "subgraph file 'only_in_lib.wetgraph' not found");
     teardown_env(NULL);
 }
 
@@ -355,9 +342,9 @@ static void test_params_passed_as_attributes(void **state)
     /* ... and its range is the subgraph parameter's */
     WgError err;
     render_error(g, "amount", "0.5", &err);
-    assert_error(&err, WG_ERR_RANGE, 5,
-                 "node \'c\'|expression 'amount * 3' gives: 'v' = 1.5 is "
-                 "outside [0, 1]");
+    wgt_assert_error(&err, WG_ERR_RANGE, 5,
+                     "node \'c\'|expression 'amount * 3' gives: 'v' = 1.5 is "
+                     "outside [0, 1]");
     assert_true(ends_with(err.file, "/params/main.wetgraph"));
     wg_graph_free(g);
 
@@ -367,28 +354,28 @@ static void test_params_passed_as_attributes(void **state)
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_RANGE, 2, "node \'a\'|'v' = 3 is outside [0, 1]");
+    wgt_assert_error(&err, WG_ERR_RANGE, 2, "node \'a\'|'v' = 3 is outside [0, 1]");
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"16\">\n"
                          "  <node id=\"a\" type=\"scaled\" v=\"much\"/>\n"
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_TYPE, 2, "node \'a\'|'v' expects a number, got 'much'");
+    wgt_assert_error(&err, WG_ERR_TYPE, 2, "node \'a\'|'v' expects a number, got 'much'");
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"16\">\n"
                          "  <node id=\"a\" type=\"scaled\" vv=\"0.5\"/>\n"
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 2,
-                 "node \'a\'|subgraph 'scaled' has no parameter 'vv'; did "
-                 "you mean 'v'?");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2,
+                     "node \'a\'|subgraph 'scaled' has no parameter 'vv'; did "
+                     "you mean 'v'?");
     /* an expression in the parent may only use the parent's names */
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"16\">\n"
                          "  <node id=\"a\" type=\"scaled\" v=\"=v / 2\"/>\n"
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "unknown name 'v'");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2, "unknown name 'v'");
 }
 
 static void test_non_numeric_params_and_seed(void **state)
@@ -437,13 +424,13 @@ static void test_non_numeric_params_and_seed(void **state)
                          "</wetgraph>\n");
     WgError err;
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_TYPE, 3, "'tint' is a color parameter");
+    wgt_assert_error(&err, WG_ERR_TYPE, 3, "'tint' is a color parameter");
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"2\">\n"
                          "  <node id=\"a\" type=\"tinted\" kind=\"rgb\"/>\n"
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_TYPE, 2, "'kind' has no value 'rgb'");
+    wgt_assert_error(&err, WG_ERR_TYPE, 2, "'kind' has no value 'rgb'");
 }
 
 /* ---- inputs and outputs ------------------------------------------------------------------ */
@@ -503,14 +490,14 @@ static void test_inputs_defaults_and_outputs(void **state)
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 4, "node \'a\'|has no input 'srcc'; did you mean 'src'?");
+    wgt_assert_error(&err, WG_ERR_PARSE, 4, "node \'a\'|has no input 'srcc'; did you mean 'src'?");
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"4\">\n"
                          "  <node id=\"a\" type=\"inv\"/>\n"
                          "  <output name=\"a\" from=\"a.result\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 3,
-                 "node 'a' has no output 'result' (outputs: out, through, tint)");
+    wgt_assert_error(&err, WG_ERR_PARSE, 3,
+                     "node 'a' has no output 'result' (outputs: out, through, tint)");
 
     /* an input without a default must be connected */
     write_in(d, "needs.wetgraph",
@@ -523,7 +510,7 @@ static void test_inputs_defaults_and_outputs(void **state)
                          "  <output name=\"a\" from=\"a\"/>\n"
                          "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_PARSE, 2, "node \'a\'|required input 'src' is not connected");
+    wgt_assert_error(&err, WG_ERR_PARSE, 2, "node \'a\'|required input 'src' is not connected");
 }
 
 /* ---- instances --------------------------------------------------------------------------- */
@@ -615,7 +602,7 @@ static void test_direct_recursion(void **state)
     write_in(d, "self.wetgraph", self);
     WgError err;
     assert_int_equal(load_file_error(file_in(d, "self.wetgraph"), &err), WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0, "subgraph recursion: self.wetgraph -> self.wetgraph");
+    wgt_assert_error(&err, WG_ERR_CYCLE, 0, "subgraph recursion: self.wetgraph -> self.wetgraph");
     assert_non_null(strstr(err.message, "used by node 'again' at "));
     assert_non_null(strstr(err.message, "self.wetgraph:3"));
 
@@ -635,7 +622,7 @@ static void test_direct_recursion(void **state)
              "  <output name=\"o\" from=\"again\"/>\n"
              "</wetgraph>\n");
     assert_int_equal(load_file_error(file_in(d, "spelled.wetgraph"), &err), WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0, "spelled.wetgraph -> spelled.wetgraph");
+    wgt_assert_error(&err, WG_ERR_CYCLE, 0, "spelled.wetgraph -> spelled.wetgraph");
 }
 
 static void test_indirect_recursion(void **state)
@@ -660,9 +647,9 @@ static void test_indirect_recursion(void **state)
              "</wetgraph>\n");
     WgError err;
     assert_int_equal(load_file_error(file_in(d, "a.wetgraph"), &err), WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0,
-                 "subgraph recursion: a.wetgraph -> b.wetgraph -> "
-                 "c.wetgraph -> a.wetgraph");
+    wgt_assert_error(&err, WG_ERR_CYCLE, 0,
+                     "subgraph recursion: a.wetgraph -> b.wetgraph -> "
+                     "c.wetgraph -> a.wetgraph");
     /* where each link is used */
     assert_non_null(strstr(err.message, "used by node 'to_a' at "));
     assert_non_null(strstr(err.message, "c.wetgraph:2"));
@@ -672,7 +659,7 @@ static void test_indirect_recursion(void **state)
 
     /* entering the loop elsewhere names it from there */
     assert_int_equal(load_file_error(file_in(d, "b.wetgraph"), &err), WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0, "b.wetgraph -> c.wetgraph -> a.wetgraph -> b.wetgraph");
+    wgt_assert_error(&err, WG_ERR_CYCLE, 0, "b.wetgraph -> c.wetgraph -> a.wetgraph -> b.wetgraph");
 
     /* a graph that only uses the loop from outside is rejected too */
     write_in(d, "outer.wetgraph",
@@ -681,7 +668,7 @@ static void test_indirect_recursion(void **state)
              "  <output name=\"o\" from=\"x\"/>\n"
              "</wetgraph>\n");
     assert_int_equal(load_file_error(file_in(d, "outer.wetgraph"), &err), WG_ERR_CYCLE);
-    assert_error(&err, WG_ERR_CYCLE, 0, "c.wetgraph -> a.wetgraph -> b.wetgraph -> c.wetgraph");
+    wgt_assert_error(&err, WG_ERR_CYCLE, 0, "c.wetgraph -> a.wetgraph -> b.wetgraph -> c.wetgraph");
 }
 
 /* ---- errors inside subgraphs ------------------------------------------------------------- */
@@ -711,7 +698,7 @@ static void test_errors_located_in_the_subgraph_file(void **state)
                          "</wetgraph>\n");
     WgError err;
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_TYPE, 3, "node \'b\'|'sigma' expects a number, got 'wide'");
+    wgt_assert_error(&err, WG_ERR_TYPE, 3, "node \'b\'|'sigma' expects a number, got 'wide'");
     assert_true(ends_with(err.file, "/sub_errors/broken.wetgraph"));
     char where[2048];
     snprintf(where, sizeof where, "(used by node 'inner' at %s:3)", file_in(d, "middle.wetgraph"));
@@ -738,7 +725,7 @@ static void test_errors_located_in_the_subgraph_file(void **state)
              "  <output name=\"o\" from=\"u\"/>\n"
              "</wetgraph>\n");
     load_file_error(path, &err);
-    assert_error(&err, WG_ERR_TYPE, 2, "unknown node type 'unifrom'; did you mean 'uniform'?");
+    wgt_assert_error(&err, WG_ERR_TYPE, 2, "unknown node type 'unifrom'; did you mean 'uniform'?");
     assert_true(ends_with(err.file, "/sub_errors/broken.wetgraph"));
 
     /* errors found while instantiating are located in the subgraph too, with the node's path */
@@ -768,7 +755,7 @@ static void test_errors_located_in_the_subgraph_file(void **state)
     assert_constant(wgt_output(r, "o"), 1, 0);
     wg_result_free(r);
     render_error(g, "k", "0.5", &err);
-    assert_error(&err, WG_ERR_RANGE, 4, "'opacity' = 2 is outside [0, 1]");
+    wgt_assert_error(&err, WG_ERR_RANGE, 4, "'opacity' = 2 is outside [0, 1]");
     assert_true(ends_with(err.file, "/sub_errors/broken.wetgraph"));
     assert_string_equal(err.node, "outer/inner/b");
     wg_graph_free(g);
@@ -785,9 +772,9 @@ static void test_missing_subgraph(void **state)
                          "</wetgraph>\n");
     WgError err;
     assert_int_equal(load_file_error(path, &err), WG_ERR_TYPE);
-    assert_error(&err, WG_ERR_TYPE, 2,
-                 "unknown node type 'water_ripples' (not a built-in node, "
-                 "and no water_ripples.wetgraph next to this file");
+    wgt_assert_error(&err, WG_ERR_TYPE, 2,
+                     "unknown node type 'water_ripples' (not a built-in node, "
+                     "and no water_ripples.wetgraph next to this file");
     assert_string_equal(err.file, path);
 
     wgt_write_file(path, "<wetgraph version=\"1\" size=\"4\">\n"
@@ -795,7 +782,7 @@ static void test_missing_subgraph(void **state)
                          "  <output name=\"o\" from=\"s\"/>\n"
                          "</wetgraph>\n");
     assert_int_equal(load_file_error(path, &err), WG_ERR_IO);
-    assert_error(&err, WG_ERR_IO, 2, "subgraph file 'ripples.wetgraph' not found");
+    wgt_assert_error(&err, WG_ERR_IO, 2, "subgraph file 'ripples.wetgraph' not found");
 
     /* a folder with the right name is not a file */
     dir("missing/folder.wetgraph");
@@ -847,8 +834,8 @@ static void test_input_kinds_are_enforced(void **state)
     g = load_file(file_in(folder, "refuse.wetgraph"));
     WgError err;
     assert_int_equal(render_error(g, NULL, NULL, &err), WG_ERR_TYPE);
-    assert_error(&err, WG_ERR_TYPE, 4,
-                 "node 'i' (inner)|input 'g' of subgraph 'inner' takes a gray image|grayscale");
+    wgt_assert_error(&err, WG_ERR_TYPE, 4,
+                     "node 'i' (inner)|input 'g' of subgraph 'inner' takes a gray image|grayscale");
     wg_graph_free(g);
 }
 
