@@ -21,14 +21,19 @@ typedef struct Entry {
     uint64_t key[2];
     int port;
     const WgImage *img;
-    uint64_t used; /* LRU clock */
+    int newer, older; /* the recency list, -1 at its ends */
 } Entry;
 
+/* Entries sit densely in an array (removal moves the last one into the hole), found through a
+ * hash index, and ordered by a doubly linked recency list: lookups, insertions and evictions
+ * cost the same with a hundred thousand entries as with ten. */
 struct WgCache {
     pthread_mutex_t mu;
     Entry *entries;
     int count, cap;
-    uint64_t clock;
+    WgKeyIndex index;   /* (key, port) -> entry */
+    int newest, oldest; /* ends of the recency list, -1 when empty */
+    size_t held;        /* bytes of all entries' images */
     char *dir;
 };
 
@@ -51,6 +56,7 @@ WgCache *wg__cache_new(const char *dir)
     WgCache *c = wg_calloc(1, sizeof *c);
     if (!c) return NULL;
     pthread_mutex_init(&c->mu, NULL);
+    c->newest = c->oldest = -1;
     if (dir) {
         c->dir = wg_strdup(dir);
         if (!c->dir || mkdir_p(dir)) {
@@ -66,6 +72,9 @@ void wg__cache_clear(WgCache *c)
     pthread_mutex_lock(&c->mu);
     for (int i = 0; i < c->count; i++) wg_image_unref(c->entries[i].img);
     c->count = 0;
+    c->held = 0;
+    c->newest = c->oldest = -1;
+    wg__key_index_free(&c->index);
     pthread_mutex_unlock(&c->mu);
 }
 
@@ -84,22 +93,66 @@ bool wg__cache_has_disk(const WgCache *c)
     return c->dir != NULL;
 }
 
-static int find(const WgCache *c, const uint64_t key[2], int port)
+static void unlink_entry(WgCache *c, int i)
 {
-    for (int i = 0; i < c->count; i++)
-        if (c->entries[i].key[0] == key[0] && c->entries[i].key[1] == key[1] &&
-            c->entries[i].port == port)
-            return i;
-    return -1;
+    Entry *e = &c->entries[i];
+    if (e->newer >= 0)
+        c->entries[e->newer].older = e->older;
+    else
+        c->newest = e->older;
+    if (e->older >= 0)
+        c->entries[e->older].newer = e->newer;
+    else
+        c->oldest = e->newer;
+}
+
+static void link_newest(WgCache *c, int i)
+{
+    Entry *e = &c->entries[i];
+    e->newer = -1;
+    e->older = c->newest;
+    if (c->newest >= 0) c->entries[c->newest].newer = i;
+    c->newest = i;
+    if (c->oldest < 0) c->oldest = i;
+}
+
+static void touch(WgCache *c, int i)
+{
+    if (c->newest == i) return;
+    unlink_entry(c, i);
+    link_newest(c, i);
+}
+
+/* Drops entry i; the last entry moves into its place. */
+static void remove_entry(WgCache *c, int i)
+{
+    Entry *e = &c->entries[i];
+    unlink_entry(c, i);
+    wg__key_index_remove(&c->index, e->key, e->port);
+    c->held -= wg_image_bytes(e->img);
+    wg_image_unref(e->img);
+    int last = --c->count;
+    if (i == last) return;
+    c->entries[i] = c->entries[last];
+    Entry *m = &c->entries[i];
+    if (m->newer >= 0)
+        c->entries[m->newer].older = i;
+    else
+        c->newest = i;
+    if (m->older >= 0)
+        c->entries[m->older].newer = i;
+    else
+        c->oldest = i;
+    wg__key_index_put(&c->index, m->key, m->port, i); /* replaces: never allocates */
 }
 
 const WgImage *wg__cache_get(WgCache *c, const uint64_t key[2], int port)
 {
     pthread_mutex_lock(&c->mu);
-    int i = find(c, key, port);
+    int i = wg__key_index_get(&c->index, key, port);
     const WgImage *img = NULL;
     if (i >= 0) {
-        c->entries[i].used = ++c->clock;
+        touch(c, i);
         img = wg_image_ref(c->entries[i].img);
     }
     pthread_mutex_unlock(&c->mu);
@@ -109,22 +162,28 @@ const WgImage *wg__cache_get(WgCache *c, const uint64_t key[2], int port)
 void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *img)
 {
     pthread_mutex_lock(&c->mu);
-    int i = find(c, key, port);
-    if (i < 0) {
-        if (c->count == c->cap) {
-            int cap = c->cap ? 2 * c->cap : 64;
-            Entry *e = wg_realloc_array(c->entries, (size_t)c->count, (size_t)cap, sizeof *e);
-            if (!e) goto out; /* caching is best effort */
-            c->entries = e;
-            c->cap = cap;
-        }
-        i = c->count++;
-        c->entries[i].key[0] = key[0];
-        c->entries[i].key[1] = key[1];
-        c->entries[i].port = port;
-        c->entries[i].img = wg_image_ref(img);
+    int i = wg__key_index_get(&c->index, key, port);
+    if (i >= 0) {
+        touch(c, i);
+        goto out;
     }
-    c->entries[i].used = ++c->clock;
+    if (c->count == c->cap) {
+        int cap = c->cap ? 2 * c->cap : 64;
+        Entry *e = wg_realloc_array(c->entries, (size_t)c->count, (size_t)cap, sizeof *e);
+        if (!e) goto out; /* caching is best effort */
+        c->entries = e;
+        c->cap = cap;
+    }
+    i = c->count;
+    if (wg__key_index_put(&c->index, key, port, i)) goto out;
+    c->count++;
+    Entry *e = &c->entries[i];
+    e->key[0] = key[0];
+    e->key[1] = key[1];
+    e->port = port;
+    e->img = wg_image_ref(img);
+    c->held += wg_image_bytes(img);
+    link_newest(c, i);
 out:
     pthread_mutex_unlock(&c->mu);
 }
@@ -132,17 +191,7 @@ out:
 void wg__cache_trim(WgCache *c, size_t max_bytes)
 {
     pthread_mutex_lock(&c->mu);
-    for (;;) {
-        size_t held = 0;
-        int victim = -1;
-        for (int i = 0; i < c->count; i++) {
-            held += wg_image_bytes(c->entries[i].img);
-            if (victim < 0 || c->entries[i].used < c->entries[victim].used) victim = i;
-        }
-        if (held <= max_bytes || victim < 0) break;
-        wg_image_unref(c->entries[victim].img);
-        c->entries[victim] = c->entries[--c->count];
-    }
+    while (c->held > max_bytes && c->oldest >= 0) remove_entry(c, c->oldest);
     pthread_mutex_unlock(&c->mu);
 }
 

@@ -41,9 +41,11 @@ struct Run {
     pthread_mutex_t mu;
     pthread_cond_t cv;
     int running, completed, total;
-    int *ready; /* nodes whose inputs are done, not started; taken lowest plan index first, so
-                   one thread follows the plan order the budget estimate assumes */
+    int *ready; /* nodes whose inputs are done, not started: a binary min-heap of plan indexes,
+                   taken lowest first, so one thread follows the plan order the budget
+                   estimate assumes */
     int n_ready;
+    int *dependents; /* storage of every node's dependents list */
     size_t live, peak;
     volatile int cancel;
     int rc;
@@ -213,6 +215,33 @@ out:
     return rc;
 }
 
+static void ready_push(Run *run, int index)
+{
+    int *h = run->ready;
+    int k = run->n_ready++;
+    while (k > 0 && h[(k - 1) / 2] > index) {
+        h[k] = h[(k - 1) / 2];
+        k = (k - 1) / 2;
+    }
+    h[k] = index;
+}
+
+static void ready_pop(Run *run)
+{
+    int *h = run->ready;
+    int last = h[--run->n_ready];
+    int k = 0, n = run->n_ready;
+    for (;;) {
+        int c = 2 * k + 1;
+        if (c >= n) break;
+        if (c + 1 < n && h[c + 1] < h[c]) c++;
+        if (h[c] >= last) break;
+        h[k] = h[c];
+        k = c;
+    }
+    if (n > 0) h[k] = last;
+}
+
 static void release(Run *run, int index)
 {
     Node *n = &run->nodes[index];
@@ -260,7 +289,7 @@ static void node_job(void *user)
         }
         for (int k = 0; k < node->n_dependents; k++) {
             Node *d = &run->nodes[node->dependents[k]];
-            if (--d->pending == 0) run->ready[run->n_ready++] = node->dependents[k];
+            if (--d->pending == 0) ready_push(run, node->dependents[k]);
         }
         if (node->consumers == 0) release(run, node->index);
     }
@@ -332,6 +361,8 @@ static int plan_work(Run *run, WgError *err)
         for (int k = 0; k < in->n_in; k++)
             if (in->in[k].inst >= 0) run->nodes[in->in[k].inst].needed = true;
     }
+    /* dependents lists: counted, then laid out in one array and filled */
+    size_t n_edges = 0;
     for (int i = 0; i < p->n_insts; i++) {
         Node *n = &run->nodes[i];
         WgInst *in = &p->insts[i];
@@ -342,13 +373,26 @@ static int plan_work(Run *run, WgError *err)
             run->nodes[s].consumers++;
             if (run->nodes[s].evaluate) {
                 n->pending++;
-                int *d =
-                    wg_realloc_array(run->nodes[s].dependents, (size_t)run->nodes[s].n_dependents,
-                                     (size_t)run->nodes[s].n_dependents + 1, sizeof(int));
-                if (!d) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-                d[run->nodes[s].n_dependents++] = i;
-                run->nodes[s].dependents = d;
+                run->nodes[s].n_dependents++;
+                n_edges++;
             }
+        }
+    }
+    run->dependents = wg_calloc(n_edges + 1, sizeof(int));
+    if (!run->dependents) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    size_t at = 0;
+    for (int i = 0; i < p->n_insts; i++) {
+        run->nodes[i].dependents = run->dependents + at;
+        at += (size_t)run->nodes[i].n_dependents;
+        run->nodes[i].n_dependents = 0;
+    }
+    for (int i = 0; i < p->n_insts; i++) {
+        WgInst *in = &p->insts[i];
+        if (!run->nodes[i].evaluate) continue;
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            if (s >= 0 && run->nodes[s].evaluate)
+                run->nodes[s].dependents[run->nodes[s].n_dependents++] = i;
         }
     }
     /* Peak working set of a sequential run in plan order: a lower bound of what any schedule
@@ -488,18 +532,15 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
         if (run.nodes[i].needed && !run.nodes[i].evaluate) run.live += run.nodes[i].out_bytes;
     run.peak = run.live;
     for (int i = 0; i < plan->n_insts; i++)
-        if (run.nodes[i].evaluate && run.nodes[i].pending == 0) run.ready[run.n_ready++] = i;
+        if (run.nodes[i].evaluate && run.nodes[i].pending == 0) ready_push(&run, i);
 
     int reported = 0;
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total) {
         while (!run.cancel && run.n_ready > 0) {
-            int first = 0;
-            for (int k = 1; k < run.n_ready; k++)
-                if (run.ready[k] < run.ready[first]) first = k;
-            Node *n = &run.nodes[run.ready[first]];
+            Node *n = &run.nodes[run.ready[0]];
             if (run.running > 0 && run.live + n->out_bytes > e->budget) break;
-            run.ready[first] = run.ready[--run.n_ready];
+            ready_pop(&run);
             run.running++;
             run.live += n->out_bytes;
             if (run.live > run.peak) run.peak = run.live;
@@ -538,12 +579,12 @@ done:
             if (run.nodes[i].out)
                 for (int o = 0; o < plan->insts[i].n_out; o++) wg_image_unref(run.nodes[i].out[o]);
             wg_free(run.nodes[i].out);
-            wg_free(run.nodes[i].dependents);
         }
     }
     wg__cache_trim(e->cache, e->budget);
     wg_free(run.nodes);
     wg_free(run.ready);
+    wg_free(run.dependents);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
     wg__plan_free(plan);

@@ -28,9 +28,19 @@
 typedef struct LoadCtx {
     char *stack[64]; /* real paths of the graphs being loaded, outermost first */
     int depth;
-    WgGraph **loaded;
+    WgGraph **loaded; /* every graph file loaded so far, shared by all that use it */
+    char **loaded_real;
     int n_loaded, cap_loaded;
+    WgNameIndex loaded_index; /* real path -> position in loaded */
 } LoadCtx;
+
+static void load_ctx_free(LoadCtx *lc)
+{
+    for (int i = 0; i < lc->n_loaded; i++) wg_free(lc->loaded_real[i]);
+    wg_free(lc->loaded);
+    wg_free(lc->loaded_real);
+    wg__name_index_free(&lc->loaded_index);
+}
 
 static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err);
 static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out, WgError *err);
@@ -153,31 +163,22 @@ bool wg_parse_size(const char *text, int *w, int *h)
 
 int wg__graph_find_param(const WgGraph *g, const char *name, size_t len)
 {
-    for (int i = 0; i < g->n_params; i++)
-        if (strlen(g->params[i].info.name) == len && !strncmp(g->params[i].info.name, name, len))
-            return i;
-    return -1;
+    return wg__name_index_get(&g->param_index, name, len);
 }
 
 int wg__graph_find_input(const WgGraph *g, const char *name)
 {
-    for (int i = 0; i < g->n_inputs; i++)
-        if (!strcmp(g->inputs[i].info.name, name)) return i;
-    return -1;
+    return wg__name_index_get(&g->input_index, name, strlen(name));
 }
 
 int wg__graph_find_node(const WgGraph *g, const char *id)
 {
-    for (int i = 0; i < g->n_nodes; i++)
-        if (!strcmp(g->nodes[i].id, id)) return i;
-    return -1;
+    return wg__name_index_get(&g->node_index, id, strlen(id));
 }
 
 int wg__graph_find_output(const WgGraph *g, const char *name)
 {
-    for (int i = 0; i < g->n_outputs; i++)
-        if (!strcmp(g->outputs[i].name, name)) return i;
-    return -1;
+    return wg__name_index_get(&g->output_index, name, strlen(name));
 }
 
 int wg__node_output_count(const NodeDef *n)
@@ -260,6 +261,10 @@ void wg_graph_free(WgGraph *g)
     }
     wg_free(g->nodes);
     wg_free(g->node_info);
+    wg__name_index_free(&g->node_index);
+    wg__name_index_free(&g->input_index);
+    wg__name_index_free(&g->output_index);
+    wg__name_index_free(&g->param_index);
     wg_free(g->path);
     wg_free(g->dir);
     wg_free(g->name);
@@ -272,6 +277,7 @@ void wg_graph_free(WgGraph *g)
 typedef struct Doc {
     const char *path;
     WgError *err;
+    WgNameIndex subgraphs; /* node type -> the first node of this file using that subgraph */
 } Doc;
 
 /* libxml2 numbers an element by the line where its start tag ends. People look for the line
@@ -578,6 +584,11 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
         }
     }
     if ((rc = wg__value_parse(&p->desc, def, &p->def, d->err))) goto located;
+    if (wg__name_index_put(&g->param_index, p->info.name, strlen(p->info.name), g->n_params)) {
+        wg__value_clear(&p->def);
+        rc = nomem(d->err);
+        goto out;
+    }
     p->info.default_text = def;
     def = NULL;
     g->n_params++;
@@ -661,6 +672,10 @@ static int parse_input(Doc *d, WgGraph *g, xmlNodePtr x)
             goto out;
         }
         in->info.has_default = true;
+    }
+    if (wg__name_index_put(&g->input_index, name, strlen(name), g->n_inputs)) {
+        rc = nomem(d->err);
+        goto out;
     }
     in->info.name = name;
     in->info.default_text = def;
@@ -882,7 +897,20 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         goto fail;
     }
     n->type = wg_node_type_find(n->type_name);
-    if (!n->type && (rc = resolve_subgraph(lc, d, g, n, d->err))) goto fail;
+    if (!n->type) {
+        /* a subgraph type resolves the same way every time within one file */
+        int same = wg__name_index_get(&d->subgraphs, n->type_name, strlen(n->type_name));
+        if (same >= 0) {
+            n->sub = g->nodes[same].sub;
+            n->sub->refs++;
+        } else if ((rc = resolve_subgraph(lc, d, g, n, d->err))) {
+            goto fail;
+        } else if (wg__name_index_put(&d->subgraphs, n->type_name, strlen(n->type_name),
+                                      g->n_nodes)) {
+            rc = nomem(d->err);
+            goto fail;
+        }
+    }
     if ((rc = attr(d, x, "size", &n->size_text)) || (rc = attr(d, x, "seed", &n->seed_text)) ||
         (rc = attr(d, x, "label", &n->label)))
         goto fail;
@@ -1013,6 +1041,10 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         if ((rc = need_attr(d, c, "name", &in->port)) || (rc = need_attr(d, c, "from", &in->from)))
             goto fail;
     }
+    if (wg__name_index_put(&g->node_index, n->id, strlen(n->id), g->n_nodes)) {
+        rc = nomem(d->err);
+        goto fail;
+    }
     g->n_nodes++;
     return WG_OK;
 fail:
@@ -1047,8 +1079,7 @@ static int resolve_from(Doc *d, WgGraph *g, const char *from, int line, int *nod
     size_t len = dot ? (size_t)(dot - from) : strlen(from);
     char id[256];
     snprintf(id, sizeof id, "%.*s", (int)len, from);
-    for (int i = 0; i < g->n_nodes && *node < 0; i++)
-        if (strlen(g->nodes[i].id) == len && !strncmp(g->nodes[i].id, from, len)) *node = i;
+    *node = wg__name_index_get(&g->node_index, from, len);
     if (*node < 0) {
         const char *names[1024];
         int count = 0;
@@ -1080,19 +1111,25 @@ static int resolve_from(Doc *d, WgGraph *g, const char *from, int line, int *nod
     return WG_OK;
 }
 
-static int link_node(Doc *d, WgGraph *g, NodeDef *n)
+/* `seen` starts empty and collects the node's connected port names. */
+static int link_node(Doc *d, WgGraph *g, NodeDef *n, WgNameIndex *seen)
 {
     int n_ports = node_input_count(n);
     bool dynamic = n->type && (n->type->flags & WG_NODE_DYNAMIC_INPUTS);
     for (int k = 0; k < n->n_ins; k++) {
         InDef *in = &n->ins[k];
-        for (int j = 0; j < k; j++)
-            if (!strcmp(n->ins[j].port, in->port))
-                return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, in->line, 0,
-                                       "node '%s': input '%s' is connected twice", n->id, in->port);
+        int first = wg__name_index_get(seen, in->port, strlen(in->port));
+        if (first >= 0)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, in->line, 0,
+                                   "node '%s': input '%s' is connected twice (first at line %d)",
+                                   n->id, in->port, n->ins[first].line);
+        if (wg__name_index_put(seen, in->port, strlen(in->port), k)) return nomem(d->err);
         in->port_index = -1;
-        for (int i = 0; i < n_ports; i++)
-            if (!strcmp(node_input_name(n, i), in->port)) in->port_index = i;
+        if (n->sub)
+            in->port_index = wg__graph_find_input(n->sub, in->port);
+        else
+            for (int i = 0; i < n_ports; i++)
+                if (!strcmp(node_input_name(n, i), in->port)) in->port_index = i;
         if (in->port_index < 0) {
             if (dynamic) {
                 if (!valid_id(in->port) || strchr(in->port, '-'))
@@ -1128,9 +1165,7 @@ static int link_node(Doc *d, WgGraph *g, NodeDef *n)
         bool required =
             n->type ? !n->type->inputs[i].optional : !n->sub->inputs[i].info.has_default;
         if (!required) continue;
-        bool connected = false;
-        for (int k = 0; k < n->n_ins; k++) connected |= n->ins[k].port_index == i;
-        if (!connected)
+        if (wg__name_index_get(seen, node_input_name(n, i), strlen(node_input_name(n, i))) < 0)
             return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, n->line, 0,
                                    "node '%s' (%s): required input '%s' is not connected; add "
                                    "<in name=\"%s\" from=\"...\"/>",
@@ -1233,6 +1268,10 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
             goto out;
         }
     }
+    if (wg__name_index_put(&g->output_index, name, strlen(name), g->n_outputs)) {
+        rc = nomem(d->err);
+        goto out;
+    }
     o->name = name;
     o->from = from;
     name = from = NULL;
@@ -1249,7 +1288,7 @@ out:
 
 static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out, WgError *err)
 {
-    Doc d = {path, err};
+    Doc d = {path, err, {0}};
     xmlNodePtr root = xmlDocGetRootElement(doc);
     if (!root || strcmp((const char *)root->name, "wetgraph"))
         return wg_error_set_at(err, WG_ERR_PARSE, path, root ? line_of(root) : 1, 0,
@@ -1333,7 +1372,11 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     for (xmlNodePtr c = root->children; c && !rc; c = c->next)
         if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "node"))
             rc = parse_node(lc, &d, g, c);
-    for (int i = 0; i < g->n_nodes && !rc; i++) rc = link_node(&d, g, &g->nodes[i]);
+    for (int i = 0; i < g->n_nodes && !rc; i++) {
+        WgNameIndex seen = {0};
+        rc = link_node(&d, g, &g->nodes[i], &seen);
+        wg__name_index_free(&seen);
+    }
     if (!rc) rc = find_cycle(&d, g);
     if (!rc && g->n_outputs == 0)
         rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
@@ -1386,6 +1429,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             ni->line = n->line;
         }
     }
+    wg__name_index_free(&d.subgraphs);
     if (rc) {
         wg_graph_free(g);
         return rc;
@@ -1503,13 +1547,11 @@ static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err)
     }
     if (lc->depth >= 64)
         return wg_error_set_at(err, WG_ERR_CYCLE, path, 0, 0, "subgraphs nested more than 64 deep");
-    for (int i = 0; i < lc->n_loaded; i++) {
-        char r2[PATH_MAX];
-        if (realpath(lc->loaded[i]->path, r2) && !strcmp(r2, real)) {
-            lc->loaded[i]->refs++;
-            *out = lc->loaded[i];
-            return WG_OK;
-        }
+    int seen = wg__name_index_get(&lc->loaded_index, real, strlen(real));
+    if (seen >= 0) {
+        lc->loaded[seen]->refs++;
+        *out = lc->loaded[seen];
+        return WG_OK;
     }
     lc->stack[lc->depth++] = real;
     char *text = NULL;
@@ -1519,13 +1561,23 @@ static int load_file(LoadCtx *lc, const char *path, WgGraph **out, WgError *err)
     wg_free(text);
     lc->depth--;
     if (rc) return rc;
+    /* sharing is only an optimisation: out of memory here just loads the file again later */
     if (lc->n_loaded == lc->cap_loaded) {
         int cap = lc->cap_loaded ? lc->cap_loaded * 2 : 8;
         WgGraph **p = wg_realloc_array(lc->loaded, (size_t)lc->n_loaded, (size_t)cap, sizeof *p);
-        if (!p) return WG_OK; /* sharing is only an optimisation */
-        lc->loaded = p;
+        if (p) lc->loaded = p;
+        char **r = wg_realloc_array(lc->loaded_real, (size_t)lc->n_loaded, (size_t)cap, sizeof *r);
+        if (r) lc->loaded_real = r;
+        if (!p || !r) return WG_OK;
         lc->cap_loaded = cap;
     }
+    char *copy = wg_strdup(real);
+    if (!copy) return WG_OK;
+    if (wg__name_index_put(&lc->loaded_index, copy, strlen(copy), lc->n_loaded)) {
+        wg_free(copy);
+        return WG_OK;
+    }
+    lc->loaded_real[lc->n_loaded] = copy;
     lc->loaded[lc->n_loaded++] = *out;
     return WG_OK;
 }
@@ -1535,7 +1587,7 @@ int wg_graph_load(const char *path, WgGraph **out, WgError *err)
     LoadCtx lc = {0};
     *out = NULL;
     int rc = load_file(&lc, path, out, err);
-    wg_free(lc.loaded);
+    load_ctx_free(&lc);
     return rc;
 }
 
@@ -1546,7 +1598,7 @@ int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph 
     *out = NULL;
     if (realpath(path, real)) lc.stack[lc.depth++] = real;
     int rc = parse_xml(&lc, path, xml, len, out, err);
-    wg_free(lc.loaded);
+    load_ctx_free(&lc);
     return rc;
 }
 

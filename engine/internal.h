@@ -9,6 +9,38 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+/* ---- hash indexes (index.c) --------------------------------------------------------------- */
+
+/* Names to positions; the names are borrowed and must outlive the index. Zeroed = empty. */
+typedef struct WgNameSlot {
+    const char *name;
+    size_t len;
+    int value;
+} WgNameSlot;
+typedef struct WgNameIndex {
+    WgNameSlot *slots;
+    size_t cap, count;
+} WgNameIndex;
+/* Adds or replaces; WG_ERR_NOMEM leaves the index as it was. */
+int wg__name_index_put(WgNameIndex *ix, const char *name, size_t len, int value);
+int wg__name_index_get(const WgNameIndex *ix, const char *name, size_t len); /* -1: none */
+void wg__name_index_free(WgNameIndex *ix);
+
+/* 128-bit keys plus a small integer (an output port) to positions >= 0. Zeroed = empty. */
+typedef struct WgKeySlot {
+    uint64_t key[2];
+    int aux;
+    int value; /* -1: free slot */
+} WgKeySlot;
+typedef struct WgKeyIndex {
+    WgKeySlot *slots;
+    size_t cap, count;
+} WgKeyIndex;
+int wg__key_index_put(WgKeyIndex *ix, const uint64_t key[2], int aux, int value);
+int wg__key_index_get(const WgKeyIndex *ix, const uint64_t key[2], int aux); /* -1: none */
+void wg__key_index_remove(WgKeyIndex *ix, const uint64_t key[2], int aux);
+void wg__key_index_free(WgKeyIndex *ix);
+
 /* ---- values ------------------------------------------------------------------------------ */
 
 typedef struct WgValue {
@@ -107,6 +139,8 @@ struct WgGraph {
     NodeDef *nodes;
     int n_nodes;
     WgGraphNodeInfo *node_info;
+    /* name lookups: node ids, input names, output names, param names */
+    WgNameIndex node_index, input_index, output_index, param_index;
 };
 
 /* Slots of the graph scope in expressions: params first, then these. */

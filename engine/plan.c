@@ -36,9 +36,13 @@ typedef struct Builder {
     WgError *err;
     Frame **frames;
     int n_frames, cap_frames;
+    struct Want *wants; /* the stack of build_node */
+    int n_wants, cap_wants;
+    WgKeyIndex merged; /* key -> instance, to merge identical instances */
 } Builder;
 
 static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out);
+static int input_default(Builder *b, Frame *f, int input, int line, WgRef *out);
 
 /* ---- frames ------------------------------------------------------------------------------ */
 
@@ -387,15 +391,15 @@ static int finish_inst(Builder *b, int *index)
         wg_error_locate(b->err, in->file, in->line, in->id);
         return rc;
     }
-    for (int i = 0; i < *index; i++) {
-        WgInst *o = &b->plan->insts[i];
-        if (o->key[0] == in->key[0] && o->key[1] == in->key[1] && o->type == in->type) {
-            inst_clear(in);
-            b->plan->n_insts--;
-            *index = i;
-            break;
-        }
+    int same = wg__key_index_get(&b->merged, in->key, 0);
+    if (same >= 0 && b->plan->insts[same].type == t) {
+        inst_clear(in);
+        b->plan->n_insts--;
+        *index = same;
+        return WG_OK;
     }
+    if (wg__key_index_put(&b->merged, in->key, 0, *index))
+        return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
     return WG_OK;
 }
 
@@ -793,48 +797,138 @@ static int input_default(Builder *b, Frame *f, int input, int line, WgRef *out)
     return WG_OK;
 }
 
-static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out)
+/* A node of a frame that must be instantiated before what asked for it. */
+typedef struct Want {
+    Frame *f;
+    int node;
+    int next_in; /* its inputs before this one are known to be ready */
+} Want;
+
+/* Follows a reference through subgraph outputs into the frames that produce it, building
+ * nothing but input defaults. Sets *out and leaves need->f NULL when the reference resolves;
+ * otherwise names in *need the node to instantiate first. A loop, not recursion, so nesting
+ * depth costs no stack. */
+static int peek_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out,
+                    Want *need)
 {
-    if (node < 0) {
-        if (f->inputs[input].inst >= 0) {
-            *out = f->inputs[input];
+    need->f = NULL;
+    for (;;) {
+        if (node < 0) {
+            if (f->inputs[input].inst >= 0) {
+                *out = f->inputs[input];
+                return WG_OK;
+            }
+            return input_default(b, f, input, line, out);
+        }
+        const NodeDef *n = &f->g->nodes[node];
+        if (n->type) {
+            if (f->node_inst[node] < 0) break;
+            out->inst = f->node_inst[node];
+            out->port = port;
             return WG_OK;
         }
-        return input_default(b, f, input, line, out);
+        Frame *c = f->node_sub[node];
+        if (!c) break;
+        const WgGraph *sg = c->g;
+        f = c;
+        line = sg->outputs[port].line;
+        node = sg->output_node[port];
+        input = sg->output_input[port];
+        port = sg->output_port[port];
     }
+    need->f = f;
+    need->node = node;
+    need->next_in = 0;
+    return WG_OK;
+}
+
+/* For a node whose inputs are all built: the reference must resolve now. */
+static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out)
+{
+    Want need;
+    int rc = peek_ref(b, f, node, port, input, line, out, &need);
+    if (!rc && need.f)
+        rc = wg_error_set(b->err, WG_ERR_EVAL, NULL, "internal: '%s' used before it was built",
+                          need.f->g->nodes[need.node].id);
+    return rc;
+}
+
+/* An error while building node `node` of frame f: say where, unless a deeper place said so. */
+static int locate_node(Builder *b, Frame *f, int node, int rc)
+{
     const NodeDef *n = &f->g->nodes[node];
-    if (n->type) {
-        if (f->node_inst[node] < 0) {
-            int index = -1, rc = inst_builtin(b, f, node, &index);
-            if (rc) {
-                char id[512];
-                snprintf(id, sizeof id, "%s%s", f->prefix, n->id);
-                bool ours = b->err && (!b->err->node[0] || !strcmp(b->err->node, id));
-                wg_error_locate(b->err, f->g->path, n->line, id);
-                if (ours) wg_error_locate_type(b->err, n->type_name);
-                return rc;
+    char id[512];
+    snprintf(id, sizeof id, "%s%s", f->prefix, n->id);
+    bool ours = b->err && (!b->err->node[0] || !strcmp(b->err->node, id));
+    wg_error_locate(b->err, f->g->path, n->line, id);
+    if (ours) wg_error_locate_type(b->err, n->type_name);
+    return rc;
+}
+
+/* Instantiates `start` and everything it needs, dependencies first, with an explicit stack:
+ * a chain of 100,000 nodes is as safe as a chain of three. */
+static int build_node(Builder *b, Want start)
+{
+    if (b->n_wants == b->cap_wants) {
+        int cap = b->cap_wants ? 2 * b->cap_wants : 64;
+        Want *w = wg_realloc_array(b->wants, (size_t)b->n_wants, (size_t)cap, sizeof *w);
+        if (!w) return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
+        b->wants = w;
+        b->cap_wants = cap;
+    }
+    int base = b->n_wants;
+    b->wants[b->n_wants++] = start;
+    while (b->n_wants > base) {
+        Want *w = &b->wants[b->n_wants - 1];
+        Frame *f = w->f;
+        const NodeDef *n = &f->g->nodes[w->node];
+        if (n->type ? f->node_inst[w->node] >= 0 : f->node_sub[w->node] != NULL) {
+            b->n_wants--;
+            continue;
+        }
+        Want need = {0};
+        for (; w->next_in < n->n_ins; w->next_in++) {
+            const InDef *in = &n->ins[w->next_in];
+            WgRef ref;
+            int rc =
+                peek_ref(b, f, in->from_node, in->from_port, in->from_input, in->line, &ref, &need);
+            if (rc) return locate_node(b, f, w->node, rc);
+            if (need.f) break;
+        }
+        if (need.f) {
+            if (b->n_wants == b->cap_wants) {
+                int cap = 2 * b->cap_wants;
+                Want *nw = wg_realloc_array(b->wants, (size_t)b->n_wants, (size_t)cap, sizeof *nw);
+                if (!nw) return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
+                b->wants = nw;
+                b->cap_wants = cap;
             }
-            f->node_inst[node] = index;
+            b->wants[b->n_wants++] = need;
+            continue;
         }
-        out->inst = f->node_inst[node];
-        out->port = port;
-        return WG_OK;
-    }
-    if (!f->node_sub[node]) {
-        int rc = inst_sub(b, f, node, &f->node_sub[node]);
-        if (rc) {
-            char id[512];
-            snprintf(id, sizeof id, "%s%s", f->prefix, n->id);
-            bool ours = b->err && (!b->err->node[0] || !strcmp(b->err->node, id));
-            wg_error_locate(b->err, f->g->path, n->line, id);
-            if (ours) wg_error_locate_type(b->err, n->type_name);
-            return rc;
+        int rc, node = w->node;
+        if (n->type) {
+            int index = -1;
+            rc = inst_builtin(b, f, node, &index);
+            if (!rc) f->node_inst[node] = index;
+        } else {
+            rc = inst_sub(b, f, node, &f->node_sub[node]);
         }
+        if (rc) return locate_node(b, f, node, rc);
+        b->n_wants--;
     }
-    Frame *c = f->node_sub[node];
-    const WgGraph *sg = c->g;
-    return resolve_ref(b, c, sg->output_node[port], sg->output_port[port], sg->output_input[port],
-                       sg->outputs[port].line, out);
+    return WG_OK;
+}
+
+/* Resolves a reference, building what it needs first. */
+static int demand_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out)
+{
+    for (;;) {
+        Want need;
+        int rc = peek_ref(b, f, node, port, input, line, out, &need);
+        if (rc || !need.f) return rc;
+        if ((rc = build_node(b, need))) return rc;
+    }
 }
 
 /* ---- the top frame ----------------------------------------------------------------------- */
@@ -940,8 +1034,8 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
             rc = WG_ERR_NOMEM;
             goto out;
         }
-        if ((rc = resolve_ref(&b, top, g->output_node[o], g->output_port[o], g->output_input[o],
-                              g->outputs[o].line, &po->ref)))
+        if ((rc = demand_ref(&b, top, g->output_node[o], g->output_port[o], g->output_input[o],
+                             g->outputs[o].line, &po->ref)))
             goto out;
         if (po->format == WG_FORMAT_DEFAULT)
             po->format = plan->insts[po->ref.inst].out_channels[po->ref.port] == 4
@@ -954,6 +1048,8 @@ out:
                      rc == WG_ERR_NOMEM ? "out of memory" : wg_status_name(rc));
     for (int i = 0; i < b.n_frames; i++) frame_free(b.frames[i]);
     wg_free(b.frames);
+    wg_free(b.wants);
+    wg__key_index_free(&b.merged);
     if (rc) wg__plan_free(plan);
     return rc;
 }
