@@ -200,8 +200,8 @@ static void cli_chain_100k(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(chain_10k),          cmocka_unit_test(chain_100k),
-        cmocka_unit_test(wide_tree),          cmocka_unit_test(many_subgraph_uses),
+        cmocka_unit_test(chain_10k),      cmocka_unit_test(chain_100k),
+        cmocka_unit_test(wide_tree),      cmocka_unit_test(many_subgraph_uses),
         cmocka_unit_test(cli_chain_100k),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
