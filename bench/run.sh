@@ -14,3 +14,6 @@ echo "== generators vs GEGL (2048², 2 threads)"
 echo
 echo "== pixel node vs the same maths in C (2048²)"
 "$root/bench/run_pixel.sh" "$build" 2048 7
+echo
+echo "== graph size: 1k, 10k, 100k nodes (whole process; peer: xmllint parsing the same file)"
+"$root/bench/run_scaling.sh" "$build" 3

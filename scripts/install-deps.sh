@@ -6,7 +6,7 @@ set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev libcmocka-dev)
 if [[ "${1:-}" == "--bench" ]]; then
-    pkgs+=(gegl)  # peers of the benchmarks (OpenCV and scipy join with the filters that need them)
+    pkgs+=(gegl libxml2-utils)  # peers of the benchmarks (OpenCV and scipy join with the filters that need them)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
