@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph render`: load, check, evaluate and write. Nothing is written unless the whole
- * render succeeded; each file is written atomically. */
+ * render succeeded: all output files are written to temporaries first and renamed into place
+ * together at the end. */
 #include "cli.h"
 
 #include <errno.h>
@@ -224,44 +225,75 @@ static void print_stats(const WgResult *res, bool json)
             wg_result_peak_bytes(res) / 1048576.0);
 }
 
+/* The folder part of a file path ("." when there is none). */
+static void folder_of(const char *path, char *buf, size_t size)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        snprintf(buf, size, ".");
+    else if (slash == path)
+        snprintf(buf, size, "/");
+    else
+        snprintf(buf, size, "%.*s", (int)(slash - path), path);
+}
+
+/* Every file is first written whole to a temporary beside its target; only when all of them
+ * are complete are they renamed into place, one after the other. Temporaries that killed
+ * renders left in the target folders are removed first. */
 static int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, WgError *err)
 {
     int n = wg_result_output_count(res);
+    bool separate = o->out_dir || !o->layered;
+    const char *dir = o->out_dir ? o->out_dir : ".";
+    char(*paths)[4096] = calloc((size_t)n + 1, sizeof *paths);
+    WgWriteSet *set = wg_write_set_new();
+    if (!paths || !set) {
+        free(paths);
+        wg_write_set_free(set);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    int rc = WG_OK;
     if (o->layered) {
+        char folder[4096];
+        folder_of(o->layered, folder, sizeof folder);
+        wg_remove_stale_temporaries(folder);
         const char **names = calloc((size_t)n + 1, sizeof *names);
         const WgImage **images = calloc((size_t)n + 1, sizeof *images);
         if (!names || !images) {
-            free(names);
-            free(images);
-            return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        } else {
+            for (int i = 0; i < n; i++) {
+                names[i] = wg_result_output_name(res, i);
+                images[i] = wg_result_output_image(res, i);
+            }
+            bool half = o->format != WG_FORMAT_EXR32;
+            rc = wg_write_set_exr_layers(set, o->layered, n, names, images, half, err);
         }
-        for (int i = 0; i < n; i++) {
-            names[i] = wg_result_output_name(res, i);
-            images[i] = wg_result_output_image(res, i);
-        }
-        bool half = o->format != WG_FORMAT_EXR32;
-        int rc = wg_exr_write_layers(o->layered, n, names, images, half, err);
         free(names);
         free(images);
-        if (rc) return rc;
-        if (!o->quiet) fprintf(stderr, "wrote %s (%d layers)\n", o->layered, n);
-        if (!o->out_dir) return WG_OK;
     }
-    const char *dir = o->out_dir ? o->out_dir : ".";
-    if (mkdir_p(dir))
-        return wg_error_set_at(err, WG_ERR_IO, dir, 0, 0, "cannot create the output folder: %s",
-                               strerror(errno));
-    for (int i = 0; i < n; i++) {
+    if (!rc && separate) {
+        if (mkdir_p(dir))
+            rc = wg_error_set_at(err, WG_ERR_IO, dir, 0, 0, "cannot create the output folder: %s",
+                                 strerror(errno));
+        else
+            wg_remove_stale_temporaries(dir);
+    }
+    for (int i = 0; !rc && separate && i < n; i++) {
         WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
-        char path[4096];
-        snprintf(path, sizeof path, "%s/%s_%s.%s", dir, wg_graph_name(g),
+        snprintf(paths[i], sizeof paths[i], "%s/%s_%s.%s", dir, wg_graph_name(g),
                  wg_result_output_name(res, i), wg_format_extension(f));
-        int rc = wg_image_write(path, wg_result_output_image(res, i), f,
+        rc = wg_write_set_image(set, paths[i], wg_result_output_image(res, i), f,
                                 wg_result_output_colorspace(res, i), err);
-        if (rc) return rc;
-        if (!o->quiet) printf("%s\n", path);
     }
-    return WG_OK;
+    if (!rc) rc = wg_write_set_commit(set, err);
+    wg_write_set_free(set);
+    if (!rc && !o->quiet) {
+        if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", o->layered, n);
+        for (int i = 0; separate && i < n; i++) printf("%s\n", paths[i]);
+    }
+    free(paths);
+    return rc;
 }
 
 int cmd_render(int argc, char **argv)

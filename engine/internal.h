@@ -269,5 +269,14 @@ int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
  * type for 8/16, float for -16/32. */
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size);
+/* Multi-layer EXR (io_exr.c): the layer checks, and the encoder writing straight to `file` with
+ * errors naming `path`. */
+int wg__exr_check_layers(const char *path, int count, const char *const *names,
+                         const WgImage *const *images, WgError *err);
+int wg__exr_write_file(const char *file, const char *path, int count, const char *const *names,
+                       const WgImage *const *images, bool half, WgError *err);
+/* strerror of errno after a failed write when it is a cause a write can have (no space, quota,
+ * read-only, I/O error, ...), else NULL: encoders' messages rarely say why. */
+const char *wg__write_cause(int e);
 
 #endif

@@ -1,13 +1,22 @@
 /* SPDX-License-Identifier: MIT */
 /* Image file reading and writing on top of the OpenImageIO bridge (io_oiio.cpp): channel
- * mapping, sRGB transfer, quantisation, and atomic replacement of the target file. Integer
- * formats are quantised here, not by the library, so rounding is exactly round-to-nearest of
- * clamp(v, 0, 1) * (2^bits - 1) and a 16-bit file round-trips bit for bit. */
+ * mapping, sRGB transfer, quantisation, and replacement of target files. Integer formats are
+ * quantised here, not by the library, so rounding is exactly round-to-nearest of
+ * clamp(v, 0, 1) * (2^bits - 1) and a 16-bit file round-trips bit for bit. Every write goes
+ * through a write set: each file is written whole and flushed to a temporary beside its target,
+ * then all the temporaries are renamed over their targets in one loop, so a set of files is
+ * replaced together or (barring a failing rename in that loop) not at all. The temporaries'
+ * names carry the writer's process id, so the ones a killed process left can be told from a
+ * running writer's and removed. */
 #include "internal.h"
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <float.h>
+#include <limits.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,6 +84,12 @@ float wg_linear_to_srgb(float v)
     return (float)(x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1 / 2.4) - 0.055);
 }
 
+/* Temporary files. A write to "<dir>/<stem><ext>" (<ext>: the last ".suffix" of the file name,
+ * or empty) first goes to "<dir>/.<stem>.tmp<pid>-<n><ext>": hidden, in the target's folder so
+ * the final rename() never crosses file systems, with the target's extension because the
+ * encoders choose the format by it; <pid> is the writing process and <n> a per-process counter,
+ * both decimal without leading zeros. wg__temp_path_for makes these names and
+ * wg__temp_name_pid recognises them; nothing else spells the pattern out. */
 char *wg__temp_path_for(const char *path)
 {
     const char *slash = strrchr(path, '/');
@@ -86,10 +101,60 @@ char *wg__temp_path_for(const char *path)
     size_t n = strlen(path) + 64;
     char *tmp = wg_malloc(n);
     if (!tmp) return NULL;
-    /* hidden, unique per process and call, same folder and extension as the target */
     snprintf(tmp, n, "%.*s.%.*s.tmp%ld-%u%s", (int)(base - path), path, (int)(ext - base), base,
              (long)getpid(), c, ext);
     return tmp;
+}
+
+/* A run of decimal digits without a leading zero, at most `max`. */
+static bool take_number(const char **p, unsigned long long max, unsigned long long *out)
+{
+    const char *s = *p;
+    unsigned long long v = 0;
+    if (*s < '0' || *s > '9' || (s[0] == '0' && s[1] >= '0' && s[1] <= '9')) return false;
+    for (; *s >= '0' && *s <= '9'; s++) {
+        v = v * 10 + (unsigned)(*s - '0');
+        if (v > max) return false;
+    }
+    *p = s;
+    *out = v;
+    return true;
+}
+
+long wg__temp_name_pid(const char *name)
+{
+    if (name[0] != '.' || strchr(name, '/')) return 0;
+    for (const char *m = strstr(name + 1, ".tmp"); m; m = strstr(m + 1, ".tmp")) {
+        const char *p = m + 4;
+        unsigned long long pid, n;
+        if (!take_number(&p, INT_MAX, &pid) || *p++ != '-' || !take_number(&p, UINT_MAX, &n))
+            continue;
+        /* the rest is the target's extension: empty (then the stem has no dot) or one suffix */
+        bool ext_ok =
+            *p ? *p == '.' && !strchr(p + 1, '.') : !memchr(name + 1, '.', (size_t)(m - name - 1));
+        if (!ext_ok) continue;
+        if (pid >= 1) return (long)pid;
+    }
+    return 0;
+}
+
+int wg_remove_stale_temporaries(const char *dir)
+{
+    DIR *d = opendir(dir && dir[0] ? dir : ".");
+    if (!d) return 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        long pid = wg__temp_name_pid(e->d_name);
+        /* only a process that does not exist is gone: EPERM means alive (another user's) */
+        if (pid < 1 || kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        struct stat st;
+        if (fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) || !S_ISREG(st.st_mode))
+            continue;
+        if (unlinkat(dirfd(d), e->d_name, 0) == 0) removed++;
+    }
+    closedir(d);
+    return removed;
 }
 
 bool wg__hash_file(const char *path, uint64_t out[2])
@@ -200,10 +265,10 @@ static double quantize(float v, WgColorspace cs, bool colour_channel, double sca
     return floor(x * scale + 0.5);
 }
 
-int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
-                   WgError *err)
+/* Pixels of `img` in the layout wg__oiio_write takes; the caller frees *out. */
+static int encode(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
+                  void **out, int *channels, int *bits, WgError *err)
 {
-    if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c = img->channels;
     if (c == 4) {
         bool opaque = true;
@@ -213,12 +278,12 @@ int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColo
         }
         if (opaque) c = 3;
     }
-    int bits = format == WG_FORMAT_PNG     ? 8
-               : format == WG_FORMAT_EXR   ? -16
-               : format == WG_FORMAT_EXR32 ? 32
-                                           : 16;
+    int b = format == WG_FORMAT_PNG     ? 8
+            : format == WG_FORMAT_EXR   ? -16
+            : format == WG_FORMAT_EXR32 ? 32
+                                        : 16;
     size_t count = (size_t)img->width * (size_t)img->height * (size_t)c;
-    size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
+    size_t elem = b == 8 ? 1 : b == 16 ? 2 : 4;
     void *buf = wg_malloc(count * elem);
     if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory writing '%s'", path);
     size_t i = 0;
@@ -228,32 +293,232 @@ int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColo
             for (int k = 0; k < c; k++, i++) {
                 float v = r[x * img->channels + k];
                 bool colour = k < 3; /* gray is a colour channel too; alpha never is */
-                if (bits == 8)
+                if (b == 8)
                     ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
-                else if (bits == 16)
+                else if (b == 16)
                     ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
                 else
                     ((float *)buf)[i] = v;
             }
         }
     }
-    char *tmp = wg__temp_path_for(path);
-    if (!tmp) {
-        wg_free(buf);
+    *out = buf;
+    *channels = c;
+    *bits = b;
+    return WG_OK;
+}
+
+/* ---- write sets: temporaries first, then renames ----------------------------------------- */
+
+typedef struct {
+    char *path, *temp;
+} Staged;
+
+struct WgWriteSet {
+    Staged *files;
+    int count, cap;
+};
+
+WgWriteSet *wg_write_set_new(void)
+{
+    return wg_calloc(1, sizeof(WgWriteSet));
+}
+
+/* Before anything is created: a target named like a temporary would be deleted later by
+ * wg_remove_stale_temporaries, and an array slot for the file. */
+static int stage_begin(WgWriteSet *s, const char *path, char **temp, WgError *err)
+{
+    const char *slash = strrchr(path, '/');
+    if (wg__temp_name_pid(slash ? slash + 1 : path))
+        return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0,
+                               "the name has the form of a temporary file (.NAME.tmpPID-N.EXT)");
+    if (s->count == s->cap) {
+        int cap = s->cap ? 2 * s->cap : 8;
+        Staged *f = wg_realloc_array(s->files, (size_t)s->cap, (size_t)cap, sizeof *f);
+        if (!f) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        s->files = f;
+        s->cap = cap;
+    }
+    char *copy = wg_strdup(path);
+    *temp = wg__temp_path_for(path);
+    if (!copy || !*temp) {
+        wg_free(copy);
+        wg_free(*temp);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     }
-    char msg[512];
-    int rc = WG_OK;
-    if (wg__oiio_write(tmp, wg_format_extension(format), buf, img->width, img->height, c, bits, msg,
-                       sizeof msg)) {
-        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s", msg);
-        unlink(tmp);
-    } else if (rename(tmp, path) != 0) {
-        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot replace the file: %s",
-                             strerror(errno));
-        unlink(tmp);
+    s->files[s->count] = (Staged){copy, *temp};
+    return WG_OK;
+}
+
+/* The temporary is written (rc says how): flush it to the disk and keep it, or remove it. */
+static int stage_end(WgWriteSet *s, int rc, WgError *err)
+{
+    Staged *f = &s->files[s->count];
+    if (!rc) {
+        int fd = open(f->temp, O_RDONLY | O_CLOEXEC);
+        if (fd < 0 || fsync(fd) != 0) {
+            int e = errno;
+            rc = wg_error_set_at(err, WG_ERR_IO, f->path, 0, 0, "cannot write the file: %s",
+                                 strerror(e));
+        }
+        if (fd >= 0) close(fd);
     }
-    wg_free(tmp);
+    if (rc) {
+        unlink(f->temp);
+        wg_free(f->path);
+        wg_free(f->temp);
+        return rc;
+    }
+    s->count++;
+    return WG_OK;
+}
+
+/* The encoders' messages rarely say why the system refused a write ("File output failed"), but
+ * errno still holds it; only causes a write itself can have are trusted, not left-overs. */
+const char *wg__write_cause(int e)
+{
+    bool cause = e == ENOSPC || e == EDQUOT || e == EFBIG || e == EIO || e == EROFS || e == EACCES;
+    return cause ? strerror(e) : NULL;
+}
+
+static int write_failed(WgError *err, const char *path, const char *msg)
+{
+    const char *cause = wg__write_cause(errno);
+    if (cause && strcmp(cause, msg))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s (%s)", cause,
+                               msg);
+    return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s", msg);
+}
+
+int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                       WgColorspace cs, WgError *err)
+{
+    if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
+    void *buf = NULL;
+    int c = 0, bits = 0;
+    int rc = encode(path, img, format, cs, &buf, &c, &bits, err);
+    if (rc) return rc;
+    char *tmp;
+    if ((rc = stage_begin(s, path, &tmp, err))) {
+        wg_free(buf);
+        return rc;
+    }
+    char msg[512];
+    errno = 0;
+    if (wg__oiio_write(tmp, wg_format_extension(format), buf, img->width, img->height, c, bits, msg,
+                       sizeof msg))
+        rc = write_failed(err, path, msg);
     wg_free(buf);
+    return stage_end(s, rc, err);
+}
+
+int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
+                            const WgImage *const *images, bool half, WgError *err)
+{
+    int rc = wg__exr_check_layers(path, count, names, images, err);
+    if (rc) return rc;
+    char *tmp;
+    if ((rc = stage_begin(s, path, &tmp, err))) return rc;
+    rc = wg__exr_write_file(tmp, path, count, names, images, half, err);
+    return stage_end(s, rc, err);
+}
+
+/* Append "a, b, c" (the targets [from, to)) to buf, cut with "..." when it does not fit. */
+static void list_paths(char *buf, size_t size, const WgWriteSet *s, int from, int to)
+{
+    size_t len = strlen(buf);
+    for (int i = from; i < to && len + 1 < size; i++) {
+        int n = snprintf(buf + len, size - len, "%s%s", i > from ? ", " : "", s->files[i].path);
+        len = n < 0 || (size_t)n >= size - len ? size - 1 : len + (size_t)n;
+    }
+    if (len + 1 >= size && size > 4) memcpy(buf + size - 4, "...", 4);
+}
+
+/* Make the renames durable: fsync each target folder once. Best effort (some file systems
+ * refuse to sync a folder); the data itself was synced before the renames. */
+static void sync_folders(const WgWriteSet *s, int n)
+{
+    for (int i = 0; i < n; i++) {
+        const char *p = s->files[i].path, *slash = strrchr(p, '/');
+        size_t len = slash ? (size_t)(slash - p) : 0;
+        bool seen = false;
+        for (int k = 0; k < i && !seen; k++) {
+            const char *q = s->files[k].path, *qs = strrchr(q, '/');
+            seen = (qs ? (size_t)(qs - q) : 0) == len && !strncmp(p, q, len) && !slash == !qs;
+        }
+        if (seen) continue;
+        char dir[4096];
+        snprintf(dir, sizeof dir, "%.*s", (int)len, p);
+        if (!slash) snprintf(dir, sizeof dir, ".");
+        if (slash == p) snprintf(dir, sizeof dir, "/");
+        int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+        if (fd >= 0) {
+            fsync(fd);
+            close(fd);
+        }
+    }
+}
+
+static void forget(WgWriteSet *s, int from)
+{
+    for (int i = 0; i < s->count; i++) {
+        if (i >= from) unlink(s->files[i].temp);
+        wg_free(s->files[i].path);
+        wg_free(s->files[i].temp);
+    }
+    s->count = 0;
+}
+
+int wg_write_set_commit(WgWriteSet *s, WgError *err)
+{
+    /* a folder in a target's place would make its rename fail after others succeeded */
+    for (int i = 0; i < s->count; i++) {
+        struct stat st;
+        if (lstat(s->files[i].path, &st) == 0 && S_ISDIR(st.st_mode)) {
+            int rc = wg_error_set_at(err, WG_ERR_IO, s->files[i].path, 0, 0,
+                                     "cannot replace the file: %s; no file was replaced",
+                                     strerror(EISDIR));
+            forget(s, 0);
+            return rc;
+        }
+    }
+    int done = 0;
+    while (done < s->count && rename(s->files[done].temp, s->files[done].path) == 0) done++;
+    int rc = WG_OK;
+    if (done < s->count) {
+        int e = errno;
+        char msg[1024];
+        snprintf(msg, sizeof msg, "cannot replace the file: %s; ", strerror(e));
+        if (done) {
+            strncat(msg, "replaced: ", sizeof msg - strlen(msg) - 1);
+            list_paths(msg, sizeof msg, s, 0, done);
+            strncat(msg, "; not replaced: ", sizeof msg - strlen(msg) - 1);
+        } else {
+            strncat(msg, "no file was replaced", sizeof msg - strlen(msg) - 1);
+        }
+        if (done) list_paths(msg, sizeof msg, s, done, s->count);
+        rc = wg_error_set_at(err, WG_ERR_IO, s->files[done].path, 0, 0, "%s", msg);
+    }
+    sync_folders(s, done);
+    forget(s, done);
+    return rc;
+}
+
+void wg_write_set_free(WgWriteSet *s)
+{
+    if (!s) return;
+    forget(s, 0);
+    wg_free(s->files);
+    wg_free(s);
+}
+
+int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
+                   WgError *err)
+{
+    WgWriteSet *s = wg_write_set_new();
+    if (!s) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory writing '%s'", path);
+    int rc = wg_write_set_image(s, path, img, format, cs, err);
+    if (!rc) rc = wg_write_set_commit(s, err);
+    wg_write_set_free(s);
     return rc;
 }

@@ -1,14 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /* Multi-layer EXR through OpenEXR's C API (openexr.h): one scanline part whose channels are
  * "<layer>.Y" for gray images and "<layer>.R/G/B/A" for colour ones, ZIP-compressed, half or
- * float. The library converts our float rows to half while encoding. Written to a temporary
- * file and renamed. */
+ * float. The library converts our float rows to half while encoding. The file is written as a
+ * temporary of a write set (io.c) and renamed over the target when complete. */
 #include "internal.h"
 
+#include <errno.h>
 #include <openexr.h>
 #include <stdio.h>
 #include <string.h>
-#include <unistd.h>
 
 static void quiet(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
@@ -19,6 +19,10 @@ static void quiet(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 
 static int exr_fail(WgError *err, const char *path, exr_result_t rv, const char *what)
 {
+    const char *cause = wg__write_cause(errno);
+    if (cause)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the EXR (%s): %s (%s)",
+                               what, cause, exr_get_default_error_message(rv));
     return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the EXR (%s): %s", what,
                            exr_get_default_error_message(rv));
 }
@@ -96,8 +100,8 @@ static int write_part(exr_context_t ctx, const char *path, int count, const char
     return rc;
 }
 
-int wg_exr_write_layers(const char *path, int count, const char *const *names,
-                        const WgImage *const *images, bool half, WgError *err)
+int wg__exr_check_layers(const char *path, int count, const char *const *names,
+                         const WgImage *const *images, WgError *err)
 {
     if (count < 1) return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0, "no layers to write");
     for (int i = 1; i < count; i++) {
@@ -112,13 +116,18 @@ int wg_exr_write_layers(const char *path, int count, const char *const *names,
                 return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0, "layer '%s' given twice",
                                        names[i]);
     }
-    char *tmp = wg__temp_path_for(path);
-    if (!tmp) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    return WG_OK;
+}
+
+int wg__exr_write_file(const char *file, const char *path, int count, const char *const *names,
+                       const WgImage *const *images, bool half, WgError *err)
+{
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = quiet;
     exr_context_t ctx = NULL;
     int rc;
-    exr_result_t rv = exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    errno = 0;
+    exr_result_t rv = exr_start_write(&ctx, file, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv) {
         rc = exr_fail(err, path, rv, "open");
     } else {
@@ -126,9 +135,16 @@ int wg_exr_write_layers(const char *path, int count, const char *const *names,
         rv = exr_finish(&ctx);
         if (!rc && rv) rc = exr_fail(err, path, rv, "finish");
     }
-    if (!rc && rename(tmp, path) != 0)
-        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot replace the file");
-    if (rc) unlink(tmp);
-    wg_free(tmp);
+    return rc;
+}
+
+int wg_exr_write_layers(const char *path, int count, const char *const *names,
+                        const WgImage *const *images, bool half, WgError *err)
+{
+    WgWriteSet *s = wg_write_set_new();
+    if (!s) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int rc = wg_write_set_exr_layers(s, path, count, names, images, half, err);
+    if (!rc) rc = wg_write_set_commit(s, err);
+    wg_write_set_free(s);
     return rc;
 }

@@ -1,12 +1,18 @@
 // SPDX-License-Identifier: MIT
 // The only C++ in wetgraph: a C interface to OpenImageIO's ImageInput/ImageOutput. Alpha is
 // kept unassociated both ways (OpenImageIO would otherwise premultiply PNG alpha on read and
-// divide on write), and no colour conversion happens here: io.c does the sRGB transfer.
+// divide on write), and no colour conversion happens here: io.c does the sRGB transfer. Files
+// are written through an I/O proxy of our own that checks every write, because some encoders
+// (PNG) ignore a failed write and would report a truncated file as written.
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <fcntl.h>
 #include <memory>
+#include <unistd.h>
 
 extern "C" {
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
@@ -70,40 +76,116 @@ int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
     }
 }
 
+/* The encoders write through this: plain pwrite()s on a descriptor that remember the first
+ * failure. Some encoders (PNG) ignore a short write, so on a full disk they would report success
+ * for a truncated file; the caller checks failure() instead of trusting them. */
+class CheckedFile final : public Filesystem::IOProxy
+{
+  public:
+    CheckedFile(const char *path, int fd) : IOProxy(path, Write), m_fd(fd) {}
+    const char *proxytype() const override { return "wetgraph"; }
+    size_t write(const void *buf, size_t size) override
+    {
+        size_t n = pwrite(buf, size, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t pwrite(const void *buf, size_t size, int64_t offset) override
+    {
+        size_t done = 0;
+        while (done < size) {
+            ssize_t n = ::pwrite(m_fd, (const char *)buf + done, size - done, offset + (off_t)done);
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) {
+                if (!m_failure) m_failure = n < 0 ? errno : ENOSPC;
+                break;
+            }
+            done += (size_t)n;
+        }
+        if ((size_t)offset + done > m_size) m_size = (size_t)offset + done;
+        return done;
+    }
+    size_t read(void *buf, size_t size) override
+    {
+        size_t n = pread(buf, size, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t pread(void *buf, size_t size, int64_t offset) override
+    {
+        ssize_t n;
+        do n = ::pread(m_fd, buf, size, offset);
+        while (n < 0 && errno == EINTR);
+        return n < 0 ? 0 : (size_t)n;
+    }
+    size_t size() const override { return m_size; }
+    int failure() const { return m_failure; }
+
+  private:
+    int m_fd;
+    int m_failure = 0;
+    size_t m_size = 0;
+};
+
+static int encode_to(CheckedFile &file, const char *path, const char *format_ext, const void *data,
+                     int w, int h, int c, int bits, char *msg, size_t msg_size)
+{
+    auto out = ImageOutput::create(format_ext);
+    if (!out) {
+        set_msg(msg, msg_size, OIIO::geterror());
+        return -1;
+    }
+    TypeDesc in_type = bits == 8    ? TypeDesc::UINT8
+                       : bits == 16 ? TypeDesc::UINT16
+                                    : TypeDesc::FLOAT;
+    TypeDesc file_type = bits == -16 ? TypeDesc::HALF : in_type;
+    ImageSpec spec(w, h, c, file_type);
+    if (c == 4) spec.alpha_channel = 3;
+    spec.attribute("oiio:UnassociatedAlpha", 1);
+    if (!std::strcmp(format_ext, "exr")) spec.attribute("compression", "zip");
+    if (!std::strcmp(format_ext, "tif")) spec.attribute("compression", "zip");
+    Filesystem::IOProxy *proxy = &file;
+    spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+    if (!out->open(path, spec)) {
+        set_msg(msg, msg_size, out->geterror());
+        return -1;
+    }
+    if (!out->write_image(in_type, data)) {
+        set_msg(msg, msg_size, out->geterror());
+        out->close();
+        return -1;
+    }
+    if (!out->close()) {
+        set_msg(msg, msg_size, out->geterror());
+        return -1;
+    }
+    return 0;
+}
+
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size)
 {
-    try {
-        auto out = ImageOutput::create(format_ext);
-        if (!out) {
-            set_msg(msg, msg_size, OIIO::geterror());
-            return -1;
-        }
-        TypeDesc in_type = bits == 8    ? TypeDesc::UINT8
-                           : bits == 16 ? TypeDesc::UINT16
-                                        : TypeDesc::FLOAT;
-        TypeDesc file_type = bits == -16 ? TypeDesc::HALF : in_type;
-        ImageSpec spec(w, h, c, file_type);
-        if (c == 4) spec.alpha_channel = 3;
-        spec.attribute("oiio:UnassociatedAlpha", 1);
-        if (!std::strcmp(format_ext, "exr")) spec.attribute("compression", "zip");
-        if (!std::strcmp(format_ext, "tif")) spec.attribute("compression", "zip");
-        if (!out->open(path, spec)) {
-            set_msg(msg, msg_size, out->geterror());
-            return -1;
-        }
-        if (!out->write_image(in_type, data)) {
-            set_msg(msg, msg_size, out->geterror());
-            out->close();
-            return -1;
-        }
-        if (!out->close()) {
-            set_msg(msg, msg_size, out->geterror());
-            return -1;
-        }
-        return 0;
-    } catch (const std::exception &e) {
-        set_msg(msg, msg_size, e.what());
+    int fd = open(path, O_RDWR | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        set_msg(msg, msg_size, std::strerror(errno));
         return -1;
     }
+    int rc, failure;
+    try {
+        CheckedFile file(path, fd);
+        rc = encode_to(file, path, format_ext, data, w, h, c, bits, msg, msg_size);
+        failure = file.failure();
+    } catch (const std::exception &e) {
+        set_msg(msg, msg_size, e.what());
+        rc = -1;
+        failure = 0;
+    }
+    if (close(fd) != 0 && !failure) failure = errno;
+    if (failure) {
+        /* the system's reason replaces whatever the encoder made of it */
+        set_msg(msg, msg_size, std::strerror(failure));
+        errno = failure;
+        return -1;
+    }
+    return rc;
 }

@@ -672,6 +672,148 @@ static void test_failed_write_keeps_the_old_file(void **state)
     wg_image_unref(old);
 }
 
+static void test_temp_names_are_recognised_exactly(void **state)
+{
+    (void)state;
+    static const char *const targets[] = {"/d/height.png", "plain",      "dir.v2/file",
+                                          "a.b.exr",       "/d/.hidden", "x.tmp5-6.png"};
+    for (int i = 0; i < 6; i++) {
+        char *t = wg__temp_path_for(targets[i]);
+        const char *slash = strrchr(t, '/');
+        assert_int_equal(wg__temp_name_pid(slash ? slash + 1 : t), (long)getpid());
+        wg_free(t);
+    }
+    static const char *const others[] = {"height.png",
+                                         "height.tmp12-1.png",
+                                         ".height.tmp12-1.png.part",
+                                         ".height.tmp12.png",
+                                         ".height.tmp-1.png",
+                                         ".height.tmp12-.png",
+                                         ".height.tmp012-1.png",
+                                         ".height.tmp12-01.png",
+                                         ".height.tmp0-1.png",
+                                         ".a.b.tmp12-1",
+                                         ".tmp12-1.png",
+                                         ".h.tmp99999999999-1.png",
+                                         ".h.tmp12-99999999999.png",
+                                         "d/.h.tmp12-1.png",
+                                         ".h.tmp12-1x.png"};
+    for (size_t i = 0; i < sizeof others / sizeof others[0]; i++)
+        if (wg__temp_name_pid(others[i])) fail_msg("'%s' taken for a temporary", others[i]);
+    assert_int_equal(wg__temp_name_pid(".a.b.tmp12-1.exr"), 12);
+    assert_int_equal(wg__temp_name_pid(".x.tmp5-6.tmp7-8.png"), 7);
+    assert_int_equal(wg__temp_name_pid("..tmp3-1.hidden"), 3);
+}
+
+/* Temporaries of a write set, in the order the set made them. */
+static int temps_in(const char *dir, char names[][256], int max)
+{
+    char all[32][256];
+    int n = list_dir(dir, all, 32), k = 0;
+    for (int i = 0; i < n; i++)
+        if (wg__temp_name_pid(all[i]) == (long)getpid() && k < max)
+            snprintf(names[k++], 256, "%s", all[i]);
+    return k;
+}
+
+static void test_write_set_replaces_all_or_reports_which(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("set1");
+    char path[3][1100], blocker[1200];
+    WgImage *old = wgt_image(4, 4, 1, NULL);
+    WgImage *img = wgt_image_fn(4, 4, 1, code_fn);
+    static const char *const names[] = {"a.png", "b.png", "c.png"};
+    for (int i = 0; i < 3; i++) {
+        snprintf(path[i], sizeof path[i], "%s/%s", dir, names[i]);
+        write_ok(path[i], old, WG_FORMAT_PNG16, WG_LINEAR);
+    }
+    size_t n_old;
+    char *old_bytes = wgt_read_file(path[0], &n_old);
+    WgError err = {0};
+
+    /* nothing changes before commit, and freeing an uncommitted set removes its temporaries */
+    WgWriteSet *s = wg_write_set_new();
+    assert_non_null(s);
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(wg_write_set_image(s, path[i], img, WG_FORMAT_PNG16, WG_LINEAR, &err),
+                         WG_OK);
+    char t[4][256];
+    assert_int_equal(temps_in(dir, t, 4), 3);
+    for (int i = 0; i < 3; i++) {
+        size_t n;
+        char *b = wgt_read_file(path[i], &n);
+        assert_true(n == n_old && !memcmp(b, old_bytes, n));
+        free(b);
+    }
+    wg_write_set_free(s);
+    char all[8][256];
+    assert_int_equal(list_dir(dir, all, 8), 3);
+
+    /* a folder at the last target: refused before any rename */
+    snprintf(blocker, sizeof blocker, "%s/d.png", dir);
+    assert_int_equal(mkdir(blocker, 0777), 0);
+    s = wg_write_set_new();
+    for (int i = 0; i < 2; i++)
+        assert_int_equal(wg_write_set_image(s, path[i], img, WG_FORMAT_PNG16, WG_LINEAR, &err),
+                         WG_OK);
+    assert_int_equal(wg_write_set_image(s, blocker, img, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_OK);
+    assert_int_equal(wg_write_set_commit(s, &err), WG_ERR_IO);
+    wgt_assert_error(&err, WG_ERR_IO, 0, "d.png|Is a directory|no file was replaced");
+    wg_write_set_free(s);
+    rmdir(blocker);
+    assert_int_equal(list_dir(dir, all, 8), 3);
+    for (int i = 0; i < 3; i++) {
+        size_t n;
+        char *b = wgt_read_file(path[i], &n);
+        assert_true(n == n_old && !memcmp(b, old_bytes, n));
+        free(b);
+    }
+
+    /* a rename failing in the middle (the second temporary vanished): the first file is
+     * replaced, the others are not, no temporary stays, and the error says all of it */
+    s = wg_write_set_new();
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(wg_write_set_image(s, path[i], img, WG_FORMAT_PNG16, WG_LINEAR, &err),
+                         WG_OK);
+    assert_int_equal(temps_in(dir, t, 4), 3);
+    for (int i = 0; i < 3; i++)
+        if (!strncmp(t[i], ".b.", 3)) {
+            char p[1400];
+            snprintf(p, sizeof p, "%s/%s", dir, t[i]);
+            assert_int_equal(unlink(p), 0);
+        }
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_write_set_commit(s, &err), WG_ERR_IO);
+    assert_string_equal(err.file, path[1]);
+    char want[4000];
+    snprintf(want, sizeof want,
+             "cannot replace the file: No such file or directory|replaced: %s|not replaced: %s, "
+             "%s",
+             path[0], path[1], path[2]);
+    wgt_assert_error(&err, WG_ERR_IO, 0, want);
+    wg_write_set_free(s);
+    assert_int_equal(list_dir(dir, all, 8), 3);
+    WgImage *a = NULL, *c = NULL;
+    assert_int_equal(wg_image_read(path[0], 1, WG_LINEAR, &a, &err), WG_OK);
+    assert_int_equal(wg_image_read(path[2], 1, WG_LINEAR, &c, &err), WG_OK);
+    assert_float_equal(wgt_px(a, 1, 2, 0), wgt_px(img, 1, 2, 0), 1e-4);
+    assert_float_equal(wgt_px(c, 1, 2, 0), 0, 0);
+    wg_image_unref(a);
+    wg_image_unref(c);
+
+    /* a target named like a temporary is refused: a later clean-up would delete it */
+    char tmpname[1200];
+    snprintf(tmpname, sizeof tmpname, "%s/.x.tmp12-3.png", dir);
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_write(tmpname, img, WG_FORMAT_PNG16, WG_LINEAR, &err), WG_ERR_USAGE);
+    wgt_assert_error(&err, WG_ERR_USAGE, 0, ".x.tmp12-3.png|form of a temporary file");
+    assert_int_equal(list_dir(dir, all, 8), 3);
+    free(old_bytes);
+    wg_image_unref(img);
+    wg_image_unref(old);
+}
+
 /* ---- layered EXR ------------------------------------------------------------------------- */
 
 typedef struct {
@@ -965,6 +1107,8 @@ int main(void)
         cmocka_unit_test(test_write_into_missing_folder_fails_and_leaves_nothing),
         cmocka_unit_test(test_successful_write_leaves_no_temp_files),
         cmocka_unit_test(test_failed_write_keeps_the_old_file),
+        cmocka_unit_test(test_temp_names_are_recognised_exactly),
+        cmocka_unit_test(test_write_set_replaces_all_or_reports_which),
         cmocka_unit_test(test_layered_exr_channels_and_values),
         cmocka_unit_test(test_layered_exr_rejects_bad_layers),
         cmocka_unit_test(test_non_finite_values_are_rejected),

@@ -54,8 +54,38 @@ int wg_exr_write_layers(const char *path, int count, const char *const *names,
 float wg_srgb_to_linear(float v);
 float wg_linear_to_srgb(float v);
 
+/* Write sets: several files replaced together. Each add writes one complete file to a
+ * temporary beside its target (same folder, hidden name ".NAME.tmpPID-N.EXT" with this
+ * process's id) and flushes it to the disk; the targets are untouched. Commit then renames
+ * every temporary over its target in one tight loop, after checking that no target is a folder,
+ * and flushes the folders. If an add fails, the caller frees the set and no target changes. If a
+ * rename fails (rare: the target changed meanwhile), the files before it are replaced and the
+ * ones from it on are not; their temporaries are removed and the error names the file, the cause
+ * and both lists. Freeing a set removes the temporaries it still holds. A target whose name has
+ * the form of a temporary is refused. */
+typedef struct WgWriteSet WgWriteSet;
+WgWriteSet *wg_write_set_new(void); /* NULL when out of memory; free with wg_write_set_free */
+/* Same conversions as wg_image_write. */
+int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                       WgColorspace cs, WgError *err);
+/* Same layout as wg_exr_write_layers. */
+int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
+                            const WgImage *const *images, bool half, WgError *err);
+/* Rename everything into place; the set is empty afterwards, whatever the outcome. */
+int wg_write_set_commit(WgWriteSet *s, WgError *err);
+void wg_write_set_free(WgWriteSet *s);
+
+/* Remove, from the folder `dir`, the temporaries of writers that no longer run: regular files
+ * named like a write set's temporaries whose process id belongs to no live process on this
+ * machine (a render killed with SIGKILL or by a power cut leaves them). Temporaries of live
+ * processes and every other file are kept. Best effort; returns how many were removed. */
+int wg_remove_stale_temporaries(const char *dir);
+
 /* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
 char *wg__temp_path_for(const char *path);
+/* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
+ * not have exactly that form. */
+long wg__temp_name_pid(const char *name);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,491 @@
+/* SPDX-License-Identifier: MIT */
+/* How `wetgraph render` (WETGRAPH_BIN) replaces its output files: all of them or none. A render
+ * that cannot write its last output leaves the previous render's files byte for byte and no
+ * temporaries; temporaries left by writers killed with SIGKILL are removed by the next render
+ * into the folder while those of live processes stay; on a full disk (a small tmpfs in a private
+ * mount namespace, skipped where namespaces are not allowed) the error says so and nothing is
+ * replaced. */
+#include "wgtest.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <sched.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mount.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+/* ---- helpers ----------------------------------------------------------------------------- */
+
+static const char *bin(void)
+{
+    const char *b = getenv("WETGRAPH_BIN");
+    if (!b || !b[0]) fail_msg("WETGRAPH_BIN is not set");
+    return b;
+}
+
+static const char *at(const char *name)
+{
+    return wgt_path(name);
+}
+
+typedef struct {
+    int status;
+    char *out, *err;
+} Run;
+
+/* Run `wetgraph ARGS...` (NULL-terminated) in wgt_tmpdir(); collect status, stdout, stderr. */
+static Run run(const char *first, ...)
+{
+    const char *argv[32] = {bin(), first};
+    int n = 2;
+    va_list ap;
+    va_start(ap, first);
+    for (const char *a; n < 31 && (a = va_arg(ap, const char *));) argv[n++] = a;
+    va_end(ap);
+    argv[n] = NULL;
+    char out[1200], err[1200];
+    snprintf(out, sizeof out, "%s", at("run.out"));
+    snprintf(err, sizeof err, "%s", at("run.err"));
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int o = open(out, O_WRONLY | O_CREAT | O_TRUNC, 0666);
+        int e = open(err, O_WRONLY | O_CREAT | O_TRUNC, 0666);
+        if (o < 0 || e < 0 || chdir(wgt_tmpdir()) || dup2(o, 1) < 0 || dup2(e, 2) < 0) _exit(98);
+        execv(argv[0], (char *const *)argv);
+        _exit(99);
+    }
+    int st;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    Run r = {WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), NULL, NULL};
+    r.out = wgt_read_file(out, NULL);
+    r.err = wgt_read_file(err, NULL);
+    return r;
+}
+
+static void expect(const Run *r, int status, const char *what)
+{
+    if (r->status != status)
+        fail_msg("%s: exited %d, expected %d\nstdout:\n%s\nstderr:\n%s", what, r->status, status,
+                 r->out, r->err);
+}
+
+static void expect_err(const Run *r, const char *needle)
+{
+    if (!strstr(r->err, needle)) fail_msg("expected '%s' in stderr:\n%s", needle, r->err);
+}
+
+static void run_free(Run *r)
+{
+    free(r->out);
+    free(r->err);
+}
+
+static void rm_rf(const char *path)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", path);
+    if (system(cmd) != 0) fail_msg("cannot remove %s", path);
+}
+
+static bool exists(const char *path)
+{
+    struct stat st;
+    return lstat(path, &st) == 0;
+}
+
+/* Names in a folder (without . and ..), sorted, joined by spaces. */
+static void listing(const char *dir, char *buf, size_t size)
+{
+    char cmd[1300];
+    snprintf(cmd, sizeof cmd, "ls -A '%s' | tr '\\n' ' ' >'%s'", dir, at("ls.txt"));
+    if (system(cmd) != 0) fail_msg("cannot list %s", dir);
+    char *t = wgt_read_file(at("ls.txt"), NULL);
+    snprintf(buf, size, "%s", t);
+    free(t);
+}
+
+static int count_hidden(const char *dir)
+{
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (e->d_name[0] == '.' && strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) n++;
+    closedir(d);
+    return n;
+}
+
+static void expect_same_file(const char *a, const char *b)
+{
+    size_t na, nb;
+    char *x = wgt_read_file(a, &na), *y = wgt_read_file(b, &nb);
+    if (na != nb || memcmp(x, y, na)) fail_msg("%s and %s differ", a, b);
+    free(x);
+    free(y);
+}
+
+static bool same_file(const char *a, const char *b)
+{
+    size_t na, nb;
+    char *x = wgt_read_file(a, &na), *y = wgt_read_file(b, &nb);
+    bool same = na == nb && !memcmp(x, y, na);
+    free(x);
+    free(y);
+    return same;
+}
+
+static void copy_file(const char *from, const char *to)
+{
+    size_t n;
+    char *data = wgt_read_file(from, &n);
+    FILE *f = fopen(to, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, n, f), n);
+    assert_int_equal(fclose(f), 0);
+    free(data);
+}
+
+/* The id of a process that has exited and been reaped. */
+static pid_t dead_pid(void)
+{
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) _exit(0);
+    assert_int_equal(waitpid(pid, NULL, 0), pid);
+    return pid;
+}
+
+/* Four outputs (png16, png, exr32, exr32); `level` changes every one of them. */
+static const char *const graph4 =
+    "<wetgraph version=\"1\" size=\"16x8\" seed=\"3\">\n"
+    "  <param name=\"level\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <node id=\"n\" type=\"noise\"/>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+    "  <node id=\"m\" type=\"blend\" mode=\"multiply\"><in name=\"foreground\" from=\"n\"/>"
+    "<in name=\"background\" from=\"u\"/></node>\n"
+    "  <node id=\"a\" type=\"blend\" mode=\"add\"><in name=\"foreground\" from=\"n\"/>"
+    "<in name=\"background\" from=\"u\"/></node>\n"
+    "  <output name=\"mask\" from=\"m\" format=\"png16\"/>\n"
+    "  <output name=\"color\" from=\"a\" format=\"png\"/>\n"
+    "  <output name=\"time\" from=\"m\" format=\"exr32\"/>\n"
+    "  <output name=\"seed\" from=\"a\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+
+static const char *const outputs4[] = {"g_mask.png", "g_color.png", "g_time.exr", "g_seed.exr"};
+
+static int setup(void **state)
+{
+    (void)state;
+    wgt_write_file(at("g.wetgraph"), graph4);
+    return 0;
+}
+
+/* dir/name in a rotating buffer */
+static const char *in(const char *dir, const char *name)
+{
+    static char buf[8][1400];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, sizeof buf[0], "%s/%s", at(dir), name);
+    return p;
+}
+
+/* ---- all outputs or none ----------------------------------------------------------------- */
+
+static void test_unwritable_last_output_replaces_nothing(void **state)
+{
+    (void)state;
+    rm_rf(at("r1"));
+    rm_rf(at("keep"));
+    unlink(at("r1lay.exr"));
+    Run r = run("render", "g.wetgraph", "-o", "r1", "--set", "level=0.2", "-q", NULL);
+    expect(&r, 0, "first render");
+    run_free(&r);
+    /* keep the first three results; the fourth target becomes a folder */
+    mkdir(at("keep"), 0777);
+    for (int i = 0; i < 3; i++) copy_file(in("r1", outputs4[i]), in("keep", outputs4[i]));
+    assert_int_equal(unlink(in("r1", outputs4[3])), 0);
+    assert_int_equal(mkdir(in("r1", outputs4[3]), 0777), 0);
+
+    r = run("render", "g.wetgraph", "-o", "r1", "--set", "level=0.9", NULL);
+    expect(&r, 1, "render onto a folder");
+    expect_err(&r, "r1/g_seed.exr: cannot replace the file: Is a directory");
+    expect_err(&r, "no file was replaced");
+    assert_string_equal(r.out, ""); /* no path printed */
+    run_free(&r);
+    for (int i = 0; i < 3; i++) expect_same_file(in("r1", outputs4[i]), in("keep", outputs4[i]));
+    char names[1024];
+    listing(at("r1"), names, sizeof names);
+    assert_string_equal(names, "g_color.png g_mask.png g_seed.exr g_time.exr ");
+    assert_int_equal(count_hidden(in("r1", outputs4[3])), 0);
+
+    /* with --layered too: neither the layered file nor any output is written */
+    r = run("render", "g.wetgraph", "-o", "r1", "--layered", "r1lay.exr", "--set", "level=0.9",
+            NULL);
+    expect(&r, 1, "layered render onto a folder");
+    expect_err(&r, "g_seed.exr: cannot replace the file");
+    run_free(&r);
+    assert_false(exists(at("r1lay.exr")));
+    for (int i = 0; i < 3; i++) expect_same_file(in("r1", outputs4[i]), in("keep", outputs4[i]));
+    listing(at("r1"), names, sizeof names);
+    assert_string_equal(names, "g_color.png g_mask.png g_seed.exr g_time.exr ");
+    char root[1024];
+    listing(wgt_tmpdir(), root, sizeof root);
+    if (strstr(root, ".tmp")) fail_msg("temporaries left: %s", root);
+
+    /* the same render succeeds once the folder is gone, and changes every file: the checks
+     * above did look at files this render writes */
+    assert_int_equal(rmdir(in("r1", outputs4[3])), 0);
+    r = run("render", "g.wetgraph", "-o", "r1", "--set", "level=0.9", NULL);
+    expect(&r, 0, "render after removing the folder");
+    for (int i = 0; i < 4; i++)
+        if (!strstr(r.out, outputs4[i])) fail_msg("%s not printed:\n%s", outputs4[i], r.out);
+    run_free(&r);
+    for (int i = 0; i < 3; i++)
+        if (same_file(in("r1", outputs4[i]), in("keep", outputs4[i])))
+            fail_msg("%s did not change", outputs4[i]);
+    assert_int_equal(count_hidden(at("r1")), 0);
+    rm_rf(at("r1"));
+    rm_rf(at("keep"));
+}
+
+/* ---- stale temporaries ------------------------------------------------------------------- */
+
+static void touch(const char *path)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs("partial\n", f);
+    fclose(f);
+}
+
+static void test_stale_temporaries_are_removed(void **state)
+{
+    (void)state;
+    rm_rf(at("s1"));
+    rm_rf(at("s2"));
+    mkdir(at("s1"), 0777);
+    mkdir(at("s2"), 0777);
+    pid_t dead = dead_pid();
+    long me = (long)getpid();
+    char name[256];
+    /* removed: regular files named exactly like temporaries of a process that is gone */
+    const char *gone[] = {".g_mask.tmp%ld-1.png", ".g_color.tmp%ld-12.png", ".other.tmp%ld-3",
+                          ".x.y.tmp%ld-4294967295.exr"};
+    for (int i = 0; i < 4; i++) {
+        snprintf(name, sizeof name, gone[i], (long)dead);
+        touch(in("s1", name));
+    }
+    snprintf(name, sizeof name, ".lay.tmp%ld-2.exr", (long)dead);
+    touch(in("s2", name));
+    /* kept: live processes (this one, init), other names, and anything not a regular file */
+    const char *live[] = {".g_mask.tmp%ld-1.png", ".g_seed.tmp%ld-9.exr"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(name, sizeof name, live[i], me);
+        touch(in("s1", name));
+    }
+    touch(in("s1", ".g_mask.tmp1-1.png"));
+    const char *other[] = {"g_mask.tmp%ld-1.png",   ".g_mask.tmp%ld-1.png.part",
+                           ".g_mask.tmp%ld-x.png",  ".g_mask.tmp%ld1.png",
+                           ".g_mask.tmp0%ld-1.png", ".a.b.tmp%ld-1",
+                           ".tmp%ld-1.png",         ".g_mask.tmp%ld-01.png"};
+    for (int i = 0; i < 8; i++) {
+        snprintf(name, sizeof name, other[i], (long)dead);
+        touch(in("s1", name));
+    }
+    snprintf(name, sizeof name, ".dir.tmp%ld-1.png", (long)dead);
+    assert_int_equal(mkdir(in("s1", name), 0777), 0);
+    char link[256];
+    snprintf(link, sizeof link, ".link.tmp%ld-2.png", (long)dead);
+    assert_int_equal(symlink("g_mask.png", in("s1", link)), 0);
+    char before[4096];
+    listing(at("s1"), before, sizeof before);
+
+    Run r = run("render", "g.wetgraph", "-o", "s1", "--layered", "s2/lay.exr", "-q", NULL);
+    expect(&r, 0, "render into a folder with temporaries");
+    run_free(&r);
+
+    for (int i = 0; i < 4; i++) {
+        snprintf(name, sizeof name, gone[i], (long)dead);
+        if (exists(in("s1", name))) fail_msg("stale %s was not removed", name);
+    }
+    snprintf(name, sizeof name, ".lay.tmp%ld-2.exr", (long)dead);
+    if (exists(in("s2", name))) fail_msg("stale %s was not removed", name);
+    assert_true(exists(in("s2", "lay.exr")));
+    for (int i = 0; i < 2; i++) {
+        snprintf(name, sizeof name, live[i], me);
+        if (!exists(in("s1", name))) fail_msg("%s of a live process was removed", name);
+    }
+    assert_true(exists(in("s1", ".g_mask.tmp1-1.png")));
+    for (int i = 0; i < 8; i++) {
+        snprintf(name, sizeof name, other[i], (long)dead);
+        if (!exists(in("s1", name))) fail_msg("%s is not a temporary but was removed", name);
+    }
+    snprintf(name, sizeof name, ".dir.tmp%ld-1.png", (long)dead);
+    assert_true(exists(in("s1", name)));
+    assert_true(exists(in("s1", link)));
+    for (int i = 0; i < 4; i++) assert_true(exists(in("s1", outputs4[i])));
+    rm_rf(at("s1"));
+    rm_rf(at("s2"));
+}
+
+/* A writer killed with SIGKILL while its set is half written (two of its temporaries complete,
+ * nothing renamed): the targets are as before, and the next render removes the temporaries. */
+static void test_killed_writer_leaves_temporaries_the_next_render_removes(void **state)
+{
+    (void)state;
+    rm_rf(at("k1"));
+    Run r = run("render", "g.wetgraph", "-o", "k1", "--set", "level=0.3", "-q", NULL);
+    expect(&r, 0, "first render");
+    run_free(&r);
+    rm_rf(at("kkeep"));
+    mkdir(at("kkeep"), 0777);
+    for (int i = 0; i < 4; i++) copy_file(in("k1", outputs4[i]), in("kkeep", outputs4[i]));
+
+    int go[2];
+    assert_int_equal(pipe(go), 0);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        WgImage *img = wgt_image(64, 64, 1, NULL);
+        WgWriteSet *set = wg_write_set_new();
+        WgError err = {0};
+        if (!set ||
+            wg_write_set_image(set, in("k1", outputs4[0]), img, WG_FORMAT_PNG16, WG_LINEAR, &err) ||
+            wg_write_set_image(set, in("k1", outputs4[2]), img, WG_FORMAT_EXR32, WG_LINEAR, &err))
+            _exit(3);
+        char c = 1;
+        if (write(go[1], &c, 1) != 1) _exit(4);
+        raise(SIGKILL);
+        _exit(5);
+    }
+    close(go[1]);
+    char c;
+    assert_int_equal(read(go[0], &c, 1), 1);
+    close(go[0]);
+    int st;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    assert_true(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL);
+    for (int i = 0; i < 4; i++) expect_same_file(in("k1", outputs4[i]), in("kkeep", outputs4[i]));
+    assert_int_equal(count_hidden(at("k1")), 2);
+    char names[1024], want[256];
+    listing(at("k1"), names, sizeof names);
+    snprintf(want, sizeof want, ".g_mask.tmp%ld-", (long)pid);
+    if (!strstr(names, want)) fail_msg("no %s in %s", want, names);
+    snprintf(want, sizeof want, ".g_time.tmp%ld-", (long)pid);
+    if (!strstr(names, want)) fail_msg("no %s in %s", want, names);
+
+    r = run("render", "g.wetgraph", "-o", "k1", "--set", "level=0.3", "-q", NULL);
+    expect(&r, 0, "render after the kill");
+    run_free(&r);
+    assert_int_equal(count_hidden(at("k1")), 0);
+    listing(at("k1"), names, sizeof names);
+    assert_string_equal(names, "g_color.png g_mask.png g_seed.exr g_time.exr ");
+    rm_rf(at("k1"));
+    rm_rf(at("kkeep"));
+}
+
+/* ---- full disk --------------------------------------------------------------------------- */
+
+/* In a child with a private mount namespace (as root, or in a new user namespace), mount a
+ * 256 KiB tmpfs on `mnt` and run `script` there with sh. Returns the script's exit status, or -1
+ * when namespaces or the mount are not allowed here. */
+static int run_on_small_disk(const char *mnt, const char *script)
+{
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        uid_t uid = geteuid();
+        gid_t gid = getegid();
+        if (unshare(CLONE_NEWNS) != 0) {
+            if (unshare(CLONE_NEWUSER | CLONE_NEWNS) != 0) _exit(77);
+            char map[64];
+            int fd = open("/proc/self/setgroups", O_WRONLY);
+            if (fd >= 0) {
+                if (write(fd, "deny", 4) != 4) _exit(77);
+                close(fd);
+            }
+            snprintf(map, sizeof map, "0 %u 1", (unsigned)uid);
+            fd = open("/proc/self/uid_map", O_WRONLY);
+            if (fd < 0 || write(fd, map, strlen(map)) < 0) _exit(77);
+            close(fd);
+            snprintf(map, sizeof map, "0 %u 1", (unsigned)gid);
+            fd = open("/proc/self/gid_map", O_WRONLY);
+            if (fd < 0 || write(fd, map, strlen(map)) < 0) _exit(77);
+            close(fd);
+        }
+        if (mount("none", "/", NULL, MS_REC | MS_PRIVATE, NULL) != 0) _exit(77);
+        if (mount("wgtest", mnt, "tmpfs", 0, "size=256k") != 0) _exit(77);
+        execl("/bin/sh", "sh", "-c", script, (char *)NULL);
+        _exit(77);
+    }
+    int st;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    if (!WIFEXITED(st)) fail_msg("the script died");
+    return WEXITSTATUS(st) == 77 ? -1 : WEXITSTATUS(st);
+}
+
+static void test_full_disk_replaces_nothing(void **state)
+{
+    (void)state;
+    rm_rf(at("disk"));
+    rm_rf(at("dkeep"));
+    rm_rf(at("dafter"));
+    mkdir(at("disk"), 0777);
+    mkdir(at("dkeep"), 0777);
+    mkdir(at("dafter"), 0777);
+    /* a small render fits; a large one (incompressible noise) does not */
+    char script[4096];
+    snprintf(script, sizeof script,
+             "cd '%s' || exit 90\n"
+             "'%s' render g.wetgraph -o disk/o --format png16 -q || exit 91\n"
+             "cp disk/o/* dkeep/ || exit 92\n"
+             "'%s' render g.wetgraph -o disk/o --format png16 --size 512 >big.out 2>big.err\n"
+             "echo $? >big.status\n"
+             "ls -A disk/o >after.ls; cp disk/o/* dafter/ || exit 93\n",
+             wgt_tmpdir(), bin(), bin());
+    int rc = run_on_small_disk(at("disk"), script);
+    if (rc < 0) {
+        print_message("no private mount namespace here: the full-disk case is not run\n");
+        skip();
+    }
+    if (rc) fail_msg("the script failed at step %d", rc);
+    char *status = wgt_read_file(at("big.status"), NULL);
+    char *err = wgt_read_file(at("big.err"), NULL);
+    char *out = wgt_read_file(at("big.out"), NULL);
+    if (atoi(status) != 1) fail_msg("the large render exited %s, stderr:\n%s", status, err);
+    if (!strstr(err, "cannot write the image: No space left on device"))
+        fail_msg("stderr does not give the cause:\n%s", err);
+    if (!strstr(err, "disk/o/g_")) fail_msg("stderr does not name the file:\n%s", err);
+    assert_string_equal(out, "");
+    char *ls = wgt_read_file(at("after.ls"), NULL);
+    assert_string_equal(ls, "g_color.png\ng_mask.png\ng_seed.png\ng_time.png\n");
+    const char *png[] = {"g_mask.png", "g_color.png", "g_time.png", "g_seed.png"};
+    for (int i = 0; i < 4; i++) expect_same_file(in("dafter", png[i]), in("dkeep", png[i]));
+    free(status);
+    free(err);
+    free(out);
+    free(ls);
+    rm_rf(at("disk"));
+    rm_rf(at("dkeep"));
+    rm_rf(at("dafter"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_unwritable_last_output_replaces_nothing),
+        cmocka_unit_test(test_stale_temporaries_are_removed),
+        cmocka_unit_test(test_killed_writer_leaves_temporaries_the_next_render_removes),
+        cmocka_unit_test(test_full_disk_replaces_nothing),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
