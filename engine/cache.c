@@ -1,13 +1,21 @@
 /* SPDX-License-Identifier: MIT */
 /* Result cache. In memory: entries keyed by (node key, output port), least recently used
  * evicted first, bounded by the engine's memory budget. On disk (optional): one file per
- * entry, DIR/ab/<32 hex digits>-<port>.wgc, holding a header (magic, version, shape) and the
- * packed float pixels followed by an xxh3-64 checksum of header and pixels. An entry whose size,
- * shape or checksum does not match is deleted and treated as a miss, never trusted. Entries are
- * written to a temporary file and renamed, so concurrent renders never see half a file. */
+ * entry, DIR/ab/<32 hex digits>-<port>.wgc, holding a header (magic with the format version,
+ * shape, output port and the full 128-bit key), the packed float pixels and an xxh3-64 checksum
+ * of header and pixels. An entry whose size, key, port, shape or checksum does not match what
+ * was asked for, or that is not a regular file, is deleted and treated as a miss, never trusted:
+ * a file copied over another one, or a FIFO or symbolic link in its place, cannot make a render
+ * return the wrong image or block. Entries are written to a temporary file
+ * (.<name>.tmp<pid>-<n>.wgc) and renamed, so concurrent renders never see half a file; opening
+ * the cache removes the temporaries left behind by processes that no longer exist. */
 #include "internal.h"
 
+#include <ctype.h>
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,7 +23,8 @@
 #include <unistd.h>
 #include <xxhash.h>
 
-#define DISK_MAGIC "WGCACHE1"
+/* The last character is the format version: entries of any other version are misses. */
+#define DISK_MAGIC "WGCACHE2"
 
 typedef struct Entry {
     uint64_t key[2];
@@ -51,6 +60,25 @@ static int mkdir_p(const char *path)
     return 0;
 }
 
+/* Delete, in every entry folder, the temporaries of processes that no longer exist (killed
+ * while writing an entry); wg_remove_stale_temporaries knows their names. */
+static void remove_stale_temporaries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        const char *sub = e->d_name;
+        if (!isxdigit((unsigned char)sub[0]) || !isxdigit((unsigned char)sub[1]) || sub[2])
+            continue;
+        char path[4096];
+        if (snprintf(path, sizeof path, "%s/%s", dir, sub) >= (int)sizeof path) continue;
+        struct stat st;
+        if (lstat(path, &st) == 0 && S_ISDIR(st.st_mode)) wg_remove_stale_temporaries(path);
+    }
+    closedir(d);
+}
+
 WgCache *wg__cache_new(const char *dir)
 {
     WgCache *c = wg_calloc(1, sizeof *c);
@@ -63,6 +91,7 @@ WgCache *wg__cache_new(const char *dir)
             wg__cache_free(c);
             return NULL;
         }
+        remove_stale_temporaries(dir);
     }
     return c;
 }
@@ -208,22 +237,48 @@ char *wg__cache_entry_path(const WgCache *c, const uint64_t key[2], int port)
 
 typedef struct DiskHeader {
     char magic[8];
-    int32_t width, height, channels, reserved;
+    int32_t width, height, channels, port;
+    uint64_t key[2];
 } DiskHeader;
+_Static_assert(sizeof(DiskHeader) == 40, "the header is written as is, without padding");
+
+/* Open an entry for reading without ever blocking (a FIFO in its place) or following a
+ * symbolic link. Returns NULL with *bad set when something that is not a valid entry file is
+ * there; NULL with *bad clear when there is nothing (a plain miss). */
+static FILE *open_entry(const char *path, off_t size, bool *bad)
+{
+    *bad = false;
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) {
+        *bad = errno == ELOOP || errno == ENXIO; /* a symbolic link, a socket */
+        return NULL;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size != size) {
+        *bad = true;
+        close(fd);
+        return NULL;
+    }
+    FILE *f = fdopen(fd, "rb");
+    if (!f) close(fd);
+    return f;
+}
 
 const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
                                   int height, int channels)
 {
     char *path = wg__cache_entry_path(c, key, port);
     if (!path) return NULL;
-    FILE *f = fopen(path, "rb");
     WgImage *img = NULL;
     bool bad = false;
+    size_t row = (size_t)width * (size_t)channels;
+    off_t size = (off_t)(sizeof(DiskHeader) + sizeof(float) * row * (size_t)height + 8);
+    FILE *f = open_entry(path, size, &bad);
     if (!f) goto out;
     DiskHeader h;
-    size_t row = (size_t)width * (size_t)channels;
     if (fread(&h, sizeof h, 1, f) != 1 || memcmp(h.magic, DISK_MAGIC, 8) || h.width != width ||
-        h.height != height || h.channels != channels) {
+        h.height != height || h.channels != channels || h.port != port || h.key[0] != key[0] ||
+        h.key[1] != key[1]) {
         bad = true;
         goto out;
     }
@@ -253,7 +308,7 @@ const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, i
     }
 out:
     if (f) fclose(f);
-    if (bad) unlink(path); /* corrupt or stale: recompute and rewrite */
+    if (bad) unlink(path); /* corrupt, stale or someone else's: recompute and rewrite */
     wg_free(path);
     return img;
 }
@@ -268,10 +323,27 @@ int wg__cache_disk_put(WgCache *c, const uint64_t key[2], int port, const WgImag
     *slash = '/';
     char *tmp = wg__temp_path_for(path);
     int rc = WG_ERR_IO;
-    FILE *f = tmp ? fopen(tmp, "wb") : NULL;
+    /* The name holds this process's id, so a file already there is a dead process's. */
+    int fd = -1;
+    for (int attempt = 0; tmp && fd < 0 && attempt < 2; attempt++) {
+        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+        if (fd < 0 && (errno != EEXIST || unlink(tmp) != 0)) break;
+    }
+    FILE *f = fd >= 0 ? fdopen(fd, "wb") : NULL;
+    if (fd >= 0 && !f) {
+        close(fd);
+        unlink(tmp);
+    }
     if (f) {
-        DiskHeader h = {DISK_MAGIC, img->width, img->height, img->channels, 0};
+        DiskHeader h;
+        memset(&h, 0, sizeof h);
         memcpy(h.magic, DISK_MAGIC, 8);
+        h.width = img->width;
+        h.height = img->height;
+        h.channels = img->channels;
+        h.port = port;
+        h.key[0] = key[0];
+        h.key[1] = key[1];
         XXH3_state_t *st = XXH3_createState();
         bool ok = st && fwrite(&h, sizeof h, 1, f) == 1;
         if (ok) {

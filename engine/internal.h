@@ -256,6 +256,14 @@ int wg__pool_threads(const WgPool *p);
 int wg__pool_submit(WgPool *p, WgJobFn fn, void *user);
 int wg__pool_rows(WgPool *p, volatile int *cancel, int height, WgRowsFn fn, void *user);
 
+/* ---- temporaries (io.c) ----------------------------------------------------------------- */
+
+/* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
+char *wg__temp_path_for(const char *path);
+/* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
+ * not have exactly that form. */
+long wg__temp_name_pid(const char *name);
+
 /* ---- misc -------------------------------------------------------------------------------- */
 
 float wg__luminance(const float *rgba);

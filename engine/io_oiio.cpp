@@ -1,18 +1,24 @@
 // SPDX-License-Identifier: MIT
 // The only C++ in wetgraph: a C interface to OpenImageIO's ImageInput/ImageOutput. Alpha is
 // kept unassociated both ways (OpenImageIO would otherwise premultiply PNG alpha on read and
-// divide on write), and no colour conversion happens here: io.c does the sRGB transfer. Files
-// are written through an I/O proxy of our own that checks every write, because some encoders
-// (PNG) ignore a failed write and would report a truncated file as written.
+// divide on write), and no colour conversion happens here: io.c does the sRGB transfer.
+// A read that OpenImageIO completes but with errors recorded (libjpeg reports a truncated or
+// corrupt JPEG only as a warning and fills in the missing part) is a failure. Files are written
+// through an I/O proxy of our own that checks every write, because some encoders (PNG) ignore a
+// failed write and would report a truncated file as written; a failed write names its cause
+// (errno). Library messages are reduced to one line.
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
 #include <memory>
+#include <string>
 #include <unistd.h>
+#include <vector>
 
 extern "C" {
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
@@ -23,9 +29,50 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
 
 using namespace OIIO;
 
-static void set_msg(char *msg, size_t size, const std::string &text)
+// OpenImageIO's error text can span several lines, repeat itself, quote the file name (which
+// the caller reports anyway) and end in generic lines ("PNG library error"); keep one line of
+// the distinct, specific parts.
+static std::string one_line(const std::string &text, const char *path)
 {
-    std::snprintf(msg, size, "%s", text.empty() ? "unknown error" : text.c_str());
+    std::vector<std::string> parts;
+    size_t start = 0;
+    while (start <= text.size()) {
+        size_t end = text.find('\n', start);
+        if (end == std::string::npos) end = text.size();
+        std::string line = text.substr(start, end - start);
+        start = end + 1;
+        if (path && path[0]) {
+            for (const std::string &q : {std::string(" (\"") + path + "\")",
+                                         std::string("\"") + path + "\"", std::string(path)}) {
+                for (size_t at; (at = line.find(q)) != std::string::npos;) line.erase(at, q.size());
+            }
+        }
+        for (const char *prefix : {"JPEG error: ", "PNG read error: "})
+            if (line.compare(0, std::strlen(prefix), prefix) == 0)
+                line.erase(0, std::strlen(prefix));
+        while (!line.empty() && (line.back() == ' ' || line.back() == '.' || line.back() == ':'))
+            line.pop_back();
+        if (line.empty() || line == "PNG library error") continue;
+        bool dup = false;
+        for (std::string &p : parts) {
+            if (p.find(line) != std::string::npos) {
+                dup = true;
+            } else if (line.find(p) != std::string::npos) {
+                p = line; // the longer line says more
+                dup = true;
+            }
+        }
+        if (!dup) parts.push_back(line);
+    }
+    std::string out;
+    for (const std::string &p : parts) out += (out.empty() ? "" : "; ") + p;
+    return out;
+}
+
+static void set_msg(char *msg, size_t size, const std::string &text, const char *path = nullptr)
+{
+    std::string line = one_line(text, path);
+    std::snprintf(msg, size, "%s", line.empty() ? "unknown error" : line.c_str());
 }
 
 static std::unique_ptr<ImageInput> open_input(const char *path, char *msg, size_t msg_size)
@@ -33,7 +80,7 @@ static std::unique_ptr<ImageInput> open_input(const char *path, char *msg, size_
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = ImageInput::open(path, &config);
-    if (!in) set_msg(msg, msg_size, OIIO::geterror());
+    if (!in) set_msg(msg, msg_size, OIIO::geterror(), path);
     return in;
 }
 
@@ -64,8 +111,12 @@ int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
             set_msg(msg, msg_size, "the file changed while it was being read");
             return -1;
         }
-        if (!in->read_image(0, 0, 0, c, TypeDesc::FLOAT, data)) {
-            set_msg(msg, msg_size, in->geterror());
+        bool ok = in->read_image(0, 0, 0, c, TypeDesc::FLOAT, data);
+        if (!ok || in->has_error()) {
+            std::string text = in->geterror();
+            // a decoder that recovered from damaged data reports it only as a message
+            if (ok) text = "the data is damaged or incomplete (" + one_line(text, path) + ")";
+            set_msg(msg, msg_size, text, path);
             return -1;
         }
         in->close();
@@ -147,16 +198,16 @@ static int encode_to(CheckedFile &file, const char *path, const char *format_ext
     Filesystem::IOProxy *proxy = &file;
     spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
     if (!out->open(path, spec)) {
-        set_msg(msg, msg_size, out->geterror());
+        set_msg(msg, msg_size, out->geterror(), path);
         return -1;
     }
     if (!out->write_image(in_type, data)) {
-        set_msg(msg, msg_size, out->geterror());
+        set_msg(msg, msg_size, out->geterror(), path);
         out->close();
         return -1;
     }
     if (!out->close()) {
-        set_msg(msg, msg_size, out->geterror());
+        set_msg(msg, msg_size, out->geterror(), path);
         return -1;
     }
     return 0;
@@ -167,7 +218,9 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
 {
     int fd = open(path, O_RDWR | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd < 0) {
-        set_msg(msg, msg_size, std::strerror(errno));
+        std::string e = std::strerror(errno);
+        if (!e.empty()) e[0] = (char)std::tolower((unsigned char)e[0]);
+        set_msg(msg, msg_size, e);
         return -1;
     }
     int rc, failure;
@@ -183,7 +236,9 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
     if (close(fd) != 0 && !failure) failure = errno;
     if (failure) {
         /* the system's reason replaces whatever the encoder made of it */
-        set_msg(msg, msg_size, std::strerror(failure));
+        std::string e = std::strerror(failure);
+        if (!e.empty()) e[0] = (char)std::tolower((unsigned char)e[0]);
+        set_msg(msg, msg_size, e);
         errno = failure;
         return -1;
     }

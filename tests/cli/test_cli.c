@@ -8,6 +8,8 @@
  * with its own stdout and stderr files, and every command checks as much as it can. */
 #include "wgtest.h"
 
+#include "internal.h"
+
 #include <dirent.h>
 #include <math.h>
 #include <stdio.h>
@@ -556,6 +558,56 @@ static void test_render_failures_write_nothing(void **state)
     for (int i = 0; i < 6; i++) rm_rf(at(dirs[i]));
 }
 
+/* A damaged input image: one "wetgraph: error:" line naming the file and what is wrong, exit 1,
+ * nothing written, and none of the image libraries' own messages (libpng prints
+ * "libpng error: ..." to stderr by itself). */
+static void test_damaged_images_one_clear_line(void **state)
+{
+    (void)state;
+    static const char *const dirs[] = {"dm1", "dm2", "dm3"};
+    for (int i = 0; i < 3; i++) rm_rf(at(dirs[i]));
+    write_noise_png(at("dmg.png"), 64);
+    truncate_file(at("dmg.png"), 2000);
+    write_image_graph("dmgp.wetgraph", "dmg.png");
+    /* a JPEG of noise (so it is well over 20000 bytes), cut short */
+    int side = 256;
+    unsigned char *px = malloc((size_t)side * side * 3);
+    assert_non_null(px);
+    for (int i = 0; i < side * side * 3; i++)
+        px[i] = (unsigned char)(wg_hash3((uint32_t)i, 1, 2) & 0xff);
+    char msg[256];
+    assert_int_equal(wg__oiio_write(at("dmg.jpg"), "jpg", px, side, side, 3, 8, msg, sizeof msg),
+                     0);
+    free(px);
+    truncate_file(at("dmg.jpg"), 20000);
+    write_image_graph("dmgj.wetgraph", "dmg.jpg");
+
+    Cmd c[] = {
+        {"render dmgp.wetgraph -o dm1"},
+        {"render inp.wetgraph -o dm2 --input src=dmg.png"},
+        {"render dmgj.wetgraph -o dm3"},
+    };
+    static const char *const expect[][3] = {
+        {"dmgp.wetgraph:2: node 'pic'", "dmg.png: cannot read the image", "truncated"},
+        {"dmg.png", "cannot read the image", "truncated"},
+        {"dmgj.wetgraph:2: node 'pic'", "dmg.jpg: cannot read the image",
+         "Premature end of JPEG file"},
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+    for (int i = 0; i < n; i++) {
+        expect_status(&c[i], 1);
+        for (int k = 0; k < 3; k++) ERR_HAS(&c[i], expect[i][k]);
+        if (strncmp(c[i].err, "wetgraph: error: ", 17) || count_substr(c[i].err, "\n") != 1)
+            fail_msg("'%s': expected one error line, got:\n%s", c[i].args, c[i].err);
+        if (strstr(c[i].err, "libpng") || strstr(c[i].err, "PNG library"))
+            fail_msg("'%s': a library's message on stderr:\n%s", c[i].args, c[i].err);
+        if (count_files(at(dirs[i])) > 0) fail_msg("'%s' wrote files", c[i].args);
+    }
+    free_batch(c, n);
+    for (int i = 0; i < 3; i++) rm_rf(at(dirs[i]));
+}
+
 static void test_cache_option(void **state)
 {
     (void)state;
@@ -694,6 +746,7 @@ int main(void)
         cmocka_unit_test(test_help_and_usage_errors),
         cmocka_unit_test(test_render_outputs_and_options),
         cmocka_unit_test(test_render_failures_write_nothing),
+        cmocka_unit_test(test_damaged_images_one_clear_line),
         cmocka_unit_test(test_cache_option),
         cmocka_unit_test(test_inspection_commands),
     };

@@ -10,7 +10,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 /* ---- helpers ----------------------------------------------------------------------------- */
@@ -104,7 +106,8 @@ typedef struct {
     int width, height, channels;
 } Entry;
 
-/* Every .wgc file under dir (one level of subfolders), with its header's shape. */
+/* Every .wgc file under dir (one level of subfolders), with its header's shape; hidden files
+ * are temporaries, not entries. */
 static int cache_entries(const char *dir, Entry *out, int max)
 {
     int n = 0;
@@ -120,7 +123,7 @@ static int cache_entries(const char *dir, Entry *out, int max)
         struct dirent *f;
         while ((f = readdir(s))) {
             size_t l = strlen(f->d_name);
-            if (l < 4 || strcmp(f->d_name + l - 4, ".wgc")) continue;
+            if (l < 4 || strcmp(f->d_name + l - 4, ".wgc") || f->d_name[0] == '.') continue;
             if (n < max) {
                 snprintf(out[n].path, sizeof out[n].path, "%s/%s", sub, f->d_name);
                 FILE *fp = fopen(out[n].path, "rb");
@@ -433,7 +436,21 @@ static const char *const pair_xml =
     "  <output name=\"soft\" from=\"soft\"/>\n"
     "</wetgraph>\n";
 
-enum { FLIP_PIXEL, FLIP_MAGIC, FLIP_SHAPE, FLIP_CHECKSUM, TRUNCATE, APPEND, EMPTY, N_DAMAGE };
+/* An entry's header: magic (8 bytes), width, height, channels, port (int32), key (2 x 64 bits). */
+enum { HEADER = 40 };
+
+enum {
+    FLIP_PIXEL,
+    FLIP_MAGIC,
+    FLIP_SHAPE,
+    FLIP_PORT,
+    FLIP_KEY,
+    FLIP_CHECKSUM,
+    TRUNCATE,
+    APPEND,
+    EMPTY,
+    N_DAMAGE
+};
 
 static void damage(const char *path, int how)
 {
@@ -441,7 +458,7 @@ static void damage(const char *path, int how)
     char *data = wgt_read_file(path, &n);
     switch (how) {
     case FLIP_PIXEL:
-        data[24 + 4 * 37 + 1] ^= 0x10;
+        data[HEADER + 4 * 37 + 1] ^= 0x10;
         break;
     case FLIP_MAGIC:
         data[0] ^= 1;
@@ -449,6 +466,12 @@ static void damage(const char *path, int how)
     case FLIP_SHAPE:
         data[8] ^= 1;
         break; /* width */
+    case FLIP_PORT:
+        data[20] ^= 1;
+        break;
+    case FLIP_KEY:
+        data[24 + 11] ^= 4;
+        break;
     case FLIP_CHECKSUM:
         data[n - 1] ^= 0x80;
         break;
@@ -491,7 +514,7 @@ static void test_damaged_entries_are_recomputed_and_rewritten(void **state)
         assert_int_equal(entries[1 - soft].width, 16);
         size_t n0;
         char *original = wgt_read_file(entries[soft].path, &n0);
-        assert_int_equal(n0, 24 + 32 * 24 * 4 * sizeof(float) + 8);
+        assert_int_equal(n0, HEADER + 32 * 24 * 4 * sizeof(float) + 8);
 
         damage(entries[soft].path, how);
         e = wgt_engine(2, 0, dir);
@@ -556,6 +579,205 @@ static void test_all_entries_damaged(void **state)
     expect_same_outputs(res, ref);
     wg_result_free(res);
     wg_engine_free(e);
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* Entries of the same shape have the same size: a file copied over another one is still a
+ * well-formed entry with a valid checksum, but of the wrong key. Rotate the four 32x24 colour
+ * entries of the chain (soft, sharp, lev, mix) so each holds another node's pixels. */
+static void test_swapped_entries_are_misses(void **state)
+{
+    (void)state;
+    WgGraph *g = chain_graph();
+    WgRequest *r = chain_request(g, NULL);
+    WgResult *ref = cold(r);
+    const char *dir = cache_dir("swap");
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgEngine *e = wgt_engine(2, 0, dirbuf);
+    wg_result_free(wgt_render_request(e, r));
+    wg_engine_free(e);
+
+    Entry entries[8];
+    int n = cache_entries(dirbuf, entries, 8);
+    assert_int_equal(n, 5);
+    int same[4], k = 0;
+    for (int i = 0; i < n; i++)
+        if (entries[i].width == 32 && entries[i].height == 24 && entries[i].channels == 4 && k < 4)
+            same[k++] = i;
+    assert_int_equal(k, 4);
+    char *data[4];
+    size_t size[4];
+    for (int i = 0; i < 4; i++) data[i] = wgt_read_file(entries[same[i]].path, &size[i]);
+    for (int i = 0; i < 4; i++) {
+        assert_int_equal(size[i], size[(i + 1) % 4]);
+        spit(entries[same[i]].path, data[(i + 1) % 4], size[(i + 1) % 4]);
+    }
+
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *res = wgt_render_request(e, r);
+    expect_same_outputs(res, ref);
+    assert_int_equal(wg_result_evaluated_count(res), 4);
+    expect_stat(res, "mix", WG_COMPUTED);
+    expect_stat(res, "soft", WG_COMPUTED);
+    expect_stat(res, "img", WG_HIT_DISK);
+    wg_result_free(res);
+    wg_engine_free(e);
+    /* rewritten as they were, and trusted again */
+    for (int i = 0; i < 4; i++) {
+        size_t m;
+        char *now = wgt_read_file(entries[same[i]].path, &m);
+        assert_int_equal(m, size[i]);
+        assert_memory_equal(now, data[i], m);
+        free(now);
+    }
+    e = wgt_engine(1, 0, dirbuf);
+    res = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 0);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_engine_free(e);
+
+    for (int i = 0; i < 4; i++) free(data[i]);
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+static void on_alarm(int sig)
+{
+    (void)sig;
+    static const char msg[] = "test_cache: a render blocked on a cache entry\n";
+    if (write(2, msg, sizeof msg - 1)) {
+    }
+    _exit(3);
+}
+
+/* A FIFO in place of an entry would block a plain open() forever, and a symbolic link could
+ * point anywhere: both are misses, replaced by a real entry. alarm() is the harness time-out. */
+static void test_fifo_and_symlink_entries(void **state)
+{
+    (void)state;
+    write_picture(wgt_path("pair.png"), pic_fn);
+    WgGraph *g = wgt_load_at(pair_xml, wgt_path("pair.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    WgResult *ref = cold(r);
+    for (int how = 0; how < 2; how++) {
+        char dir[1024];
+        snprintf(dir, sizeof dir, "%s/special%d", wgt_tmpdir(), how);
+        WgEngine *e = wgt_engine(2, 0, dir);
+        wg_result_free(wgt_render_request(e, r));
+        wg_engine_free(e);
+        Entry entries[4];
+        assert_int_equal(cache_entries(dir, entries, 4), 2);
+        int soft = entries[0].width == 32 ? 0 : 1;
+        const char *path = entries[soft].path;
+        if (how == 0) {
+            assert_int_equal(unlink(path), 0);
+            assert_int_equal(mkfifo(path, 0666), 0);
+        } else {
+            /* a link to a valid copy of the very same entry: still not trusted */
+            char copy[1100];
+            snprintf(copy, sizeof copy, "%s/elsewhere.wgc", dir);
+            assert_int_equal(rename(path, copy), 0);
+            assert_int_equal(symlink(copy, path), 0);
+        }
+        signal(SIGALRM, on_alarm);
+        alarm(30);
+        e = wgt_engine(2, 0, dir);
+        WgResult *res = wgt_render_request(e, r);
+        alarm(0);
+        expect_stat(res, "soft", WG_COMPUTED);
+        expect_same_outputs(res, ref);
+        wg_result_free(res);
+        wg_engine_free(e);
+        struct stat st;
+        assert_int_equal(lstat(path, &st), 0);
+        assert_true(S_ISREG(st.st_mode));
+        e = wgt_engine(1, 0, dir);
+        res = wgt_render_request(e, r);
+        assert_int_equal(wg_result_evaluated_count(res), 0);
+        wg_result_free(res);
+        wg_engine_free(e);
+    }
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* Temporaries of killed processes are removed when a cache is opened; a live process's stay,
+ * and no temporary is ever read as an entry. */
+static void test_stale_temporaries_are_removed(void **state)
+{
+    (void)state;
+    write_picture(wgt_path("pair.png"), pic_fn);
+    WgGraph *g = wgt_load_at(pair_xml, wgt_path("pair.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    const char *d = cache_dir("stale");
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s", d);
+    WgEngine *e = wgt_engine(2, 0, dir);
+    WgResult *ref = wgt_render_request(e, r);
+    wg_engine_free(e);
+    Entry entries[4];
+    assert_int_equal(cache_entries(dir, entries, 4), 2);
+    const char *soft = entries[entries[0].width == 32 ? 0 : 1].path;
+
+    /* a process id that is certainly gone: a child that has exited and been reaped */
+    pid_t child = fork();
+    assert_true(child >= 0);
+    if (child == 0) _exit(0);
+    assert_int_equal(waitpid(child, NULL, 0), child);
+
+    /* next to the blur's entry: a dead writer's partial file (a damaged copy of the entry, under
+     * the name that entry's temporary would have), a live one's, and files that only look
+     * similar */
+    char sub[1024];
+    snprintf(sub, sizeof sub, "%s", soft);
+    char *slash = strrchr(sub, '/');
+    const char *base = slash + 1;
+    char stem[256];
+    snprintf(stem, sizeof stem, "%.*s", (int)(strlen(base) - 4), base);
+    *slash = '\0';
+    char dead[1400], dead2[1400], live[1400], other[1400], other2[1400];
+    snprintf(dead, sizeof dead, "%s/.%s.tmp%ld-1.wgc", sub, stem, (long)child);
+    snprintf(dead2, sizeof dead2, "%s/.%s.tmp%ld-12.wgc", sub, stem, (long)child);
+    snprintf(live, sizeof live, "%s/.%s.tmp%ld-3.wgc", sub, stem, (long)getpid());
+    snprintf(other, sizeof other, "%s/.%s.tmp%ld-1.png.bak", sub, stem, (long)child);
+    snprintf(other2, sizeof other2, "%s/.notes.tmp%ldx-1.wgc", sub, (long)child);
+    size_t n;
+    char *data = wgt_read_file(soft, &n);
+    spit(dead, data, n / 2);
+    spit(dead2, data, n);
+    spit(live, data, n / 3);
+    spit(other, "x", 1);
+    spit(other2, "x", 1);
+    free(data);
+    /* the entry itself is gone: a temporary must not stand in for it */
+    assert_int_equal(unlink(soft), 0);
+    assert_int_equal(cache_temp_files(dir), 5);
+
+    e = wgt_engine(2, 0, dir);
+    struct stat st;
+    assert_int_equal(stat(dead, &st), -1);
+    assert_int_equal(stat(dead2, &st), -1);
+    assert_int_equal(stat(live, &st), 0);
+    assert_int_equal(stat(other, &st), 0);
+    assert_int_equal(stat(other2, &st), 0);
+    WgResult *res = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 1);
+    expect_stat(res, "soft", WG_COMPUTED);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_engine_free(e);
+    assert_int_equal(cache_entries(dir, entries, 4), 2);
+    assert_int_equal(cache_temp_files(dir), 3);
+    assert_int_equal(unlink(live), 0);
+    assert_int_equal(unlink(other), 0);
+    assert_int_equal(unlink(other2), 0);
+
     wg_result_free(ref);
     wg_request_free(r);
     wg_graph_free(g);
@@ -689,6 +911,9 @@ int main(void)
         cmocka_unit_test(test_cheap_nodes_are_not_written_to_disk),
         cmocka_unit_test(test_damaged_entries_are_recomputed_and_rewritten),
         cmocka_unit_test(test_all_entries_damaged),
+        cmocka_unit_test(test_swapped_entries_are_misses),
+        cmocka_unit_test(test_fifo_and_symlink_entries),
+        cmocka_unit_test(test_stale_temporaries_are_removed),
         cmocka_unit_test(test_cache_dir_that_cannot_be_created),
         cmocka_unit_test(test_image_key_follows_file_content),
         cmocka_unit_test(test_input_images_are_part_of_the_key),

@@ -2,7 +2,8 @@
 /* Image I/O: exact integer round trips (PNG 8/16, TIFF 16), float and half EXR, the sRGB
  * transfer, channel mapping on read, unassociated alpha, RGB-when-opaque, atomic writes,
  * layered EXR (checked with OpenEXR's own C API), rejection of non-finite files, probe errors,
- * and the format names. */
+ * the format names, refusal of truncated or damaged JPEG and PNG files with one-line messages,
+ * and the cause of a failed write on a full device. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -1083,6 +1084,159 @@ static void test_format_names(void **state)
     assert_string_equal(wg_format_name(WG_FORMAT_DEFAULT), "default");
 }
 
+/* ---- damaged files ----------------------------------------------------------------------- */
+
+static void put_file(const char *path, const char *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(data, 1, n, f), n);
+    assert_int_equal(fclose(f), 0);
+}
+
+/* Keep the first `keep` bytes of src in dst. */
+static void cut_file(const char *src, const char *dst, size_t keep)
+{
+    size_t n;
+    char *data = wgt_read_file(src, &n);
+    assert_non_null(data);
+    assert_true(n > keep);
+    put_file(dst, data, keep);
+    free(data);
+}
+
+/* wg_image_read fails with an I/O error on that file whose message has every '|'-separated
+ * part; no image is returned. */
+static void expect_refused(const char *path, const char *parts)
+{
+    WgImage *img = NULL;
+    WgError err = {0};
+    int rc = wg_image_read(path, 0, WG_LINEAR, &img, &err);
+    char msg[2048];
+    wg_error_format(&err, msg, sizeof msg);
+    if (rc != WG_ERR_IO) fail_msg("%s: status %d, expected an I/O error (%s)", path, rc, msg);
+    assert_null(img);
+    assert_string_equal(err.file, path);
+    assert_non_null(strstr(msg, path));
+    assert_null(strchr(err.message, '\n'));
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", parts);
+    for (char *p = strtok(buf, "|"); p; p = strtok(NULL, "|"))
+        if (!strstr(err.message, p)) fail_msg("%s: '%s' is not in '%s'", path, p, err.message);
+}
+
+static double grain_fn(int x, int y, int k)
+{
+    if (k == 3) return 1;
+    return (wg_hash3((uint32_t)x, (uint32_t)y, (uint32_t)k) & 0xff) / 255.0;
+}
+
+/* libjpeg reports a file cut short only as a warning ("Premature end of JPEG file") and fills in
+ * the rest: the read must fail anyway. */
+static void test_truncated_jpeg_is_refused(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image_fn(256, 256, 4, grain_fn);
+    size_t count = 256 * 256 * 3;
+    uint8_t *data = malloc(count);
+    assert_non_null(data);
+    for (size_t i = 0; i < count; i++)
+        data[i] = (uint8_t)lrint(wgt_px(img, (int)(i / 3 % 256), (int)(i / 3 / 256), (int)(i % 3)) *
+                                 255.0);
+    char msg[256];
+    const char *whole = wgt_path("grain.jpg");
+    assert_int_equal(wg__oiio_write(whole, "jpg", data, 256, 256, 3, 8, msg, sizeof msg), 0);
+    free(data);
+    wg_image_unref(img);
+    WgImage *ok = read_ok(whole, 0, WG_LINEAR);
+    wg_image_unref(ok);
+    const char *cut = wgt_path("grain_cut.jpg");
+    cut_file(whole, cut, 20000);
+    expect_refused(cut, "cannot read the image|damaged or incomplete|Premature end of JPEG file");
+
+    /* the same with a real photograph, when the shared materials are there */
+    const char *shared = getenv("WETGRAPH_SHARED");
+    char real[2048];
+    snprintf(real, sizeof real, "%s/materials/bricks102_stonewall_1k/Bricks102_1K-JPG_Color.jpg",
+             shared ? shared : "");
+    if (shared && exists(real)) {
+        const char *real_cut = wgt_path("bricks_cut.jpg");
+        cut_file(real, real_cut, 20000);
+        expect_refused(real_cut, "cannot read the image|Premature end of JPEG file");
+    }
+}
+
+/* PNG files are checked before libpng reads them: a cut, a flipped bit in the pixel data or the
+ * header, and a missing IEND are refused with what is wrong and where. */
+static void test_damaged_png_is_refused(void **state)
+{
+    (void)state;
+    WgImage *img = wgt_image_fn(64, 64, 4, grain_fn);
+    const char *whole = wgt_path("grain.png");
+    write_ok(whole, img, WG_FORMAT_PNG16, WG_LINEAR);
+    wg_image_unref(img);
+    size_t n;
+    char *data = wgt_read_file(whole, &n);
+    assert_true(n > 4000);
+
+    const char *cut = wgt_path("grain_cut.png");
+    put_file(cut, data, 2000);
+    expect_refused(cut, "cannot read the image|truncated|ends at byte 2000|IDAT");
+    /* the header alone still probes (the check before a render), the pixels do not read */
+    int w, h, c;
+    WgError err = {0};
+    assert_int_equal(wg_image_probe(cut, &w, &h, &c, &err), WG_OK);
+
+    const char *flipped = wgt_path("grain_flip.png");
+    data[n / 2] ^= 0x20;
+    put_file(flipped, data, n);
+    expect_refused(flipped, "cannot read the image|damaged|CRC|IDAT");
+    data[n / 2] ^= 0x20;
+
+    const char *header = wgt_path("grain_header.png");
+    data[20] ^= 0x01; /* the IHDR's height */
+    put_file(header, data, n);
+    expect_refused(header, "cannot read the image|damaged|CRC|IHDR");
+    memset(&err, 0, sizeof err);
+    assert_int_equal(wg_image_probe(header, &w, &h, &c, &err), WG_ERR_IO);
+    assert_non_null(strstr(err.message, "IHDR"));
+    data[20] ^= 0x01;
+
+    const char *no_end = wgt_path("grain_noend.png");
+    put_file(no_end, data, n - 12); /* the IEND chunk is 12 bytes */
+    expect_refused(no_end, "truncated|IEND");
+    free(data);
+}
+
+/* A full disk: the write fails and says why (OpenImageIO's PNG writer alone reports success). */
+static void test_write_to_a_full_device_says_so(void **state)
+{
+    (void)state;
+    if (!exists("/dev/full")) skip();
+    size_t count = 256 * 256 * 3;
+    uint16_t *data = malloc(count * sizeof *data);
+    assert_non_null(data);
+    for (size_t i = 0; i < count; i++) data[i] = (uint16_t)(i * 2654435761u >> 16);
+    static const char *const ext[] = {"png", "tif", "exr"};
+    for (int i = 0; i < 3; i++) {
+        char msg[256] = "";
+        int bits = i == 2 ? 32 : 16;
+        void *buf = data;
+        float *f = NULL;
+        if (bits == 32) {
+            f = malloc(count * sizeof *f);
+            assert_non_null(f);
+            for (size_t k = 0; k < count; k++) f[k] = data[k] / 65535.0f;
+            buf = f;
+        }
+        assert_int_equal(
+            wg__oiio_write("/dev/full", ext[i], buf, 256, 256, 3, bits, msg, sizeof msg), -1);
+        if (!strstr(msg, "no space left on device")) fail_msg("%s: '%s'", ext[i], msg);
+        free(f);
+    }
+    free(data);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1115,6 +1269,9 @@ int main(void)
         cmocka_unit_test(test_probe_errors_name_the_path),
         cmocka_unit_test(test_probe_reports_shape),
         cmocka_unit_test(test_format_names),
+        cmocka_unit_test(test_truncated_jpeg_is_refused),
+        cmocka_unit_test(test_damaged_png_is_refused),
+        cmocka_unit_test(test_write_to_a_full_device_says_so),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

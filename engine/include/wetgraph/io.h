@@ -81,12 +81,6 @@ void wg_write_set_free(WgWriteSet *s);
  * processes and every other file are kept. Best effort; returns how many were removed. */
 int wg_remove_stale_temporaries(const char *dir);
 
-/* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
-char *wg__temp_path_for(const char *path);
-/* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
- * not have exactly that form. */
-long wg__temp_name_pid(const char *name);
-
 #ifdef __cplusplus
 }
 #endif
