@@ -25,6 +25,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
@@ -487,14 +488,28 @@ static int stage_end(WgWriteSet *s, int rc, WgError *err)
  * errno still holds it; only causes a write itself can have are trusted, not left-overs. */
 const char *wg__write_cause(int e)
 {
-    bool cause = e == ENOSPC || e == EDQUOT || e == EFBIG || e == EIO || e == EROFS || e == EACCES;
-    return cause ? strerror(e) : NULL;
+    switch (e) {
+    case ENOSPC:
+        return "no space left on device";
+    case EDQUOT:
+        return "disk quota exceeded";
+    case EFBIG:
+        return "file too large";
+    case EIO:
+        return "input/output error";
+    case EROFS:
+        return "read-only file system";
+    case EACCES:
+        return "permission denied";
+    default:
+        return NULL;
+    }
 }
 
 static int write_failed(WgError *err, const char *path, const char *msg)
 {
     const char *cause = wg__write_cause(errno);
-    if (cause && strcmp(cause, msg))
+    if (cause && strcasecmp(cause, msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s (%s)", cause,
                                msg);
     return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s", msg);

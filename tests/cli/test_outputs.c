@@ -462,7 +462,7 @@ static void test_full_disk_replaces_nothing(void **state)
     char *err = wgt_read_file(at("big.err"), NULL);
     char *out = wgt_read_file(at("big.out"), NULL);
     if (atoi(status) != 1) fail_msg("the large render exited %s, stderr:\n%s", status, err);
-    if (!strstr(err, "cannot write the image: No space left on device"))
+    if (!strstr(err, "cannot write the image: no space left on device"))
         fail_msg("stderr does not give the cause:\n%s", err);
     if (!strstr(err, "disk/o/g_")) fail_msg("stderr does not name the file:\n%s", err);
     assert_string_equal(out, "");
