@@ -28,6 +28,7 @@ struct WgCache {
     pthread_mutex_t mu;
     Entry *entries;
     int count, cap;
+    size_t held; /* bytes of the entries' images */
     uint64_t clock;
     char *dir;
 };
@@ -66,6 +67,7 @@ void wg__cache_clear(WgCache *c)
     pthread_mutex_lock(&c->mu);
     for (int i = 0; i < c->count; i++) wg_image_unref(c->entries[i].img);
     c->count = 0;
+    c->held = 0;
     pthread_mutex_unlock(&c->mu);
 }
 
@@ -123,6 +125,7 @@ void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *i
         c->entries[i].key[1] = key[1];
         c->entries[i].port = port;
         c->entries[i].img = wg_image_ref(img);
+        c->held += wg_image_bytes(img);
     }
     c->entries[i].used = ++c->clock;
 out:
@@ -132,14 +135,11 @@ out:
 void wg__cache_trim(WgCache *c, size_t max_bytes)
 {
     pthread_mutex_lock(&c->mu);
-    for (;;) {
-        size_t held = 0;
-        int victim = -1;
-        for (int i = 0; i < c->count; i++) {
-            held += wg_image_bytes(c->entries[i].img);
-            if (victim < 0 || c->entries[i].used < c->entries[victim].used) victim = i;
-        }
-        if (held <= max_bytes || victim < 0) break;
+    while (c->held > max_bytes && c->count > 0) {
+        int victim = 0;
+        for (int i = 1; i < c->count; i++)
+            if (c->entries[i].used < c->entries[victim].used) victim = i;
+        c->held -= wg_image_bytes(c->entries[victim].img);
         wg_image_unref(c->entries[victim].img);
         c->entries[victim] = c->entries[--c->count];
     }
