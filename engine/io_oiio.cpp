@@ -9,8 +9,17 @@
 #include <memory>
 
 extern "C" {
+struct WgOiioIn;
+struct WgOiioOut;
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size);
+int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
+                  char *msg, size_t msg_size);
+int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, float *data, char *msg, size_t msg_size);
+void wg__oiio_close(WgOiioIn *in);
+int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
+                    WgOiioOut **out, char *msg, size_t msg_size);
+int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size);
+int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size);
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size);
 }
@@ -48,21 +57,33 @@ int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t m
     }
 }
 
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size)
+struct WgOiioIn {
+    std::unique_ptr<ImageInput> in;
+    int c;
+};
+
+int wg__oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, size_t *decoder_bytes,
+                  char *msg, size_t msg_size)
 {
+    *out = nullptr;
     try {
         auto in = open_input(path, msg, msg_size);
         if (!in) return -1;
         const ImageSpec &spec = in->spec();
-        if (spec.width != w || spec.height != h || spec.nchannels != c) {
-            set_msg(msg, msg_size, "the file changed while it was being read");
-            return -1;
-        }
-        if (!in->read_image(0, 0, 0, c, TypeDesc::FLOAT, data)) {
-            set_msg(msg, msg_size, in->geterror());
-            return -1;
-        }
-        in->close();
+        *w = spec.width;
+        *h = spec.height;
+        *c = spec.nchannels;
+        /* Readers that decode scanline by scanline or chunk by chunk hold a few rows; the
+         * others (PNG among them) decode the whole file into a buffer of its native type. */
+        std::string fmt = in->format_name();
+        size_t whole = (size_t)spec.width * (size_t)spec.height * spec.pixel_bytes(true);
+        if (fmt == "jpeg" || (fmt == "openexr" && spec.tile_width == 0))
+            whole = (size_t)spec.width * 64 * spec.pixel_bytes(true);
+        if (decoder_bytes) *decoder_bytes = whole;
+        WgOiioIn *r = new WgOiioIn;
+        r->c = spec.nchannels;
+        r->in = std::move(in);
+        *out = r;
         return 0;
     } catch (const std::exception &e) {
         set_msg(msg, msg_size, e.what());
@@ -70,9 +91,39 @@ int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg,
     }
 }
 
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
-                   int bits, char *msg, size_t msg_size)
+int wg__oiio_read_rows(WgOiioIn *r, int y0, int y1, float *data, char *msg, size_t msg_size)
 {
+    try {
+        if (!r->in->read_scanlines(0, 0, y0, y1, 0, 0, r->c, TypeDesc::FLOAT, data)) {
+            set_msg(msg, msg_size, r->in->geterror());
+            return -1;
+        }
+        return 0;
+    } catch (const std::exception &e) {
+        set_msg(msg, msg_size, e.what());
+        return -1;
+    }
+}
+
+void wg__oiio_close(WgOiioIn *r)
+{
+    if (!r) return;
+    try {
+        r->in->close();
+    } catch (const std::exception &) {
+    }
+    delete r;
+}
+
+struct WgOiioOut {
+    std::unique_ptr<ImageOutput> out;
+    TypeDesc in_type;
+};
+
+int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
+                    WgOiioOut **result, char *msg, size_t msg_size)
+{
+    *result = nullptr;
     try {
         auto out = ImageOutput::create(format_ext);
         if (!out) {
@@ -92,13 +143,22 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
             set_msg(msg, msg_size, out->geterror());
             return -1;
         }
-        if (!out->write_image(in_type, data)) {
-            set_msg(msg, msg_size, out->geterror());
-            out->close();
-            return -1;
-        }
-        if (!out->close()) {
-            set_msg(msg, msg_size, out->geterror());
+        WgOiioOut *o = new WgOiioOut;
+        o->out = std::move(out);
+        o->in_type = in_type;
+        *result = o;
+        return 0;
+    } catch (const std::exception &e) {
+        set_msg(msg, msg_size, e.what());
+        return -1;
+    }
+}
+
+int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size)
+{
+    try {
+        if (!o->out->write_scanlines(y0, y1, 0, o->in_type, data)) {
+            set_msg(msg, msg_size, o->out->geterror());
             return -1;
         }
         return 0;
@@ -106,4 +166,29 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
         set_msg(msg, msg_size, e.what());
         return -1;
     }
+}
+
+int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size)
+{
+    int rc = ok ? 0 : -1;
+    try {
+        if (!o->out->close() && ok) {
+            set_msg(msg, msg_size, o->out->geterror());
+            rc = -1;
+        }
+    } catch (const std::exception &e) {
+        if (ok) set_msg(msg, msg_size, e.what());
+        rc = -1;
+    }
+    delete o;
+    return rc;
+}
+
+int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
+                   int bits, char *msg, size_t msg_size)
+{
+    WgOiioOut *o;
+    if (wg__oiio_create(path, format_ext, w, h, c, bits, &o, msg, msg_size)) return -1;
+    bool ok = !wg__oiio_write_rows(o, 0, h, data, msg, msg_size);
+    return wg__oiio_finish(o, ok, msg, msg_size);
 }
