@@ -29,7 +29,10 @@ typedef struct Node {
     int *dependents;
     int n_dependents;
     const WgImage **out;
-    size_t out_bytes;
+    size_t out_bytes; /* its outputs, held after it has run until its last consumer has */
+    size_t need;      /* held while it runs: outputs, inputs converted for it, scratch */
+    bool started, ahead;
+    size_t ahead_bytes; /* what it adds to Run.ahead */
     WgNodeStat stat;
 } Node;
 
@@ -45,8 +48,16 @@ struct Run {
                    taken lowest first, so one thread follows the plan order the budget
                    estimate assumes */
     int n_ready;
-    int *dependents; /* storage of every node's dependents list */
-    size_t live, peak;
+    int *dependents;   /* storage of every node's dependents list */
+    size_t live, peak; /* outputs held and needs of the running nodes */
+    /* The memory guarantee. A sequential run in plan order needs at most seq_peak[i] from node i
+     * on. Nodes started ahead of the frontier (the first node not yet started) hold `ahead`
+     * bytes. Keeping ahead + seq_peak[frontier] within the budget means that once the running
+     * nodes finish, the rest can always run in plan order within the budget, so the render
+     * never waits for memory it cannot get. */
+    size_t *seq_peak;
+    size_t ahead;
+    int frontier;
     volatile int cancel;
     int rc;
     WgError err;
@@ -252,6 +263,10 @@ static void release(Run *run, int index)
         n->out[o] = NULL;
     }
     run->live -= n->out_bytes;
+    if (n->ahead) {
+        run->ahead -= n->ahead_bytes;
+        n->ahead_bytes = 0;
+    }
 }
 
 static void node_job(void *user)
@@ -280,8 +295,13 @@ static void node_job(void *user)
             run->err = err;
         }
         run->cancel = 1;
-        run->live -= node->out_bytes;
+        run->live -= node->need;
     } else {
+        run->live -= node->need - node->out_bytes;
+        if (node->ahead) {
+            run->ahead -= node->ahead_bytes - node->out_bytes;
+            node->ahead_bytes = node->out_bytes;
+        }
         for (int i = 0; i < in->n_in; i++) {
             int src = in->in[i].inst;
             if (src < 0) continue;
@@ -309,6 +329,46 @@ static size_t inst_bytes(const WgInst *in)
     for (int o = 0; o < in->n_out; o++)
         b += wg_image_bytes_for(in->width, in->height, in->out_channels[o]);
     return b;
+}
+
+/* Bytes wg_image_convert holds at once converting a sw x sh x sc image to w x h x c, the
+ * result included: the resampling's horizontal pass, its result, its filter taps, and the
+ * channel conversion. */
+static size_t convert_bytes(int sw, int sh, int sc, int w, int h, int c)
+{
+    if (sw == w && sh == h) return wg_image_bytes_for(w, h, c);
+    size_t tx = (size_t)(2 * (sw / w) + 5), ty = (size_t)(2 * (sh / h) + 5);
+    size_t b = wg_image_bytes_for(w, sh, sc) + wg_image_bytes_for(w, h, sc) +
+               (tx * (size_t)w + ty * (size_t)h) * (sizeof(int) + sizeof(float));
+    return sc == c ? b : b + wg_image_bytes_for(w, h, c);
+}
+
+/* What eval_node holds while the node runs, beside its inputs. */
+static size_t inst_need(const WgPlan *p, const WgInst *in)
+{
+    const WgNodeType *t = in->type;
+    size_t need = inst_bytes(in);
+    if (in->constant) {
+        const WgImage *c = in->constant;
+        size_t b = convert_bytes(c->width, c->height, c->channels, in->width, in->height,
+                                 in->out_channels[0]);
+        return b > need ? b : need;
+    }
+    int n_fixed = 0;
+    while (t->inputs && t->inputs[n_fixed].name) n_fixed++;
+    for (int i = 0; i < in->n_in; i++) {
+        if (in->in[i].inst < 0) continue;
+        const WgInst *src = &p->insts[in->in[i].inst];
+        int sc = src->out_channels[in->in[i].port], want = sc;
+        if (i < n_fixed && t->inputs[i].kind == WG_COLOR) want = 4;
+        if (src->width != in->width || src->height != in->height || sc != want)
+            need += convert_bytes(src->width, src->height, sc, in->width, in->height, want);
+    }
+    if (t->scratch_bytes) {
+        WgNodeContext ctx = wg__inst_context(in);
+        need += t->scratch_bytes(&ctx);
+    }
+    return need;
 }
 
 static bool lookup_cache(Run *run, int i)
@@ -395,12 +455,14 @@ static int plan_work(Run *run, WgError *err)
                 run->nodes[s].dependents[run->nodes[s].n_dependents++] = i;
         }
     }
-    /* Peak working set of a sequential run in plan order: a lower bound of what any schedule
-     * needs, so a render that cannot fit fails here instead of thrashing. */
+    /* Peak memory of a sequential run in plan order: what node i holds while it runs plus the
+     * outputs alive then. No schedule needs less, so a render that cannot fit fails here,
+     * before any work; the scheduler keeps every schedule within it (see Run.seq_peak). */
     size_t live = 0, peak = 0;
     int *left = wg_calloc((size_t)p->n_insts + 1, sizeof(int));
     if (!left) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    int biggest = -1;
+    int biggest = -1, largest = -1;
+    size_t biggest_bytes = 0;
     for (int i = 0; i < p->n_insts; i++) {
         left[i] = run->nodes[i].consumers;
         if (run->nodes[i].needed && !run->nodes[i].evaluate) live += run->nodes[i].out_bytes;
@@ -410,9 +472,22 @@ static int plan_work(Run *run, WgError *err)
         Node *n = &run->nodes[i];
         if (!n->evaluate) continue;
         WgInst *in = &p->insts[i];
+        n->need = inst_need(p, in);
+        size_t own = n->need; /* its inputs too */
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            bool repeated = false;
+            for (int q = 0; q < k && !repeated; q++) repeated = in->in[q].inst == s;
+            if (s >= 0 && !repeated) own += run->nodes[s].out_bytes;
+        }
+        if (largest < 0 || n->out_bytes > run->nodes[largest].out_bytes) largest = i;
+        if (biggest < 0 || own > biggest_bytes) {
+            biggest = i;
+            biggest_bytes = own;
+        }
+        run->seq_peak[i] = live + n->need;
+        if (live + n->need > peak) peak = live + n->need;
         live += n->out_bytes;
-        if (biggest < 0 || n->out_bytes > run->nodes[biggest].out_bytes) biggest = i;
-        if (live > peak) peak = live;
         for (int k = 0; k < in->n_in; k++) {
             int s = in->in[k].inst;
             if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
@@ -421,13 +496,29 @@ static int plan_work(Run *run, WgError *err)
         if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
     }
     wg_free(left);
+    for (int i = p->n_insts - 1, after = -1; i >= 0; i--) { /* from node i on */
+        size_t later = after >= 0 ? run->seq_peak[after] : 0;
+        if (!run->nodes[i].evaluate) {
+            run->seq_peak[i] = later;
+            continue;
+        }
+        if (later > run->seq_peak[i]) run->seq_peak[i] = later;
+        after = i;
+    }
     if (peak > run->e->budget) {
-        const WgInst *b = biggest >= 0 ? &p->insts[biggest] : NULL;
+        char detail[1024] = "";
+        if (biggest >= 0) {
+            const WgInst *l = &p->insts[largest], *b = &p->insts[biggest];
+            snprintf(detail, sizeof detail,
+                     "; the largest image is node '%s' (%.1f MiB); the largest need of one node is "
+                     "'%s' (%s): %.1f MiB for its inputs, outputs and working memory",
+                     l->id, run->nodes[largest].out_bytes / 1048576.0, b->id, b->type->name,
+                     biggest_bytes / 1048576.0);
+        }
         return wg_error_set(err, WG_ERR_BUDGET, NULL,
                             "this render needs at least %.1f MiB of image memory but the budget "
-                            "is %.1f MiB (--memory-budget)%s%s%s",
-                            peak / 1048576.0, run->e->budget / 1048576.0,
-                            b ? "; the largest image is node '" : "", b ? b->id : "", b ? "'" : "");
+                            "is %.1f MiB (--memory-budget)%s",
+                            peak / 1048576.0, run->e->budget / 1048576.0, detail);
     }
     return WG_OK;
 }
@@ -514,7 +605,8 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
     pthread_cond_init(&run.cv, NULL);
     run.nodes = wg_calloc((size_t)plan->n_insts + 1, sizeof(Node));
     run.ready = wg_calloc((size_t)plan->n_insts + 1, sizeof(int));
-    if (!run.nodes || !run.ready) {
+    run.seq_peak = wg_calloc((size_t)plan->n_insts + 1, sizeof(size_t));
+    if (!run.nodes || !run.ready || !run.seq_peak) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto done;
     }
@@ -538,15 +630,38 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total) {
         while (!run.cancel && run.n_ready > 0) {
+            while (run.frontier < plan->n_insts &&
+                   (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started)) {
+                Node *f = &run.nodes[run.frontier++];
+                if (f->ahead) { /* now in plan order: covered by seq_peak */
+                    run.ahead -= f->ahead_bytes;
+                    f->ahead = false;
+                    f->ahead_bytes = 0;
+                }
+            }
             Node *n = &run.nodes[run.ready[0]];
-            if (run.running > 0 && run.live + n->out_bytes > e->budget) break;
+            bool ahead = n->index != run.frontier;
+            size_t after = run.live + n->need;
+            /* wait for memory; the frontier node can always run once the others are done */
+            if (run.running > 0 &&
+                (after > e->budget ||
+                 (ahead && run.ahead + n->need + run.seq_peak[run.frontier] > e->budget)))
+                break;
+            /* make room: the cache keeps only what the working set leaves */
+            wg__cache_trim(e->cache, after < e->budget ? e->budget - after : 0);
             ready_pop(&run);
             run.running++;
-            run.live += n->out_bytes;
+            run.live = after;
+            n->started = true;
+            if (ahead) {
+                n->ahead = true;
+                n->ahead_bytes = n->need;
+                run.ahead += n->need;
+            }
             if (run.live > run.peak) run.peak = run.live;
             if (wg__pool_submit(e->pool, node_job, n)) { /* fails like a node that ran out */
                 run.running--;
-                run.live -= n->out_bytes;
+                run.live -= n->need;
                 if (run.rc == WG_OK)
                     run.rc = wg_error_set(&run.err, WG_ERR_NOMEM, NULL, "out of memory");
                 run.cancel = 1;
@@ -581,10 +696,16 @@ done:
             wg_free(run.nodes[i].out);
         }
     }
-    wg__cache_trim(e->cache, e->budget);
+    /* the result's images stay alive with the result: the cache keeps what they leave */
+    size_t kept = 0;
+    if (rc == WG_OK)
+        for (int k = 0; k < plan->n_outputs; k++)
+            kept += wg_image_bytes(wg_result_output_image(*out, k));
+    wg__cache_trim(e->cache, kept < e->budget ? e->budget - kept : 0);
     wg_free(run.nodes);
     wg_free(run.ready);
     wg_free(run.dependents);
+    wg_free(run.seq_peak);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
     wg__plan_free(plan);

@@ -4,7 +4,9 @@
  * pixels, wrapping around the edges: exact bilinear interpolation when enlarging, a triangle
  * average when shrinking. The weights are normalised per output sample, and a sample whose taps
  * all read the same value is that value, so a constant image stays exactly constant (a float sum
- * of weights times v can be off by an ulp). Other samples saturate at ±FLT_MAX. */
+ * of weights times v can be off by an ulp). Other samples saturate at ±FLT_MAX. Pixel buffers
+ * of 1 MiB and more are mapped directly (without an allocation hook), so freeing an image
+ * returns its memory to the system at once. */
 #include "internal.h"
 
 #include <float.h>
@@ -12,6 +14,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 static WgAllocFn alloc_hook;
 static WgFreeFn free_hook;
@@ -87,6 +90,12 @@ char *wg_strdup(const char *s)
     return s ? wg_strndup(s, strlen(s)) : NULL;
 }
 
+/* Pixel buffers from this size on are mappings of their own, given back to the system when the
+ * image is freed. From malloc they could stay in the process after being freed (glibc raises
+ * its mmap threshold up to 32 MiB as large blocks are freed, and keeps freed heap memory for
+ * reuse), so the process would grow past the memory budget. */
+#define MAP_MIN_BYTES ((size_t)1 << 20)
+
 size_t wg_image_bytes_for(int width, int height, int channels)
 {
     size_t row = ((size_t)width * (size_t)channels + 15) & ~(size_t)15;
@@ -108,7 +117,15 @@ WgImage *wg_image_new(int width, int height, int channels)
     img->height = height;
     img->channels = channels;
     img->stride = ((size_t)width * (size_t)channels + 15) & ~(size_t)15;
-    img->data = wg_malloc_aligned(wg_image_bytes_for(width, height, channels));
+    size_t bytes = wg_image_bytes_for(width, height, channels);
+    img->mapped_ = 0;
+    if (!alloc_hook && bytes >= MAP_MIN_BYTES) {
+        void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        img->data = p == MAP_FAILED ? NULL : p;
+        img->mapped_ = 1;
+    } else {
+        img->data = wg_malloc_aligned(bytes);
+    }
     if (!img->data) {
         wg_free(img);
         return NULL;
@@ -136,7 +153,10 @@ void wg_image_unref(const WgImage *img)
     WgImage *m = (WgImage *)img;
     if (!m) return;
     if (atomic_fetch_sub_explicit((_Atomic int *)&m->refcount_, 1, memory_order_acq_rel) == 1) {
-        wg_free(m->data);
+        if (m->mapped_)
+            munmap(m->data, wg_image_bytes(m));
+        else
+            wg_free(m->data);
         wg_free(m);
     }
 }

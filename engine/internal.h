@@ -272,9 +272,22 @@ double wg__now_ms(void);
 bool wg__hash_file(const char *path, uint64_t out[2]);
 /* OpenImageIO bridge (io_oiio.cpp) */
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size);
-/* bits: 8, 16 (unsigned integers), -16 (half), 32 (float); data packed, `c` channels of that
- * type for 8/16, float for -16/32. */
+/* Reading a file in strips of rows: *decoder_bytes is what the decoder itself holds meanwhile
+ * (the whole file at its native type for formats decoded at once, such as PNG). */
+typedef struct WgOiioIn WgOiioIn;
+int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
+                  char *msg, size_t msg_size);
+int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, float *data, char *msg, size_t msg_size);
+void wg__oiio_close(WgOiioIn *in);
+/* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);
+ * rows packed, `c` channels of that type for 8/16, float for -16/32. finish closes and frees;
+ * with ok false it only cleans up. */
+typedef struct WgOiioOut WgOiioOut;
+int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
+                    WgOiioOut **out, char *msg, size_t msg_size);
+int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size);
+int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size);
+/* The whole image at once (for tests). */
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size);
 /* Multi-layer EXR (io_exr.c): the layer checks, and the encoder writing straight to `file` with

@@ -306,6 +306,110 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
     return WG_OK;
 }
 
+/* Rows decoded and converted at a time, so reading and writing hold a strip, not an image. */
+#define STRIP_ROWS 16
+
+size_t wg_image_read_scratch(const char *path)
+{
+    WgOiioIn *in;
+    int w, h, c;
+    size_t decoder = 0;
+    char msg[512];
+    if (wg__oiio_open(path, &in, &w, &h, &c, &decoder, msg, sizeof msg)) return 0;
+    wg__oiio_close(in);
+    return decoder + (size_t)w * STRIP_ROWS * (size_t)c * sizeof(float);
+}
+
+/* One decoded row (c file channels) to the destination's channels: gray files and 1-2 channel
+ * files are gray, 3-4 channel files colour, then gray to colour copies the value with alpha 1
+ * and colour to gray takes the luminance, exactly as wg_image_convert does. */
+static void convert_row(const float *src, int c, WgColorspace cs, float *dst, int w, int channels)
+{
+    int native = c <= 2 ? 1 : 4;
+    for (int x = 0; x < w; x++) {
+        const float *p = src + (size_t)x * (size_t)c;
+        float px[4];
+        if (native == 1) {
+            px[0] = cs == WG_SRGB ? srgb_decode(p[0]) : p[0];
+        } else {
+            for (int k = 0; k < 3; k++) px[k] = cs == WG_SRGB ? srgb_decode(p[k]) : p[k];
+            px[3] = c >= 4 ? p[3] : 1.0f;
+        }
+        if (channels == 1) {
+            dst[x] = native == 1 ? px[0] : wg__luminance(px);
+        } else if (native == 1) {
+            dst[4 * x] = dst[4 * x + 1] = dst[4 * x + 2] = px[0];
+            dst[4 * x + 3] = 1.0f;
+        } else {
+            memcpy(dst + 4 * x, px, sizeof px);
+        }
+    }
+}
+
+int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
+{
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot open the image: %s",
+                               strerror(errno));
+    if (!S_ISREG(st.st_mode))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "not a regular file");
+    char msg[512];
+    WgOiioIn *in;
+    int w, h, c;
+    if (png_check(path, true, msg, sizeof msg) ||
+        wg__oiio_open(path, &in, &w, &h, &c, NULL, msg, sizeof msg))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    int rc = WG_OK;
+    float *buf = NULL;
+    if (w != dst->width || h != dst->height) {
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0,
+                             "the file changed while it was being read (now %dx%d, was %dx%d)", w,
+                             h, dst->width, dst->height);
+        goto out;
+    }
+    if (c < 1) {
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "image has no channels");
+        goto out;
+    }
+    if (cs == WG_SRGB) pthread_once(&srgb_once, srgb_lut_build);
+    size_t row = (size_t)w * (size_t)c;
+    buf = wg_malloc(row * STRIP_ROWS * sizeof(float));
+    if (!buf) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
+        goto out;
+    }
+    size_t bad = 0, first_bad = 0;
+    for (int y0 = 0; y0 < h; y0 += STRIP_ROWS) {
+        int y1 = h - y0 < STRIP_ROWS ? h : y0 + STRIP_ROWS;
+        if (wg__oiio_read_rows(in, y0, y1, buf, msg, sizeof msg)) {
+            rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+            goto out;
+        }
+        size_t count = row * (size_t)(y1 - y0);
+        for (size_t i = 0; i < count; i++) {
+            if (!isfinite(buf[i])) {
+                if (!bad) first_bad = row * (size_t)y0 + i;
+                bad++;
+            }
+        }
+        for (int y = y0; y < y1 && !bad; y++)
+            convert_row(buf + row * (size_t)(y - y0), c, cs, wg_image_row(dst, y), w,
+                        dst->channels);
+    }
+    if (bad) {
+        size_t px = first_bad / (size_t)c;
+        rc = wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0,
+                             "image has %zu non-finite values (NaN or infinity), the first at "
+                             "pixel (%zu, %zu)",
+                             bad, px % (size_t)w, px / (size_t)w);
+    }
+out:
+    wg_free(buf);
+    wg__oiio_close(in);
+    return rc;
+}
+
 int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out, WgError *err)
 {
     *out = NULL;
@@ -313,56 +417,12 @@ int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out
     int rc = wg_image_probe(path, &w, &h, &c, err);
     if (rc) return rc;
     if (c < 1) return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "image has no channels");
-    size_t count = (size_t)w * (size_t)h * (size_t)c;
-    float *buf = wg_malloc(count * sizeof(float));
-    if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
-    char msg[512];
-    if (png_check(path, true, msg, sizeof msg) ||
-        wg__oiio_read(path, buf, w, h, c, msg, sizeof msg)) {
-        wg_free(buf);
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-    }
-    size_t bad = 0, first_bad = 0;
-    for (size_t i = 0; i < count; i++) {
-        if (!isfinite(buf[i])) {
-            if (!bad) first_bad = i;
-            bad++;
-        }
-    }
-    if (bad) {
-        size_t px = first_bad / (size_t)c;
-        wg_free(buf);
-        return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0,
-                               "image has %zu non-finite values (NaN or infinity), the first at "
-                               "pixel (%zu, %zu)",
-                               bad, px % (size_t)w, px / (size_t)w);
-    }
-    if (cs == WG_SRGB) pthread_once(&srgb_once, srgb_lut_build);
-    int native = c <= 2 ? 1 : 4;
-    WgImage *img = wg_image_new(w, h, native);
-    if (!img) {
-        wg_free(buf);
-        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
-    }
-    for (int y = 0; y < h; y++) {
-        const float *src = buf + (size_t)y * (size_t)w * (size_t)c;
-        float *dst = wg_image_row(img, y);
-        for (int x = 0; x < w; x++) {
-            const float *p = src + (size_t)x * (size_t)c;
-            if (native == 1) {
-                dst[x] = cs == WG_SRGB ? srgb_decode(p[0]) : p[0];
-                continue;
-            }
-            for (int k = 0; k < 3; k++) dst[4 * x + k] = cs == WG_SRGB ? srgb_decode(p[k]) : p[k];
-            dst[4 * x + 3] = c >= 4 ? p[3] : 1.0f;
-        }
-    }
-    wg_free(buf);
-    if (channels && channels != native) {
-        WgImage *conv = wg_image_convert(img, w, h, channels);
+    WgImage *img = wg_image_new(w, h, channels ? channels : c <= 2 ? 1 : 4);
+    if (!img) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
+    rc = wg_image_read_into(path, cs, img, err);
+    if (rc) {
         wg_image_unref(img);
-        if (!conv) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-        img = conv;
+        return rc;
     }
     *out = img;
     return WG_OK;
@@ -376,9 +436,8 @@ static double quantize(float v, WgColorspace cs, bool colour_channel, double sca
     return floor(x * scale + 0.5);
 }
 
-/* Pixels of `img` in the layout wg__oiio_write takes; the caller frees *out. */
-static int encode(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
-                  void **out, int *channels, int *bits, WgError *err)
+/* The file layout of `img`: RGB when every alpha is 1, and the sample type of the format. */
+static void file_layout(const WgImage *img, WgFormat format, int *channels, int *bits)
 {
     int c = img->channels;
     if (c == 4) {
@@ -389,34 +448,55 @@ static int encode(const char *path, const WgImage *img, WgFormat format, WgColor
         }
         if (opaque) c = 3;
     }
-    int b = format == WG_FORMAT_PNG     ? 8
+    *channels = c;
+    *bits = format == WG_FORMAT_PNG     ? 8
             : format == WG_FORMAT_EXR   ? -16
             : format == WG_FORMAT_EXR32 ? 32
                                         : 16;
-    size_t count = (size_t)img->width * (size_t)img->height * (size_t)c;
-    size_t elem = b == 8 ? 1 : b == 16 ? 2 : 4;
-    void *buf = wg_malloc(count * elem);
-    if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory writing '%s'", path);
-    size_t i = 0;
-    for (int y = 0; y < img->height; y++) {
-        const float *r = wg_image_row(img, y);
-        for (int x = 0; x < img->width; x++) {
-            for (int k = 0; k < c; k++, i++) {
-                float v = r[x * img->channels + k];
-                bool colour = k < 3; /* gray is a colour channel too; alpha never is */
-                if (b == 8)
-                    ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
-                else if (b == 16)
-                    ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
-                else
-                    ((float *)buf)[i] = v;
+}
+
+/* Encode `img` into the file `path`, STRIP_ROWS rows at a time, so writing holds a strip of
+ * packed pixels, not a packed copy of the image. Nonzero with msg on failure. */
+static int encode_to_file(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
+                          int c, int bits, char *msg, size_t msg_size)
+{
+    size_t row = (size_t)img->width * (size_t)c;
+    size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
+    void *buf = wg_malloc(row * STRIP_ROWS * elem);
+    if (!buf) {
+        snprintf(msg, msg_size, "out of memory");
+        return -1;
+    }
+    WgOiioOut *out;
+    bool ok = !wg__oiio_create(path, wg_format_extension(format), img->width, img->height, c, bits,
+                               &out, msg, msg_size);
+    for (int y0 = 0; ok && y0 < img->height; y0 += STRIP_ROWS) {
+        int y1 = img->height - y0 < STRIP_ROWS ? img->height : y0 + STRIP_ROWS;
+        size_t i = 0;
+        for (int y = y0; y < y1; y++) {
+            const float *r = wg_image_row(img, y);
+            for (int x = 0; x < img->width; x++) {
+                for (int k = 0; k < c; k++, i++) {
+                    float v = r[x * img->channels + k];
+                    bool colour = k < 3; /* gray is a colour channel too; alpha never is */
+                    if (bits == 8)
+                        ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
+                    else if (bits == 16)
+                        ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
+                    else
+                        ((float *)buf)[i] = v;
+                }
             }
         }
+        ok = !wg__oiio_write_rows(out, y0, y1, buf, msg, msg_size);
+        if (!ok) {
+            wg__oiio_finish(out, false, NULL, 0);
+            out = NULL;
+        }
     }
-    *out = buf;
-    *channels = c;
-    *bits = b;
-    return WG_OK;
+    if (ok && wg__oiio_finish(out, true, msg, msg_size)) ok = false;
+    wg_free(buf);
+    return ok ? 0 : -1;
 }
 
 /* ---- write sets: temporaries first, then renames ----------------------------------------- */
@@ -519,21 +599,15 @@ int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFo
                        WgColorspace cs, WgError *err)
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
-    void *buf = NULL;
-    int c = 0, bits = 0;
-    int rc = encode(path, img, format, cs, &buf, &c, &bits, err);
-    if (rc) return rc;
+    int c, bits;
+    file_layout(img, format, &c, &bits);
     char *tmp;
-    if ((rc = stage_begin(s, path, &tmp, err))) {
-        wg_free(buf);
-        return rc;
-    }
+    int rc = stage_begin(s, path, &tmp, err);
+    if (rc) return rc;
     char msg[512];
     errno = 0;
-    if (wg__oiio_write(tmp, wg_format_extension(format), buf, img->width, img->height, c, bits, msg,
-                       sizeof msg))
+    if (encode_to_file(tmp, img, format, cs, c, bits, msg, sizeof msg))
         rc = write_failed(err, path, msg);
-    wg_free(buf);
     return stage_end(s, rc, err);
 }
 

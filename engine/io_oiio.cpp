@@ -21,8 +21,17 @@
 #include <vector>
 
 extern "C" {
+struct WgOiioIn;
+struct WgOiioOut;
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size);
+int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
+                  char *msg, size_t msg_size);
+int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, float *data, char *msg, size_t msg_size);
+void wg__oiio_close(WgOiioIn *in);
+int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
+                    WgOiioOut **out, char *msg, size_t msg_size);
+int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size);
+int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size);
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size);
 }
@@ -101,30 +110,70 @@ int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t m
     }
 }
 
-int wg__oiio_read(const char *path, float *data, int w, int h, int c, char *msg, size_t msg_size)
+struct WgOiioIn {
+    std::unique_ptr<ImageInput> in;
+    std::string path;
+    int c;
+};
+
+int wg__oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, size_t *decoder_bytes,
+                  char *msg, size_t msg_size)
 {
+    *out = nullptr;
     try {
         auto in = open_input(path, msg, msg_size);
         if (!in) return -1;
         const ImageSpec &spec = in->spec();
-        if (spec.width != w || spec.height != h || spec.nchannels != c) {
-            set_msg(msg, msg_size, "the file changed while it was being read");
-            return -1;
-        }
-        bool ok = in->read_image(0, 0, 0, c, TypeDesc::FLOAT, data);
-        if (!ok || in->has_error()) {
-            std::string text = in->geterror();
-            // a decoder that recovered from damaged data reports it only as a message
-            if (ok) text = "the data is damaged or incomplete (" + one_line(text, path) + ")";
-            set_msg(msg, msg_size, text, path);
-            return -1;
-        }
-        in->close();
+        *w = spec.width;
+        *h = spec.height;
+        *c = spec.nchannels;
+        /* Readers that decode scanline by scanline or chunk by chunk hold a few rows; the
+         * others (PNG among them) decode the whole file into a buffer of its native type. */
+        std::string fmt = in->format_name();
+        size_t whole = (size_t)spec.width * (size_t)spec.height * spec.pixel_bytes(true);
+        if (fmt == "jpeg" || (fmt == "openexr" && spec.tile_width == 0))
+            whole = (size_t)spec.width * 64 * spec.pixel_bytes(true);
+        if (decoder_bytes) *decoder_bytes = whole;
+        WgOiioIn *r = new WgOiioIn;
+        r->c = spec.nchannels;
+        r->path = path;
+        r->in = std::move(in);
+        *out = r;
         return 0;
     } catch (const std::exception &e) {
         set_msg(msg, msg_size, e.what());
         return -1;
     }
+}
+
+int wg__oiio_read_rows(WgOiioIn *r, int y0, int y1, float *data, char *msg, size_t msg_size)
+{
+    try {
+        bool ok = r->in->read_scanlines(0, 0, y0, y1, 0, 0, r->c, TypeDesc::FLOAT, data);
+        if (!ok || r->in->has_error()) {
+            std::string text = r->in->geterror();
+            // a decoder that recovered from damaged data reports it only as a message
+            if (ok)
+                text =
+                    "the data is damaged or incomplete (" + one_line(text, r->path.c_str()) + ")";
+            set_msg(msg, msg_size, text, r->path.c_str());
+            return -1;
+        }
+        return 0;
+    } catch (const std::exception &e) {
+        set_msg(msg, msg_size, e.what());
+        return -1;
+    }
+}
+
+void wg__oiio_close(WgOiioIn *r)
+{
+    if (!r) return;
+    try {
+        r->in->close();
+    } catch (const std::exception &) {
+    }
+    delete r;
 }
 
 /* The encoders write through this: plain pwrite()s on a descriptor that remember the first
@@ -178,69 +227,117 @@ class CheckedFile final : public Filesystem::IOProxy
     size_t m_size = 0;
 };
 
-static int encode_to(CheckedFile &file, const char *path, const char *format_ext, const void *data,
-                     int w, int h, int c, int bits, char *msg, size_t msg_size)
+struct WgOiioOut {
+    std::unique_ptr<ImageOutput> out;
+    std::unique_ptr<CheckedFile> file;
+    std::string path;
+    int fd;
+    TypeDesc in_type;
+};
+
+static void set_errno_msg(char *msg, size_t msg_size, int e)
 {
-    auto out = ImageOutput::create(format_ext);
-    if (!out) {
-        set_msg(msg, msg_size, OIIO::geterror());
+    std::string text = std::strerror(e);
+    if (!text.empty()) text[0] = (char)std::tolower((unsigned char)text[0]);
+    set_msg(msg, msg_size, text);
+}
+
+int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
+                    WgOiioOut **result, char *msg, size_t msg_size)
+{
+    *result = nullptr;
+    int fd = open(path, O_RDWR | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        set_errno_msg(msg, msg_size, errno);
         return -1;
     }
-    TypeDesc in_type = bits == 8    ? TypeDesc::UINT8
-                       : bits == 16 ? TypeDesc::UINT16
-                                    : TypeDesc::FLOAT;
-    TypeDesc file_type = bits == -16 ? TypeDesc::HALF : in_type;
-    ImageSpec spec(w, h, c, file_type);
-    if (c == 4) spec.alpha_channel = 3;
-    spec.attribute("oiio:UnassociatedAlpha", 1);
-    if (!std::strcmp(format_ext, "exr")) spec.attribute("compression", "zip");
-    if (!std::strcmp(format_ext, "tif")) spec.attribute("compression", "zip");
-    Filesystem::IOProxy *proxy = &file;
-    spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
-    if (!out->open(path, spec)) {
-        set_msg(msg, msg_size, out->geterror(), path);
+    WgOiioOut *o = nullptr;
+    try {
+        o = new WgOiioOut;
+        o->fd = fd;
+        o->path = path;
+        o->file.reset(new CheckedFile(path, fd));
+        o->out = ImageOutput::create(format_ext);
+        if (!o->out) {
+            set_msg(msg, msg_size, OIIO::geterror());
+            goto fail;
+        }
+        o->in_type = bits == 8 ? TypeDesc::UINT8 : bits == 16 ? TypeDesc::UINT16 : TypeDesc::FLOAT;
+        TypeDesc file_type = bits == -16 ? TypeDesc::HALF : o->in_type;
+        ImageSpec spec(w, h, c, file_type);
+        if (c == 4) spec.alpha_channel = 3;
+        spec.attribute("oiio:UnassociatedAlpha", 1);
+        if (!std::strcmp(format_ext, "exr")) spec.attribute("compression", "zip");
+        if (!std::strcmp(format_ext, "tif")) spec.attribute("compression", "zip");
+        Filesystem::IOProxy *proxy = o->file.get();
+        spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+        if (!o->out->open(path, spec)) {
+            if (o->file->failure())
+                set_errno_msg(msg, msg_size, o->file->failure());
+            else
+                set_msg(msg, msg_size, o->out->geterror(), path);
+            goto fail;
+        }
+        *result = o;
+        return 0;
+    } catch (const std::exception &e) {
+        set_msg(msg, msg_size, e.what());
+    }
+fail:
+    delete o;
+    close(fd);
+    return -1;
+}
+
+int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size)
+{
+    try {
+        if (!o->out->write_scanlines(y0, y1, 0, o->in_type, data)) {
+            if (o->file->failure())
+                set_errno_msg(msg, msg_size, o->file->failure());
+            else
+                set_msg(msg, msg_size, o->out->geterror(), o->path.c_str());
+            return -1;
+        }
+        return 0;
+    } catch (const std::exception &e) {
+        set_msg(msg, msg_size, e.what());
         return -1;
     }
-    if (!out->write_image(in_type, data)) {
-        set_msg(msg, msg_size, out->geterror(), path);
-        out->close();
-        return -1;
+}
+
+int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size)
+{
+    int rc = ok ? 0 : -1;
+    try {
+        // Only the status counts: OpenImageIO 2.4's TIFF writer records "failed
+        // TIFFWriteCustomDirectory() of the Exif data" on every successful write.
+        if (!o->out->close() && ok) {
+            if (msg) set_msg(msg, msg_size, o->out->geterror(), o->path.c_str());
+            rc = -1;
+        }
+    } catch (const std::exception &e) {
+        if (ok && msg) set_msg(msg, msg_size, e.what());
+        rc = -1;
     }
-    if (!out->close()) {
-        set_msg(msg, msg_size, out->geterror(), path);
-        return -1;
+    int failure = o->file->failure();
+    o->out.reset();
+    if (close(o->fd) != 0 && !failure) failure = errno;
+    if (failure && ok) {
+        /* the system's reason replaces whatever the encoder made of it */
+        if (msg) set_errno_msg(msg, msg_size, failure);
+        errno = failure;
+        rc = -1;
     }
-    return 0;
+    delete o;
+    return rc;
 }
 
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size)
 {
-    int fd = open(path, O_RDWR | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
-    if (fd < 0) {
-        std::string e = std::strerror(errno);
-        if (!e.empty()) e[0] = (char)std::tolower((unsigned char)e[0]);
-        set_msg(msg, msg_size, e);
-        return -1;
-    }
-    int rc, failure;
-    try {
-        CheckedFile file(path, fd);
-        rc = encode_to(file, path, format_ext, data, w, h, c, bits, msg, msg_size);
-        failure = file.failure();
-    } catch (const std::exception &e) {
-        set_msg(msg, msg_size, e.what());
-        rc = -1;
-        failure = 0;
-    }
-    if (close(fd) != 0 && !failure) failure = errno;
-    if (failure) {
-        /* the system's reason replaces whatever the encoder made of it */
-        std::string e = std::strerror(failure);
-        if (!e.empty()) e[0] = (char)std::tolower((unsigned char)e[0]);
-        set_msg(msg, msg_size, e);
-        errno = failure;
-        return -1;
-    }
-    return rc;
+    WgOiioOut *o;
+    if (wg__oiio_create(path, format_ext, w, h, c, bits, &o, msg, msg_size)) return -1;
+    bool ok = !wg__oiio_write_rows(o, 0, h, data, msg, msg_size);
+    return wg__oiio_finish(o, ok, msg, msg_size);
 }

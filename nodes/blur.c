@@ -151,6 +151,16 @@ static int blur_eval(WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
+/* The horizontal pass's image, and the two kernels. */
+static size_t blur_scratch(const WgNodeContext *ctx)
+{
+    const BlurParams *p = ctx->params;
+    if (p->sigma == 0) return 0;
+    int c = ctx->input_channels[0] == 4 ? 4 : 1;
+    return wg_image_bytes_for(ctx->width, ctx->height, c) +
+           sizeof(double) * 2 * ((size_t)ctx->width + (size_t)ctx->height);
+}
+
 const WgNodeType wg_node_blur = {
     .name = "blur",
     .summary = "Exact Gaussian blur with wrap-around edges",
@@ -165,4 +175,5 @@ const WgNodeType wg_node_blur = {
     .outputs = blur_out,
     .flags = WG_NODE_NEIGHBOURHOOD,
     .eval = blur_eval,
+    .scratch_bytes = blur_scratch,
 };

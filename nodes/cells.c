@@ -365,6 +365,18 @@ static int cells_eval(WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
+/* What job_init allocates: the column tables, and per band of rows the candidate points of
+ * the coarse lattice and three distance rows. */
+static size_t cells_scratch(const WgNodeContext *ctx)
+{
+    const CellsParams *p = ctx->params;
+    size_t w = (size_t)ctx->width, px = (size_t)p->scale, r = p->metric == MANHATTAN ? 3 : 2;
+    size_t pts = px <= w ? (2 * r + 1) * (px + 2 * r) : 1;
+    size_t shared = w * 8 + 4 * (px + 2 * MAX_R) + 4 * (px + 1);
+    size_t per_band = 4 * (3 * pts + 3 * w);
+    return shared + (size_t)wg_parallel_chunks(ctx->height) * per_band;
+}
+
 const WgNodeType wg_node_cells = {
     .name = "cells",
     .summary = "Tileable Worley / Voronoi cellular noise: f1, f2, edges and cell id",
@@ -386,4 +398,5 @@ const WgNodeType wg_node_cells = {
     .outputs = cells_out,
     .flags = WG_NODE_SOURCE | WG_NODE_SEEDED,
     .eval = cells_eval,
+    .scratch_bytes = cells_scratch,
 };

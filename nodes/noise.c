@@ -611,6 +611,28 @@ static int noise_eval(WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
+/* What noise_eval and octave_setup allocate: per octave the column tables, per band of rows a
+ * row, the four interpolation rows and the lattice cache of the coarse octaves. */
+static size_t noise_scratch(const WgNodeContext *ctx)
+{
+    const NoiseParams *p = ctx->params;
+    size_t w = (size_t)ctx->width, cache = 0, ab = 1, octaves = 0;
+    uint64_t px = (uint64_t)p->scale;
+    double amp = 1;
+    for (int o = 0; o < p->octaves && amp > 0; o++) {
+        octaves++;
+        if (px <= (uint64_t)w) {
+            cache += 4 * (size_t)(px + 4);
+            if ((size_t)px + 4 > ab) ab = (size_t)px + 4;
+        }
+        amp *= p->persistence;
+        px *= (uint64_t)p->lacunarity;
+    }
+    size_t per_octave = w * (8 + 4 + 4) + w * 8 + 4 * (w + 2);
+    size_t per_band = 4 * (w + 4 * ab + cache + 1);
+    return octaves * per_octave + (size_t)wg_parallel_chunks(ctx->height) * per_band;
+}
+
 const WgNodeType wg_node_noise = {
     .name = "noise",
     .summary = "Tileable value, Perlin, simplex or white noise with fractal octaves",
@@ -643,4 +665,5 @@ const WgNodeType wg_node_noise = {
     .outputs = noise_out,
     .flags = WG_NODE_SOURCE | WG_NODE_SEEDED,
     .eval = noise_eval,
+    .scratch_bytes = noise_scratch,
 };

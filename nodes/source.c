@@ -104,22 +104,40 @@ static int image_channels(const WgNodeContext *ctx, int port)
 static int image_eval(WgNodeContext *ctx, WgError *err)
 {
     const ImageParams *p = ctx->params;
-    WgImage *img;
-    int rc = wg_image_read(p->path, ctx->outputs[0]->channels, p->colorspace ? WG_SRGB : WG_LINEAR,
-                           &img, err);
-    if (rc) return rc;
+    WgColorspace cs = p->colorspace ? WG_SRGB : WG_LINEAR;
     WgImage *out = ctx->outputs[0];
-    WgImage *sized = img;
-    if (img->width != out->width || img->height != out->height) {
-        sized = wg_image_convert(img, out->width, out->height, out->channels);
-        wg_image_unref(img);
-        if (!sized) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory resampling");
-    }
+    int w, h, c;
+    int rc = wg_image_probe(p->path, &w, &h, &c, err);
+    if (rc) return rc;
+    if (w == out->width && h == out->height) return wg_image_read_into(p->path, cs, out, err);
+    WgImage *img;
+    if ((rc = wg_image_read(p->path, out->channels, cs, &img, err))) return rc;
+    WgImage *sized = wg_image_convert(img, out->width, out->height, out->channels);
+    wg_image_unref(img);
+    if (!sized) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory resampling");
     for (int y = 0; y < out->height; y++)
         memcpy(wg_image_row(out, y), wg_image_row(sized, y),
                sizeof(float) * (size_t)out->width * (size_t)out->channels);
     wg_image_unref(sized);
     return WG_OK;
+}
+
+/* Decoding (the decoder's buffer and a strip); when the file has another size, also the
+ * file-sized image and the resampling: its horizontal pass, its result and the filter taps. */
+static size_t image_scratch(const WgNodeContext *ctx)
+{
+    const ImageParams *p = ctx->params;
+    int w, h, c, oc = ctx->n_outputs > 0 && image_channels(ctx, 0) == 4 ? 4 : 1;
+    WgError err = {0};
+    if (!p->path || wg_image_probe(p->path, &w, &h, &c, &err)) return 0;
+    size_t decode = wg_image_read_scratch(p->path);
+    if (w == ctx->width && h == ctx->height) return decode;
+    size_t file = wg_image_bytes_for(w, h, oc);
+    size_t taps = (size_t)(2 * (w / ctx->width + h / ctx->height) + 8);
+    size_t resample = file + wg_image_bytes_for(ctx->width, h, oc) +
+                      wg_image_bytes_for(ctx->width, ctx->height, oc) +
+                      taps * 8 * ((size_t)ctx->width + (size_t)ctx->height);
+    return decode + file > resample ? decode + file : resample;
 }
 
 const WgNodeType wg_node_image = {
@@ -141,4 +159,5 @@ const WgNodeType wg_node_image = {
     .output_channels = image_channels,
     .check = image_check,
     .eval = image_eval,
+    .scratch_bytes = image_scratch,
 };

@@ -25,8 +25,9 @@ typedef struct WgResult WgResult;
 
 typedef struct WgEngineOptions {
     int threads;           /* worker threads; 0 = number of cores */
-    size_t memory_budget;  /* bytes of image memory (working set + cache); 0 = default: half
-                              of physical memory, at most 16 GiB */
+    size_t memory_budget;  /* bytes of image memory: node outputs, what running nodes hold
+                              and the cache (docs/engine.md); 0 = default: half of physical
+                              memory, at most 16 GiB */
     const char *cache_dir; /* persistent cache folder (created if missing); NULL = none */
 } WgEngineOptions;
 
@@ -80,7 +81,7 @@ WgColorspace wg_result_output_colorspace(const WgResult *r, int i);
 int wg_result_stat_count(const WgResult *r);
 const WgNodeStat *wg_result_stat(const WgResult *r, int i);
 int wg_result_evaluated_count(const WgResult *r); /* nodes computed (not cache hits) */
-size_t wg_result_peak_bytes(const WgResult *r);   /* peak image memory during the render */
+size_t wg_result_peak_bytes(const WgResult *r);   /* peak image memory as the budget counts it */
 double wg_result_total_ms(const WgResult *r);
 void wg_result_free(WgResult *r);
 

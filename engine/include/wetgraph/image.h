@@ -21,6 +21,7 @@ typedef struct WgImage {
     size_t stride; /* floats between the starts of two rows */
     float *data;
     int refcount_; /* private: use wg_image_ref / wg_image_unref */
+    int mapped_;   /* private: data is a memory mapping of its own */
 } WgImage;
 
 /* New image with undefined pixels; the caller owns the returned reference. NULL when out of

@@ -38,10 +38,19 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
  * saturate at FLT_MAX). Non-finite values are an error.
  * The caller owns *out. */
 int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out, WgError *err);
+/* Read a file into an existing image of the file's size, converting to its channel count as
+ * wg_image_read does. Decodes a strip of rows at a time: beside `dst` it needs only what
+ * wg_image_read_scratch says. */
+int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err);
+/* Memory that reading this file needs beyond the destination image: the decoder's own buffer
+ * (the whole file at its native type for formats decoded at once, such as PNG) and a strip of
+ * rows. 0 when the file cannot be opened. */
+size_t wg_image_read_scratch(const char *path);
 
-/* Write atomically. Gray images are written with 1 channel; colour images as RGB when every
- * alpha is 1, else RGBA. Integer formats clamp to [0,1] and round to nearest; SRGB encodes the
- * colour channels (EXR is always linear and ignores it). NaN is written as 0 in integer files. */
+/* Write atomically, encoding a strip of rows at a time (no copy of the whole image). Gray images
+ * are written with 1 channel; colour images as RGB when every alpha is 1, else RGBA. Integer
+ * formats clamp to [0,1] and round to nearest; SRGB encodes the colour channels (EXR is always
+ * linear and ignores it). NaN is written as 0 in integer files. */
 int wg_image_write(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
                    WgError *err);
 

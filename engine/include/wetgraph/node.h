@@ -20,7 +20,9 @@
  *    otherwise.
  * 6. Fail with `return wg_error_set(err, WG_ERR_..., NULL, "...")`; the engine adds the file,
  *    line and node id.
- * 7. Add the node to tests/nodes/: exact small cases, a float64 reference for fast paths,
+ * 7. If eval allocates image-sized memory of its own (an intermediate image, a decode buffer),
+ *    say how much in `scratch_bytes`, so the memory budget holds.
+ * 8. Add the node to tests/nodes/: exact small cases, a float64 reference for fast paths,
  *    tiling, thread-count invariance, hard cases. */
 #ifndef WETGRAPH_NODE_H
 #define WETGRAPH_NODE_H
@@ -180,6 +182,12 @@ typedef struct WgNodeType {
     /* Optional: checks that need the resolved params and input kinds (no images yet). */
     int (*check)(const WgNodeContext *ctx, WgError *err);
     int (*eval)(WgNodeContext *ctx, WgError *err);
+    /* Optional: the most memory `eval` allocates for itself at once (intermediate images,
+     * decode buffers, per-band scratch), beyond its outputs and inputs, for these params and
+     * sizes (ctx has no images). The scheduler counts it against the memory budget while the
+     * node runs; an estimate must not be below what eval really takes. Buffers of a few rows
+     * may be left out: they are part of the budget's fixed overhead (docs/engine.md). */
+    size_t (*scratch_bytes)(const WgNodeContext *ctx);
 } WgNodeType;
 
 /* The registry: a NULL-terminated array in fixed order. */
