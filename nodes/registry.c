@@ -9,14 +9,14 @@ extern const WgNodeType wg_node_uniform, wg_node_image;
 extern const WgNodeType wg_node_blend;
 extern const WgNodeType wg_node_levels, wg_node_invert, wg_node_grayscale;
 extern const WgNodeType wg_node_blur;
-/* issue 3: generators */
+/* generators */
 extern const WgNodeType wg_node_noise, wg_node_cells, wg_node_gradient, wg_node_checker,
     wg_node_sine, wg_node_shape, wg_node_bricks;
-/* issue 3: colour and value */
+/* colour and value */
 extern const WgNodeType wg_node_curve, wg_node_clamp, wg_node_threshold, wg_node_auto_levels;
 extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, wg_node_split,
     wg_node_merge, wg_node_shuffle;
-/* issue 3: pixel */
+/* pixel */
 extern const WgNodeType wg_node_pixel;
 
 const WgNodeType *const wg_node_types[] = {
@@ -31,7 +31,7 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_grayscale,
     /* filters */
     &wg_node_blur,
-    /* generators (issue 3) */
+    /* generators */
     &wg_node_noise,
     &wg_node_cells,
     &wg_node_gradient,
@@ -39,7 +39,7 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_sine,
     &wg_node_shape,
     &wg_node_bricks,
-    /* colour and value (issue 3) */
+    /* colour and value */
     &wg_node_curve,
     &wg_node_clamp,
     &wg_node_threshold,
@@ -50,7 +50,7 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_split,
     &wg_node_merge,
     &wg_node_shuffle,
-    /* per-pixel expressions (issue 3) */
+    /* per-pixel expressions */
     &wg_node_pixel,
     NULL,
 };
