@@ -100,7 +100,7 @@ typedef struct {
     double (*ref)(double n, double m);
 } Case;
 
-/* 1: the foam expression of the issue, with `v` an input (10 operations, one sin). */
+/* 1: the shore-foam expression, with `v` an input (10 operations, one sin). */
 static void foam_c(const float *n, const float *m, float *out, size_t count)
 {
     const float freq = (float)FREQ, a = (float)A, b = (float)B, phase = (float)(SPEED * TIME);
