@@ -175,10 +175,13 @@ static WgExprNode *parse_atom(Parser *ps)
         return n;
     }
     if (isdigit((unsigned char)*ps->p) || (*ps->p == '.' && isdigit((unsigned char)ps->p[1]))) {
-        char *end;
-        double v = strtod(ps->p, &end);
-        if (isalpha((unsigned char)*end) || *end == '_')
-            return fail(ps, end, WG_ERR_PARSE, "%s", "unexpected letter after a number");
+        const char *end = ps->p + wg__number_length(ps->p);
+        if (isalpha((unsigned char)*end) || *end == '_' || *end == '.')
+            return fail(ps, end, WG_ERR_PARSE, "%s",
+                        *end == '.' ? "unexpected '.' after a number"
+                                    : "unexpected letter after a number");
+        double v = strtod(ps->p, NULL);
+        if (!isfinite(v)) return fail(ps, at, WG_ERR_PARSE, "%s", "number too large");
         ps->p = end;
         WgExprNode *n = new_node(ps, WG_EX_NUM, at);
         if (n) n->value = v;

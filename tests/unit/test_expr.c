@@ -123,6 +123,8 @@ static void test_errors_have_columns(void **state)
     parse_fails("", 1, "empty expression");
     parse_fails("sample(a, 0, 0)", 1, "only available in the pixel node");
     parse_fails("3x", 2, "unexpected letter after a number");
+    parse_fails("0x10", 2, "unexpected letter after a number"); /* decimal only, as values */
+    parse_fails("2 * 1e999", 5, "number too large");
     parse_fails("a ? 1", 6, "expected ':'");
     parse_fails("sin", 1, "is a function");
 }
