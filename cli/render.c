@@ -5,7 +5,7 @@
 #include "cli.h"
 
 #include <errno.h>
-#include <math.h>
+#include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -39,7 +39,7 @@ typedef struct {
     int n_sets, n_inputs, n_outputs;
     int width, height, threads, format;
     bool has_seed, has_time, quiet, stats, stats_json;
-    unsigned long long seed;
+    uint64_t seed;
     double time;
     size_t budget;
 } Options;
@@ -127,17 +127,20 @@ static int parse_args(int argc, char **argv, Options *o)
                                        WG_MAX_SIDE);
         } else if (TAKE("--seed")) {
             NEED;
-            char *end;
-            o->seed = strtoull(val, &end, 10);
-            if (!*val || *end || *val == '-')
-                return cli_usage_error("render", "bad --seed '%s' (a whole number >= 0)", val);
+            uint64_t seed;
+            if (!wg_parse_whole(val, &seed))
+                return cli_usage_error("render",
+                                       "bad --seed '%s' (a whole number from 0 to %" PRIu64
+                                       ", decimal digits only)",
+                                       val, UINT64_MAX);
+            o->seed = seed;
             o->has_seed = true;
         } else if (TAKE("--time")) {
             NEED;
-            char *end;
-            o->time = strtod(val, &end);
-            if (!*val || *end || !isfinite(o->time))
-                return cli_usage_error("render", "bad --time '%s' (a finite number)", val);
+            if (!wg_parse_number(val, &o->time))
+                return cli_usage_error(
+                    "render", "bad --time '%s' (a finite decimal number of seconds, like 1.5)",
+                    val);
             o->has_time = true;
         } else if (TAKE("--format")) {
             NEED;
@@ -150,20 +153,21 @@ static int parse_args(int argc, char **argv, Options *o)
             o->layered = val;
         } else if (TAKE("--threads")) {
             NEED;
-            char *end;
-            long n = strtol(val, &end, 10);
-            if (!*val || *end || n < 1 || n > 256)
-                return cli_usage_error("render", "bad --threads '%s' (1..256)", val);
+            uint64_t n;
+            if (!wg_parse_whole(val, &n) || n < 1 || n > 256)
+                return cli_usage_error("render", "bad --threads '%s' (a whole number, 1..256)",
+                                       val);
             o->threads = (int)n;
         } else if (TAKE("--cache")) {
             NEED;
             o->cache = val;
         } else if (TAKE("--memory-budget")) {
             NEED;
-            char *end;
-            double mb = strtod(val, &end);
-            if (!*val || *end || !(mb >= 1) || mb > 1e9)
-                return cli_usage_error("render", "bad --memory-budget '%s' (MiB, at least 1)", val);
+            double mb;
+            if (!wg_parse_number(val, &mb) || mb < 1 || mb > 1e9)
+                return cli_usage_error(
+                    "render", "bad --memory-budget '%s' (MiB, a decimal number from 1 to 1e9)",
+                    val);
             o->budget = (size_t)(mb * 1048576.0);
         } else if (!strcmp(a, "--stats")) {
             o->stats = true;

@@ -1,9 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /* Expression parser and scalar evaluator (grammar in wetgraph/expr.h). A hand-written
  * recursive-descent parser builds a small AST in one node array; names are resolved at parse
- * time through the caller's callback so unknown names are reported with their column. */
+ * time through the caller's callback so unknown names are reported with their column. Every
+ * node is appended after its operands, so the array is the tree in postorder: evaluators walk
+ * it as a loop (no recursion over the tree, so a flat sum of any length is no deeper than one
+ * of two terms), and the scalar evaluator runs it on a value stack whose size is bounded by
+ * the nesting (see expr_stack below). Only the parser recurses, once per nesting level. */
 #include "internal.h"
 
+#include <assert.h>
 #include <ctype.h>
 #include <math.h>
 #include <stdlib.h>
@@ -72,12 +77,17 @@ typedef struct {
     WgError *err;
     int status;
     int depth;
-    int *height; /* per node: height of its subtree */
+    int *stack; /* per node: values on the evaluation stack while its subtree is evaluated */
 } Parser;
 
-/* The evaluators recurse over the tree, so its height is bounded as well as the nesting of the
- * text: a chain such as 1 + 1 + ... + 1 is as tall as it is long. */
-#define MAX_HEIGHT 1000
+/* Nesting (parentheses, function arguments, unary operators, '^', '?:') is what the parser
+ * recurses on; chains of binary operators at one level are loops. */
+#define MAX_DEPTH WG_EXPR_MAX_DEPTH
+/* Within one level, a right operand waits on at most 5 values (one per binary precedence
+ * level: || && comparison + *); entering the next level adds at most 3 more (the 4th argument
+ * of a call), so the value stack never holds more than this. Checked at parse time all the
+ * same. */
+#define MAX_STACK (8 * (MAX_DEPTH + 1) + 1)
 
 static int col(Parser *ps, const char *at)
 {
@@ -97,8 +107,10 @@ static WgExprNode *fail(Parser *ps, const char *at, int code, const char *fmt, c
 static WgExprNode *new_node(Parser *ps, WgExprOp op, const char *at)
 {
     WgExpr *e = ps->e;
+    /* cannot happen (cap_ counts the characters); the parser holds pointers into the array,
+     * so it never grows */
     if (e->count_ == e->cap_) return fail(ps, at, WG_ERR_PARSE, "%s", "expression too long");
-    ps->height[e->count_] = 1;
+    ps->stack[e->count_] = 1;
     WgExprNode *n = &e->nodes_[e->count_++];
     memset(n, 0, sizeof *n);
     n->op = op;
@@ -106,18 +118,35 @@ static WgExprNode *new_node(Parser *ps, WgExprOp op, const char *at)
     return n;
 }
 
-/* Record the height of n, whose operands are set; fails when it is too tall. */
-static WgExprNode *grown(Parser *ps, WgExprNode *n, const char *at)
+static WgExprNode *too_deep(Parser *ps, const char *at)
 {
-    int h = 0;
-    for (int i = 0; i < n->nargs; i++) {
-        int c = ps->height[n->args[i] - ps->e->nodes_];
-        if (c > h) h = c;
+    char msg[160];
+    snprintf(msg, sizeof msg,
+             "expression nested more than %d levels deep (parentheses, function calls, "
+             "unary operators, '^' or '?:' inside one another)",
+             MAX_DEPTH);
+    return fail(ps, at, WG_ERR_PARSE, "%s", msg);
+}
+
+/* Append an operation on operands already in the array (they come before it: postorder),
+ * recording how deep the value stack gets while evaluating it: operand i waits with i values
+ * below it. */
+static WgExprNode *new_op(Parser *ps, WgExprOp op, const char *at, WgExprNode *const *args,
+                          int nargs)
+{
+    for (int i = 0; i < nargs; i++)
+        if (!args[i]) return NULL;
+    WgExprNode *n = new_node(ps, op, at);
+    if (!n) return NULL;
+    int need = nargs;
+    for (int i = 0; i < nargs; i++) {
+        n->args[i] = args[i];
+        int k = i + ps->stack[args[i] - ps->e->nodes_];
+        if (k > need) need = k;
     }
-    ps->height[n - ps->e->nodes_] = h + 1;
-    if (h + 1 > MAX_HEIGHT)
-        return fail(ps, at, WG_ERR_PARSE, "%s",
-                    "expression too deep (more than 1000 operations inside one another)");
+    n->nargs = nargs;
+    ps->stack[n - ps->e->nodes_] = need;
+    if (need > MAX_STACK) return too_deep(ps, at);
     return n;
 }
 
@@ -144,13 +173,8 @@ static WgExprNode *parse_unary(Parser *ps);
 
 static WgExprNode *binary(Parser *ps, WgExprOp op, const char *at, WgExprNode *a, WgExprNode *b)
 {
-    if (!a || !b) return NULL;
-    WgExprNode *n = new_node(ps, op, at);
-    if (!n) return NULL;
-    n->nargs = 2;
-    n->args[0] = a;
-    n->args[1] = b;
-    return grown(ps, n, at);
+    WgExprNode *args[2] = {a, b};
+    return new_op(ps, op, at, args, 2);
 }
 
 static bool is_name_start(char c)
@@ -175,10 +199,13 @@ static WgExprNode *parse_atom(Parser *ps)
         return n;
     }
     if (isdigit((unsigned char)*ps->p) || (*ps->p == '.' && isdigit((unsigned char)ps->p[1]))) {
-        char *end;
-        double v = strtod(ps->p, &end);
-        if (isalpha((unsigned char)*end) || *end == '_')
-            return fail(ps, end, WG_ERR_PARSE, "%s", "unexpected letter after a number");
+        const char *end = ps->p + wg__number_length(ps->p);
+        if (isalpha((unsigned char)*end) || *end == '_' || *end == '.')
+            return fail(ps, end, WG_ERR_PARSE, "%s",
+                        *end == '.' ? "unexpected '.' after a number"
+                                    : "unexpected letter after a number");
+        double v = strtod(ps->p, NULL);
+        if (!isfinite(v)) return fail(ps, at, WG_ERR_PARSE, "%s", "number too large");
         ps->p = end;
         WgExprNode *n = new_node(ps, WG_EX_NUM, at);
         if (n) n->value = v;
@@ -200,17 +227,14 @@ static WgExprNode *parse_atom(Parser *ps)
                 return fail(ps, at, WG_ERR_PARSE, "unknown function '%s'", name);
             }
             ps->p++;
-            WgExprNode *n = new_node(ps, WG_EX_CALL, at);
-            if (!n) return NULL;
-            n->func = f;
+            WgExprNode *args[4];
+            int nargs = 0;
             skip_space(ps);
             if (*ps->p != ')') {
                 for (;;) {
-                    if (n->nargs == 4)
+                    if (nargs == 4)
                         return fail(ps, ps->p, WG_ERR_PARSE, "too many arguments to '%s'", name);
-                    WgExprNode *a = parse_expr(ps);
-                    if (!a) return NULL;
-                    n->args[n->nargs++] = a;
+                    if (!(args[nargs++] = parse_expr(ps))) return NULL;
                     if (accept(ps, ",")) continue;
                     if (accept(ps, ")")) break;
                     return fail(ps, ps->p, WG_ERR_PARSE, "%s", "expected ',' or ')'");
@@ -218,17 +242,19 @@ static WgExprNode *parse_atom(Parser *ps)
             } else {
                 ps->p++;
             }
-            if (n->nargs < funcs[f].min_args || n->nargs > funcs[f].max_args) {
+            if (nargs < funcs[f].min_args || nargs > funcs[f].max_args) {
                 char msg[160];
                 if (funcs[f].min_args == funcs[f].max_args)
                     snprintf(msg, sizeof msg, "'%s' takes %d argument%s, got %d", funcs[f].name,
-                             funcs[f].min_args, funcs[f].min_args == 1 ? "" : "s", n->nargs);
+                             funcs[f].min_args, funcs[f].min_args == 1 ? "" : "s", nargs);
                 else
                     snprintf(msg, sizeof msg, "'%s' takes %d to %d arguments, got %d",
-                             funcs[f].name, funcs[f].min_args, funcs[f].max_args, n->nargs);
+                             funcs[f].name, funcs[f].min_args, funcs[f].max_args, nargs);
                 return fail(ps, at, WG_ERR_PARSE, "%s", msg);
             }
-            return grown(ps, n, at);
+            WgExprNode *n = new_op(ps, WG_EX_CALL, at, args, nargs);
+            if (n) n->func = f;
+            return n;
         }
         int slot = -1;
         if (!ps->opt->resolve || !ps->opt->resolve(ps->opt->user, s, len, &slot)) {
@@ -246,13 +272,22 @@ static WgExprNode *parse_atom(Parser *ps)
     return fail(ps, at, WG_ERR_PARSE, "unexpected '%s'", c);
 }
 
+/* The operand of a unary operator or the exponent of '^': one level deeper. */
+static WgExprNode *parse_nested_unary(Parser *ps, const char *at)
+{
+    if (++ps->depth > MAX_DEPTH + 1) return too_deep(ps, at);
+    WgExprNode *r = parse_unary(ps);
+    ps->depth--;
+    return r;
+}
+
 static WgExprNode *parse_pow(Parser *ps)
 {
     WgExprNode *a = parse_atom(ps);
     if (!a) return NULL;
     skip_space(ps);
     const char *at = ps->p;
-    if (accept(ps, "^")) return binary(ps, WG_EX_POW, at, a, parse_unary(ps));
+    if (accept(ps, "^")) return binary(ps, WG_EX_POW, at, a, parse_nested_unary(ps, at));
     return a;
 }
 
@@ -260,24 +295,13 @@ static WgExprNode *parse_unary(Parser *ps)
 {
     skip_space(ps);
     const char *at = ps->p;
-    if (++ps->depth > 200) return fail(ps, at, WG_ERR_PARSE, "%s", "expression nested too deeply");
-    WgExprNode *r;
     if (accept(ps, "-") || accept(ps, "!")) {
         WgExprOp op = *at == '-' ? WG_EX_NEG : WG_EX_NOT;
-        WgExprNode *a = parse_unary(ps);
-        r = NULL;
-        if (a && (r = new_node(ps, op, at))) {
-            r->nargs = 1;
-            r->args[0] = a;
-            r = grown(ps, r, at);
-        }
-    } else if (accept(ps, "+")) {
-        r = parse_unary(ps);
-    } else {
-        r = parse_pow(ps);
+        WgExprNode *a = parse_nested_unary(ps, at);
+        return new_op(ps, op, at, &a, 1);
     }
-    ps->depth--;
-    return r;
+    if (accept(ps, "+")) return parse_nested_unary(ps, at);
+    return parse_pow(ps);
 }
 
 static WgExprNode *parse_mul(Parser *ps)
@@ -360,8 +384,8 @@ static WgExprNode *parse_or(Parser *ps)
 
 static WgExprNode *parse_expr(Parser *ps)
 {
-    if (++ps->depth > 200)
-        return fail(ps, ps->p, WG_ERR_PARSE, "%s", "expression nested too deeply");
+    /* the whole expression is level 0: each parenthesis, argument list and branch one more */
+    if (++ps->depth > MAX_DEPTH + 1) return too_deep(ps, ps->p);
     WgExprNode *c = parse_or(ps);
     skip_space(ps);
     const char *at = ps->p;
@@ -371,13 +395,8 @@ static WgExprNode *parse_expr(Parser *ps)
         if (!accept(ps, ":")) return fail(ps, ps->p, WG_ERR_PARSE, "%s", "expected ':' after '?'");
         WgExprNode *b = parse_expr(ps);
         if (!b) return NULL;
-        WgExprNode *n = new_node(ps, WG_EX_COND, at);
-        if (!n) return NULL;
-        n->nargs = 3;
-        n->args[0] = c;
-        n->args[1] = a;
-        n->args[2] = b;
-        c = grown(ps, n, at);
+        WgExprNode *args[3] = {c, a, b};
+        c = new_op(ps, WG_EX_COND, at, args, 3);
     }
     ps->depth--;
     return c;
@@ -390,15 +409,21 @@ int wg_expr_parse(const char *src, const WgExprOptions *opt, WgExpr **out, WgErr
     if (!opt) opt = &none;
     WgExpr *e = wg_calloc(1, sizeof *e);
     if (!e) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    e->cap_ = (int)strlen(src) + 8; /* every AST node consumes at least one character */
+    size_t len = strlen(src);
+    if (len > WG_EXPR_MAX_LENGTH) {
+        wg_expr_free(e);
+        wg_error_set(err, WG_ERR_PARSE, NULL, "expression too long: %zu characters, at most %d",
+                     len, WG_EXPR_MAX_LENGTH);
+        if (err) err->column = 1;
+        return WG_ERR_PARSE;
+    }
+    e->cap_ = (int)len + 8; /* every AST node consumes at least one character */
     e->nodes_ = wg_calloc((size_t)e->cap_, sizeof(WgExprNode));
     e->source = wg_strdup(src);
-    if (!e->nodes_ || !e->source) {
-        wg_expr_free(e);
-        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    }
     Parser ps = {.src = src, .p = src, .e = e, .opt = opt, .err = err};
-    if (!(ps.height = wg_calloc((size_t)e->cap_, sizeof(int)))) {
+    ps.stack = wg_calloc((size_t)e->cap_, sizeof(int));
+    if (!e->nodes_ || !e->source || !ps.stack) {
+        wg_free(ps.stack);
         wg_expr_free(e);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     }
@@ -412,11 +437,12 @@ int wg_expr_parse(const char *src, const WgExprOptions *opt, WgExpr **out, WgErr
         char c[2] = {*ps.p, 0};
         fail(&ps, ps.p, WG_ERR_PARSE, "unexpected '%s'", c);
     }
-    wg_free(ps.height);
+    wg_free(ps.stack);
     if (ps.status != WG_OK) {
         wg_expr_free(e);
         return ps.status;
     }
+    assert(e->root == &e->nodes_[e->count_ - 1]); /* postorder: the root comes last */
     *out = e;
     return WG_OK;
 }
@@ -535,30 +561,34 @@ double wg_expr_call(WgExprFunc f, const double *x, int n)
     }
 }
 
-static double eval_node(const WgExprNode *n, const double *slots)
-{
-    switch (n->op) {
-    case WG_EX_NUM:
-        return n->value;
-    case WG_EX_VAR:
-        return slots[n->slot];
-    case WG_EX_COND:
-        return eval_node(n->args[0], slots) != 0 ? eval_node(n->args[1], slots)
-                                                 : eval_node(n->args[2], slots);
-    case WG_EX_CALL: {
-        double a[4];
-        for (int i = 0; i < n->nargs; i++) a[i] = eval_node(n->args[i], slots);
-        return wg_expr_call(n->func, a, n->nargs);
-    }
-    case WG_EX_NEG:
-    case WG_EX_NOT:
-        return wg_expr_apply(n->op, eval_node(n->args[0], slots), 0);
-    default:
-        return wg_expr_apply(n->op, eval_node(n->args[0], slots), eval_node(n->args[1], slots));
-    }
-}
-
 double wg_expr_eval(const WgExpr *e, const double *slots)
 {
-    return eval_node(e->root, slots);
+    /* the nodes in postorder on a value stack; the parser bounded its height */
+    double stack[MAX_STACK];
+    int top = 0;
+    for (int i = 0; i < e->count_; i++) {
+        const WgExprNode *n = &e->nodes_[i];
+        double *a = &stack[top - n->nargs]; /* the operands, in order */
+        double v;
+        switch (n->op) {
+        case WG_EX_NUM:
+            v = n->value;
+            break;
+        case WG_EX_VAR:
+            v = slots[n->slot];
+            break;
+        case WG_EX_COND:
+            v = a[0] != 0 ? a[1] : a[2];
+            break;
+        case WG_EX_CALL:
+            v = wg_expr_call(n->func, a, n->nargs);
+            break;
+        default:
+            v = wg_expr_apply(n->op, a[0], n->nargs > 1 ? a[1] : 0);
+            break;
+        }
+        top -= n->nargs;
+        stack[top++] = v;
+    }
+    return stack[0];
 }

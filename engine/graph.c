@@ -144,8 +144,8 @@ static bool valid_id(const char *s)
 bool wg_parse_size(const char *text, int *w, int *h)
 {
     char *end;
+    if (!isdigit((unsigned char)*text)) return false; /* strtol would take spaces and signs */
     long a = strtol(text, &end, 10);
-    if (end == text) return false;
     long b = a;
     if (*end == 'x' || *end == 'X') {
         const char *s = end + 1;
@@ -915,10 +915,8 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         (rc = attr(d, x, "label", &n->label)))
         goto fail;
     if (n->seed_text) {
-        char *end;
-        errno = 0;
-        strtoull(n->seed_text, &end, 10);
-        if (!isdigit((unsigned char)n->seed_text[0]) || *end || errno == ERANGE) {
+        uint64_t seed;
+        if (!wg_parse_whole(n->seed_text, &seed)) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
                                  "node '%s': seed must be a whole number >= 0, not '%s'", n->id,
                                  n->seed_text);
@@ -930,9 +928,8 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
         int w, h;
         bool ok = !strcmp(s, "graph") || !strcmp(s, "input") || wg_parse_size(s, &w, &h);
         if (!ok && (s[0] == 'x' || s[0] == '/')) {
-            char *end;
-            double f = strtod(s + 1, &end);
-            ok = end != s + 1 && !*end && f > 0 && f <= WG_MAX_SIDE;
+            double f;
+            ok = wg_parse_number(s + 1, &f) && f > 0 && f <= WG_MAX_SIDE;
         }
         if (!ok) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
@@ -1325,10 +1322,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     g->size_line = line_of(root);
     if (!rc) rc = attr(&d, root, "seed", &seed);
     if (seed) {
-        char *end;
-        errno = 0;
-        g->seed = strtoull(seed, &end, 10);
-        if (!isdigit((unsigned char)seed[0]) || *end || errno == ERANGE)
+        if (!wg_parse_whole(seed, &g->seed))
             rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(root), 0,
                                  "seed must be a whole number >= 0, not '%s'", seed);
         wg_free(seed);

@@ -70,6 +70,9 @@ void wg__value_clear(WgValue *v);
 /* Text form (for --set echo, info, dot). */
 void wg__value_format(const WgValue *v, char *buf, size_t size);
 int wg__color_parse(const char *text, float out[4]);
+/* Length of the unsigned decimal number at s (digits, optional fraction, optional exponent;
+ * no sign, no hex, no inf/nan), 0 when s does not start with one. */
+size_t wg__number_length(const char *s);
 const char *wg__type_name(WgParamType t);
 
 /* ---- loaded graph definitions ------------------------------------------------------------ */

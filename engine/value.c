@@ -86,12 +86,13 @@ int wg__color_parse(const char *text, float out[4])
         while (isspace((unsigned char)*p) || *p == ',') p++;
         if (!*p) break;
         if (n == 4) return -1;
-        char *end;
-        errno = 0;
-        v[n] = strtod(p, &end);
-        if (end == p || !(fabs(v[n]) <= FLT_MAX)) return -1; /* also what float cannot hold */
+        size_t len = (size_t)(*p == '+' || *p == '-');
+        len += len ? wg__number_length(p + 1) : wg__number_length(p);
+        if (len <= (size_t)(*p == '+' || *p == '-')) return -1;
+        v[n] = strtod(p, NULL);
+        if (!(fabs(v[n]) <= FLT_MAX)) return -1; /* also what float cannot hold */
         n++;
-        p = end;
+        p += len;
         if (*p && !isspace((unsigned char)*p) && *p != ',') return -1;
     }
     if (n == 1) {
@@ -106,15 +107,51 @@ int wg__color_parse(const char *text, float out[4])
     return 0;
 }
 
-static bool parse_double(const char *text, double *out)
+size_t wg__number_length(const char *s)
 {
+    const char *p = s;
+    size_t digits = 0;
+    while (isdigit((unsigned char)*p)) p++, digits++;
+    if (*p == '.') {
+        p++;
+        while (isdigit((unsigned char)*p)) p++, digits++;
+    }
+    if (!digits) return 0;
+    if (*p == 'e' || *p == 'E') {
+        const char *e = p + 1;
+        if (*e == '+' || *e == '-') e++;
+        if (isdigit((unsigned char)*e)) {
+            while (isdigit((unsigned char)*e)) e++;
+            p = e;
+        }
+    }
+    return (size_t)(p - s);
+}
+
+bool wg_parse_number(const char *text, double *out)
+{
+    const char *p = text + (*text == '+' || *text == '-');
+    size_t n = wg__number_length(p);
+    if (!n || p[n]) return false;
     char *end;
-    while (isspace((unsigned char)*text)) text++;
-    if (!*text) return false;
-    errno = 0;
-    *out = strtod(text, &end);
-    while (isspace((unsigned char)*end)) end++;
-    return *end == '\0';
+    double v = strtod(text, &end);
+    if (end != p + n || !isfinite(v)) return false;
+    *out = v;
+    return true;
+}
+
+bool wg_parse_whole(const char *text, uint64_t *out)
+{
+    if (!isdigit((unsigned char)*text)) return false;
+    uint64_t v = 0;
+    for (const char *p = text; *p; p++) {
+        if (!isdigit((unsigned char)*p)) return false;
+        unsigned d = (unsigned)(*p - '0');
+        if (v > (UINT64_MAX - d) / 10) return false;
+        v = v * 10 + d;
+    }
+    *out = v;
+    return true;
 }
 
 int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgError *err)
@@ -125,9 +162,20 @@ int wg__value_parse(const WgParamDesc *d, const char *text, WgValue *out, WgErro
     case WG_PARAM_FLOAT_T:
     case WG_PARAM_INT_T: {
         double v;
-        if (!parse_double(text, &v))
-            return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects a number, got '%s'", d->name,
-                                text);
+        if (!wg_parse_number(text, &v)) {
+            /* inf, nan and 1e999 read as numbers but not as finite ones: say so */
+            char *end;
+            double x = strtod(text, &end);
+            if (end != text && !*end && !isfinite(x) && !isspace((unsigned char)*text) &&
+                !strpbrk(text, "xX"))
+                return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' is %s, not a finite number",
+                                    d->name, isnan(x) ? "NaN" : "infinite");
+            return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects a number, got '%s'%s",
+                                d->name, text,
+                                strpbrk(text, "0123456789")
+                                    ? " (written in decimal, like -2, 0.5 or 1e-3, no spaces)"
+                                    : "");
+        }
         if (d->type == WG_PARAM_INT_T && isfinite(v) && v != floor(v))
             return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' expects a whole number, got '%s'",
                                 d->name, text);

@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /* The compiler of the `pixel` node: expression text -> row program (nodes/pixel_program.h).
  * The shared parser (engine/expr.c) builds the AST and resolves names through `resolve` below
- * (inputs, then extras, then graph scope, then u v x y). One recursive pass then type-checks
- * and lowers the tree: each subexpression is a number or a colour (four numbers, one value per
- * channel; arithmetic and the maths functions work per channel, broadcasting a number to the
- * four channels), every operation whose operands are all constants is folded at once with the
+ * (inputs, then extras, then graph scope, then u v x y). One pass over the tree in postorder
+ * (the order of the parser's node array: a loop, so flat chains of any length cost no stack)
+ * then type-checks and lowers it: each subexpression is a number or a colour (four numbers, one
+ * value per channel; arithmetic and the maths functions work per channel, broadcasting a number to
+ * the four channels), every operation whose operands are all constants is folded at once with the
  * scalar semantics of wg_expr_apply / wg_expr_call in double, and identical operations are
  * shared (hash-consing, so a channel read or a broadcast used twice is computed once). A
  * constant condition selects its branch. Afterwards dead values are dropped, the live ones are
@@ -219,11 +220,16 @@ typedef struct {
     const int *in_ch;
     const char *src;
     WgError *err;
+    const WgExprNode *nodes; /* the expression's nodes, in postorder */
+    struct Typed *typed;     /* per node: its lowered value */
+    int *first;              /* per node: the column where its subexpression starts */
+    int *index;              /* hash set of the values, for sharing: value + 1, 0 = free */
+    int index_cap;           /* a power of two, at least twice the values */
 } Compiler;
 
 /* A typed subexpression: n = 1 (number) or 4 (colour, one value per channel). `col` is the
  * column of the first thing that made it a colour, for error messages. */
-typedef struct {
+typedef struct Typed {
     int n;
     int c[4];
     int col;
@@ -258,6 +264,45 @@ static double fold(const Compiler *k, WgPxOp op, const double *a)
     return wg_expr_call((WgExprFunc)ops[op].fn, a, ops[op].nargs);
 }
 
+static uint32_t val_hash(WgPxOp op, const int *args, int nargs, int input, int channel,
+                         double value)
+{
+    uint64_t h = (uint64_t)op * 0x9E3779B97F4A7C15u;
+    h = (h ^ (uint32_t)input) * 0xBF58476D1CE4E5B9u;
+    h = (h ^ (uint32_t)channel) * 0x94D049BB133111EBu;
+    for (int i = 0; i < nargs; i++) h = (h ^ (uint32_t)args[i]) * 0x9E3779B97F4A7C15u;
+    if (op == WG_PX_CONST) {
+        uint64_t bits;
+        memcpy(&bits, &value, sizeof bits);
+        h = (h ^ bits) * 0xBF58476D1CE4E5B9u;
+    }
+    return (uint32_t)(h ^ h >> 31 ^ h >> 47);
+}
+
+static uint32_t hash_of(const WgPxVal *v)
+{
+    return val_hash(v->op, v->args, v->nargs, v->input, v->channel, v->value);
+}
+
+/* Make room in the hash set for one more value; false when out of memory. */
+static bool index_reserve(Compiler *k)
+{
+    const WgPxProgram *p = k->p;
+    if ((p->n_vals + 1) * 2 <= k->index_cap) return true;
+    int cap = k->index_cap ? 2 * k->index_cap : 256;
+    int *index = wg_calloc((size_t)cap, sizeof(int));
+    if (!index) return false;
+    for (int i = 0; i < p->n_vals; i++) {
+        uint32_t h = hash_of(&p->vals[i]) & (uint32_t)(cap - 1);
+        while (index[h]) h = (h + 1) & (uint32_t)(cap - 1);
+        index[h] = i + 1;
+    }
+    wg_free(k->index);
+    k->index = index;
+    k->index_cap = cap;
+    return true;
+}
+
 /* Append a value (or find an identical one); returns its index, -1 when out of memory. */
 static int emit(Compiler *k, WgPxOp op, const int *args, int input, int channel, double value)
 {
@@ -276,7 +321,11 @@ static int emit(Compiler *k, WgPxOp op, const int *args, int input, int channel,
         int square[2] = {args[0], args[0]}; /* x^2 is x*x: both correctly rounded */
         return emit(k, WG_PX_MUL, square, 0, 0, 0);
     }
-    for (int i = 0; i < p->n_vals; i++) {
+    if (!index_reserve(k)) return -1;
+    uint32_t mask = (uint32_t)k->index_cap - 1,
+             h = val_hash(op, args, nargs, input, channel, value);
+    for (h &= mask; k->index[h]; h = (h + 1) & mask) {
+        int i = k->index[h] - 1;
         const WgPxVal *v = &p->vals[i];
         if (v->op != op || v->input != input || v->channel != channel) continue;
         if (op == WG_PX_CONST && memcmp(&v->value, &value, sizeof value)) continue;
@@ -320,6 +369,7 @@ static int emit(Compiler *k, WgPxOp op, const int *args, int input, int channel,
             if (p->vals[args[i]].cls > v->cls) v->cls = p->vals[args[i]].cls;
         }
     }
+    k->index[h] = p->n_vals + 1;
     return p->n_vals++;
 }
 
@@ -364,14 +414,15 @@ static void token_at(const Compiler *k, int column, char *buf, size_t size)
 }
 
 /* Column where a subexpression starts (a binary node's own column is its operator). */
-static int first_column(const WgExprNode *e)
+static int first_column(const Compiler *k, const WgExprNode *e)
 {
-    int c = e->column;
-    for (int i = 0; i < e->nargs; i++) {
-        int a = first_column(e->args[i]);
-        if (a < c) c = a;
-    }
-    return c;
+    return k->first[e - k->nodes];
+}
+
+/* The lowered value of operand i of e (lowered before e: postorder). */
+static const Typed *operand(const Compiler *k, const WgExprNode *e, int i)
+{
+    return &k->typed[e->args[i] - k->nodes];
 }
 
 static int need_number(Compiler *k, const Typed *t, const char *where)
@@ -384,8 +435,6 @@ static int need_number(Compiler *k, const Typed *t, const char *where)
                     "'c': c.r, c.g, c.b or c.a)",
                     tok, where);
 }
-
-static int lower(Compiler *k, const WgExprNode *e, Typed *out);
 
 static int lower_var(Compiler *k, const WgExprNode *e, Typed *out)
 {
@@ -432,7 +481,7 @@ static int lower_call(Compiler *k, const WgExprNode *e, Typed *out)
         int cls = src->op == WG_EX_VAR ? src->slot & SLOT_CLASS : 0;
         if (cls != SLOT_INPUT && cls != SLOT_CHANNEL) {
             char what[120];
-            int column = first_column(src);
+            int column = first_column(k, src);
             if (src->op == WG_EX_VAR) {
                 char tok[80];
                 token_at(k, column, tok, sizeof tok);
@@ -449,7 +498,7 @@ static int lower_call(Compiler *k, const WgExprNode *e, Typed *out)
                             what);
         }
         for (int i = 1; i < 3; i++) {
-            if ((rc = lower(k, e->args[i], &a[i]))) return rc;
+            a[i] = *operand(k, e, i);
             if ((rc = need_number(k, &a[i],
                                   i == 1 ? "the u coordinate of sample()"
                                          : "the v coordinate of sample()")))
@@ -470,8 +519,7 @@ static int lower_call(Compiler *k, const WgExprNode *e, Typed *out)
             if (out->c[j] < 0) return nomem(k);
         return WG_OK;
     }
-    for (int i = 0; i < e->nargs; i++)
-        if ((rc = lower(k, e->args[i], &a[i]))) return rc;
+    for (int i = 0; i < e->nargs; i++) a[i] = *operand(k, e, i);
     if (e->func == WG_FN_NOISE || e->func == WG_FN_RGB || e->func == WG_FN_RGBA) {
         for (int i = 0; i < e->nargs; i++) {
             snprintf(where, sizeof where, "argument %d of %s()", i + 1, fname);
@@ -505,10 +553,12 @@ static int lower_call(Compiler *k, const WgExprNode *e, Typed *out)
     return emit_map(k, (WgPxOp)op, a, e->nargs, out);
 }
 
-static int lower(Compiler *k, const WgExprNode *e, Typed *out)
+/* Lower one node whose operands are lowered. */
+static int lower_node(Compiler *k, const WgExprNode *e, Typed *out)
 {
     Typed a[3];
     int rc;
+    for (int i = 0; i < e->nargs && i < 3 && e->op != WG_EX_CALL; i++) a[i] = *operand(k, e, i);
     switch (e->op) {
     case WG_EX_NUM:
         out->n = 1;
@@ -519,8 +569,6 @@ static int lower(Compiler *k, const WgExprNode *e, Typed *out)
     case WG_EX_CALL:
         return lower_call(k, e, out);
     case WG_EX_COND: {
-        for (int i = 0; i < 3; i++)
-            if ((rc = lower(k, e->args[i], &a[i]))) return rc;
         if ((rc = need_number(k, &a[0], "the condition of '?:'"))) return rc;
         if (a[1].n != a[2].n) {
             const Typed *col = a[1].n == 4 ? &a[1] : &a[2];
@@ -540,17 +588,13 @@ static int lower(Compiler *k, const WgExprNode *e, Typed *out)
         return emit_map(k, WG_PX_SELECT, a, 3, out);
     }
     case WG_EX_NEG:
-        if ((rc = lower(k, e->args[0], &a[0]))) return rc;
         return emit_map(k, WG_PX_NEG, a, 1, out);
     case WG_EX_NOT:
-        if ((rc = lower(k, e->args[0], &a[0]))) return rc;
         if ((rc = need_number(k, &a[0], "'!'"))) return rc;
         return emit_map(k, WG_PX_NOT, a, 1, out);
     default: {
         int op = binary_op(e->op);
         if (op < 0) return error_at(k, WG_ERR_TYPE, e->column, "internal: bad operator");
-        for (int i = 0; i < 2; i++)
-            if ((rc = lower(k, e->args[i], &a[i]))) return rc;
         if (op >= WG_PX_LT && op <= WG_PX_OR) {
             char where[64];
             snprintf(where, sizeof where, "'%s'", op_text(e->op));
@@ -560,6 +604,42 @@ static int lower(Compiler *k, const WgExprNode *e, Typed *out)
         return emit_map(k, (WgPxOp)op, a, 2, out);
     }
     }
+}
+
+/* Lower the whole tree, operands before the operations that read them, into *out. The first
+ * argument of sample() only names an input: its subtree is not lowered. */
+static int lower(Compiler *k, const WgExpr *x, Typed *out)
+{
+    int n = x->count_;
+    const WgExprNode *nodes = x->nodes_;
+    bool *skip = wg_calloc((size_t)n + 1, sizeof(bool));
+    k->nodes = nodes;
+    k->typed = wg_calloc((size_t)n + 1, sizeof(Typed));
+    k->first = wg_calloc((size_t)n + 1, sizeof(int));
+    int rc = skip && k->typed && k->first ? WG_OK : nomem(k);
+    for (int i = 0; i < n && !rc; i++) {
+        k->first[i] = nodes[i].column;
+        for (int j = 0; j < nodes[i].nargs; j++) {
+            int c = k->first[nodes[i].args[j] - nodes];
+            if (c < k->first[i]) k->first[i] = c;
+        }
+    }
+    for (int i = n - 1; i >= 0 && !rc; i--) { /* parents first */
+        const WgExprNode *e = &nodes[i];
+        if (skip[i])
+            for (int j = 0; j < e->nargs; j++) skip[e->args[j] - nodes] = true;
+        else if (e->op == WG_EX_CALL && e->func == WG_FN_SAMPLE)
+            skip[e->args[0] - nodes] = true;
+    }
+    for (int i = 0; i < n && !rc; i++)
+        if (!skip[i]) rc = lower_node(k, &nodes[i], &k->typed[i]);
+    if (!rc) *out = k->typed[n - 1];
+    wg_free(skip);
+    wg_free(k->typed);
+    wg_free(k->first);
+    k->typed = NULL;
+    k->first = NULL;
+    return rc;
 }
 
 /* ---- after lowering: liveness, classes, registers ---------------------------------------- */
@@ -681,7 +761,7 @@ int wg__px_compile(const WgNodeContext *ctx, const char *src, int out_channels,
     }
     Compiler k = {p, ctx, in_ch, e->source, err};
     Typed t;
-    rc = lower(&k, e->root, &t);
+    rc = lower(&k, e, &t);
     if (!rc && t.n == 4 && out_channels == 1) {
         char tok[80];
         token_at(&k, t.col, tok, sizeof tok);
@@ -701,6 +781,7 @@ int wg__px_compile(const WgNodeContext *ctx, const char *src, int out_channels,
         }
     }
     if (!rc) rc = finish(&k);
+    wg_free(k.index);
     wg_expr_free(e);
     if (rc) {
         wg__px_free(p);

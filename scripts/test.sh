@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Install dependencies, build, and run the whole test suite twice: the optimised build, then an
-# address+undefined sanitizer build (skip it with WETGRAPH_NO_SANITIZE=1). Ends with one line
+# address+undefined sanitizer build (skip it with WETGRAPH_NO_SANITIZE=1); then run each libFuzzer
+# target of tests/fuzz for WETGRAPH_FUZZ_SECONDS (default 20) through scripts/fuzz.sh, each one
+# test that fails on a crash (skip them with WETGRAPH_NO_FUZZ=1). Ends with one line
 # "tests: N passed, M failed" and a non-zero exit if anything failed.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -36,6 +38,16 @@ if [[ "${WETGRAPH_NO_SANITIZE:-0}" != 1 ]]; then
     export LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp
     export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
     run_suite build-sanitize --buildtype=debugoptimized -Db_sanitize=address,undefined -Db_lundef=false
+fi
+if [[ "${WETGRAPH_NO_FUZZ:-0}" != 1 ]]; then
+    fuzz_line=$(scripts/fuzz.sh "${WETGRAPH_FUZZ_SECONDS:-20}" | tail -1)
+    echo "$fuzz_line"
+    if [[ $fuzz_line =~ ^fuzz:\ ([0-9]+)\ passed,\ ([0-9]+)\ failed$ ]]; then
+        passed=$((passed + BASH_REMATCH[1]))
+        failed=$((failed + BASH_REMATCH[2]))
+    else
+        failed=$((failed + 1))
+    fi
 fi
 echo "tests: $passed passed, $failed failed"
 [[ $failed -eq 0 ]]

@@ -608,6 +608,79 @@ static void test_damaged_images_one_clear_line(void **state)
     for (int i = 0; i < 3; i++) rm_rf(at(dirs[i]));
 }
 
+/* Numbers on the command line follow the graph file's rules: decimal only, no spaces, no hex,
+ * no inf or nan, nothing clamped; every refusal is a usage error (2) and names the option. */
+static void test_numeric_options_are_strict(void **state)
+{
+    (void)state;
+    rm_rf(at("num"));
+    static const struct {
+        const char *args, *msg;
+    } bad[] = {
+        {"--seed 99999999999999999999999", "bad --seed '99999999999999999999999' (a whole number "
+                                           "from 0 to 18446744073709551615"},
+        {"--seed 18446744073709551616", "bad --seed '18446744073709551616'"},
+        {"--seed -1", "bad --seed '-1'"},
+        {"--seed ' 5'", "bad --seed ' 5'"},
+        {"--seed 0x10", "bad --seed '0x10'"},
+        {"--seed 5.0", "bad --seed '5.0'"},
+        {"--set level=0x10", "--set level=0x10: 'level' expects a number, got '0x10' (written in "
+                             "decimal"},
+        {"--set 'level= 0.5'", "'level' expects a number, got ' 0.5'"},
+        {"--set 'level=0.5 '", "'level' expects a number, got '0.5 '"},
+        {"--set level=nan", "'level' is NaN, not a finite number"},
+        {"--set level=-inf", "'level' is infinite, not a finite number"},
+        {"--set level=1e999", "'level' is infinite, not a finite number"},
+        {"--set level==0x1", "--set level==0x1: unexpected letter after a number"},
+        {"--time 0x1", "bad --time '0x1' (a finite decimal number"},
+        {"--time ' 1'", "bad --time ' 1'"},
+        {"--time nan", "bad --time 'nan'"},
+        {"--time inf", "bad --time 'inf'"},
+        {"--time 1e400", "bad --time '1e400'"},
+        {"--threads ' 2'", "bad --threads ' 2' (a whole number, 1..256)"},
+        {"--threads +2", "bad --threads '+2'"},
+        {"--threads 2.0", "bad --threads '2.0'"},
+        {"--threads 99999999999999999999", "bad --threads '99999999999999999999'"},
+        {"--memory-budget 0x40", "bad --memory-budget '0x40' (MiB, a decimal number"},
+        {"--memory-budget ' 64'", "bad --memory-budget ' 64'"},
+        {"--memory-budget inf", "bad --memory-budget 'inf'"},
+        {"--memory-budget nan", "bad --memory-budget 'nan'"},
+        {"--size ' 8'", "bad --size ' 8'"},
+        {"--size +8", "bad --size '+8'"},
+        {"--size 8x+8", "bad --size '8x+8'"},
+        {"--size 99999999999999999999", "bad --size '99999999999999999999'"},
+    };
+    enum { N_BAD = sizeof bad / sizeof bad[0] };
+    Cmd c[N_BAD + 1];
+    char args[N_BAD + 1][200];
+    for (int i = 0; i < N_BAD; i++) {
+        snprintf(args[i], sizeof args[i], "render g.wetgraph -o num %s", bad[i].args);
+        c[i] = (Cmd){args[i]};
+    }
+    /* the edges of what is allowed */
+    snprintf(args[N_BAD], sizeof args[N_BAD],
+             "render g.wetgraph -o num -q --output time --output mask --seed 18446744073709551615 "
+             "--set level=.25 --time -1.5e0 --threads 1 --memory-budget 64.5 --size 4x2");
+    c[N_BAD] = (Cmd){args[N_BAD]};
+    run_batch(c, N_BAD + 1);
+    for (int i = 0; i < N_BAD; i++) {
+        expect_status(&c[i], 2);
+        ERR_HAS(&c[i], bad[i].msg);
+        assert_string_equal(c[i].out, "");
+    }
+    expect_status(&c[N_BAD], 0);
+    assert_int_equal(count_files(at("num")), 2);
+    WgImage *img = read_image(at("num/g_time.exr"));
+    assert_int_equal(img->width, 4);
+    assert_true(wgt_px(img, 0, 0, 0) == -1.5f);
+    wg_image_unref(img);
+    img = read_image(at("num/g_mask.png"));
+    assert_float_equal(wgt_px(img, 0, 0, 0), 0.25, 1.0 / 65535);
+    wg_image_unref(img);
+    free_batch(c, N_BAD + 1);
+    rm_rf(at("num"));
+}
+
 static void test_cache_option(void **state)
 {
     (void)state;
@@ -747,6 +820,7 @@ int main(void)
         cmocka_unit_test(test_render_outputs_and_options),
         cmocka_unit_test(test_render_failures_write_nothing),
         cmocka_unit_test(test_damaged_images_one_clear_line),
+        cmocka_unit_test(test_numeric_options_are_strict),
         cmocka_unit_test(test_cache_option),
         cmocka_unit_test(test_inspection_commands),
     };

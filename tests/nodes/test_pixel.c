@@ -1034,6 +1034,37 @@ static void test_compiled_program(void **state)
     wg__px_free(p);
 }
 
+/* A flat chain is a loop for the compiler, not recursion: 50,000 terms compile (sharing through
+ * a hash set, so in linear time) and render; nesting is limited by the parser. */
+static void test_long_expressions(void **state)
+{
+    (void)state;
+    enum { TERMS = 50000 };
+    size_t cap = 8 * TERMS + 512;
+    char *xml = malloc(cap), *p = xml;
+    assert_non_null(xml);
+    p += sprintf(p, "<wetgraph version=\"1\" size=\"8x2\">\n"
+                    "  <node id=\"n\" type=\"pixel\" expr=\"x");
+    for (int i = 1; i < TERMS; i++) p += sprintf(p, i % 2 ? " + x" : " - y");
+    sprintf(p, "\"/>\n  <output name=\"out\" from=\"n\"/>\n</wetgraph>\n");
+    WgImage *o = render_xml(xml, 0, NULL, NULL, 2);
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 8; i++)
+            assert_float_equal(at(o, i, j), (TERMS / 2 + 1) * i - (TERMS / 2 - 1) * j, 0);
+    wg_image_unref(o);
+    free(xml);
+    /* each term is a new value: x, x + x, x + x - y, ... (y and the differences are uniform) */
+    char *src = malloc(6 * TERMS);
+    assert_non_null(src);
+    p = src + sprintf(src, "x");
+    for (int i = 1; i < TERMS; i++) p += sprintf(p, "+x");
+    WgPxProgram *prog = compile(src, 1);
+    assert_int_equal(prog->n_varying, TERMS);
+    assert_int_equal(prog->n_regs, 3); /* x, the sum so far, the next sum */
+    wg__px_free(prog);
+    free(src);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1051,6 +1082,7 @@ int main(void)
         cmocka_unit_test(test_thread_count_invariance),
         cmocka_unit_test(test_cache_key),
         cmocka_unit_test(test_compiled_program),
+        cmocka_unit_test(test_long_expressions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

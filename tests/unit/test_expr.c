@@ -1,8 +1,11 @@
 /* SPDX-License-Identifier: MIT */
-/* Expressions: precedence, functions, floored modulo, errors with columns. */
+/* Expressions: precedence, functions, floored modulo, errors with columns, and the limits: flat
+ * chains of any length up to WG_EXPR_MAX_LENGTH characters evaluate, nesting deeper than
+ * WG_EXPR_MAX_DEPTH levels is refused with a message that says so. */
 #include "wgtest.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 static bool resolve_ab(void *user, const char *name, size_t len, int *slot)
@@ -123,21 +126,120 @@ static void test_errors_have_columns(void **state)
     parse_fails("", 1, "empty expression");
     parse_fails("sample(a, 0, 0)", 1, "only available in the pixel node");
     parse_fails("3x", 2, "unexpected letter after a number");
+    parse_fails("0x10", 2, "unexpected letter after a number"); /* decimal only, as values */
+    parse_fails("2 * 1e999", 5, "number too large");
     parse_fails("a ? 1", 6, "expected ':'");
     parse_fails("sin", 1, "is a function");
 }
 
-static void test_deep_nesting_is_an_error_not_a_crash(void **state)
+/* A growing text buffer. */
+typedef struct {
+    char *s;
+    size_t n, cap;
+} Text;
+
+static void put(Text *t, const char *piece)
+{
+    size_t k = strlen(piece);
+    if (t->n + k + 1 > t->cap) {
+        t->cap = (t->n + k + 1) * 2;
+        t->s = realloc(t->s, t->cap);
+        assert_non_null(t->s);
+    }
+    memcpy(t->s + t->n, piece, k + 1);
+    t->n += k;
+}
+
+/* `open` `depth` times, then `mid`, then `close` `depth` times. */
+static char *nest(const char *open, const char *mid, const char *close, int depth)
+{
+    Text t = {0};
+    put(&t, "");
+    for (int i = 0; i < depth; i++) put(&t, open);
+    put(&t, mid);
+    for (int i = 0; i < depth; i++) put(&t, close);
+    return t.s;
+}
+
+static void test_flat_chains_of_any_length(void **state)
 {
     (void)state;
-    char src[5000];
-    memset(src, '(', 2000);
-    strcpy(src + 2000, "1");
-    WgExprOptions opt = {resolve_ab, NULL, false};
-    WgExpr *e = NULL;
-    WgError err = {0};
-    assert_int_equal(wg_expr_parse(src, &opt, &e, &err), WG_ERR_PARSE);
-    assert_non_null(strstr(err.message, "nested too deeply"));
+    /* a flat sum of 50,000 terms: as deep as a sum of two */
+    Text t = {0};
+    put(&t, "1");
+    for (int i = 1; i < 50000; i++) put(&t, "+1");
+    assert_float_equal(eval(t.s), 50000, 0);
+    /* every binary level as a long chain, with variables and calls as terms */
+    t.n = 0;
+    put(&t, "0");
+    for (int i = 0; i < 20000; i++)
+        put(&t, i % 4 == 0   ? " + a * b"
+                : i % 4 == 1 ? " - min(a, b, 1, 2) / 2"
+                : i % 4 == 2 ? " + (a < b) * (b > a) * 1"
+                             : " - 0.5 * (a == 2 && b != 2 || 0)");
+    /* per 4 terms: 6 - 0.5 + 1 - 0.5 = 6 */
+    assert_float_equal(eval(t.s), 5000 * 6, 1e-9);
+    t.n = 0;
+    put(&t, "1");
+    for (int i = 0; i < 30000; i++) put(&t, " * 1 == 1 && 1 || 0");
+    assert_float_equal(eval(t.s), 1, 0);
+    free(t.s);
+}
+
+static void test_nesting_limit(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *open, *mid, *close;
+        double at_limit; /* the value with WG_EXPR_MAX_DEPTH levels */
+    } kinds[] = {
+        {"(", "1", ")", 1},
+        {"1 + (", "1", ")", WG_EXPR_MAX_DEPTH + 1},
+        {"-", "1", "", 1}, /* an even number of minus signs */
+        {"abs(", "0.5 - 1.5", ")", 1},
+        {"max(0, 1, 2, ", "3", ")", 3}, /* each level waits on three values */
+        {"2 ^ ", "1", "", INFINITY},
+        {"a > 100 ? 1 : ", "5", "", 5},
+    };
+    for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
+        char *src = nest(kinds[k].open, kinds[k].mid, kinds[k].close, WG_EXPR_MAX_DEPTH);
+        double v = eval(src);
+        if (k == 5)
+            assert_true(isinf(v)); /* 2 ^ 2 ^ ... ^ 1 overflows */
+        else
+            assert_float_equal(v, kinds[k].at_limit, 0);
+        free(src);
+        src = nest(kinds[k].open, kinds[k].mid, kinds[k].close, WG_EXPR_MAX_DEPTH + 1);
+        WgExprOptions opt = {resolve_ab, NULL, false};
+        WgExpr *e = NULL;
+        WgError err = {0};
+        assert_int_equal(wg_expr_parse(src, &opt, &e, &err), WG_ERR_PARSE);
+        assert_null(e);
+        if (!strstr(err.message, "expression nested more than 200 levels deep (parentheses, "
+                                 "function calls, unary operators"))
+            fail_msg("'%.40s...': %s", src, err.message);
+        free(src);
+    }
+    /* 2000 parentheses: refused at the first level too many, not a crash */
+    char *src = nest("(", "1", "", 2000);
+    parse_fails(src, WG_EXPR_MAX_DEPTH + 2, "nested more than 200 levels deep");
+    free(src);
+}
+
+static void test_length_limit(void **state)
+{
+    (void)state;
+    char *src = malloc(WG_EXPR_MAX_LENGTH + 2);
+    assert_non_null(src);
+    /* "1+1+...+1" of exactly the limit: accepted */
+    for (int i = 0; i < WG_EXPR_MAX_LENGTH; i++) src[i] = i % 2 ? '+' : '1';
+    src[WG_EXPR_MAX_LENGTH - 1] = ' ';
+    src[WG_EXPR_MAX_LENGTH] = '\0';
+    assert_float_equal(eval(src), WG_EXPR_MAX_LENGTH / 2, 0);
+    src[WG_EXPR_MAX_LENGTH] = '1';
+    src[WG_EXPR_MAX_LENGTH + 1] = '\0';
+    parse_fails(src, 1, "expression too long: 1000001 characters, at most 1000000");
+    free(src);
 }
 
 int main(void)
@@ -149,7 +251,9 @@ int main(void)
         cmocka_unit_test(test_functions),
         cmocka_unit_test(test_ieee_division),
         cmocka_unit_test(test_errors_have_columns),
-        cmocka_unit_test(test_deep_nesting_is_an_error_not_a_crash),
+        cmocka_unit_test(test_flat_chains_of_any_length),
+        cmocka_unit_test(test_nesting_limit),
+        cmocka_unit_test(test_length_limit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -411,6 +411,39 @@ static void test_malformed_literals(void **state)
                "  <output name=\"o\" from=\"u\"/>\n"
                "</wetgraph>\n",
                WG_ERR_TYPE, 2, "'value' expects a number, got ''");
+    /* numbers are decimal, without spaces: hex, padding and inf/nan words are refused */
+    static const char *const not_decimal[] = {"0x10", " 0.5", "0.5 ", "1e", "+-1", "0x1p3"};
+    for (size_t i = 0; i < sizeof not_decimal / sizeof *not_decimal; i++) {
+        char xml[256], msg[128];
+        snprintf(xml, sizeof xml,
+                 "<wetgraph version=\"1\">\n"
+                 "  <param name=\"a\" type=\"float\" default=\"%s\"/>\n"
+                 "</wetgraph>\n",
+                 not_decimal[i]);
+        snprintf(msg, sizeof msg, "'a' expects a number, got '%s' (written in decimal",
+                 not_decimal[i]);
+        load_fails(xml, WG_ERR_TYPE, 2, msg);
+    }
+    load_fails("<wetgraph version=\"1\">\n"
+               "  <node id=\"u\" type=\"uniform\" kind=\"color\" color=\"0x1 0 0\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_TYPE, 2, "'color' expects a colour");
+    load_fails("<wetgraph version=\"1\" size=\" 8\">\n"
+               "  <node id=\"u\" type=\"uniform\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 1, "bad graph size ' 8'");
+    load_fails("<wetgraph version=\"1\" size=\"8\">\n"
+               "  <node id=\"u\" type=\"uniform\" size=\"x 2\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 2, "node 'u': bad size 'x 2'");
+    load_fails("<wetgraph version=\"1\" seed=\"18446744073709551616\">\n"
+               "  <node id=\"u\" type=\"uniform\" seed=\"18446744073709551615\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 1, "seed must be a whole number >= 0, not '18446744073709551616'");
     /* float, as a graph parameter default */
     load_fails("<wetgraph version=\"1\">\n"
                "  <param name=\"a\" type=\"float\" default=\"1,5\"/>\n"
@@ -494,7 +527,7 @@ static void test_good_literals(void **state)
                  "  <param name=\"b1\" type=\"bool\" default=\"yes\"/>\n"
                  "  <param name=\"b2\" type=\"bool\" default=\"0\"/>\n"
                  "  <param name=\"i\" type=\"int\" default=\"-3\"/>\n"
-                 "  <param name=\"f\" type=\"float\" default=\" 1e-3 \"/>\n"
+                 "  <param name=\"f\" type=\"float\" default=\"1e-3\"/>\n"
                  "  <param name=\"c1\" type=\"color\" default=\"#abc\"/>\n"
                  "  <param name=\"c2\" type=\"color\" default=\"#aabbccdd\"/>\n"
                  "  <param name=\"c3\" type=\"color\" default=\"0.1, 0.2, 0.3\"/>\n"

@@ -16,9 +16,12 @@
  * the callers decide what to do with non-finite results (parameters reject them).
  *
  * The parser resolves every name through a callback, so each caller decides what is in scope,
- * and reports errors with a 1-based column inside the source text. Nesting deeper than 200
- * levels, and trees more than 1000 operations tall (a chain like 1 + 1 + ... is as tall as it
- * is long), are errors, so evaluating an expression never exhausts the stack. */
+ * and reports errors with a 1-based column inside the source text. An expression is at most
+ * WG_EXPR_MAX_LENGTH characters long, and nests at most WG_EXPR_MAX_DEPTH levels deep: each
+ * parenthesis, function argument list, unary operator, '^' exponent and '?:' branch inside
+ * another is one level, while a chain of binary operators at one level (1 + 1 + ... + 1, of any
+ * length) is not nesting. The nodes array holds the tree in postorder (every node after its
+ * operands, the root last), so evaluators can walk it with a loop instead of recursing. */
 #ifndef WETGRAPH_EXPR_H
 #define WETGRAPH_EXPR_H
 
@@ -28,6 +31,9 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+#define WG_EXPR_MAX_LENGTH 1000000 /* characters */
+#define WG_EXPR_MAX_DEPTH 200      /* nesting levels */
 
 typedef enum {
     WG_EX_NUM, /* value */
@@ -99,7 +105,7 @@ struct WgExprNode {
 typedef struct WgExpr {
     WgExprNode *root;
     char *source;
-    /* private: */
+    /* private (the tree in postorder, root last; see above): */
     WgExprNode *nodes_;
     int count_, cap_;
 } WgExpr;
