@@ -287,15 +287,23 @@ static int png_check(const char *path, bool whole, char *msg, size_t size)
     return rc;
 }
 
-int wg_image_probe(const char *path, int *width, int *height, int *channels, WgError *err)
+/* Image files are regular files: a FIFO or a device would block the decoder or never end. */
+static int check_regular(const char *path, WgError *err)
 {
-    char msg[512];
     struct stat st;
     if (stat(path, &st) != 0)
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot open the image: %s",
                                strerror(errno));
     if (!S_ISREG(st.st_mode))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "not a regular file");
+    return WG_OK;
+}
+
+int wg_image_probe(const char *path, int *width, int *height, int *channels, WgError *err)
+{
+    char msg[512];
+    int rc = check_regular(path, err);
+    if (rc) return rc;
     if (png_check(path, false, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (wg__oiio_probe(path, width, height, channels, msg, sizeof msg))
@@ -348,19 +356,14 @@ static void convert_row(const float *src, int c, WgColorspace cs, float *dst, in
 
 int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
 {
-    struct stat st;
-    if (stat(path, &st) != 0)
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot open the image: %s",
-                               strerror(errno));
-    if (!S_ISREG(st.st_mode))
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "not a regular file");
+    int rc = check_regular(path, err);
+    if (rc) return rc;
     char msg[512];
     WgOiioIn *in;
     int w, h, c;
     if (png_check(path, true, msg, sizeof msg) ||
         wg__oiio_open(path, &in, &w, &h, &c, NULL, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-    int rc = WG_OK;
     float *buf = NULL;
     if (w != dst->width || h != dst->height) {
         rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0,
