@@ -55,9 +55,7 @@ static bool number(const char *s, const char *end, double *out)
     if (len == 0 || len >= sizeof buf) return false;
     memcpy(buf, s, len);
     buf[len] = '\0';
-    char *stop;
-    *out = strtod(buf, &stop);
-    return stop == buf + len && !isspace((unsigned char)buf[0]) && fabs(*out) <= FLT_MAX;
+    return wg_parse_number(buf, out) && fabs(*out) <= FLT_MAX;
 }
 
 static int hex_digit(int c)

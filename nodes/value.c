@@ -62,9 +62,7 @@ static bool number(const char *s, const char *end, double *out)
     if (len == 0 || len >= sizeof buf) return false;
     memcpy(buf, s, len);
     buf[len] = '\0';
-    char *stop;
-    *out = strtod(buf, &stop);
-    return stop == buf + len && !isspace((unsigned char)buf[0]);
+    return wg_parse_number(buf, out);
 }
 
 /* Parse "x:y ..." into c (sorted by x), and compute the Fritsch–Carlson tangents. */

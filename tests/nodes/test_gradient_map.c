@@ -155,6 +155,8 @@ static void test_malformed_keys(void **state)
     ct_fails("gradient_map", "keys=\"0:nan\"", in, WG_ERR_PARSE, "bad colour 'nan'");
     ct_fails("gradient_map", "keys=\"inf:#fff\"", in, WG_ERR_PARSE, "key 1");
     ct_fails("gradient_map", "keys=\"0:1e39\"", in, WG_ERR_PARSE, "bad colour '1e39'");
+    ct_fails("gradient_map", "keys=\"0x0:#fff\"", in, WG_ERR_PARSE, "key 1");
+    ct_fails("gradient_map", "keys=\"0:0x1\"", in, WG_ERR_PARSE, "bad colour '0x1'");
     ct_fails("gradient_map", "keys=\"\"", in, WG_ERR_PARSE, "at least one key");
     wg_image_unref(in);
     /* a colour image on the gray input is a graph error */

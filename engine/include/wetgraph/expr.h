@@ -27,10 +27,20 @@
 
 #include "error.h"
 #include <stdbool.h>
+#include <stdint.h>
 
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* Parse a finite decimal number as graph files write them: an optional sign, digits with an
+ * optional fraction, an optional exponent (-2, 0.5, .5, 1e-3). No spaces, hex, inf or nan;
+ * false when malformed or beyond the range of a double. Nodes use it for numbers inside their
+ * string parameters, so those follow the file's rules too. */
+bool wg_parse_number(const char *text, double *out);
+/* Parse a whole number >= 0 in decimal digits only, up to 2^64-1 (seeds); false when
+ * malformed or larger. */
+bool wg_parse_whole(const char *text, uint64_t *out);
 
 #define WG_EXPR_MAX_LENGTH 1000000 /* characters */
 #define WG_EXPR_MAX_DEPTH 200      /* nesting levels */

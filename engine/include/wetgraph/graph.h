@@ -86,13 +86,6 @@ int wg_graph_write_dot(const WgGraph *g, FILE *f);
 
 /* Parse "N" or "WxH" (sides 1..WG_MAX_SIDE); false when malformed or out of range. */
 bool wg_parse_size(const char *text, int *width, int *height);
-/* Parse a finite decimal number as graph files write them: an optional sign, digits with an
- * optional fraction, an optional exponent (-2, 0.5, .5, 1e-3). No spaces, hex, inf or nan;
- * false when malformed or beyond the range of a double. */
-bool wg_parse_number(const char *text, double *out);
-/* Parse a whole number >= 0 in decimal digits only, up to 2^64-1 (seeds); false when
- * malformed or larger. */
-bool wg_parse_whole(const char *text, uint64_t *out);
 
 /* Folder of the built-in graph library used as the last search location. */
 const char *wg_builtin_graphs_dir(void);
