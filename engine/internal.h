@@ -259,6 +259,13 @@ int wg__pool_threads(const WgPool *p);
 int wg__pool_submit(WgPool *p, WgJobFn fn, void *user);
 int wg__pool_rows(WgPool *p, volatile int *cancel, int height, WgRowsFn fn, void *user);
 
+/* ---- PNG checking (png_check.c) -------------------------------------------------------- */
+
+/* 0 when `path` is not a PNG or is one libpng will read without complaint (structure and CRCs
+ * up to the first IDAT, or with `whole` to IEND plus the image data itself); -1 with a one-line
+ * message saying what is damaged and where. */
+int wg__png_check(const char *path, bool whole, char *msg, size_t size);
+
 /* ---- temporaries (io.c) ----------------------------------------------------------------- */
 
 /* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */

@@ -8,11 +8,8 @@
  * replaced together or (barring a failing rename in that loop) not at all. The temporaries'
  * names carry the writer's process id, so the ones a killed process left can be told from a
  * running writer's and removed.
- * PNG files are checked here before the library sees them: the chunk structure (lengths,
- * CRC-32 of every chunk, IHDR first, IEND present) up to the first IDAT chunk when probing and
- * to IEND when reading. libpng prints its errors to stderr itself ("libpng error: ...") before
- * OpenImageIO gets them, so a truncated or damaged file must be refused before libpng runs; the
- * check also gives the byte offset of the damage. */
+ * PNG files are checked (png_check.c) before the library sees them, because libpng prints its
+ * own errors to stderr. */
 #include "internal.h"
 
 #include <dirent.h>
@@ -185,108 +182,6 @@ bool wg__hash_file(const char *path, uint64_t out[2])
     return ok;
 }
 
-static uint32_t crc_table[256];
-static pthread_once_t crc_once = PTHREAD_ONCE_INIT;
-
-static void crc_table_build(void)
-{
-    for (uint32_t n = 0; n < 256; n++) {
-        uint32_t c = n;
-        for (int k = 0; k < 8; k++) c = c & 1 ? 0xedb88320u ^ (c >> 1) : c >> 1;
-        crc_table[n] = c;
-    }
-}
-
-static uint32_t crc_update(uint32_t crc, const unsigned char *p, size_t n)
-{
-    for (size_t i = 0; i < n; i++) crc = crc_table[(crc ^ p[i]) & 0xff] ^ (crc >> 8);
-    return crc;
-}
-
-static uint32_t be32(const unsigned char *p)
-{
-    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
-}
-
-/* The chunk structure of a PNG file (PNG specification, section 5), up to the first IDAT chunk
- * or, with `whole`, to IEND. Other files pass. 0, or -1 with a message. */
-static int png_check(const char *path, bool whole, char *msg, size_t size)
-{
-    static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    FILE *f = fopen(path, "rb");
-    if (!f) return 0; /* the reader reports it */
-    unsigned char head[8];
-    if (fread(head, 1, 8, f) != 8 || memcmp(head, signature, 8)) {
-        fclose(f);
-        return 0;
-    }
-    pthread_once(&crc_once, crc_table_build);
-    int rc = 0;
-    long long at = 8;
-    for (int index = 0;; index++) {
-        size_t got = fread(head, 1, 8, f);
-        if (got != 8) {
-            snprintf(msg, size, "the file is truncated: it ends at byte %lld, before its %s chunk",
-                     at + (long long)got,
-                     index == 0 ? "IHDR"
-                     : whole    ? "IEND"
-                                : "IDAT");
-            rc = -1;
-            break;
-        }
-        uint32_t len = be32(head);
-        char type[5] = {0};
-        bool letters = true;
-        for (int k = 0; k < 4; k++) {
-            type[k] = (char)head[4 + k];
-            letters = letters &&
-                      ((type[k] >= 'A' && type[k] <= 'Z') || (type[k] >= 'a' && type[k] <= 'z'));
-        }
-        if (!letters || len > 0x7fffffffu) {
-            snprintf(msg, size, "the file is damaged: no valid chunk at byte %lld", at);
-            rc = -1;
-            break;
-        }
-        if (index == 0 && strcmp(type, "IHDR")) {
-            snprintf(msg, size, "the file is damaged: its first chunk is %s, not IHDR", type);
-            rc = -1;
-            break;
-        }
-        if (!whole && !strcmp(type, "IDAT")) break;
-        uint32_t crc = crc_update(0xffffffffu, head + 4, 4);
-        unsigned char buf[1 << 14];
-        uint32_t left = len;
-        while (left > 0) {
-            size_t want = left < sizeof buf ? left : sizeof buf;
-            size_t n = fread(buf, 1, want, f);
-            crc = crc_update(crc, buf, n);
-            left -= (uint32_t)n;
-            if (n != want) break;
-        }
-        unsigned char stored[4];
-        if (left > 0 || fread(stored, 1, 4, f) != 4) {
-            long end = ftell(f);
-            snprintf(msg, size,
-                     "the file is truncated: it ends at byte %ld, inside its %s chunk that starts "
-                     "at byte %lld",
-                     end, type, at);
-            rc = -1;
-            break;
-        }
-        if ((crc ^ 0xffffffffu) != be32(stored)) {
-            snprintf(msg, size,
-                     "the file is damaged: the CRC of its %s chunk at byte %lld does not match",
-                     type, at);
-            rc = -1;
-            break;
-        }
-        at += 12 + (long long)len;
-        if (!strcmp(type, "IEND")) break;
-    }
-    fclose(f);
-    return rc;
-}
-
 /* Image files are regular files: a FIFO or a device would block the decoder or never end. */
 static int check_regular(const char *path, WgError *err)
 {
@@ -304,7 +199,7 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
     char msg[512];
     int rc = check_regular(path, err);
     if (rc) return rc;
-    if (png_check(path, false, msg, sizeof msg))
+    if (wg__png_check(path, false, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (wg__oiio_probe(path, width, height, channels, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
@@ -361,7 +256,7 @@ int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError 
     char msg[512];
     WgOiioIn *in;
     int w, h, c;
-    if (png_check(path, true, msg, sizeof msg) ||
+    if (wg__png_check(path, true, msg, sizeof msg) ||
         wg__oiio_open(path, &in, &w, &h, &c, NULL, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     float *buf = NULL;

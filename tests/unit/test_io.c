@@ -9,6 +9,7 @@
 #include "internal.h"
 
 #include <dirent.h>
+#include <fcntl.h>
 #include <errno.h>
 #include <math.h>
 #include <openexr.h>
@@ -17,6 +18,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <zlib.h>
 
 /* ---- helpers ----------------------------------------------------------------------------- */
 
@@ -1208,6 +1210,108 @@ static void test_damaged_png_is_refused(void **state)
     free(data);
 }
 
+/* A PNG made here, chunk by chunk, with correct CRCs: IHDR (8-bit gray unless `colour_type`
+ * says otherwise), one IDAT holding `raw` compressed (or taken as is when `compressed`), IEND. */
+static void put_png(const char *path, int w, int h, int colour_type, const unsigned char *raw,
+                    size_t raw_n, bool compressed)
+{
+    unsigned char *idat = malloc(compressBound(raw_n) + raw_n);
+    assert_non_null(idat);
+    uLongf idat_n = compressBound(raw_n);
+    if (compressed) {
+        memcpy(idat, raw, raw_n);
+        idat_n = raw_n;
+    } else {
+        assert_int_equal(compress2(idat, &idat_n, raw, raw_n, 9), Z_OK);
+    }
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    fwrite(sig, 1, 8, f);
+    unsigned char ihdr[13] = {0, 0, 0, 0, 0, 0, 0, 0, 8, (unsigned char)colour_type, 0, 0, 0};
+    for (int k = 0; k < 4; k++) {
+        ihdr[k] = (unsigned char)((unsigned)w >> (24 - 8 * k));
+        ihdr[4 + k] = (unsigned char)((unsigned)h >> (24 - 8 * k));
+    }
+    const struct {
+        const char *type;
+        const unsigned char *data;
+        size_t n;
+    } chunks[] = {{"IHDR", ihdr, 13}, {"IDAT", idat, idat_n}, {"IEND", NULL, 0}};
+    for (int i = 0; i < 3; i++) {
+        unsigned char be[4];
+        for (int k = 0; k < 4; k++) be[k] = (unsigned char)(chunks[i].n >> (24 - 8 * k));
+        fwrite(be, 1, 4, f);
+        fwrite(chunks[i].type, 1, 4, f);
+        if (chunks[i].n) fwrite(chunks[i].data, 1, chunks[i].n, f);
+        uLong crc = crc32(0, (const Bytef *)chunks[i].type, 4);
+        if (chunks[i].n) crc = crc32(crc, chunks[i].data, (uInt)chunks[i].n);
+        for (int k = 0; k < 4; k++) be[k] = (unsigned char)(crc >> (24 - 8 * k));
+        fwrite(be, 1, 4, f);
+    }
+    assert_int_equal(fclose(f), 0);
+    free(idat);
+}
+
+/* Files whose chunks and CRCs are all correct but whose image data libpng would refuse (and
+ * complain about on stderr by itself): refused by our check first, and stderr stays empty. */
+static void test_png_with_bad_image_data_is_refused(void **state)
+{
+    (void)state;
+    enum { W = 32, H = 16, ROW = W + 1 };
+    unsigned char raw[ROW * H];
+    for (int y = 0; y < H; y++) {
+        raw[y * ROW] = 0; /* filter type None */
+        for (int x = 0; x < W; x++)
+            raw[y * ROW + 1 + x] = (unsigned char)(wg_hash3(x, y, 3) & 0xff);
+    }
+    const char *good = wgt_path("made_good.png");
+    put_png(good, W, H, 0, raw, sizeof raw, false);
+    WgImage *img = read_ok(good, 0, WG_LINEAR);
+    assert_float_equal(wgt_px(img, 5, 7, 0), raw[7 * ROW + 1 + 5] / 255.0, 1e-6);
+    wg_image_unref(img);
+
+    /* the deflate stream damaged, the CRC made to match */
+    unsigned char packed[2 * sizeof raw + 64];
+    uLongf packed_n = sizeof packed;
+    assert_int_equal(compress2(packed, &packed_n, raw, sizeof raw, 9), Z_OK);
+    for (int i = 10; i < 30; i++) packed[i] ^= 0x5a;
+    const char *corrupt = wgt_path("made_corrupt.png");
+    put_png(corrupt, W, H, 0, packed, packed_n, true);
+
+    unsigned char bad_filter[sizeof raw];
+    memcpy(bad_filter, raw, sizeof raw);
+    bad_filter[9 * ROW] = 7;
+    const char *filter = wgt_path("made_filter.png");
+    put_png(filter, W, H, 0, bad_filter, sizeof bad_filter, false);
+
+    const char *short_data = wgt_path("made_short.png");
+    put_png(short_data, W, H, 0, raw, sizeof raw / 2, false);
+
+    const char *bad_header = wgt_path("made_header.png");
+    put_png(bad_header, W, H, 5, raw, sizeof raw, false); /* colour type 5 does not exist */
+
+    /* libpng would print to stderr: catch anything written there while reading */
+    fflush(stderr);
+    int saved = dup(2);
+    const char *log = wgt_path("stderr.txt");
+    int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    assert_true(saved >= 0 && fd >= 0);
+    dup2(fd, 2);
+    close(fd);
+    expect_refused(corrupt, "cannot read the image|compressed image data is corrupt");
+    expect_refused(filter, "damaged|row 9|filter type 7");
+    expect_refused(short_data, "damaged|image data ends early|264 of 528 bytes");
+    expect_refused(bad_header, "damaged|IHDR");
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    size_t n;
+    char *printed = wgt_read_file(log, &n);
+    if (n) fail_msg("a library wrote to stderr: %s", printed);
+    free(printed);
+}
+
 /* A full disk: the write fails and says why (OpenImageIO's PNG writer alone reports success). */
 static void test_write_to_a_full_device_says_so(void **state)
 {
@@ -1271,6 +1375,7 @@ int main(void)
         cmocka_unit_test(test_format_names),
         cmocka_unit_test(test_truncated_jpeg_is_refused),
         cmocka_unit_test(test_damaged_png_is_refused),
+        cmocka_unit_test(test_png_with_bad_image_data_is_refused),
         cmocka_unit_test(test_write_to_a_full_device_says_so),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

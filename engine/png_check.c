@@ -1,0 +1,208 @@
+/* SPDX-License-Identifier: MIT */
+/* PNG files checked before OpenImageIO hands them to libpng. libpng prints its errors to stderr
+ * itself ("libpng error: ...") before OpenImageIO sees them, so a file libpng would refuse
+ * must be refused here first, with one clear message that also says where the damage is.
+ * Checked (PNG specification, 2nd edition, sections 5, 10, 11.2.2): the signature; the chunk
+ * structure (lengths, the CRC-32 of every chunk, IHDR first, IEND present) up to the first
+ * IDAT chunk when probing and to IEND when reading; the IHDR values; and, when reading, the
+ * zlib stream of the IDAT chunks, inflated into a small window that is thrown away: it must
+ * decode (zlib's own checks, with its Adler-32), give at least the bytes the IHDR promises, and
+ * every row of a non-interlaced image must start with a filter type 0..4. Cost: one inflate of
+ * the image data (20 ms for a 2.5 MB 1024² 16-bit RGB PNG whose whole read takes 68 ms). */
+#include "internal.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <zlib.h>
+
+static uint32_t be32(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+/* What the IHDR promises, and the inflate state of the image data. */
+typedef struct ImageData {
+    bool have_header;
+    uint64_t expected;  /* bytes of filtered rows */
+    uint64_t row_bytes; /* filter byte + one row, non-interlaced; 0: rows not checked */
+    uint64_t next_row;  /* offset of the next row's filter byte */
+    uint64_t got;
+    z_stream z;
+    bool z_open, z_end;
+} ImageData;
+
+static uint64_t row_size(uint64_t width, int bits_per_pixel)
+{
+    return (width * (uint64_t)bits_per_pixel + 7) / 8;
+}
+
+/* IHDR (section 11.2.2): the numbers must be valid, as libpng requires. */
+static int read_header(ImageData *d, const unsigned char *h, uint32_t len, char *msg, size_t size)
+{
+    static const int channels[7] = {1, 0, 3, 1, 2, 0, 4}; /* by colour type; 0: invalid */
+    if (len != 13) goto bad;
+    uint32_t w = be32(h), ht = be32(h + 4);
+    int depth = h[8], type = h[9], interlace = h[12];
+    if (w < 1 || ht < 1 || w > 0x7fffffffu || ht > 0x7fffffffu || type > 6 || !channels[type] ||
+        h[10] != 0 || h[11] != 0 || interlace > 1)
+        goto bad;
+    bool depth_ok = type == 0 ? depth == 1 || depth == 2 || depth == 4 || depth == 8 || depth == 16
+                    : type == 3 ? depth == 1 || depth == 2 || depth == 4 || depth == 8
+                                : depth == 8 || depth == 16;
+    if (!depth_ok) goto bad;
+    int bpp = channels[type] * depth;
+    if (!interlace) {
+        d->row_bytes = 1 + row_size(w, bpp);
+        d->expected = (uint64_t)ht * d->row_bytes;
+    } else {
+        static const int x0[7] = {0, 4, 0, 2, 0, 1, 0}, y0[7] = {0, 0, 4, 0, 2, 0, 1};
+        static const int dx[7] = {8, 8, 4, 4, 2, 2, 1}, dy[7] = {8, 8, 8, 4, 4, 2, 2};
+        d->expected = 0;
+        for (int p = 0; p < 7; p++) {
+            uint64_t pw = w > (uint32_t)x0[p] ? (w - x0[p] + dx[p] - 1) / dx[p] : 0;
+            uint64_t ph = ht > (uint32_t)y0[p] ? (ht - y0[p] + dy[p] - 1) / dy[p] : 0;
+            if (pw && ph) d->expected += ph * (1 + row_size(pw, bpp));
+        }
+    }
+    d->have_header = true;
+    return 0;
+bad:
+    snprintf(msg, size,
+             "the file is damaged: its IHDR chunk (size, depth, colour type) is invalid");
+    return -1;
+}
+
+/* Inflate one piece of IDAT data; the output is only counted and its filter bytes checked. */
+static int inflate_piece(ImageData *d, const unsigned char *in, size_t n, char *msg, size_t size)
+{
+    if (!d->z_open) {
+        memset(&d->z, 0, sizeof d->z);
+        if (inflateInit(&d->z) != Z_OK) {
+            snprintf(msg, size, "out of memory checking the image data");
+            return -1;
+        }
+        d->z_open = true;
+    }
+    d->z.next_in = (Bytef *)in;
+    d->z.avail_in = (uInt)n;
+    while (d->z.avail_in > 0 && !d->z_end) {
+        unsigned char out[1 << 15];
+        d->z.next_out = out;
+        d->z.avail_out = sizeof out;
+        int r = inflate(&d->z, Z_NO_FLUSH);
+        uint64_t produced = sizeof out - d->z.avail_out;
+        for (; d->row_bytes && d->next_row < d->got + produced && d->next_row < d->expected;
+             d->next_row += d->row_bytes) {
+            unsigned char filter = out[d->next_row - d->got];
+            if (filter > 4) {
+                snprintf(msg, size,
+                         "the file is damaged: row %llu of its image data has filter type %d "
+                         "(0 to 4 exist)",
+                         (unsigned long long)(d->next_row / d->row_bytes), filter);
+                return -1;
+            }
+        }
+        d->got += produced;
+        if (r == Z_STREAM_END) {
+            d->z_end = true;
+        } else if (r != Z_OK && !(r == Z_BUF_ERROR && produced > 0)) {
+            snprintf(msg, size, "the file is damaged: its compressed image data is corrupt (%s)",
+                     d->z.msg ? d->z.msg : zError(r));
+            return -1;
+        }
+    }
+    return 0;
+}
+
+int wg__png_check(const char *path, bool whole, char *msg, size_t size)
+{
+    static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0; /* the reader reports it */
+    unsigned char head[8];
+    if (fread(head, 1, 8, f) != 8 || memcmp(head, signature, 8)) {
+        fclose(f);
+        return 0;
+    }
+    ImageData data = {0};
+    int rc = 0;
+    long long at = 8;
+    bool ended = false;
+    for (int index = 0; !rc; index++) {
+        size_t got = fread(head, 1, 8, f);
+        if (got != 8) {
+            snprintf(msg, size, "the file is truncated: it ends at byte %lld, before its %s chunk",
+                     at + (long long)got,
+                     index == 0 ? "IHDR"
+                     : whole    ? "IEND"
+                                : "IDAT");
+            rc = -1;
+            break;
+        }
+        uint32_t len = be32(head);
+        char type[5] = {0};
+        bool letters = true;
+        for (int k = 0; k < 4; k++) {
+            type[k] = (char)head[4 + k];
+            letters = letters &&
+                      ((type[k] >= 'A' && type[k] <= 'Z') || (type[k] >= 'a' && type[k] <= 'z'));
+        }
+        if (!letters || len > 0x7fffffffu) {
+            snprintf(msg, size, "the file is damaged: no valid chunk at byte %lld", at);
+            rc = -1;
+            break;
+        }
+        if (index == 0 && strcmp(type, "IHDR")) {
+            snprintf(msg, size, "the file is damaged: its first chunk is %s, not IHDR", type);
+            rc = -1;
+            break;
+        }
+        if (!whole && !strcmp(type, "IDAT")) break;
+        bool is_header = index == 0, is_data = whole && !strcmp(type, "IDAT");
+        unsigned char header[13];
+        uLong crc = crc32(0, head + 4, 4);
+        unsigned char buf[1 << 14];
+        uint32_t left = len;
+        while (left > 0) {
+            size_t want = left < sizeof buf ? left : sizeof buf;
+            size_t n = fread(buf, 1, want, f);
+            crc = crc32(crc, buf, (uInt)n);
+            if (is_header && left == len) memcpy(header, buf, n < 13 ? n : 13);
+            if (is_data && !rc && n == want) rc = inflate_piece(&data, buf, n, msg, size);
+            left -= (uint32_t)n;
+            if (n != want) break;
+        }
+        if (rc) break;
+        unsigned char stored[4];
+        if (left > 0 || fread(stored, 1, 4, f) != 4) {
+            long end = ftell(f);
+            snprintf(msg, size,
+                     "the file is truncated: it ends at byte %ld, inside its %s chunk that starts "
+                     "at byte %lld",
+                     end, type, at);
+            rc = -1;
+            break;
+        }
+        if (crc != be32(stored)) {
+            snprintf(msg, size,
+                     "the file is damaged: the CRC of its %s chunk at byte %lld does not match",
+                     type, at);
+            rc = -1;
+            break;
+        }
+        if (is_header && (rc = read_header(&data, header, len, msg, size))) break;
+        at += 12 + (long long)len;
+        if (!strcmp(type, "IEND")) {
+            ended = true;
+            break;
+        }
+    }
+    if (!rc && whole && ended && data.have_header && data.got < data.expected) {
+        snprintf(msg, size, "the file is damaged: its image data ends early (%llu of %llu bytes)",
+                 (unsigned long long)data.got, (unsigned long long)data.expected);
+        rc = -1;
+    }
+    if (data.z_open) inflateEnd(&data.z);
+    fclose(f);
+    return rc;
+}
