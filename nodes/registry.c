@@ -18,6 +18,8 @@ extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, w
     wg_node_merge, wg_node_shuffle;
 /* pixel */
 extern const WgNodeType wg_node_pixel;
+/* height-field filters */
+extern const WgNodeType wg_node_normal, wg_node_slope;
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -52,6 +54,9 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_shuffle,
     /* per-pixel expressions */
     &wg_node_pixel,
+    /* height-field filters */
+    &wg_node_normal,
+    &wg_node_slope,
     NULL,
 };
 
