@@ -24,6 +24,10 @@
 #include "wetgraph/node.h"
 
 #include <math.h>
+#include <stdbool.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 typedef struct {
     float intensity;
@@ -61,8 +65,16 @@ static const WgPortSpec height_in[] = {WG_PORT("height", WG_GRAY), WG_PORT_END};
 static const WgPortSpec normal_out[] = {WG_PORT("normal", WG_COLOR), WG_PORT_END};
 static const WgPortSpec slope_out[] = {WG_PORT("slope", WG_GRAY), WG_PORT_END};
 
-/* Pixels per block: the gradient of a block of a row lives on the stack. */
+/* Pixels per block: a block's gradient and its wrapped source rows live on the stack. */
 enum { BLOCK = 256 };
+
+/* Hot loops get an AVX2 clone picked at load time (same IEEE operations, no FMA contraction,
+ * so both clones give bit-identical pixels). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
 
 typedef struct {
     const WgImage *height;
@@ -72,47 +84,87 @@ typedef struct {
     double green; /* +1 OpenGL (gy points down, so the up component is +gy), −1 DirectX */
 } Job;
 
+/* Pixels [x0 − 1, x0 + n] of a row of width w, wrapped, into dst[0 .. n+1]. */
+static void load_wrapped(const float *row, int w, int x0, int n, float *dst)
+{
+    dst[0] = row[x0 == 0 ? w - 1 : x0 - 1];
+    for (int i = 0; i < n; i++) dst[i + 1] = row[x0 + i];
+    dst[n + 1] = row[x0 + n == w ? 0 : x0 + n];
+}
+
 /* The surface gradient (gx to the right, gy downwards, in height per length unit) of pixels
- * [x0, x0+n) of row y, into gx[0..n) and gy[0..n). Neighbours wrap around the edges. */
-static void gradient(const Job *j, int y, int x0, int n, double *gx, double *gy)
+ * [x0, x0+n) of row y, into gx[0..n) and gy[0..n). Neighbours wrap around the edges. Returns
+ * whether every component is at most 1e150 in magnitude (always so for finite heights). */
+HOT static bool gradient(const Job *j, int y, int x0, int n, double *gx, double *gy)
 {
     const WgImage *img = j->height;
     int w = img->width, h = img->height;
-    const float *up = wg_image_row(img, y == 0 ? h - 1 : y - 1);
-    const float *mid = wg_image_row(img, y);
-    const float *down = wg_image_row(img, y == h - 1 ? 0 : y + 1);
+    float u[BLOCK + 2], m[BLOCK + 2], d[BLOCK + 2];
+    load_wrapped(wg_image_row(img, y == 0 ? h - 1 : y - 1), w, x0, n, u);
+    load_wrapped(wg_image_row(img, y), w, x0, n, m);
+    load_wrapped(wg_image_row(img, y == h - 1 ? 0 : y + 1), w, x0, n, d);
     double s = j->scale;
-    for (int i = 0; i < n; i++) {
-        int x = x0 + i;
-        int l = x == 0 ? w - 1 : x - 1, r = x == w - 1 ? 0 : x + 1;
-        if (j->method == METHOD_SOBEL) {
-            double right = (double)up[r] + 2.0 * mid[r] + down[r];
-            double left = (double)up[l] + 2.0 * mid[l] + down[l];
-            double below = (double)down[l] + 2.0 * down[x] + down[r];
-            double above = (double)up[l] + 2.0 * up[x] + up[r];
+    if (j->method == METHOD_SOBEL) {
+        for (int i = 0; i < n; i++) {
+            double right = (double)u[i + 2] + 2.0 * m[i + 2] + d[i + 2];
+            double left = (double)u[i] + 2.0 * m[i] + d[i];
+            double below = (double)d[i] + 2.0 * d[i + 1] + d[i + 2];
+            double above = (double)u[i] + 2.0 * u[i + 1] + u[i + 2];
             gx[i] = s * (right - left);
             gy[i] = s * (below - above);
-        } else {
-            gx[i] = s * ((double)mid[r] - (double)mid[l]);
-            gy[i] = s * ((double)down[x] - (double)up[x]);
+        }
+    } else {
+        for (int i = 0; i < n; i++) {
+            gx[i] = s * ((double)m[i + 2] - (double)m[i]);
+            gy[i] = s * ((double)d[i + 1] - (double)u[i + 1]);
         }
     }
+    int bad = 0;
+    for (int i = 0; i < n; i++) bad |= !(fabs(gx[i]) <= 1e150) | !(fabs(gy[i]) <= 1e150);
+    return !bad;
 }
 
 /* Finite stand-ins for the differences of non-finite heights: ±inf stays a huge slope of its
- * sign, NaN becomes flat. Finite gradients pass unchanged. */
-static double tame(double g)
+ * sign (1e150, whose square still fits a double), NaN becomes flat. */
+static void tame(double *g, int n)
 {
-    if (isnan(g)) return 0;
-    return g > 1e150 ? 1e150 : g < -1e150 ? -1e150 : g;
+    for (int i = 0; i < n; i++)
+        g[i] = isnan(g[i]) ? 0 : g[i] > 1e150 ? 1e150 : g[i] < -1e150 ? -1e150 : g[i];
 }
 
-/* Encode a normal component c in [−1, 1] as c·0.5 + 0.5, symmetric around 0.5: the rounded
- * value for |c| (≥ 0.5, so 1 − it is exact) is mirrored for negative c. */
-static float encode(double c)
+/* Encode a normal component c in [−1, 1] as c·0.5 + 0.5, symmetric around 0.5: e, the rounded
+ * value for |c|, is ≥ 0.5, so for negative c the sum e + (1 − 2e) = 1 − e is exact (written as
+ * arithmetic rather than a branch so the loop vectorizes). */
+static inline float encode(double c)
 {
     float e = (float)(0.5 + 0.5 * fabs(c));
-    return c < 0 ? 1.0f - e : e;
+    float negative = (float)(c < 0);
+    return e + negative * (1.0f - 2.0f * e);
+}
+
+/* q[i] = √q[i]. With errno-setting maths (the C default) the compiler keeps sqrt scalar, so
+ * the SSE2 instruction is spelled out; both round correctly, so the result is the same. */
+static inline void sqrt_block(double *q, int n)
+{
+    int i = 0;
+#ifdef __SSE2__
+    for (; i + 2 <= n; i += 2) _mm_storeu_pd(q + i, _mm_sqrt_pd(_mm_loadu_pd(q + i)));
+#endif
+    for (; i < n; i++) q[i] = sqrt(q[i]);
+}
+
+HOT static void normal_block(const double *gx, const double *gy, int n, double green, float *o)
+{
+    double len[BLOCK];
+    for (int i = 0; i < n; i++) len[i] = 1 + gx[i] * gx[i] + gy[i] * gy[i];
+    sqrt_block(len, n);
+    for (int i = 0; i < n; i++) {
+        double inv = 1 / len[i];
+        o[4 * i + 0] = encode(-gx[i] * inv);
+        o[4 * i + 1] = encode(green * gy[i] * inv);
+        o[4 * i + 2] = (float)(0.5 + 0.5 * inv);
+        o[4 * i + 3] = 1.0f;
+    }
 }
 
 static void normal_rows(void *user, int y0, int y1)
@@ -124,19 +176,23 @@ static void normal_rows(void *user, int y0, int y1)
         float *o = wg_image_row(j->out, y);
         for (int x0 = 0; x0 < w; x0 += BLOCK) {
             int n = w - x0 < BLOCK ? w - x0 : BLOCK;
-            gradient(j, y, x0, n, gx, gy);
-            for (int i = 0; i < n; i++) {
-                double a = gx[i], b = gy[i];
-                /* beyond 1e150 the square would overflow; finite heights never get there */
-                if (!(fabs(a) <= 1e150 && fabs(b) <= 1e150)) a = tame(a), b = tame(b);
-                double inv = 1 / sqrt(1 + a * a + b * b);
-                float *p = o + (size_t)(x0 + i) * 4;
-                p[0] = encode(-a * inv);
-                p[1] = encode(j->green * b * inv);
-                p[2] = (float)(0.5 + 0.5 * inv);
-                p[3] = 1.0f;
-            }
+            if (!gradient(j, y, x0, n, gx, gy)) tame(gx, n), tame(gy, n);
+            normal_block(gx, gy, n, j->green, o + (size_t)x0 * 4);
         }
+    }
+}
+
+/* |g| = √(gx² + gy²) cannot overflow: the components are at most 1e150. atan is correctly
+ * rounded in glibc, hence non-decreasing, so the slope is monotonic in |g|; it is the one libm
+ * call per pixel and most of the node's time. */
+HOT static void slope_block(const double *gx, const double *gy, int n, float *o)
+{
+    double mag[BLOCK];
+    for (int i = 0; i < n; i++) mag[i] = gx[i] * gx[i] + gy[i] * gy[i];
+    sqrt_block(mag, n);
+    for (int i = 0; i < n; i++) {
+        double s = atan(mag[i]) * (2 / M_PI);
+        o[i] = (float)(s < 1 ? s : 1);
     }
 }
 
@@ -149,14 +205,8 @@ static void slope_rows(void *user, int y0, int y1)
         float *o = wg_image_row(j->out, y);
         for (int x0 = 0; x0 < w; x0 += BLOCK) {
             int n = w - x0 < BLOCK ? w - x0 : BLOCK;
-            gradient(j, y, x0, n, gx, gy);
-            for (int i = 0; i < n; i++) {
-                double a = gx[i], b = gy[i];
-                if (!(fabs(a) <= 1e150 && fabs(b) <= 1e150)) a = tame(a), b = tame(b);
-                /* atan is non-decreasing, so the slope is monotonic in |g| */
-                double s = atan(hypot(a, b)) * (2 / M_PI);
-                o[x0 + i] = (float)(s < 1 ? s : 1);
-            }
+            if (!gradient(j, y, x0, n, gx, gy)) tame(gx, n), tame(gy, n);
+            slope_block(gx, gy, n, o + x0);
         }
     }
 }
