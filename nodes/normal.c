@@ -182,9 +182,10 @@ static void normal_rows(void *user, int y0, int y1)
     }
 }
 
-/* |g| = √(gx² + gy²) cannot overflow: the components are at most 1e150. atan is correctly
- * rounded in glibc, hence non-decreasing, so the slope is monotonic in |g|; it is the one libm
- * call per pixel and most of the node's time. */
+/* |g| = √(gx² + gy²) cannot overflow: the components are at most 1e150. libm's atan (within an
+ * ulp of double, far below the float output's resolution) is the one call per pixel left
+ * scalar and most of the node's time; every step is non-decreasing up to that ulp, so the
+ * slope is monotonic in |g|. */
 HOT static void slope_block(const double *gx, const double *gy, int n, float *o)
 {
     double mag[BLOCK];

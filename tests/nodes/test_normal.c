@@ -247,6 +247,22 @@ static void test_extreme_inputs(void **state)
         wg_image_unref(out);
     }
     wg_image_unref(checker);
+    /* non-finite heights (only arithmetic makes them): an infinite difference is vertical, a
+     * NaN one flat, and nothing else changes */
+    WgImage *bad = wgt_image_fn(8, 6, 1, ht_pattern_fn);
+    wg_image_row(bad, 2)[3] = INFINITY;
+    wg_image_row(bad, 4)[5] = NAN;
+    WgImage *out = normal(bad, 5, "opengl", "central", 2);
+    assert_unit_and_opaque(out);
+    assert_true(wgt_px(out, 2, 2, 0) == 0.0f && wgt_px(out, 4, 2, 0) == 1.0f); /* ±x walls */
+    assert_true(wgt_px(out, 3, 1, 1) == 1.0f && wgt_px(out, 3, 3, 1) == 0.0f); /* ±y walls */
+    assert_true(wgt_px(out, 4, 4, 0) == 0.5f && wgt_px(out, 6, 4, 0) == 0.5f); /* NaN: flat */
+    assert_true(wgt_px(out, 5, 3, 1) == 0.5f && wgt_px(out, 5, 5, 1) == 0.5f);
+    WgImage *ref = normal(bad, 5, "opengl", "central", 1);
+    wgt_assert_identical(out, ref);
+    wg_image_unref(ref);
+    wg_image_unref(out);
+    wg_image_unref(bad);
 }
 
 static void test_tiling_rolls_commute(void **state)

@@ -198,6 +198,20 @@ static void test_extreme_inputs(void **state)
         wg_image_unref(out);
     }
     wg_image_unref(checker);
+    /* non-finite heights: an infinite difference is vertical, a NaN one flat */
+    WgImage *bad = wgt_image_fn(8, 6, 1, ht_pattern_fn);
+    wg_image_row(bad, 2)[3] = INFINITY;
+    wg_image_row(bad, 4)[5] = NAN;
+    out = slope(bad, 5, "sobel", 2);
+    wgt_assert_range(out, 0, 1);
+    assert_true(wgt_px(out, 2, 2, 0) == 1.0f && wgt_px(out, 3, 3, 0) == 1.0f);
+    wg_image_unref(out);
+    out = slope(bad, 5, "central", 2);
+    double gx, gy;
+    ht_gradient(bad, 5, 0, 4, 4, &gx, &gy); /* gx is NaN: counted as 0 */
+    assert_float_equal(wgt_px(out, 4, 4, 0), slope_of(0, gy), 3e-8);
+    wg_image_unref(out);
+    wg_image_unref(bad);
 }
 
 /* The slope is the angle of the normal from straight up: acos(n.z) / (π/2), n.z decoded from
