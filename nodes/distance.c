@@ -1,0 +1,417 @@
+/* SPDX-License-Identifier: MIT */
+/* `distance`, `dilate` and `erode`: an exact Euclidean distance transform of a gray mask (a pixel
+ * is a site when its value is >= 0.5), periodic by default, and the morphology built on it.
+ * Algorithm: Felzenszwalb & Huttenlocher, "Distance Transforms of Sampled Functions", Theory of
+ * Computing 8 (2012): a 1-D pass down each column gives, for every pixel, the nearest site row
+ * in its column; a 1-D lower envelope of parabolas along each row then gives the nearest site.
+ * Everything is exact integer arithmetic on squared distances between pixel centres (envelope
+ * breakpoints are rationals whose floor/ceil a double division gets exactly, since their
+ * numerators are below 2^53 and their denominators below 2^17); the square root is taken once.
+ * Wrap-around: the column pass walks the column as a ring; the row pass puts each column's site at
+ * its images x-W, x, x+W and keeps those within W/2 of the row, so every pixel sees the nearest
+ * image of every site, also across the tile edges and corners. Without wrap the image edges are
+ * not crossed. Ties (several nearest sites) go to the site with the smallest (y, x), compared as
+ * the pair (row, then column) of its position in the image: the column pass keeps the smallest
+ * tied row and the envelope orders equal parabolas by that key at their breakpoints, so the
+ * result is the brute-force answer, independent of the thread count (rows and columns are
+ * independent). Cost: O(W·H) for any mask. Measured at 2048² with 2 threads (release build,
+ * pixels mode, wrap): random blobs ~25 ms, 400 sparse seeds ~27 ms; signed mode and `erode`
+ * run the transform twice / on the complement. */
+#include "wetgraph/node.h"
+
+#include <math.h>
+#include <stdatomic.h>
+#include <string.h>
+
+enum { MODE_FALLOFF, MODE_PIXELS, MODE_SIGNED };
+static const char *const mode_values[] = {"falloff", "pixels", "signed", NULL};
+
+typedef struct {
+    int mode;
+    float distance;
+    bool wrap;
+} DistanceParams;
+
+typedef struct {
+    float radius;
+    bool wrap;
+} MorphParams;
+
+/* What the row pass writes for each pixel. */
+enum { EMIT_PIXELS, EMIT_SUBTRACT, EMIT_FALLOFF, EMIT_FILL, EMIT_DILATE, EMIT_ERODE };
+
+typedef struct {
+    const WgImage *mask;
+    const WgImage *source; /* EMIT_FILL */
+    WgImage *out;
+    int w, h;
+    bool wrap, invert; /* invert: the sites are the pixels below 0.5 */
+    int emit;
+    double scale;  /* EMIT_FALLOFF: 1 / R in pixels; EMIT_DILATE / ERODE: r² in pixels */
+    int32_t *near; /* w*h: nearest site row in the pixel's column, -1 for none */
+    atomic_int nonempty_columns;
+    atomic_int failed;
+} Job;
+
+static inline bool is_site(const Job *j, float v)
+{
+    return (v >= 0.5f) != j->invert;
+}
+
+/* Columns [x0, x1): forward sweep records the last site at or above each row, backward sweep the
+ * first at or below; the nearer wins, a tie the smaller row. With wrap the sweeps continue from
+ * the other end of the column (the last site minus H, the first plus H). */
+static void column_pass(void *user, int x0, int x1)
+{
+    Job *j = user;
+    int w = j->w, h = j->h, n = x1 - x0;
+    int32_t first[256], last[256], next[256]; /* a chunk is at most ceil(16384 / 64) columns */
+    for (int i = 0; i < n; i++) first[i] = last[i] = -1;
+    for (int y = 0; y < h; y++) {
+        const float *m = wg_image_row(j->mask, y) + x0;
+        int32_t *o = j->near + (size_t)y * (size_t)w + x0;
+        for (int i = 0; i < n; i++) {
+            if (is_site(j, m[i])) {
+                last[i] = y;
+                if (first[i] < 0) first[i] = y;
+            }
+            o[i] = last[i];
+        }
+    }
+    int nonempty = 0;
+    for (int i = 0; i < n; i++) {
+        nonempty += first[i] >= 0;
+        next[i] = first[i] < 0 ? -1 : j->wrap ? first[i] + h : INT32_MAX;
+        if (first[i] >= 0 && !j->wrap) last[i] = INT32_MIN / 2; /* no site above the first */
+    }
+    if (nonempty) atomic_fetch_add(&j->nonempty_columns, nonempty);
+    for (int y = h - 1; y >= 0; y--) {
+        const float *m = wg_image_row(j->mask, y) + x0;
+        int32_t *o = j->near + (size_t)y * (size_t)w + x0;
+        for (int i = 0; i < n; i++) {
+            if (first[i] < 0) continue; /* o[i] is already -1 */
+            if (is_site(j, m[i])) {
+                next[i] = y;
+                o[i] = y;
+                continue;
+            }
+            long long a = o[i] >= 0 ? o[i] : (long long)last[i] - (j->wrap ? h : 0);
+            long long b = next[i];
+            long long da = y - a, db = b - y;
+            long long ra = (a + h) % h, rb = b % h;
+            if (db < da || (db == da && rb < ra))
+                o[i] = (int32_t)rb;
+            else
+                o[i] = (int32_t)ra;
+        }
+    }
+}
+
+/* One parabola of the lower envelope: site image at column q with squared vertical distance f,
+ * tie key (row, column) of the site in the image, and the first column z where it wins. */
+typedef struct {
+    int q, z;
+    int f;
+    long long key;
+} Parabola;
+
+/* First integer x where parabola b beats a (a.q < b.q): b is lower, or equal with a smaller key. */
+static inline int breakpoint(const Parabola *a, const Parabola *b)
+{
+    double num = ((double)b->f + (double)b->q * b->q) - ((double)a->f + (double)a->q * a->q);
+    double s = num / (2.0 * (b->q - a->q));
+    return b->key < a->key ? (int)ceil(s) : (int)floor(s) + 1;
+}
+
+static void emit_row(const Job *j, int y, const long long *d2, const int *sx, const int *sy)
+{
+    int w = j->w;
+    float *o = wg_image_row(j->out, y);
+    switch (j->emit) {
+    case EMIT_PIXELS:
+        for (int x = 0; x < w; x++) o[x] = (float)sqrt((double)d2[x]);
+        break;
+    case EMIT_SUBTRACT: /* one of the two distances is 0: the difference is exact */
+        for (int x = 0; x < w; x++) o[x] = (float)((double)o[x] - sqrt((double)d2[x]));
+        break;
+    case EMIT_FALLOFF:
+        for (int x = 0; x < w; x++) {
+            double v = j->scale > 0 ? 1 - sqrt((double)d2[x]) * j->scale : d2[x] == 0;
+            o[x] = (float)(v < 0 ? 0 : v > 1 ? 1 : v);
+        }
+        break;
+    case EMIT_FILL: {
+        int c = j->out->channels;
+        for (int x = 0; x < w; x++) {
+            const float *s = wg_image_row(j->source, sy[x]) + (size_t)sx[x] * (size_t)c;
+            memcpy(o + (size_t)x * (size_t)c, s, sizeof(float) * (size_t)c);
+        }
+        break;
+    }
+    case EMIT_DILATE:
+        for (int x = 0; x < w; x++) o[x] = (double)d2[x] <= j->scale ? 1.0f : 0.0f;
+        break;
+    case EMIT_ERODE:
+        for (int x = 0; x < w; x++) o[x] = (double)d2[x] > j->scale ? 1.0f : 0.0f;
+        break;
+    }
+}
+
+/* Rows [y0, y1): the lower envelope of the columns' parabolas, then a sweep along the row. */
+static void row_pass(void *user, int y0, int y1)
+{
+    Job *j = user;
+    int w = j->w, h = j->h;
+    int lo = j->wrap ? -(w / 2) : 0, hi = j->wrap ? w - 1 + w / 2 : w - 1;
+    size_t span = (size_t)(hi - lo + 1);
+    Parabola *env = wg_malloc(sizeof(Parabola) * span);
+    long long *d2 = wg_malloc(sizeof(long long) * (size_t)w);
+    int *sx = wg_malloc(sizeof(int) * 2 * (size_t)w), *sy = sx ? sx + w : NULL;
+    if (!env || !d2 || !sx) {
+        atomic_store(&j->failed, 1);
+        goto done;
+    }
+    for (int y = y0; y < y1; y++) {
+        const int32_t *nr = j->near + (size_t)y * (size_t)w;
+        int k = -1;
+        for (int q = lo; q <= hi; q++) {
+            int x = q < 0 ? q + w : q >= w ? q - w : q;
+            int r = nr[x];
+            if (r < 0) continue;
+            int dy = y > r ? y - r : r - y;
+            if (j->wrap && h - dy < dy) dy = h - dy;
+            Parabola p = {q, 0, dy * dy, (long long)r * w + x};
+            while (k >= 0) {
+                int b = breakpoint(&env[k], &p);
+                if (k > 0 && b <= env[k].z) {
+                    k--;
+                    continue;
+                }
+                p.z = b;
+                break;
+            }
+            if (k < 0) p.z = INT32_MIN;
+            env[++k] = p;
+        }
+        int n = k + 1;
+        k = 0;
+        for (int x = 0; x < w; x++) {
+            while (k + 1 < n && env[k + 1].z <= x) k++;
+            long long dx = x - env[k].q;
+            d2[x] = dx * dx + env[k].f;
+            sx[x] = (int)(env[k].key % w);
+            sy[x] = (int)(env[k].key / w);
+        }
+        emit_row(j, y, d2, sx, sy);
+    }
+done:
+    wg_free(env);
+    wg_free(d2);
+    wg_free(sx);
+}
+
+/* The value a distance takes when there is no site at all: the periodic half-diagonal with wrap,
+ * the full diagonal without (both beyond any real distance in the image). */
+static double no_site_distance(int w, int h, bool wrap)
+{
+    return wrap ? sqrt(0.25 * w * w + 0.25 * h * h) : sqrt((double)w * w + (double)h * h);
+}
+
+static void fill(WgImage *out, float v)
+{
+    for (int y = 0; y < out->height; y++) {
+        float *o = wg_image_row(out, y);
+        for (size_t i = 0; i < (size_t)out->width * (size_t)out->channels; i++) o[i] = v;
+    }
+}
+
+/* One transform: sites from the mask (or its complement), results written by j->emit. Without any
+ * site nothing is written and *empty is set. */
+static int transform(WgNodeContext *ctx, Job *j, bool *empty, WgError *err)
+{
+    atomic_store(&j->nonempty_columns, 0);
+    atomic_store(&j->failed, 0);
+    int rc = wg_parallel_rows(ctx, j->w, column_pass, j);
+    if (rc) return rc;
+    *empty = atomic_load(&j->nonempty_columns) == 0;
+    if (*empty) return WG_OK;
+    rc = wg_parallel_rows(ctx, j->h, row_pass, j);
+    if (!rc && atomic_load(&j->failed)) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    return rc;
+}
+
+static int job_init(Job *j, WgNodeContext *ctx, bool wrap, WgError *err)
+{
+    memset(j, 0, sizeof *j);
+    j->mask = ctx->inputs[0];
+    j->out = ctx->outputs[0];
+    j->w = ctx->width;
+    j->h = ctx->height;
+    j->wrap = wrap;
+    j->near = wg_malloc(sizeof(int32_t) * (size_t)j->w * (size_t)j->h);
+    if (!j->near) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    return WG_OK;
+}
+
+static int distance_eval(WgNodeContext *ctx, WgError *err)
+{
+    const DistanceParams *p = ctx->params;
+    Job j;
+    int rc = job_init(&j, ctx, p->wrap, err);
+    if (rc) return rc;
+    double none = no_site_distance(j.w, j.h, p->wrap);
+    bool empty;
+    j.source = ctx->n_inputs > 1 ? ctx->inputs[1] : NULL;
+    if (j.source) {
+        j.emit = EMIT_FILL;
+        rc = transform(ctx, &j, &empty, err);
+        if (!rc && empty) fill(j.out, 0);
+    } else if (p->mode == MODE_FALLOFF) {
+        double r = (double)p->distance * j.w / 256.0;
+        j.emit = EMIT_FALLOFF;
+        j.scale = r > 0 ? 1 / r : 0;
+        rc = transform(ctx, &j, &empty, err);
+        if (!rc && empty) fill(j.out, 0);
+    } else {
+        j.emit = EMIT_PIXELS;
+        rc = transform(ctx, &j, &empty, err);
+        if (!rc && empty) fill(j.out, (float)none);
+        if (!rc && p->mode == MODE_SIGNED) {
+            j.invert = true;
+            j.emit = EMIT_SUBTRACT;
+            rc = transform(ctx, &j, &empty, err);
+            if (!rc && empty) fill(j.out, (float)-none); /* a full mask */
+        }
+    }
+    wg_free(j.near);
+    return rc;
+}
+
+static int morph_eval(WgNodeContext *ctx, WgError *err, bool erode)
+{
+    const MorphParams *p = ctx->params;
+    Job j;
+    int rc = job_init(&j, ctx, p->wrap, err);
+    if (rc) return rc;
+    double r = (double)p->radius * j.w / 256.0;
+    j.scale = r * r;
+    j.invert = erode;
+    j.emit = erode ? EMIT_ERODE : EMIT_DILATE;
+    bool empty;
+    rc = transform(ctx, &j, &empty, err);
+    if (!rc && empty) fill(j.out, erode ? 1.0f : 0.0f);
+    wg_free(j.near);
+    return rc;
+}
+
+static int dilate_eval(WgNodeContext *ctx, WgError *err)
+{
+    return morph_eval(ctx, err, false);
+}
+
+static int erode_eval(WgNodeContext *ctx, WgError *err)
+{
+    return morph_eval(ctx, err, true);
+}
+
+/* The nearest-row buffer (one int32 per pixel). The row pass's per-chunk buffers (a few rows'
+ * worth each) are part of the budget's fixed overhead. */
+static size_t distance_scratch(const WgNodeContext *ctx)
+{
+    return sizeof(int32_t) * (size_t)ctx->width * (size_t)ctx->height;
+}
+
+static const WgParamSpec distance_params[] = {
+    WG_PARAM_ENUM(DistanceParams, mode,
+                  "falloff: clamp(1 - d/R, 0, 1); pixels: d in output pixels; signed: d outside, "
+                  "minus the distance to the nearest non-mask pixel inside",
+                  0, mode_values),
+    WG_PARAM_FLOAT_UI(DistanceParams, distance,
+                      "Falloff range, a length: in pixels of a 256-wide image, so it covers "
+                      "distance x width / 256 pixels of the output",
+                      10.0, 0.0, 65536.0, 0, 256),
+    WG_PARAM_BOOL(DistanceParams, wrap, "Distances wrap around the image edges (tiles)", true),
+    WG_PARAM_END,
+};
+static const WgPortSpec distance_in[] = {
+    {"mask", WG_GRAY, false, "pixels >= 0.5 are the mask"},
+    {"source", WG_ANY, true,
+     "when connected, each pixel takes its value at the nearest mask pixel"},
+    WG_PORT_END,
+};
+static const WgPortSpec distance_out[] = {WG_PORT("output", WG_ANY), WG_PORT_END};
+
+const WgNodeType wg_node_distance = {
+    .name = "distance",
+    .summary = "Exact Euclidean distance to a mask, with falloff, signed and Voronoi fill",
+    .category = "filter",
+    .doc = "Distances are between pixel centres, to the nearest pixel whose `mask` value is "
+           ">= 0.5 (0 on the mask), exact (Felzenszwalb-Huttenlocher lower envelope on integer "
+           "squared distances). With `wrap` (the default) they are measured on the torus, so the "
+           "result tiles; without it the image edges are not crossed. `falloff` gives "
+           "clamp(1 - d/R, 0, 1) with R = `distance` x width / 256 pixels (R = 0: 1 on the mask, "
+           "0 elsewhere); `pixels` gives d; `signed` gives d outside the mask and minus the "
+           "distance to the nearest non-mask pixel inside. An empty mask gives falloff 0 and, in "
+           "pixels and signed modes, sqrt((W/2)² + (H/2)²) with wrap or sqrt(W² + H²) without "
+           "(more than any real distance); a full mask gives falloff 1, pixels 0 and signed minus "
+           "that same value. When `source` (gray or colour) is connected the output has its kind "
+           "and each pixel takes the source value at its nearest mask pixel (a Voronoi fill; "
+           "`mode` and `distance` do not apply); of several nearest mask pixels the one with the "
+           "smallest row, then the smallest column wins; an empty mask gives 0 in every channel. "
+           "O(W·H) for any mask and distance.",
+    .params = distance_params,
+    .params_size = sizeof(DistanceParams),
+    .inputs = distance_in,
+    .outputs = distance_out,
+    .flags = WG_NODE_GLOBAL,
+    .eval = distance_eval,
+    .scratch_bytes = distance_scratch,
+};
+
+static const WgParamSpec morph_params[] = {
+    WG_PARAM_FLOAT_UI(MorphParams, radius,
+                      "Disc radius, a length: in pixels of a 256-wide image, so it covers "
+                      "radius x width / 256 pixels of the output",
+                      1.0, 0.0, 65536.0, 0, 64),
+    WG_PARAM_BOOL(MorphParams, wrap, "The disc wraps around the image edges (tiles)", true),
+    WG_PARAM_END,
+};
+static const WgPortSpec morph_in[] = {
+    {"mask", WG_GRAY, false, "pixels >= 0.5 are the mask"},
+    WG_PORT_END,
+};
+static const WgPortSpec morph_out[] = {WG_PORT("output", WG_GRAY), WG_PORT_END};
+
+const WgNodeType wg_node_dilate = {
+    .name = "dilate",
+    .summary = "Grow a mask by an exact disc",
+    .category = "filter",
+    .doc = "Output 1 where the distance between pixel centres to the nearest mask pixel (value "
+           ">= 0.5) is <= r, 0 elsewhere, with r = `radius` x width / 256 pixels; the exact "
+           "Euclidean distance of `distance`, with the same `wrap`. radius 0 thresholds the mask; "
+           "an empty mask stays 0.",
+    .params = morph_params,
+    .params_size = sizeof(MorphParams),
+    .inputs = morph_in,
+    .outputs = morph_out,
+    .flags = WG_NODE_GLOBAL,
+    .eval = dilate_eval,
+    .scratch_bytes = distance_scratch,
+};
+
+const WgNodeType wg_node_erode = {
+    .name = "erode",
+    .summary = "Shrink a mask by an exact disc",
+    .category = "filter",
+    .doc = "Output 1 where the distance between pixel centres to the nearest non-mask pixel "
+           "(value < 0.5) is > r, 0 elsewhere, with r = `radius` x width / 256 pixels: the "
+           "complement of the complement dilated. Exact Euclidean distance, same `wrap` as "
+           "`distance`. radius 0 thresholds the mask; a full mask stays 1.",
+    .params = morph_params,
+    .params_size = sizeof(MorphParams),
+    .inputs = morph_in,
+    .outputs = morph_out,
+    .flags = WG_NODE_GLOBAL,
+    .eval = erode_eval,
+    .scratch_bytes = distance_scratch,
+};
