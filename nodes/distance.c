@@ -53,6 +53,8 @@ typedef struct {
     atomic_int failed;
 } Job;
 
+enum { BAND = 128 };
+
 static inline bool is_site(const Job *j, float v)
 {
     return (v >= 0.5f) != j->invert;
@@ -61,11 +63,10 @@ static inline bool is_site(const Job *j, float v)
 /* Columns [x0, x1): forward sweep records the last site at or above each row, backward sweep the
  * first at or below; the nearer wins, a tie the smaller row. With wrap the sweeps continue from
  * the other end of the column (the last site minus H, the first plus H). */
-static void column_pass(void *user, int x0, int x1)
+static void column_band(Job *j, int x0, int x1)
 {
-    Job *j = user;
     int w = j->w, h = j->h, n = x1 - x0;
-    int32_t first[256], last[256], next[256]; /* a chunk is at most ceil(16384 / 64) columns */
+    int32_t first[BAND], last[BAND], next[BAND];
     for (int i = 0; i < n; i++) first[i] = last[i] = -1;
     for (int y = 0; y < h; y++) {
         const float *m = wg_image_row(j->mask, y) + x0;
@@ -86,19 +87,17 @@ static void column_pass(void *user, int x0, int x1)
     }
     if (nonempty) atomic_fetch_add(&j->nonempty_columns, nonempty);
     for (int y = h - 1; y >= 0; y--) {
-        const float *m = wg_image_row(j->mask, y) + x0;
         int32_t *o = j->near + (size_t)y * (size_t)w + x0;
         for (int i = 0; i < n; i++) {
             if (first[i] < 0) continue; /* o[i] is already -1 */
-            if (is_site(j, m[i])) {
+            if (o[i] == y) {            /* a site */
                 next[i] = y;
-                o[i] = y;
                 continue;
             }
             long long a = o[i] >= 0 ? o[i] : (long long)last[i] - (j->wrap ? h : 0);
             long long b = next[i];
             long long da = y - a, db = b - y;
-            long long ra = (a + h) % h, rb = b % h;
+            long long ra = a < 0 ? a + h : a, rb = b >= h ? b - h : b;
             if (db < da || (db == da && rb < ra))
                 o[i] = (int32_t)rb;
             else
@@ -107,20 +106,41 @@ static void column_pass(void *user, int x0, int x1)
     }
 }
 
+/* Bands [b0, b1) of BAND columns: wide enough that each row visit reads whole cache lines and
+ * pages, fixed by the width alone (never by the thread count). */
+static void column_pass(void *user, int b0, int b1)
+{
+    Job *j = user;
+    for (int b = b0; b < b1; b++) {
+        int x0 = b * BAND, x1 = x0 + BAND < j->w ? x0 + BAND : j->w;
+        column_band(j, x0, x1);
+    }
+}
+
 /* One parabola of the lower envelope: site image at column q with squared vertical distance f,
  * tie key (row, column) of the site in the image, and the first column z where it wins. */
 typedef struct {
     int q, z;
     int f;
+    int x, r; /* the site: column and row in the image */
     long long key;
 } Parabola;
 
-/* First integer x where parabola b beats a (a.q < b.q): b is lower, or equal with a smaller key. */
+/* First integer x where parabola b beats a (a.q < b.q): b is lower, or equal with a smaller key.
+ * They are equal at s = num / den; the integer numerator is below 2^53, so the double quotient
+ * is exact when s is an integer and never rounds onto one otherwise, and the truncation below
+ * gives floor(s) exactly (without a libm call). */
 static inline int breakpoint(const Parabola *a, const Parabola *b)
 {
-    double num = ((double)b->f + (double)b->q * b->q) - ((double)a->f + (double)a->q * a->q);
-    double s = num / (2.0 * (b->q - a->q));
-    return b->key < a->key ? (int)ceil(s) : (int)floor(s) + 1;
+    if (a->f == b->f) { /* s = (a.q + b.q) / 2: common on the mask (f = 0), no division */
+        int sum = a->q + b->q, t = sum >= 0 ? sum / 2 : -((1 - sum) / 2);
+        return 2 * t == sum && b->key < a->key ? t : t + 1;
+    }
+    long long num = (long long)b->f + (long long)b->q * b->q - a->f - (long long)a->q * a->q;
+    double s = (double)num / (double)(2 * (b->q - a->q));
+    long long t = (long long)s;
+    if ((double)t > s) t--;
+    return (double)t == s && b->key < a->key ? (int)t : (int)t + 1;
 }
 
 static void emit_row(const Job *j, int y, const long long *d2, const int *sx, const int *sy)
@@ -157,13 +177,48 @@ static void emit_row(const Job *j, int y, const long long *d2, const int *sx, co
     }
 }
 
+/* Does parabola b beat a at x: lower there, or equal with a smaller key? */
+static inline bool beats(const Parabola *b, const Parabola *a, long long x)
+{
+    long long db = x - b->q, da = x - a->q;
+    long long vb = db * db + b->f, va = da * da + a->f;
+    return vb < va || (vb == va && b->key < a->key);
+}
+
+/* Squared vertical distance from row y to the site row r of a column. */
+static inline int fy(int y, int r, int h, bool wrap)
+{
+    int dy = y > r ? y - r : r - y;
+    if (wrap && h - dy < dy) dy = h - dy;
+    return dy * dy;
+}
+
+/* How far beyond the left (or right) edge of row y site images can matter: an image at q < 0
+ * is beaten at every x >= 0 by the in-image site p minimising p² + f(p) =: b0 once
+ * q² + f(q) > b0 (their difference grows with x), so images further than sqrt(b0) are left out;
+ * and no image further than W/2 is ever the nearest one. */
+static int reach(const int32_t *nr, int w, int h, int y, bool right)
+{
+    long long best = -1;
+    for (int i = 0; i < w; i++) {
+        if ((long long)i * i > best && best >= 0) break;
+        int r = nr[right ? w - 1 - i : i];
+        if (r < 0) continue;
+        long long b = (long long)i * i + fy(y, r, h, true);
+        if (best < 0 || b < best) best = b;
+    }
+    long long s = (long long)sqrt((double)best);
+    while (s * s > best) s--;
+    while ((s + 1) * (s + 1) <= best) s++;
+    return s < w / 2 ? (int)s : w / 2;
+}
+
 /* Rows [y0, y1): the lower envelope of the columns' parabolas, then a sweep along the row. */
 static void row_pass(void *user, int y0, int y1)
 {
     Job *j = user;
     int w = j->w, h = j->h;
-    int lo = j->wrap ? -(w / 2) : 0, hi = j->wrap ? w - 1 + w / 2 : w - 1;
-    size_t span = (size_t)(hi - lo + 1);
+    size_t span = j->wrap ? (size_t)w + 2 * (size_t)(w / 2) : (size_t)w;
     Parabola *env = wg_malloc(sizeof(Parabola) * span);
     long long *d2 = wg_malloc(sizeof(long long) * (size_t)w);
     int *sx = wg_malloc(sizeof(int) * 2 * (size_t)w), *sy = sx ? sx + w : NULL;
@@ -173,24 +228,20 @@ static void row_pass(void *user, int y0, int y1)
     }
     for (int y = y0; y < y1; y++) {
         const int32_t *nr = j->near + (size_t)y * (size_t)w;
+        int lo = 0, hi = w - 1;
+        if (j->wrap) {
+            lo = -reach(nr, w, h, y, false);
+            hi = w - 1 + reach(nr, w, h, y, true);
+        }
         int k = -1;
         for (int q = lo; q <= hi; q++) {
             int x = q < 0 ? q + w : q >= w ? q - w : q;
             int r = nr[x];
             if (r < 0) continue;
-            int dy = y > r ? y - r : r - y;
-            if (j->wrap && h - dy < dy) dy = h - dy;
-            Parabola p = {q, 0, dy * dy, (long long)r * w + x};
-            while (k >= 0) {
-                int b = breakpoint(&env[k], &p);
-                if (k > 0 && b <= env[k].z) {
-                    k--;
-                    continue;
-                }
-                p.z = b;
-                break;
-            }
-            if (k < 0) p.z = INT32_MIN;
+            Parabola p = {q, 0, fy(y, r, h, j->wrap), x, r, (long long)r * w + x};
+            /* env[k] never wins once p beats it where it starts: drop it (no division) */
+            while (k > 0 && beats(&p, &env[k], env[k].z)) k--;
+            p.z = k < 0 ? INT32_MIN : breakpoint(&env[k], &p);
             env[++k] = p;
         }
         int n = k + 1;
@@ -199,8 +250,8 @@ static void row_pass(void *user, int y0, int y1)
             while (k + 1 < n && env[k + 1].z <= x) k++;
             long long dx = x - env[k].q;
             d2[x] = dx * dx + env[k].f;
-            sx[x] = (int)(env[k].key % w);
-            sy[x] = (int)(env[k].key / w);
+            sx[x] = env[k].x;
+            sy[x] = env[k].r;
         }
         emit_row(j, y, d2, sx, sy);
     }
@@ -231,7 +282,7 @@ static int transform(WgNodeContext *ctx, Job *j, bool *empty, WgError *err)
 {
     atomic_store(&j->nonempty_columns, 0);
     atomic_store(&j->failed, 0);
-    int rc = wg_parallel_rows(ctx, j->w, column_pass, j);
+    int rc = wg_parallel_rows(ctx, (j->w + BAND - 1) / BAND, column_pass, j);
     if (rc) return rc;
     *empty = atomic_load(&j->nonempty_columns) == 0;
     if (*empty) return WG_OK;
