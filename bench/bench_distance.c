@@ -4,7 +4,7 @@
  * covered) and sparse seeds (white noise through a hard threshold at 0.9999, a few hundred
  * isolated pixels). Reports the median over the repetitions of the node's own evaluation time
  * (the engine's per-node stat; the mask's generation is not counted; cache cleared each time).
- *   bench_distance [--size N] [--threads T] [--reps R]
+ *   bench_distance [--size N] [--threads T] [--reps R] [--only NAME]
  * Output: one line per case, "name<TAB>ms<TAB>ms_per_MP<TAB>mask pixels<TAB>node". */
 #include <wetgraph/wetgraph.h>
 
@@ -56,6 +56,7 @@ static long count_mask(const WgImage *m)
 int main(int argc, char **argv)
 {
     int size = 2048, threads = 2, reps = 9;
+    const char *only = NULL;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--size") && i + 1 < argc)
             size = atoi(argv[++i]);
@@ -63,8 +64,11 @@ int main(int argc, char **argv)
             threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--reps") && i + 1 < argc)
             reps = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--only") && i + 1 < argc)
+            only = argv[++i];
         else {
-            fprintf(stderr, "usage: %s [--size N] [--threads T] [--reps R]\n", argv[0]);
+            fprintf(stderr, "usage: %s [--size N] [--threads T] [--reps R] [--only NAME]\n",
+                    argv[0]);
             return 2;
         }
     }
@@ -80,6 +84,7 @@ int main(int argc, char **argv)
     printf("# %dx%d, %d threads, median of %d (node time only)\n", size, size, threads, reps);
     int failed = 0;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        if (only && strcmp(only, cases[c].name)) continue;
         char mask[512], xml[2048];
         snprintf(mask, sizeof mask, masks[cases[c].mask], size);
         snprintf(xml, sizeof xml,

@@ -48,12 +48,18 @@ typedef struct {
     bool wrap, invert; /* invert: the sites are the pixels below 0.5 */
     int emit;
     double scale;  /* EMIT_FALLOFF: 1 / R in pixels; EMIT_DILATE / ERODE: r² in pixels */
-    int32_t *near; /* w*h: nearest site row in the pixel's column, -1 for none */
+    int16_t *near; /* w*h: nearest site row in the pixel's column (< 16384), -1 for none */
     atomic_int nonempty_columns;
     atomic_int failed;
 } Job;
 
 enum { BAND = 128 };
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
 
 static inline bool is_site(const Job *j, float v)
 {
@@ -70,13 +76,13 @@ static void column_band(Job *j, int x0, int x1)
     for (int i = 0; i < n; i++) first[i] = last[i] = -1;
     for (int y = 0; y < h; y++) {
         const float *m = wg_image_row(j->mask, y) + x0;
-        int32_t *o = j->near + (size_t)y * (size_t)w + x0;
+        int16_t *o = j->near + (size_t)y * (size_t)w + x0;
         for (int i = 0; i < n; i++) {
             if (is_site(j, m[i])) {
                 last[i] = y;
                 if (first[i] < 0) first[i] = y;
             }
-            o[i] = last[i];
+            o[i] = (int16_t)last[i];
         }
     }
     int nonempty = 0;
@@ -87,7 +93,7 @@ static void column_band(Job *j, int x0, int x1)
     }
     if (nonempty) atomic_fetch_add(&j->nonempty_columns, nonempty);
     for (int y = h - 1; y >= 0; y--) {
-        int32_t *o = j->near + (size_t)y * (size_t)w + x0;
+        int16_t *o = j->near + (size_t)y * (size_t)w + x0;
         for (int i = 0; i < n; i++) {
             if (first[i] < 0) continue; /* o[i] is already -1 */
             if (o[i] == y) {            /* a site */
@@ -99,9 +105,9 @@ static void column_band(Job *j, int x0, int x1)
             long long da = y - a, db = b - y;
             long long ra = a < 0 ? a + h : a, rb = b >= h ? b - h : b;
             if (db < da || (db == da && rb < ra))
-                o[i] = (int32_t)rb;
+                o[i] = (int16_t)rb;
             else
-                o[i] = (int32_t)ra;
+                o[i] = (int16_t)ra;
         }
     }
 }
@@ -118,13 +124,15 @@ static void column_pass(void *user, int b0, int b1)
 }
 
 /* One parabola of the lower envelope: site image at column q with squared vertical distance f,
- * tie key (row, column) of the site in the image, and the first column z where it wins. */
+ * the first column z where it wins, and the site's position in the image as the tie key
+ * row << KEY_BITS | column (sides are at most 2^14, so comparing keys compares (row, column)). */
 typedef struct {
     int q, z;
     int f;
-    int x, r; /* the site: column and row in the image */
-    long long key;
+    int key;
 } Parabola;
+
+enum { KEY_BITS = 14 };
 
 /* First integer x where parabola b beats a (a.q < b.q): b is lower, or equal with a smaller key.
  * They are equal at s = num / den; the integer numerator is below 2^53, so the double quotient
@@ -137,13 +145,18 @@ static inline int breakpoint(const Parabola *a, const Parabola *b)
         return 2 * t == sum && b->key < a->key ? t : t + 1;
     }
     long long num = (long long)b->f + (long long)b->q * b->q - a->f - (long long)a->q * a->q;
+    if (b->q - a->q == 1) { /* neighbouring columns (dense masks): s = num / 2, no division */
+        long long t = (num - (num & 1)) / 2;
+        return !(num & 1) && b->key < a->key ? (int)t : (int)t + 1;
+    }
     double s = (double)num / (double)(2 * (b->q - a->q));
     long long t = (long long)s;
     if ((double)t > s) t--;
     return (double)t == s && b->key < a->key ? (int)t : (int)t + 1;
 }
 
-static void emit_row(const Job *j, int y, const long long *d2, const int *sx, const int *sy)
+/* Squared distances fit an int: at most 2 × 16383². */
+HOT static void emit_row(const Job *j, int y, const int *d2, const int *key)
 {
     int w = j->w;
     float *o = wg_image_row(j->out, y);
@@ -163,7 +176,8 @@ static void emit_row(const Job *j, int y, const long long *d2, const int *sx, co
     case EMIT_FILL: {
         int c = j->out->channels;
         for (int x = 0; x < w; x++) {
-            const float *s = wg_image_row(j->source, sy[x]) + (size_t)sx[x] * (size_t)c;
+            int sx = key[x] & ((1 << KEY_BITS) - 1), sy = key[x] >> KEY_BITS;
+            const float *s = wg_image_row(j->source, sy) + (size_t)sx * (size_t)c;
             memcpy(o + (size_t)x * (size_t)c, s, sizeof(float) * (size_t)c);
         }
         break;
@@ -197,7 +211,7 @@ static inline int fy(int y, int r, int h, bool wrap)
  * is beaten at every x >= 0 by the in-image site p minimising p² + f(p) =: b0 once
  * q² + f(q) > b0 (their difference grows with x), so images further than sqrt(b0) are left out;
  * and no image further than W/2 is ever the nearest one. */
-static int reach(const int32_t *nr, int w, int h, int y, bool right)
+static int reach(const int16_t *nr, int w, int h, int y, bool right)
 {
     long long best = -1;
     for (int i = 0; i < w; i++) {
@@ -214,20 +228,19 @@ static int reach(const int32_t *nr, int w, int h, int y, bool right)
 }
 
 /* Rows [y0, y1): the lower envelope of the columns' parabolas, then a sweep along the row. */
-static void row_pass(void *user, int y0, int y1)
+HOT static void row_pass(void *user, int y0, int y1)
 {
     Job *j = user;
     int w = j->w, h = j->h;
     size_t span = j->wrap ? (size_t)w + 2 * (size_t)(w / 2) : (size_t)w;
     Parabola *env = wg_malloc(sizeof(Parabola) * span);
-    long long *d2 = wg_malloc(sizeof(long long) * (size_t)w);
-    int *sx = wg_malloc(sizeof(int) * 2 * (size_t)w), *sy = sx ? sx + w : NULL;
-    if (!env || !d2 || !sx) {
+    int *d2 = wg_malloc(sizeof(int) * 2 * (size_t)w), *key = d2 ? d2 + w : NULL;
+    if (!env || !d2) {
         atomic_store(&j->failed, 1);
         goto done;
     }
     for (int y = y0; y < y1; y++) {
-        const int32_t *nr = j->near + (size_t)y * (size_t)w;
+        const int16_t *nr = j->near + (size_t)y * (size_t)w;
         int lo = 0, hi = w - 1;
         if (j->wrap) {
             lo = -reach(nr, w, h, y, false);
@@ -238,7 +251,7 @@ static void row_pass(void *user, int y0, int y1)
             int x = q < 0 ? q + w : q >= w ? q - w : q;
             int r = nr[x];
             if (r < 0) continue;
-            Parabola p = {q, 0, fy(y, r, h, j->wrap), x, r, (long long)r * w + x};
+            Parabola p = {q, 0, fy(y, r, h, j->wrap), r << KEY_BITS | x};
             /* env[k] never wins once p beats it where it starts: drop it (no division) */
             while (k > 0 && beats(&p, &env[k], env[k].z)) k--;
             p.z = k < 0 ? INT32_MIN : breakpoint(&env[k], &p);
@@ -248,17 +261,15 @@ static void row_pass(void *user, int y0, int y1)
         k = 0;
         for (int x = 0; x < w; x++) {
             while (k + 1 < n && env[k + 1].z <= x) k++;
-            long long dx = x - env[k].q;
+            int dx = x - env[k].q;
             d2[x] = dx * dx + env[k].f;
-            sx[x] = env[k].x;
-            sy[x] = env[k].r;
+            key[x] = env[k].key;
         }
-        emit_row(j, y, d2, sx, sy);
+        emit_row(j, y, d2, key);
     }
 done:
     wg_free(env);
     wg_free(d2);
-    wg_free(sx);
 }
 
 /* The value a distance takes when there is no site at all: the periodic half-diagonal with wrap,
@@ -299,7 +310,7 @@ static int job_init(Job *j, WgNodeContext *ctx, bool wrap, WgError *err)
     j->w = ctx->width;
     j->h = ctx->height;
     j->wrap = wrap;
-    j->near = wg_malloc(sizeof(int32_t) * (size_t)j->w * (size_t)j->h);
+    j->near = wg_malloc(sizeof(int16_t) * (size_t)j->w * (size_t)j->h);
     if (!j->near) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     return WG_OK;
 }
@@ -365,11 +376,11 @@ static int erode_eval(WgNodeContext *ctx, WgError *err)
     return morph_eval(ctx, err, true);
 }
 
-/* The nearest-row buffer (one int32 per pixel). The row pass's per-chunk buffers (a few rows'
- * worth each) are part of the budget's fixed overhead. */
+/* The nearest-row buffer (one int16 per pixel: rows are below WG_MAX_SIDE). The row pass's
+ * per-chunk buffers (a few rows' worth each) are part of the budget's fixed overhead. */
 static size_t distance_scratch(const WgNodeContext *ctx)
 {
-    return sizeof(int32_t) * (size_t)ctx->width * (size_t)ctx->height;
+    return sizeof(int16_t) * (size_t)ctx->width * (size_t)ctx->height;
 }
 
 static const WgParamSpec distance_params[] = {
