@@ -53,7 +53,7 @@ typedef struct {
     atomic_int failed;
 } Job;
 
-enum { BAND = 128 };
+enum { BAND = 512 };
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
 #define HOT __attribute__((target_clones("avx2", "default")))
@@ -61,15 +61,10 @@ enum { BAND = 128 };
 #define HOT
 #endif
 
-static inline bool is_site(const Job *j, float v)
-{
-    return (v >= 0.5f) != j->invert;
-}
-
 /* Columns [x0, x1): forward sweep records the last site at or above each row, backward sweep the
  * first at or below; the nearer wins, a tie the smaller row. With wrap the sweeps continue from
  * the other end of the column (the last site minus H, the first plus H). */
-static void column_band(Job *j, int x0, int x1)
+HOT static void column_band(Job *j, int x0, int x1)
 {
     int w = j->w, h = j->h, n = x1 - x0;
     int32_t first[BAND], last[BAND], next[BAND];
@@ -77,11 +72,11 @@ static void column_band(Job *j, int x0, int x1)
     for (int y = 0; y < h; y++) {
         const float *m = wg_image_row(j->mask, y) + x0;
         int16_t *o = j->near + (size_t)y * (size_t)w + x0;
-        for (int i = 0; i < n; i++) {
-            if (is_site(j, m[i])) {
-                last[i] = y;
-                if (first[i] < 0) first[i] = y;
-            }
+        bool inv = j->invert;
+        for (int i = 0; i < n; i++) { /* branch-free, so it vectorises */
+            int site = (m[i] >= 0.5f) != inv;
+            first[i] = site && first[i] < 0 ? y : first[i];
+            last[i] = site ? y : last[i];
             o[i] = (int16_t)last[i];
         }
     }
@@ -221,6 +216,7 @@ static int reach(const int16_t *nr, int w, int h, int y, bool right)
         long long b = (long long)i * i + fy(y, r, h, true);
         if (best < 0 || b < best) best = b;
     }
+    if (best < 0) return 0; /* no site in the row: the mask is empty and the row is not run */
     long long s = (long long)sqrt((double)best);
     while (s * s > best) s--;
     while ((s + 1) * (s + 1) <= best) s++;
