@@ -112,8 +112,9 @@ static WgImage *random_mask(int w, int h, int variant)
     return m;
 }
 
-static const int sizes[][2] = {{17, 13}, {32, 32}, {1, 23}, {23, 1}, {40, 9},
-                               {8, 41},  {31, 31}, {1, 1},  {2, 3},  {50, 50}};
+/* 600 wide: more than one band of columns in the column pass */
+static const int sizes[][2] = {{17, 13}, {32, 32}, {1, 23}, {23, 1},  {40, 9}, {8, 41},
+                               {31, 31}, {1, 1},   {2, 3},  {50, 50}, {600, 4}};
 enum { N_SIZES = sizeof sizes / sizeof sizes[0] };
 
 static double none_distance(int w, int h, bool wrap)
@@ -281,6 +282,7 @@ static void test_exact_small_cases(void **state)
     assert_float_equal(wgt_px(b, 3, 1, 0), sqrt(10), 1e-6);
     wg_image_unref(b);
     wg_image_unref(a);
+    wg_image_unref(mask);
     /* falloff at 256 wide: R = distance pixels */
     WgImage *m256 = wgt_image(256, 4, 1, NULL);
     wg_image_row(m256, 0)[10] = 1;
@@ -452,9 +454,9 @@ static void test_thread_invariance(void **state)
 {
     (void)state;
     static const int threads[] = {1, 2, 3, 8};
-    WgImage *mask = random_mask(150, 97, 2);
+    WgImage *mask = random_mask(1100, 97, 2); /* three bands of columns */
     WgImage *sparse = random_mask(97, 150, 0);
-    WgImage *src = wgt_image_fn(150, 97, 4, id_fn);
+    WgImage *src = wgt_image_fn(1100, 97, 4, id_fn);
     WgImage *ref[5] = {0};
     for (int t = 0; t < 4; t++) {
         WgImage *o[5] = {
