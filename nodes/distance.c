@@ -386,7 +386,7 @@ static int erode_eval(WgNodeContext *ctx, WgError *err)
 }
 
 /* The nearest-row buffer (one int16 per pixel: rows are below WG_MAX_SIDE). The row pass's
- * per-chunk buffers (a few rows' worth each) are part of the budget's fixed overhead. */
+ * per-chunk buffers (about ten rows' worth each) are part of the budget's fixed overhead. */
 static size_t distance_scratch(const WgNodeContext *ctx)
 {
     return sizeof(int16_t) * (size_t)ctx->width * (size_t)ctx->height;
