@@ -17,3 +17,6 @@ echo "== pixel node vs the same maths in C (2048²)"
 echo
 echo "== graph size: 1k, 10k, 100k nodes (whole process; peer: xmllint parsing the same file)"
 "$root/bench/run_scaling.sh" "$build" 3
+echo
+echo "== distance, dilate, erode (2048², 2 threads; node time only)"
+"$build/bench/bench_distance" --size 2048 --threads 2 --reps 9

@@ -9,6 +9,8 @@ extern const WgNodeType wg_node_uniform, wg_node_image;
 extern const WgNodeType wg_node_blend;
 extern const WgNodeType wg_node_levels, wg_node_invert, wg_node_grayscale;
 extern const WgNodeType wg_node_blur;
+/* distance and morphology */
+extern const WgNodeType wg_node_distance, wg_node_dilate, wg_node_erode;
 /* generators */
 extern const WgNodeType wg_node_noise, wg_node_cells, wg_node_gradient, wg_node_checker,
     wg_node_sine, wg_node_shape, wg_node_bricks;
@@ -57,6 +59,10 @@ const WgNodeType *const wg_node_types[] = {
     /* height-field filters */
     &wg_node_normal,
     &wg_node_slope,
+    /* distance and morphology */
+    &wg_node_distance,
+    &wg_node_dilate,
+    &wg_node_erode,
     NULL,
 };
 
