@@ -30,14 +30,24 @@
  *   pixel is snapped to it. No prefilter: scales above 1 alias like any point sampler.
  * Work is split over rows with wg_parallel_rows; each pixel depends only on its own position,
  * so any thread count gives the same bits.
- * Speed at 2048², 2 threads (bench/bench_warp, release, median of 9, shared 2-core machine):
- * SPEED_PLACEHOLDER
+ * Speed at 2048², 2 threads (bench/bench_warp, release, median of 9, the quietest of three runs
+ * on a shared 2-core machine; busier runs were up to 2× slower), bilinear unless said: `warp`
+ * 20 ms gray, 44 ms colour, 76 ms colour bicubic; `directional_warp` 18 ms gray, 42 ms colour;
+ * `transform` (30°, scale 1.5) 29 ms gray, 71 ms colour, 111 ms colour bicubic. One memcpy of
+ * the 64 MB colour image takes 6 ms warm and 33 ms into fresh pages (which a new output also
+ * pays), of the 16 MB gray one 1.2 / 5 ms: the warps cost about 1.3× a first-touch copy of their
+ * output in colour, 4× in gray. RGBA pixels are filtered two channels at a time with SSE2
+ * (the same operations as the scalar code, so the same bits); `transform` walks tiles of 64
+ * columns by a chunk's rows so that a rotated tile reads a compact patch of the source.
  */
 #include "wetgraph/node.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdbool.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -166,7 +176,26 @@ static inline float clamp_float(double v)
     return (float)(v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v);
 }
 
-/* Bilinear: lerps in double, a + f·(b − a), so f = 0 gives a exactly and a constant stays. */
+#ifdef __SSE2__
+/* An RGBA pixel as two pairs of doubles, and back to floats (each lane rounded once). */
+static inline void load4(const float *p, __m128d *lo, __m128d *hi)
+{
+    __m128 v = _mm_loadu_ps(p);
+    *lo = _mm_cvtps_pd(v);
+    *hi = _mm_cvtps_pd(_mm_movehl_ps(v, v));
+}
+static inline void store4(float *p, __m128d lo, __m128d hi)
+{
+    _mm_storeu_ps(p, _mm_movelh_ps(_mm_cvtpd_ps(lo), _mm_cvtpd_ps(hi)));
+}
+static inline __m128d lerp2(__m128d a, __m128d b, __m128d f)
+{
+    return _mm_add_pd(a, _mm_mul_pd(f, _mm_sub_pd(b, a)));
+}
+#endif
+
+/* Bilinear: lerps in double, a + f·(b − a), so f = 0 gives a exactly and a constant stays. The
+ * SSE2 path for RGBA does the same operations two channels at a time (the same bits). */
 static inline void bilinear(const WgImage *src, int c, const Tap *t, int n, float *out)
 {
     int w = src->width, h = src->height;
@@ -175,6 +204,19 @@ static inline void bilinear(const WgImage *src, int c, const Tap *t, int n, floa
         int y0 = t[i].y, y1 = y0 + 1 == h ? 0 : y0 + 1;
         const float *r0 = wg_image_row(src, y0), *r1 = wg_image_row(src, y1);
         double fx = t[i].fx, fy = t[i].fy;
+#ifdef __SSE2__
+        if (c == 4) {
+            __m128d a0, a1, b0, b1, d0, d1, e0, e1, vx = _mm_set1_pd(fx), vy = _mm_set1_pd(fy);
+            load4(r0 + x0 * 4, &a0, &a1);
+            load4(r0 + x1 * 4, &b0, &b1);
+            load4(r1 + x0 * 4, &d0, &d1);
+            load4(r1 + x1 * 4, &e0, &e1);
+            __m128d t0 = lerp2(a0, b0, vx), t1 = lerp2(a1, b1, vx);
+            __m128d u0 = lerp2(d0, e0, vx), u1 = lerp2(d1, e1, vx);
+            store4(out + i * 4, lerp2(t0, u0, vy), lerp2(t1, u1, vy));
+            continue;
+        }
+#endif
         for (int k = 0; k < c; k++) {
             double a = r0[x0 * c + k], b = r0[x1 * c + k];
             double d = r1[x0 * c + k], e = r1[x1 * c + k];
@@ -194,6 +236,8 @@ static inline void keys_weights(double t, double w[4])
     w[3] = t * t * (-0.5 + 0.5 * t);
 }
 
+/* Bicubic: each row's taps summed left to right, then the rows weighted and summed top to
+ * bottom, in double; the SSE2 path for RGBA does the same operations two channels at a time. */
 static inline void bicubic(const WgImage *src, int c, const Tap *t, int n, float *out)
 {
     int w = src->width, h = src->height;
@@ -207,6 +251,32 @@ static inline void bicubic(const WgImage *src, int c, const Tap *t, int n, float
             xi[m] = wrap_index(t[i].x - 1 + m, w) * c;
             rows[m] = wg_image_row(src, wrap_index(t[i].y - 1 + m, h));
         }
+#ifdef __SSE2__
+        if (c == 4) {
+            __m128d lo = _mm_setzero_pd(), hi = _mm_setzero_pd();
+            for (int j = 0; j < 4; j++) {
+                __m128d rl = _mm_setzero_pd(), rh = _mm_setzero_pd();
+                for (int m = 0; m < 4; m++) {
+                    __m128d pl, ph, wm = _mm_set1_pd(wx[m]);
+                    load4(rows[j] + xi[m], &pl, &ph);
+                    if (m == 0) {
+                        rl = _mm_mul_pd(wm, pl), rh = _mm_mul_pd(wm, ph);
+                    } else {
+                        rl = _mm_add_pd(rl, _mm_mul_pd(wm, pl));
+                        rh = _mm_add_pd(rh, _mm_mul_pd(wm, ph));
+                    }
+                }
+                __m128d wj = _mm_set1_pd(wy[j]);
+                lo = _mm_add_pd(lo, _mm_mul_pd(wj, rl));
+                hi = _mm_add_pd(hi, _mm_mul_pd(wj, rh));
+            }
+            __m128d big = _mm_set1_pd(FLT_MAX), small = _mm_set1_pd(-FLT_MAX);
+            /* min/max return their second operand on NaN: NaN passes, as in clamp_float */
+            store4(out + i * 4, _mm_max_pd(small, _mm_min_pd(big, lo)),
+                   _mm_max_pd(small, _mm_min_pd(big, hi)));
+            continue;
+        }
+#endif
         for (int j = 0; j < 4; j++) {
             for (int k = 0; k < c; k++) {
                 const float *r = rows[j] + k;
