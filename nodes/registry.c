@@ -22,6 +22,8 @@ extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, w
 extern const WgNodeType wg_node_pixel;
 /* height-field filters */
 extern const WgNodeType wg_node_normal, wg_node_slope;
+/* resampling */
+extern const WgNodeType wg_node_warp, wg_node_directional_warp, wg_node_transform;
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -63,6 +65,10 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_distance,
     &wg_node_dilate,
     &wg_node_erode,
+    /* resampling */
+    &wg_node_warp,
+    &wg_node_directional_warp,
+    &wg_node_transform,
     NULL,
 };
 
