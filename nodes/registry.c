@@ -20,6 +20,9 @@ extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, w
 extern const WgNodeType wg_node_pixel;
 /* height-field filters */
 extern const WgNodeType wg_node_normal, wg_node_slope;
+/* neighbourhood filters and normal-map tools */
+extern const WgNodeType wg_node_sharpen, wg_node_emboss, wg_node_edge_detect,
+    wg_node_directional_blur, wg_node_normal_blend, wg_node_normal_normalize;
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -57,6 +60,13 @@ const WgNodeType *const wg_node_types[] = {
     /* height-field filters */
     &wg_node_normal,
     &wg_node_slope,
+    /* neighbourhood filters and normal-map tools */
+    &wg_node_sharpen,
+    &wg_node_emboss,
+    &wg_node_edge_detect,
+    &wg_node_directional_blur,
+    &wg_node_normal_blend,
+    &wg_node_normal_normalize,
     NULL,
 };
 
