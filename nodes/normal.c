@@ -295,7 +295,9 @@ const WgNodeType wg_node_slope = {
  * non-finite vector counts as flat), and a base pointing straight down (t.z = 0, outside the
  * tangent hemisphere) keeps the base. Alpha is the base's. `normal_normalize` scales an encoded
  * vector to unit length; a zero (or NaN) vector becomes (0,0,1), an infinite component
- * dominates. Per pixel, so thread count and tiling cannot change anything. */
+ * dominates. Per pixel, so thread count and tiling cannot change anything. Speed at 2048²,
+ * 2 threads (bench/bench_filters, medians over runs on a loaded 2-core machine): normal_blend
+ * rnm 92-291 ms, whiteout 157-249 ms; normal_normalize 78-122 ms. */
 
 typedef struct {
     int method;

@@ -392,8 +392,9 @@ static void test_extreme_inputs(void **state)
     const WgImage *inputs[] = {big, bad};
     for (int i = 0; i < 2; i++) {
         WgImage *outs[] = {sharpen(inputs[i], 1000, 3, 2), edges(inputs[i], 1e6, "magnitude", 2),
-                           edges(inputs[i], 1e6, "x", 2), emboss(inputs[i], 10, 1e6, 2)};
-        for (int o = 0; o < 4; o++) {
+                           edges(inputs[i], 1e6, "x", 2), emboss(inputs[i], 10, 1e6, 2),
+                           dirblur(inputs[i], 30, 100, "box", 2)};
+        for (int o = 0; o < 5; o++) {
             wgt_assert_range(outs[o], -FLT_MAX, FLT_MAX);
             wg_image_unref(outs[o]);
         }
