@@ -230,6 +230,8 @@ static int sharpen_eval(WgNodeContext *ctx, WgError *err)
 /* The double horizontal pass and both kernels. */
 static size_t sharpen_scratch(const WgNodeContext *ctx)
 {
+    const SharpenParams *p = ctx->params;
+    if (length_px(p->radius, ctx->width) == 0 || p->amount == 0) return 0;
     int c = ctx->input_channels[0] == 4 ? 4 : 1;
     return sizeof(double) * (size_t)ctx->width * (size_t)ctx->height * (size_t)c +
            (sizeof(double) + sizeof(int)) * ((size_t)ctx->width + (size_t)ctx->height);
@@ -520,6 +522,14 @@ static int dirblur_eval(WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
+/* The tap table: four bilinear corners per sample. */
+static size_t dirblur_scratch(const WgNodeContext *ctx)
+{
+    const DirBlurParams *p = ctx->params;
+    double n = ceil(length_px(p->length, ctx->width));
+    return n <= 1 ? 0 : sizeof(Tap) * 4 * (size_t)n;
+}
+
 const WgNodeType wg_node_directional_blur = {
     .name = "directional_blur",
     .summary = "Blur along one direction (motion streak), box or Gaussian",
@@ -537,4 +547,5 @@ const WgNodeType wg_node_directional_blur = {
     .outputs = any_out,
     .flags = WG_NODE_NEIGHBOURHOOD,
     .eval = dirblur_eval,
+    .scratch_bytes = dirblur_scratch,
 };
