@@ -284,3 +284,168 @@ const WgNodeType wg_node_slope = {
     .flags = WG_NODE_NEIGHBOURHOOD,
     .eval = slope_eval,
 };
+
+/* ---- normal_blend and normal_normalize ---------------------------------------------------- */
+/* Both decode n = 2·rgb − 1 in double, work on unit vectors and encode as `normal` does
+ * (symmetric around 0.5, rounded once). `normal_blend` lays a detail normal map over a base one:
+ * `rnm` is Reoriented Normal Mapping (Barré-Brisebois & Hill 2012, "Blending in Detail"): the
+ * detail is rotated by the rotation taking +z to the base, t = b + (0,0,1), u = d·(−1,−1,1),
+ * r = t·(t·u)/t.z − u; `whiteout` is (b.xy + d.xy, b.z·d.z). `opacity` first mixes the detail
+ * with flat (0,0,1), so opacity 0 gives the base. Inputs are renormalised first (a zero or
+ * non-finite vector counts as flat), and a base pointing straight down (t.z = 0, outside the
+ * tangent hemisphere) keeps the base. Alpha is the base's. `normal_normalize` scales an encoded
+ * vector to unit length; a zero (or NaN) vector becomes (0,0,1), an infinite component
+ * dominates. Per pixel, so thread count and tiling cannot change anything. Speed at 2048²,
+ * 2 threads (bench/bench_filters, medians over runs on a loaded 2-core machine): normal_blend
+ * rnm 92-291 ms, whiteout 157-249 ms; normal_normalize 78-122 ms. */
+
+typedef struct {
+    int method;
+    float opacity;
+} NormalBlendParams;
+
+enum { BLEND_RNM, BLEND_WHITEOUT };
+static const char *const blend_values[] = {"rnm", "whiteout", NULL};
+
+static const WgParamSpec normal_blend_params[] = {
+    WG_PARAM_ENUM(NormalBlendParams, method, "rnm (reoriented normal mapping) or whiteout", 0,
+                  blend_values),
+    WG_PARAM_FLOAT(NormalBlendParams, opacity, "Detail strength: 0 keeps the base", 1.0, 0.0, 1.0),
+    WG_PARAM_END,
+};
+static const WgPortSpec normal_blend_in[] = {WG_PORT("base", WG_COLOR), WG_PORT("detail", WG_COLOR),
+                                             WG_PORT_END};
+static const WgPortSpec normal_in[] = {WG_PORT("normal", WG_COLOR), WG_PORT_END};
+
+/* v scaled to unit length; a zero or NaN vector becomes (0, 0, 1); infinite components win. */
+static void unit(double v[3])
+{
+    double m = fmax(fabs(v[0]), fmax(fabs(v[1]), fabs(v[2])));
+    if (!(m > 0) || isnan(v[0]) || isnan(v[1]) || isnan(v[2])) {
+        v[0] = v[1] = 0, v[2] = 1;
+        return;
+    }
+    if (isinf(m))
+        for (int k = 0; k < 3; k++) v[k] = isinf(v[k]) ? copysign(1, v[k]) : 0;
+    else
+        for (int k = 0; k < 3; k++) v[k] /= m; /* no overflow or underflow in the squares */
+    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int k = 0; k < 3; k++) v[k] /= len;
+}
+
+static void decode_unit(const float *p, double v[3])
+{
+    for (int k = 0; k < 3; k++) v[k] = 2.0 * p[k] - 1.0;
+    unit(v);
+}
+
+static void encode_unit(const double v[3], float alpha, float *o)
+{
+    o[0] = encode(v[0]);
+    o[1] = encode(v[1]);
+    o[2] = encode(v[2]);
+    o[3] = alpha;
+}
+
+typedef struct {
+    const WgImage *base, *detail;
+    WgImage *out;
+    int method;
+    double opacity;
+} BlendJob;
+
+static void normal_blend_rows(void *user, int y0, int y1)
+{
+    const BlendJob *j = user;
+    int w = j->out->width;
+    for (int y = y0; y < y1; y++) {
+        const float *bp = wg_image_row(j->base, y), *dp = wg_image_row(j->detail, y);
+        float *o = wg_image_row(j->out, y);
+        for (int x = 0; x < w; x++) {
+            double b[3], d[3], r[3];
+            decode_unit(bp + 4 * x, b);
+            decode_unit(dp + 4 * x, d);
+            if (j->opacity < 1) {
+                d[0] *= j->opacity, d[1] *= j->opacity;
+                d[2] = 1 + j->opacity * (d[2] - 1);
+                unit(d);
+            }
+            if (j->method == BLEND_WHITEOUT) {
+                r[0] = b[0] + d[0], r[1] = b[1] + d[1], r[2] = b[2] * d[2];
+            } else {
+                double t[3] = {b[0], b[1], b[2] + 1}, u[3] = {-d[0], -d[1], d[2]};
+                if (t[2] > 0) {
+                    double s = (t[0] * u[0] + t[1] * u[1] + t[2] * u[2]) / t[2];
+                    for (int k = 0; k < 3; k++) r[k] = t[k] * s - u[k];
+                } else {
+                    for (int k = 0; k < 3; k++) r[k] = b[k];
+                }
+            }
+            unit(r);
+            encode_unit(r, bp[4 * x + 3], o + 4 * x);
+        }
+    }
+}
+
+static void normal_normalize_rows(void *user, int y0, int y1)
+{
+    const BlendJob *j = user;
+    int w = j->out->width;
+    for (int y = y0; y < y1; y++) {
+        const float *p = wg_image_row(j->base, y);
+        float *o = wg_image_row(j->out, y);
+        for (int x = 0; x < w; x++) {
+            double v[3];
+            decode_unit(p + 4 * x, v);
+            encode_unit(v, p[4 * x + 3], o + 4 * x);
+        }
+    }
+}
+
+static int normal_blend_eval(WgNodeContext *ctx, WgError *err)
+{
+    (void)err;
+    const NormalBlendParams *p = ctx->params;
+    BlendJob j = {ctx->inputs[0], ctx->inputs[1], ctx->outputs[0], p->method, p->opacity};
+    return wg_parallel_rows(ctx, ctx->height, normal_blend_rows, &j);
+}
+
+static int normal_normalize_eval(WgNodeContext *ctx, WgError *err)
+{
+    (void)err;
+    BlendJob j = {ctx->inputs[0], NULL, ctx->outputs[0], 0, 1};
+    return wg_parallel_rows(ctx, ctx->height, normal_normalize_rows, &j);
+}
+
+const WgNodeType wg_node_normal_blend = {
+    .name = "normal_blend",
+    .summary = "Combine a detail normal map with a base one (RNM or whiteout)",
+    .category = "filter",
+    .doc = "`rnm`: Reoriented Normal Mapping (Barré-Brisebois & Hill 2012): the detail is "
+           "rotated as +z is rotated onto the base, t = b + (0,0,1), u = d·(−1,−1,1), "
+           "r = t·(t·u)/t.z − u. `whiteout`: (b.xy + d.xy, b.z·d.z). The result is normalised. "
+           "`opacity` mixes the detail towards flat first (0 keeps the base). Inputs are "
+           "decoded n = 2·rgb − 1 and renormalised (zero counts as flat); encoded as `normal` "
+           "does, alpha from the base. Computed in double, rounded once.",
+    .params = normal_blend_params,
+    .params_size = sizeof(NormalBlendParams),
+    .inputs = normal_blend_in,
+    .outputs = normal_out,
+    .flags = WG_NODE_POINT,
+    .eval = normal_blend_eval,
+};
+
+const WgNodeType wg_node_normal_normalize = {
+    .name = "normal_normalize",
+    .summary = "Rescale an encoded normal map to unit-length vectors",
+    .category = "filter",
+    .doc = "Decodes n = 2·rgb − 1, divides by |n| in double and encodes as `normal` does "
+           "(each channel within 3e-8 of exact); a zero vector becomes (0, 0, 1), i.e. "
+           "(0.5, 0.5, 1). Alpha is kept.",
+    .params = NULL,
+    .params_size = 0,
+    .inputs = normal_in,
+    .outputs = normal_out,
+    .flags = WG_NODE_POINT,
+    .eval = normal_normalize_eval,
+};

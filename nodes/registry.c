@@ -24,6 +24,9 @@ extern const WgNodeType wg_node_pixel;
 extern const WgNodeType wg_node_normal, wg_node_slope;
 /* resampling */
 extern const WgNodeType wg_node_warp, wg_node_directional_warp, wg_node_transform;
+/* neighbourhood filters and normal-map tools */
+extern const WgNodeType wg_node_sharpen, wg_node_emboss, wg_node_edge_detect,
+    wg_node_directional_blur, wg_node_normal_blend, wg_node_normal_normalize;
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -69,6 +72,13 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_warp,
     &wg_node_directional_warp,
     &wg_node_transform,
+    /* neighbourhood filters and normal-map tools */
+    &wg_node_sharpen,
+    &wg_node_emboss,
+    &wg_node_edge_detect,
+    &wg_node_directional_blur,
+    &wg_node_normal_blend,
+    &wg_node_normal_normalize,
     NULL,
 };
 
