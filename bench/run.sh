@@ -20,3 +20,12 @@ echo "== graph size: 1k, 10k, 100k nodes (whole process; peer: xmllint parsing t
 echo
 echo "== distance, dilate, erode (2048², 2 threads; node time only)"
 "$build/bench/bench_distance" --size 2048 --threads 2 --reps 9
+echo
+echo "== normal, slope vs a memcpy (2048², 2 threads)"
+"$build/bench/bench_normal" --size 2048 --threads 2 --reps 9
+echo
+echo "== warp, directional_warp, transform (2048², 2 threads)"
+"$build/bench/bench_warp" --size 2048 --threads 2 --reps 9
+echo
+echo "== sharpen, emboss, edge_detect, directional_blur, normal_blend, normal_normalize (2048², 2 threads)"
+"$build/bench/bench_filters" --size 2048 --threads 2 --reps 9
