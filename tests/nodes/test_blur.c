@@ -407,6 +407,34 @@ static void test_defaults(void **state)
     wg_image_unref(src);
 }
 
+/* The fast path's half spectrum counts against the memory budget: at 1024² gray and σ = 3 px
+ * the two images take 8 MiB and the kept spectrum 3 MiB more. */
+static void test_budget_counts_the_spectrum(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"1024\">\n"
+                          "  <node id=\"u\" type=\"uniform\" value=\"0.5\"/>\n"
+                          "  <node id=\"soft\" type=\"blur\" sigma=\"0.75\">"
+                          "<in name=\"source\" from=\"u\"/></node>\n"
+                          "  <output name=\"out\" from=\"soft\"/>\n"
+                          "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    static const size_t mib = (size_t)1 << 20;
+    WgEngine *e = wgt_engine(2, 10 * mib, NULL);
+    WgResult *res = NULL;
+    WgError err = {0};
+    assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_BUDGET);
+    wgt_assert_error(&err, WG_ERR_BUDGET, 0, "'soft' (blur)");
+    wg_engine_free(e);
+    e = wgt_engine(2, 12 * mib, NULL);
+    res = wgt_render_request(e, r);
+    wgt_assert_range(wgt_output(res, "out"), 0.5 - 1e-6, 0.5 + 1e-6);
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 static void test_thread_invariance(void **state)
 {
     (void)state;
@@ -443,6 +471,7 @@ int main(void)
         cmocka_unit_test(test_fast_matches_exact),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_defaults),
+        cmocka_unit_test(test_budget_counts_the_spectrum),
         cmocka_unit_test(test_thread_invariance),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
