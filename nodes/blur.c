@@ -32,13 +32,16 @@
  * All channels are blurred, alpha included; σ = 0 copies. NaN and infinities spread over the
  * whole image in the FFT path (over the kernel's reach in the others).
  *
- * Speed at 2048² gray, 2 threads (bench/bench_blur, release, ms of the node alone, median of 15,
- * the shared 2-core VM at load average ≈ 1.3 for fast; exact is one run):
- *   σ px      1      2      3      4     16     64    256
- *   fast    7.7   11.2   14.3   14.0   11.0   10.1    9.9
- *   exact   102    188    230    287    956   2069  11538
- * Fast is 17× faster than exact at σ = 2 and 1,100× at σ = 256. With the other agents' load
- * (load average 2-3) fast took 12-20 ms at σ = 2, 16-20 at 16..256 and up to 29 at 3..4. */
+ * Speed at 2048² gray, 2 threads (bench/bench_blur --reps 15, release, ms of the node alone; fast
+ * the median of 15, exact one run; the shared 2-core VM), and max |fast − exact| over the image:
+ *   σ px       1       2       3       4      16      64     256
+ *   fast    7.75   11.33   14.14   14.34   11.01   10.17   10.00
+ *   exact   51.6    81.8   116.8   144.4   482.7  1915.0  5796.8
+ *   error  2.4e-7  3.0e-7  3.0e-7  3.0e-7  2.4e-7  2.4e-7  1.8e-7
+ * Some 6 ms of each fast time are the first-touch page faults of the fresh 16 MB output (as
+ * measured for the pixel node, bench/README.md). When the other jobs on the VM take the cores,
+ * fast medians rise to 12-20 ms at σ ≤ 2 px, 17-27 ms at 16..256 px and 25-48 ms at 3..4 px (the
+ * FFT's costliest range: most spectrum columns kept). */
 #include "wetgraph/node.h"
 
 #include <fftw3.h>
