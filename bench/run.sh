@@ -17,3 +17,6 @@ echo "== pixel node vs the same maths in C (2048²)"
 echo
 echo "== graph size: 1k, 10k, 100k nodes (whole process; peer: xmllint parsing the same file)"
 "$root/bench/run_scaling.sh" "$build" 3
+echo
+echo "== blur fast vs exact (2048² gray, 2 threads; exact takes tens of seconds)"
+"$build/bench/bench_blur" --size 2048 --threads 2 --reps 15
