@@ -29,3 +29,6 @@ echo "== warp, directional_warp, transform (2048², 2 threads)"
 echo
 echo "== sharpen, emboss, edge_detect, directional_blur, normal_blend, normal_normalize (2048², 2 threads)"
 "$build/bench/bench_filters" --size 2048 --threads 2 --reps 9
+echo
+echo "== blur fast vs exact (2048² gray, 2 threads; exact takes tens of seconds)"
+"$build/bench/bench_blur" --size 2048 --threads 2 --reps 15

@@ -4,7 +4,7 @@
 #   scripts/install-deps.sh --bench  also the peers the benchmarks compare against
 set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
-      libxxhash-dev zlib1g-dev libcmocka-dev
+      libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils)  # peers of the benchmarks (OpenCV and scipy join with the filters that need them)

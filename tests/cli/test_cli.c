@@ -790,7 +790,7 @@ static void test_inspection_commands(void **state)
     }
     assert_int_equal(count_substr(c[5].out, "\n"), count);
     expect_status(&c[6], 0);
-    OUT_HAS(&c[6], "blur - Exact Gaussian blur");
+    OUT_HAS(&c[6], "blur - Gaussian blur");
     OUT_HAS(&c[6], "sigma");
     OUT_HAS(&c[6], "source");
     expect_status(&c[7], 2);

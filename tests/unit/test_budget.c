@@ -48,7 +48,8 @@ static const char *graph_xml(void)
              "  <node id=\"src\" type=\"image\" path=\"%s\"/>\n"
              "  <node id=\"a\" type=\"levels\" in_low=\"0.1\" in_high=\"0.9\">"
              "<in name=\"source\" from=\"src\"/></node>\n"
-             "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"a\"/></node>\n"
+             "  <node id=\"b\" type=\"blur\" sigma=\"0.125\" quality=\"exact\">"
+             "<in name=\"source\" from=\"a\"/></node>\n"
              "  <node id=\"c\" type=\"invert\"><in name=\"source\" from=\"src\"/></node>\n"
              "  <node id=\"d\" type=\"blend\" mode=\"overlay\"><in name=\"foreground\" from=\"b\"/>"
              "<in name=\"background\" from=\"c\"/></node>\n"
@@ -224,7 +225,7 @@ static void test_working_memory_that_cannot_fit_is_refused_up_front(void **state
     (void)state;
     WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"1024\">\n"
                           "  <node id=\"u\" type=\"uniform\" kind=\"color\" color=\"#336699\"/>\n"
-                          "  <node id=\"soft\" type=\"blur\" sigma=\"3\">"
+                          "  <node id=\"soft\" type=\"blur\" sigma=\"3\" quality=\"exact\">"
                           "<in name=\"source\" from=\"u\"/></node>\n"
                           "  <output name=\"out\" from=\"soft\"/>\n"
                           "</wetgraph>\n");
