@@ -22,6 +22,8 @@ extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, w
 extern const WgNodeType wg_node_pixel;
 /* height-field filters */
 extern const WgNodeType wg_node_normal, wg_node_slope;
+/* relief maps from a height field */
+extern const WgNodeType wg_node_curvature, wg_node_ambient_occlusion;
 /* resampling */
 extern const WgNodeType wg_node_warp, wg_node_directional_warp, wg_node_transform;
 /* neighbourhood filters and normal-map tools */
@@ -64,6 +66,9 @@ const WgNodeType *const wg_node_types[] = {
     /* height-field filters */
     &wg_node_normal,
     &wg_node_slope,
+    /* relief maps from a height field */
+    &wg_node_curvature,
+    &wg_node_ambient_occlusion,
     /* distance and morphology */
     &wg_node_distance,
     &wg_node_dilate,
