@@ -17,13 +17,23 @@ static WgImage *ao(const WgImage *src, double intensity, double radius, int dire
     return ht_run("ambient_occlusion", attrs, src, threads);
 }
 
+static int wrap(int v, int n)
+{
+    while (v < 0) v += n;
+    while (v >= n) v -= n;
+    return v;
+}
+
 /* Periodic bilinear height at texture position (px, py), in pixels. */
 static double bilinear(const WgImage *img, double px, double py)
 {
     double fx = floor(px), fy = floor(py), ax = px - fx, ay = py - fy;
-    int x = (int)fx, y = (int)fy;
-    double top = ht_h(img, x, y) * (1 - ax) + ht_h(img, x + 1, y) * ax;
-    double bot = ht_h(img, x, y + 1) * (1 - ax) + ht_h(img, x + 1, y + 1) * ax;
+    int w = img->width, h = img->height;
+    int x0 = wrap((int)fx, w), x1 = wrap((int)fx + 1, w);
+    const float *r0 = wg_image_row(img, wrap((int)fy, h)),
+                *r1 = wg_image_row(img, wrap((int)fy + 1, h));
+    double top = r0[x0] * (1 - ax) + r0[x1] * ax;
+    double bot = r1[x0] * (1 - ax) + r1[x1] * ax;
     return top * (1 - ay) + bot * ay;
 }
 
@@ -34,10 +44,11 @@ static double horizon_ao(const WgImage *img, double intensity, int x, int y, int
 {
     double s = img->width / 256.0, sum = 0;
     for (int d = 0; d < dirs; d++) {
-        double a = 2 * M_PI * (d + phase) / dirs, best = 0;
+        double a = 2 * M_PI * (d + phase) / dirs, ca = cos(a), sa = sin(a), best = 0;
+        double h0 = ht_h(img, x, y);
         for (int k = 0; k < n; k++) {
-            double v = bilinear(img, x + t[k] * cos(a), y + t[k] * sin(a));
-            best = fmax(best, intensity * (v - ht_h(img, x, y)) / (t[k] / s));
+            double v = bilinear(img, x + t[k] * ca, y + t[k] * sa);
+            best = fmax(best, intensity * (v - h0) / (t[k] / s));
         }
         sum += sin(atan(best));
     }
