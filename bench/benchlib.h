@@ -1,0 +1,38 @@
+/* SPDX-License-Identifier: MIT */
+/* What the node benchmarks share: the common command line (--size, --threads, --reps), the
+ * median time of one node over repeated renders with the cache cleared, and the time of one
+ * memcpy of an image for scale (into memory written before, and into fresh pages). Output lines
+ * are "name<TAB>ms<TAB>ms_per_MP<TAB>description". */
+#ifndef WETGRAPH_BENCHLIB_H
+#define WETGRAPH_BENCHLIB_H
+
+#include <wetgraph/wetgraph.h>
+
+#include <stdbool.h>
+#include <stddef.h>
+
+typedef struct BenchArgs {
+    int size, threads, reps;
+} BenchArgs;
+
+/* Parses --size N (default 2048), --threads T (2), --reps R (9); 2 after printing the usage. */
+int bench_args(int argc, char **argv, BenchArgs *a);
+double bench_now_ms(void);
+/* The median of t[0..n) (sorts t). */
+double bench_median(double *t, int n);
+/* An engine with `threads` workers and no disk cache; NULL after printing the error. */
+WgEngine *bench_engine(int threads);
+/* The median over `reps` renders of `xml` (cache cleared before each) of the evaluation time of
+ * node `node_id`; -1 after printing the error, prefixed by `label`. */
+double bench_node_ms(WgEngine *e, const char *xml, const char *node_id, int reps,
+                     const char *label);
+/* Runs bench_node_ms and prints its line; false on failure. */
+bool bench_node_line(WgEngine *e, const char *xml, const char *label, const char *description,
+                     const BenchArgs *a);
+/* One memcpy of `bytes`, median of `reps`: into a buffer written before, or (fresh) into newly
+ * mapped pages, which the kernel maps on first touch as it does for a node's new output. */
+double bench_memcpy_ms(size_t bytes, int reps, bool fresh);
+/* The memcpy lines for a gray and a colour image of the benchmark's size, warm and fresh. */
+void bench_memcpy_lines(const BenchArgs *a);
+
+#endif
