@@ -122,4 +122,39 @@ static inline WgImage *ht_const(int w, int h, float v)
     return img;
 }
 
+/* Tiling: cyclic shifts of the height (by {5,0}, {0,7}, {W-1,H-1}, {11,13} on a 37×22 pattern)
+ * shift the output of node `type` with `attrs` exactly. */
+static inline void ht_assert_tiles(const char *type, const char *attrs)
+{
+    WgImage *src = wgt_image_fn(37, 22, 1, ht_pattern_fn);
+    static const int rolls[][2] = {{5, 0}, {0, 7}, {36, 21}, {11, 13}};
+    WgImage *ref = ht_run(type, attrs, src, 2);
+    for (int r = 0; r < 4; r++) {
+        WgImage *rolled = ht_roll(src, rolls[r][0], rolls[r][1]);
+        WgImage *out = ht_run(type, attrs, rolled, 2);
+        WgImage *want = ht_roll(ref, rolls[r][0], rolls[r][1]);
+        wgt_assert_identical(out, want);
+        wg_image_unref(want);
+        wg_image_unref(out);
+        wg_image_unref(rolled);
+    }
+    wg_image_unref(ref);
+    wg_image_unref(src);
+}
+
+/* The same bits from 1, 2, 3 and 8 threads on a 300×150 pattern. */
+static inline void ht_assert_thread_invariant(const char *type, const char *attrs)
+{
+    WgImage *src = wgt_image_fn(300, 150, 1, ht_pattern_fn);
+    WgImage *a = ht_run(type, attrs, src, 1);
+    static const int threads[] = {2, 3, 8};
+    for (int t = 0; t < 3; t++) {
+        WgImage *b = ht_run(type, attrs, src, threads[t]);
+        wgt_assert_identical(a, b);
+        wg_image_unref(b);
+    }
+    wg_image_unref(a);
+    wg_image_unref(src);
+}
+
 #endif

@@ -268,41 +268,15 @@ static void test_extreme_inputs(void **state)
 static void test_tiling_rolls_commute(void **state)
 {
     (void)state;
-    WgImage *src = wgt_image_fn(37, 22, 1, ht_pattern_fn);
-    static const int rolls[][2] = {{5, 0}, {0, 7}, {36, 21}, {11, 13}};
-    for (int sobel = 0; sobel < 2; sobel++) {
-        const char *m = sobel ? "sobel" : "central";
-        WgImage *ref = normal(src, 9, "opengl", m, 2);
-        for (int r = 0; r < 4; r++) {
-            WgImage *rolled = ht_roll(src, rolls[r][0], rolls[r][1]);
-            WgImage *out = normal(rolled, 9, "opengl", m, 2);
-            WgImage *want = ht_roll(ref, rolls[r][0], rolls[r][1]);
-            wgt_assert_identical(out, want);
-            wg_image_unref(want);
-            wg_image_unref(out);
-            wg_image_unref(rolled);
-        }
-        wg_image_unref(ref);
-    }
-    wg_image_unref(src);
+    ht_assert_tiles("normal", "intensity=\"9\"");
+    ht_assert_tiles("normal", "intensity=\"9\" method=\"sobel\"");
 }
 
 static void test_thread_invariance(void **state)
 {
     (void)state;
-    WgImage *src = wgt_image_fn(300, 150, 1, ht_pattern_fn);
-    for (int sobel = 0; sobel < 2; sobel++) {
-        const char *m = sobel ? "sobel" : "central";
-        WgImage *a = normal(src, 3, "opengl", m, 1);
-        static const int threads[] = {2, 3, 8};
-        for (int t = 0; t < 3; t++) {
-            WgImage *b = normal(src, 3, "opengl", m, threads[t]);
-            wgt_assert_identical(a, b);
-            wg_image_unref(b);
-        }
-        wg_image_unref(a);
-    }
-    wg_image_unref(src);
+    ht_assert_thread_invariant("normal", "intensity=\"3\"");
+    ht_assert_thread_invariant("normal", "intensity=\"3\" method=\"sobel\"");
 }
 
 /* One wave sampled at 64² and 256²: pixel (x, y) of the small render and (4x, 4y) of the large
