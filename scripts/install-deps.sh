@@ -7,7 +7,8 @@ pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libope
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then
-    pkgs+=(gegl libxml2-utils)  # peers of the benchmarks (OpenCV and scipy join with the filters that need them)
+    pkgs+=(gegl libxml2-utils  # peers of the benchmarks
+           libopencv-dev python3-numpy python3-scipy)  # blur and distance peers (bench/run_peers.sh)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
