@@ -54,8 +54,10 @@ size_t wg_image_bytes_for(int width, int height, int channels);
 WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels);
 
 /* Allocation hook used for all engine memory. `alloc` must return 64-byte aligned memory.
- * Passing NULLs restores the default (aligned_alloc / free). Not thread-safe to change while
- * a render runs. */
+ * Passing NULLs restores the default: image pixels are 64-byte aligned (their own memory
+ * mapping from 1 MiB on), other blocks above 256 bytes come from aligned_alloc and smaller ones
+ * from malloc (no alignment beyond malloc's); all are released with free or munmap. Not
+ * thread-safe to change while a render runs. */
 typedef void *(*WgAllocFn)(size_t size, void *user);
 typedef void (*WgFreeFn)(void *ptr, void *user);
 void wg_set_allocator(WgAllocFn alloc, WgFreeFn free_fn, void *user);
