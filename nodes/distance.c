@@ -236,6 +236,22 @@ static int reach(const int16_t *nr, int w, int h, int y, bool right)
     return s < w / 2 ? (int)s : w / 2;
 }
 
+/* Is the site at column x of row y flanked by sites of the same row on both sides (an edge of
+ * the image counts as a site without wrap)? Its parabola then wins only at x itself, where the
+ * sweep answers 0 directly: a neighbour at x ± 1 is strictly nearer to every other pixel of the
+ * row. Leaving such sites out keeps the envelope to the mask's boundary, which makes dense masks
+ * as cheap as sparse ones. */
+static inline bool interior(const int16_t *nr, int w, int x, int y, bool wrap)
+{
+    if (w < 3) return false;
+    int l = x - 1, r = x + 1;
+    if (wrap) {
+        l = l < 0 ? w - 1 : l;
+        r = r >= w ? 0 : r;
+    }
+    return (l < 0 || nr[l] == y) && (r >= w || nr[r] == y);
+}
+
 /* Rows [y0, y1): the lower envelope of the columns' parabolas, then a sweep along the row. */
 HOT static void row_pass(void *user, int y0, int y1)
 {
@@ -260,6 +276,7 @@ HOT static void row_pass(void *user, int y0, int y1)
             int x = q < 0 ? q + w : q >= w ? q - w : q;
             int r = nr[x];
             if (r < 0) continue;
+            if (r == y && interior(nr, w, x, y, j->wrap)) continue;
             Parabola p = {q, 0, fy(y, r, h, j->wrap), r << KEY_BITS | x};
             /* env[k] never wins once p beats it where it starts: drop it (no division) */
             while (k > 0 && beats(&p, &env[k], env[k].z)) k--;
@@ -269,6 +286,11 @@ HOT static void row_pass(void *user, int y0, int y1)
         int n = k + 1;
         k = 0;
         for (int x = 0; x < w; x++) {
+            if (nr[x] == y) { /* a site: its own nearest, whether or not it is in env */
+                d2[x] = 0;
+                key[x] = y << KEY_BITS | x;
+                continue;
+            }
             while (k + 1 < n && env[k + 1].z <= x) k++;
             int dx = x - env[k].q;
             d2[x] = dx * dx + env[k].f;
