@@ -17,6 +17,10 @@ static const struct {
     {"sharpen_gray_r1", "type=\"sharpen\" radius=\"1\"><in name=\"source\" from=\"h\"/>"},
     {"sharpen_color_r1", "type=\"sharpen\" radius=\"1\"><in name=\"source\" from=\"nb\"/>"},
     {"sharpen_gray_r4", "type=\"sharpen\" radius=\"4\"><in name=\"source\" from=\"h\"/>"},
+    {"sharpen_exact_gray_r1",
+     "type=\"sharpen\" radius=\"1\" quality=\"exact\"><in name=\"source\" from=\"h\"/>"},
+    {"sharpen_exact_gray_r4",
+     "type=\"sharpen\" radius=\"4\" quality=\"exact\"><in name=\"source\" from=\"h\"/>"},
     {"emboss", "type=\"emboss\" intensity=\"8\"><in name=\"height\" from=\"h\"/>"},
     {"edge_detect", "type=\"edge_detect\"><in name=\"source\" from=\"h\"/>"},
     {"dirblur_box_l4", "type=\"directional_blur\" angle=\"30\" length=\"4\"><in name=\"source\" "

@@ -42,6 +42,7 @@
  * measured for the pixel node, bench/README.md). When the other jobs on the VM take the cores,
  * fast medians rise to 12-20 ms at σ ≤ 2 px, 17-27 ms at 16..256 px and 25-48 ms at 3..4 px (the
  * FFT's costliest range: most spectrum columns kept). */
+#include "gaussian.h"
 #include "wetgraph/node.h"
 
 #include <fftw3.h>
@@ -292,10 +293,10 @@ static void direct_rows(void *user, int y0, int y1)
     wg_free(ext);
 }
 
-static int direct_eval(WgNodeContext *ctx, double sigma, WgError *err)
+static int direct_eval(WgNodeContext *ctx, const WgImage *in, WgImage *out, double sigma,
+                       WgError *err)
 {
-    const WgImage *in = ctx->inputs[0];
-    DirectJob j = {in, ctx->outputs[0], {0}, {0}, 0};
+    DirectJob j = {in, out, {0}, {0}, 0};
     int rc = float_kernel_build(&j.kx, sigma, in->width);
     if (!rc) rc = float_kernel_build(&j.ky, sigma, in->height);
     if (!rc) rc = wg_parallel_rows(ctx, in->height, direct_rows, &j);
@@ -512,11 +513,10 @@ static int kept_columns_bound(int w, double sigma)
     return k < w / 2 + 1 ? (int)k : w / 2 + 1;
 }
 
-static int fft_eval(WgNodeContext *ctx, double sigma, WgError *err)
+static int fft_eval(WgNodeContext *ctx, const WgImage *in, WgImage *out, double sigma, WgError *err)
 {
-    const WgImage *in = ctx->inputs[0];
     int w = in->width, h = in->height;
-    FftJob j = {.in = in, .out = ctx->outputs[0]};
+    FftJob j = {.in = in, .out = out};
     j.r2c = plan_get(PLAN_R2C, w);
     j.c2r = plan_get(PLAN_C2R, w);
     j.fwd = plan_get(PLAN_FORWARD, h);
@@ -555,25 +555,40 @@ static int fft_eval(WgNodeContext *ctx, double sigma, WgError *err)
 
 /* ---- dispatch ------------------------------------------------------------------------- */
 
-static int blur_eval(WgNodeContext *ctx, WgError *err)
+int wg__gaussian_fast(WgNodeContext *ctx, const WgImage *in, WgImage *out, double sigma_px,
+                      WgError *err)
 {
-    const BlurParams *p = ctx->params;
-    const WgImage *in = ctx->inputs[0];
-    WgImage *out = ctx->outputs[0];
-    double sigma = blur_sigma_px(ctx);
-    if (sigma == 0) {
+    if (sigma_px == 0) {
         for (int y = 0; y < in->height; y++)
             memcpy(wg_image_row(out, y), wg_image_row(in, y),
                    sizeof(float) * (size_t)in->width * (size_t)in->channels);
         return WG_OK;
     }
-    if (p->quality == QUALITY_EXACT) return exact_eval(ctx, sigma, err);
-    if (sigma < DIRECT_MAX_SIGMA) return direct_eval(ctx, sigma, err);
-    return fft_eval(ctx, sigma, err);
+    if (sigma_px < DIRECT_MAX_SIGMA) return direct_eval(ctx, in, out, sigma_px, err);
+    return fft_eval(ctx, in, out, sigma_px, err);
 }
 
-/* exact: the horizontal pass's image and the kernels; direct: the kernels (its row buffers are
- * a few rows); FFT: the kept part of the half spectrum, the factors and one column block. */
+/* direct: the kernels (its row buffers are a few rows); FFT: the kept part of the half
+ * spectrum, the factors and one column block. */
+size_t wg__gaussian_fast_scratch(int width, int height, double sigma_px)
+{
+    size_t w = (size_t)width, h = (size_t)height;
+    if (sigma_px == 0) return 0;
+    if (sigma_px < DIRECT_MAX_SIGMA) return (sizeof(double) + sizeof(float)) * 2 * (w + h);
+    size_t kept = spectrum_stride(kept_columns_bound(width, sigma_px));
+    return sizeof(fftwf_complex) * (kept * h + column_stride(height) * COLUMN_BLOCK) +
+           sizeof(double) * (w + 1 + h) + 64;
+}
+
+static int blur_eval(WgNodeContext *ctx, WgError *err)
+{
+    const BlurParams *p = ctx->params;
+    double sigma = blur_sigma_px(ctx);
+    if (p->quality == QUALITY_EXACT && sigma > 0) return exact_eval(ctx, sigma, err);
+    return wg__gaussian_fast(ctx, ctx->inputs[0], ctx->outputs[0], sigma, err);
+}
+
+/* exact: the horizontal pass's image and the kernels; fast: as wg__gaussian_fast needs. */
 static size_t blur_scratch(const WgNodeContext *ctx)
 {
     const BlurParams *p = ctx->params;
@@ -583,10 +598,7 @@ static size_t blur_scratch(const WgNodeContext *ctx)
     size_t w = (size_t)ctx->width, h = (size_t)ctx->height;
     if (p->quality == QUALITY_EXACT)
         return wg_image_bytes_for(ctx->width, ctx->height, c) + sizeof(double) * 2 * (w + h);
-    if (sigma < DIRECT_MAX_SIGMA) return (sizeof(double) + sizeof(float)) * 2 * (w + h);
-    size_t kept = spectrum_stride(kept_columns_bound(ctx->width, sigma));
-    return sizeof(fftwf_complex) * (kept * h + column_stride(ctx->height) * COLUMN_BLOCK) +
-           sizeof(double) * (w + 1 + h) + 64;
+    return wg__gaussian_fast_scratch(ctx->width, ctx->height, sigma);
 }
 
 const WgNodeType wg_node_blur = {

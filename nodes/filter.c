@@ -4,8 +4,10 @@
  * rows are split with wg_parallel_rows and each pixel depends only on its inputs, so any thread
  * count gives the same bits. Lengths (sharpen's `radius`, directional_blur's `length`) follow
  * docs/format.md "Lengths": pixels of a 256-wide image, L · width/256 pixels of the output.
- * `sharpen` is an unsharp mask, source + amount · (source − G), with G a separable periodic
- * Gaussian of σ = radius · width/256 pixels: the kernel exp(−d²/2σ²) is sampled out to ceil(6σ)
+ * `sharpen` is an unsharp mask, source + amount · (source − G), with G a periodic Gaussian of
+ * σ = radius · width/256 pixels. `fast` (default) takes G from the blur node's fast path
+ * (nodes/gaussian.h: cost nearly independent of σ, within a few 1e-7 of the exact G); `exact` is
+ * the reference: a separable kernel exp(−d²/2σ²) sampled out to ceil(6σ)
  * (dropped tail < 2e-9 of the weight), folded modulo the side and normalised; for σ ≥ the side
  * the periodic Gaussian differs from the mean by < 3e-9 relative and the mean is used. Each pass
  * sums weighted differences from the centre value (v + Σ w·(v_i − v)), so a constant stays
@@ -25,13 +27,15 @@
  * to the float range; NaN differences count as flat in emboss and edge_detect).
  * Speed at 2048², 2 threads (bench/bench_filters, release, medians of 5 to 9 in four runs on a
  * 2-core machine shared with other jobs, so the spread is load, not the code; 1-thread runs
- * under the same load matched the slower figures): `sharpen` radius 1 (σ 8 px, 97 taps a
+ * under the same load matched the slower figures): `sharpen` exact radius 1 (σ 8 px, 97 taps a
  * pass) 139-418 ms gray, 703-1403 ms colour (its double scratch of 128 MB makes the vertical
- * pass memory-bound), radius 4 (σ 32 px) 642-1282 ms gray; `emboss` 11-20 ms; `edge_detect`
- * 14-26 ms; `directional_blur` length 4 (32 px, 75 merged bilinear taps) 57-113 ms gray
- * (box and gaussian alike), 337-654 ms colour. Inner loops run over straight runs of a row with
- * the wrap split out, so they vectorize.
+ * pass memory-bound), radius 4 (σ 32 px) 642-1282 ms gray; `sharpen` fast 24-31 ms gray at
+ * radius 1 and 4 (228 ms colour) where exact took 274 and 1241 ms in the same loaded run; `emboss`
+ * 11-20 ms; `edge_detect` 14-26 ms; `directional_blur` length 4 (32 px, 75 merged bilinear taps)
+ * 57-113 ms gray (box and gaussian alike), 337-654 ms colour. Inner loops run over straight runs of
+ * a row with the wrap split out, so they vectorize.
  */
+#include "gaussian.h"
 #include "wetgraph/node.h"
 
 #include <float.h>
@@ -95,7 +99,11 @@ static void gauss_free(Gauss *g)
 typedef struct {
     float amount;
     float radius;
+    int quality;
 } SharpenParams;
+
+enum { QUALITY_FAST, QUALITY_EXACT };
+static const char *const quality_values[] = {"fast", "exact", NULL};
 
 static const WgParamSpec sharpen_params[] = {
     WG_PARAM_FLOAT_UI(SharpenParams, amount, "Strength: source + amount · (source − blurred)", 1.0,
@@ -103,6 +111,9 @@ static const WgParamSpec sharpen_params[] = {
     WG_PARAM_FLOAT_UI(SharpenParams, radius,
                       "Gaussian σ of the blur, a length (pixels of a 256-wide image)", 1.0, 0.0,
                       4096.0, 0, 16),
+    WG_PARAM_ENUM(SharpenParams, quality,
+                  "fast (the blur node's fast Gaussian) or exact (float64 reference)", QUALITY_FAST,
+                  quality_values),
     WG_PARAM_END,
 };
 static const WgPortSpec any_source_in[] = {WG_PORT("source", WG_ANY), WG_PORT_END};
@@ -196,12 +207,35 @@ static int copy_eval(WgNodeContext *ctx)
     return WG_OK;
 }
 
+/* fast: the output holds the blur; each pixel becomes v + amount · (v − blurred). */
+static void sharpen_combine(void *user, int y0, int y1)
+{
+    const SharpenJob *j = user;
+    int w = j->in->width, c = j->in->channels;
+    size_t n = (size_t)w * (size_t)c;
+    for (int y = y0; y < y1; y++) {
+        const float *s = wg_image_row(j->in, y);
+        float *o = wg_image_row(j->out, y);
+        for (size_t i = 0; i < n; i++) {
+            double v = s[i];
+            o[i] = to_float(v + j->amount * (v - (double)o[i]));
+        }
+        if (c == 4)
+            for (int x = 0; x < w; x++) o[x * 4 + 3] = s[x * 4 + 3];
+    }
+}
+
 static int sharpen_eval(WgNodeContext *ctx, WgError *err)
 {
     const SharpenParams *p = ctx->params;
     const WgImage *in = ctx->inputs[0];
     double sigma = length_px(p->radius, ctx->width);
     if (sigma == 0 || p->amount == 0) return copy_eval(ctx);
+    if (p->quality == QUALITY_FAST) {
+        SharpenJob j = {in, ctx->outputs[0], NULL, NULL, {0}, {0}, p->amount};
+        int rc = wg__gaussian_fast(ctx, in, ctx->outputs[0], sigma, err);
+        return rc ? rc : wg_parallel_rows(ctx, in->height, sharpen_combine, &j);
+    }
     SharpenJob j = {in, ctx->outputs[0], NULL, NULL, {0}, {0}, p->amount};
     int rc = gauss_build(&j.gx, sigma, in->width);
     if (!rc) rc = gauss_build(&j.gy, sigma, in->height);
@@ -227,11 +261,14 @@ static int sharpen_eval(WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
-/* The double horizontal pass and both kernels. */
+/* exact: the double horizontal pass and both kernels; fast: what the fast Gaussian needs. */
 static size_t sharpen_scratch(const WgNodeContext *ctx)
 {
     const SharpenParams *p = ctx->params;
-    if (length_px(p->radius, ctx->width) == 0 || p->amount == 0) return 0;
+    double sigma = length_px(p->radius, ctx->width);
+    if (sigma == 0 || p->amount == 0) return 0;
+    if (p->quality == QUALITY_FAST)
+        return wg__gaussian_fast_scratch(ctx->width, ctx->height, sigma);
     int c = ctx->input_channels[0] == 4 ? 4 : 1;
     return sizeof(double) * (size_t)ctx->width * (size_t)ctx->height * (size_t)c +
            (sizeof(double) + sizeof(int)) * ((size_t)ctx->width + (size_t)ctx->height);
@@ -242,11 +279,14 @@ const WgNodeType wg_node_sharpen = {
     .summary = "Unsharp mask: source + amount · (source − Gaussian blur)",
     .category = "filter",
     .doc = "`radius` is the blur's σ as a length (pixels of a 256-wide image, docs/format.md), "
-           "so σ = radius · width/256 pixels. Separable periodic Gaussian in double, sampled to "
-           "±ceil(6σ) (tail < 2e-9), folded modulo the side and normalised; σ ≥ the side uses "
-           "the mean (< 3e-9 relative). Reads wrap, so the output tiles. A constant image is "
-           "returned exactly. Alpha is copied; results are clamped to the float range. "
-           "Cost O(σ) per pixel.",
+           "so σ = radius · width/256 pixels. Reads wrap, so the output tiles. `fast` (default) "
+           "blurs with the `blur` node's fast periodic Gaussian (cost nearly independent of σ; "
+           "the blur is within a few 1e-7 of the largest |value| of the exact one, so the result "
+           "is within (1 + amount) times that, and a constant stays within amount · 1e-6 "
+           "relative). `exact`: separable periodic Gaussian in double, sampled to ±ceil(6σ) "
+           "(tail < 2e-9), folded modulo the side and normalised; σ ≥ the side uses the mean "
+           "(< 3e-9 relative); a constant image is returned exactly; cost O(σ) per pixel. Alpha "
+           "is copied; results are clamped to the float range.",
     .params = sharpen_params,
     .params_size = sizeof(SharpenParams),
     .inputs = any_source_in,
