@@ -125,7 +125,7 @@ def svg(rows, path):
             if not pts:
                 continue
             tl = math.floor(math.log10(min(v[1] for _, v in pts)))
-            th = math.ceil(math.log10(max(v[1] for _, v in pts)))
+            th = math.ceil(math.log10(2 * max(v[1] for _, v in pts)))  # no point on the edge
             th = max(th, tl + 1)
             X = lambda t: x0 + (math.log10(t) - tl) / (th - tl) * pw
             Y = lambda e: y0 + ph - (math.log10(max(e, 10 ** lo_e)) - lo_e) / (hi_e - lo_e) * ph
@@ -143,7 +143,8 @@ def svg(rows, path):
                 parts.append(f'<text x="{x0 - 4}" y="{Y(10 ** e) + 4:.1f}" text-anchor="end">'
                              f'1e{e}</text>')
             parts.append(f'<text x="{x0 + pw / 2}" y="{y0 + ph + 30}" text-anchor="middle">ms</text>')
-            for (_, _, case, s, m), v in sorted(pts):
+            placed = []  # label boxes already drawn in this panel: a label that would overlap
+            for (_, _, case, s, m), v in sorted(pts):  # one moves down (or up) until it does not
                 cx, cy = X(v[1]), Y(v[3])
                 c = COLOURS.get(m, "black")
                 if m == EXACT:
@@ -151,7 +152,14 @@ def svg(rows, path):
                 else:
                     parts.append(f'<circle cx="{cx:.1f}" cy="{cy:.1f}" r="4" fill="{c}"/>')
                 label = f"{s:g}" if op == "blur" else case
-                parts.append(f'<text x="{cx + 5:.1f}" y="{cy - 5:.1f}" fill="{c}">{label}</text>')
+                lw, lx, ly = 6.5 * len(label), cx + 5, cy - 5
+                for dy in (0, 11, -11, 22, -22, 33, -33):
+                    if not any(lx < px + pw_ and px < lx + lw and abs(ly + dy - py) < 11
+                               for px, py, pw_ in placed):
+                        ly += dy
+                        break
+                placed.append((lx, ly, lw))
+                parts.append(f'<text x="{lx:.1f}" y="{ly:.1f}" fill="{c}">{label}</text>')
     parts.append(f'<text x="{ml}" y="{H - 10}">blur: circles wetgraph fast / OpenCV / scipy, '
                  f'squares wetgraph exact</text>')
     parts.append("</svg>")
