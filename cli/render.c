@@ -2,12 +2,13 @@
 /* `wetgraph render`: load, check, evaluate and write. Nothing is written unless the whole
  * render succeeded: all output files are written to temporaries first and renamed into place
  * together at the end. */
-#include "cli.h"
+#include "render.h"
 
 #include <errno.h>
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -22,7 +23,15 @@ static const char help[] =
     "  --output NAME          render only this output (repeatable; default: all)\n"
     "  --size WxH | N         override the graph size\n"
     "  --seed N               override the graph seed\n"
-    "  --time T               value of $time (seconds; for animation)\n"
+    "  --time T               value of $time (seconds; for animation); with --frames, the\n"
+    "                         time of frame 0\n"
+    "  --frames A:B           render frames A to B (whole numbers, both included) at\n"
+    "                         $time = T + frame / fps, into DIR/<graph>_<output>_<frame>.<ext>\n"
+    "                         (frame as 4 digits); nodes that do not depend on $time are\n"
+    "                         computed once for the whole sequence\n"
+    "  --fps F                frames per second for --frames (default 24)\n"
+    "  --contact-sheet F.png  with --frames: also write a grid of all frames of the first\n"
+    "                         output (pick it with --output) to F.png\n"
     "  --format FMT           png | png16 | tif16 | exr | exr32 for every output\n"
     "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
     "                         (add -o to get both)\n"
@@ -32,17 +41,6 @@ static const char help[] =
     "  --stats[=json]         per-node time, cache outcome and size, and peak memory\n"
     "                         (table on stderr, or JSON on stdout)\n"
     "  -q, --quiet            print nothing but errors\n";
-
-typedef struct {
-    const char *file, *out_dir, *layered, *cache;
-    const char **sets, **inputs, **outputs;
-    int n_sets, n_inputs, n_outputs;
-    int width, height, threads, format;
-    bool has_seed, has_time, quiet, stats, stats_json;
-    uint64_t seed;
-    double time;
-    size_t budget;
-} Options;
 
 static int mkdir_p(const char *path)
 {
@@ -85,6 +83,23 @@ static bool take(int argc, char **argv, int *i, const char *opt, const char **va
         return true;
     }
     return false;
+}
+
+/* "A:B" with 0 <= A <= B <= MAX_FRAME and B - A < MAX_FRAMES */
+static bool parse_frames(const char *text, Options *o)
+{
+    const char *colon = strchr(text, ':');
+    if (!colon) return false;
+    char first[32];
+    uint64_t a, b;
+    if ((size_t)(colon - text) >= sizeof first) return false;
+    snprintf(first, sizeof first, "%.*s", (int)(colon - text), text);
+    if (!wg_parse_whole(first, &a) || !wg_parse_whole(colon + 1, &b)) return false;
+    if (a > b || b > MAX_FRAME || b - a >= MAX_FRAMES) return false;
+    o->frame_first = (int)a;
+    o->frame_last = (int)b;
+    o->has_frames = true;
+    return true;
 }
 
 static int parse_args(int argc, char **argv, Options *o)
@@ -142,6 +157,26 @@ static int parse_args(int argc, char **argv, Options *o)
                     "render", "bad --time '%s' (a finite decimal number of seconds, like 1.5)",
                     val);
             o->has_time = true;
+        } else if (TAKE("--frames")) {
+            NEED;
+            if (!parse_frames(val, o))
+                return cli_usage_error("render",
+                                       "bad --frames '%s' (A:B, whole numbers 0 <= A <= B <= %d, "
+                                       "at most %d frames)",
+                                       val, MAX_FRAME, MAX_FRAMES);
+        } else if (TAKE("--fps")) {
+            NEED;
+            if (!wg_parse_number(val, &o->fps) || !(o->fps > 0) || o->fps > 1000)
+                return cli_usage_error("render", "bad --fps '%s' (a decimal number, 0 < F <= 1000)",
+                                       val);
+            o->has_fps = true;
+        } else if (TAKE("--contact-sheet")) {
+            NEED;
+            size_t n = strlen(val);
+            if (n < 5 || strcasecmp(val + n - 4, ".png"))
+                return cli_usage_error("render",
+                                       "--contact-sheet writes a PNG: '%s' must end in .png", val);
+            o->contact_sheet = val;
         } else if (TAKE("--format")) {
             NEED;
             o->format = wg_format_parse(val);
@@ -189,10 +224,14 @@ static int parse_args(int argc, char **argv, Options *o)
 #undef NEED
     }
     if (!o->file) return cli_usage_error("render", "no graph file given");
+    if (!o->has_frames && (o->has_fps || o->contact_sheet))
+        return cli_usage_error("render", "%s needs --frames",
+                               o->has_fps ? "--fps" : "--contact-sheet");
+    if (!o->has_fps) o->fps = 24;
     return 0;
 }
 
-static void print_stats(const WgResult *res, bool json)
+void print_stats(const WgResult *res, bool json)
 {
     int n = wg_result_stat_count(res);
     if (json) {
@@ -241,10 +280,29 @@ static void folder_of(const char *path, char *buf, size_t size)
         snprintf(buf, size, "%.*s", (int)(slash - path), path);
 }
 
+/* path with "_<frame>" (4 digits) before its extension; path itself for frame < 0. */
+void frame_path(const char *path, int frame, char *buf, size_t size)
+{
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    if (frame < 0)
+        snprintf(buf, size, "%s", path);
+    else if (!dot || (slash && dot < slash))
+        snprintf(buf, size, "%s_%04d", path, frame);
+    else
+        snprintf(buf, size, "%.*s_%04d%s", (int)(dot - path), path, frame, dot);
+}
+
+static const char *layered_name(const Options *o, int frame)
+{
+    static char buf[4096];
+    frame_path(o->layered, frame, buf, sizeof buf);
+    return buf;
+}
+
 /* Every file is first written whole to a temporary beside its target; only when all of them
  * are complete are they renamed into place, one after the other. Temporaries that killed
  * renders left in the target folders are removed first. */
-static int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, WgError *err)
+int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err)
 {
     int n = wg_result_output_count(res);
     bool separate = o->out_dir || !o->layered;
@@ -258,20 +316,24 @@ static int write_outputs(const Options *o, const WgGraph *g, const WgResult *res
     }
     int rc = WG_OK;
     if (o->layered) {
-        char folder[4096];
+        char folder[4096], layered[4096];
         folder_of(o->layered, folder, sizeof folder);
+        frame_path(o->layered, frame, layered, sizeof layered);
+        if (mkdir_p(folder))
+            rc = wg_error_set_at(err, WG_ERR_IO, folder, 0, 0,
+                                 "cannot create the folder of %s: %s", layered, strerror(errno));
         wg_remove_stale_temporaries(folder);
         const char **names = calloc((size_t)n + 1, sizeof *names);
         const WgImage **images = calloc((size_t)n + 1, sizeof *images);
         if (!names || !images) {
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-        } else {
+        } else if (!rc) {
             for (int i = 0; i < n; i++) {
                 names[i] = wg_result_output_name(res, i);
                 images[i] = wg_result_output_image(res, i);
             }
             bool half = o->format != WG_FORMAT_EXR32;
-            rc = wg_write_set_exr_layers(set, o->layered, n, names, images, half, err);
+            rc = wg_write_set_exr_layers(set, layered, n, names, images, half, err);
         }
         free(names);
         free(images);
@@ -285,15 +347,19 @@ static int write_outputs(const Options *o, const WgGraph *g, const WgResult *res
     }
     for (int i = 0; !rc && separate && i < n; i++) {
         WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
-        snprintf(paths[i], sizeof paths[i], "%s/%s_%s.%s", dir, wg_graph_name(g),
-                 wg_result_output_name(res, i), wg_format_extension(f));
+        if (frame >= 0)
+            snprintf(paths[i], sizeof paths[i], "%s/%s_%s_%04d.%s", dir, wg_graph_name(g),
+                     wg_result_output_name(res, i), frame, wg_format_extension(f));
+        else
+            snprintf(paths[i], sizeof paths[i], "%s/%s_%s.%s", dir, wg_graph_name(g),
+                     wg_result_output_name(res, i), wg_format_extension(f));
         rc = wg_write_set_image(set, paths[i], wg_result_output_image(res, i), f,
                                 wg_result_output_colorspace(res, i), err);
     }
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     if (!rc && !o->quiet) {
-        if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", o->layered, n);
+        if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", layered_name(o, frame), n);
         for (int i = 0; separate && i < n; i++) printf("%s\n", paths[i]);
     }
     free(paths);
@@ -347,9 +413,13 @@ int cmd_render(int argc, char **argv)
     status = EXIT_FAILED;
     WgEngineOptions eo = {o.threads, o.budget, o.cache};
     if (wg_engine_new(&eo, &e, &err)) goto fail;
-    if (wg_render(e, r, &res, &err)) goto fail;
-    if (write_outputs(&o, g, res, &err)) goto fail;
-    if (o.stats) print_stats(res, o.stats_json);
+    if (o.has_frames) {
+        if (render_frames(&o, g, r, e, &err)) goto fail;
+    } else {
+        if (wg_render(e, r, &res, &err)) goto fail;
+        if (write_outputs(&o, g, res, -1, &err)) goto fail;
+        if (o.stats) print_stats(res, o.stats_json);
+    }
     status = EXIT_OK;
     goto out;
 fail:

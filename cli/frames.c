@@ -1,0 +1,142 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph render --frames A:B`: one engine renders every frame in turn with $time = T +
+ * frame / fps, so its memory cache hands each frame the results of the nodes that do not depend
+ * on $time (their cache keys do not contain it) and only the timed part of the graph is
+ * recomputed. Each frame's files are written all or none before the next frame starts; a failed
+ * frame stops the sequence with the frames before it complete. --stats sums the sequence up per
+ * node: how many frames computed it and the time it took in all. */
+#include "contact_sheet.h"
+#include "render.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct {
+    char *id;
+    const char *type;
+    int computed, reused;
+    double ms;
+} NodeTotal;
+
+typedef struct {
+    NodeTotal *nodes;
+    int n, cap, frames;
+    double ms;
+    size_t peak;
+} Totals;
+
+static int totals_add(Totals *t, const WgResult *res)
+{
+    int n = wg_result_stat_count(res);
+    for (int i = 0; i < n; i++) {
+        const WgNodeStat *s = wg_result_stat(res, i);
+        int k = i < t->n && !strcmp(t->nodes[i].id, s->id) ? i : -1;
+        for (int j = 0; k < 0 && j < t->n; j++)
+            if (!strcmp(t->nodes[j].id, s->id)) k = j;
+        if (k < 0) {
+            if (t->n == t->cap) {
+                int cap = t->cap ? 2 * t->cap : 64;
+                NodeTotal *grown = realloc(t->nodes, sizeof *grown * (size_t)cap);
+                if (!grown) return WG_ERR_NOMEM;
+                t->nodes = grown;
+                t->cap = cap;
+            }
+            k = t->n;
+            t->nodes[k] = (NodeTotal){strdup(s->id), s->type, 0, 0, 0};
+            if (!t->nodes[k].id) return WG_ERR_NOMEM;
+            t->n++;
+        }
+        if (s->cache == WG_COMPUTED)
+            t->nodes[k].computed++;
+        else
+            t->nodes[k].reused++;
+        t->nodes[k].ms += s->ms;
+    }
+    t->frames++;
+    t->ms += wg_result_total_ms(res);
+    if (wg_result_peak_bytes(res) > t->peak) t->peak = wg_result_peak_bytes(res);
+    return WG_OK;
+}
+
+static void totals_print(const Totals *t, bool json)
+{
+    if (json) {
+        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"nodes\": "
+               "[\n",
+               t->frames, t->ms, t->peak);
+        for (int i = 0; i < t->n; i++) {
+            const NodeTotal *n = &t->nodes[i];
+            printf("    {\"id\": ");
+            cli_json_string(stdout, n->id);
+            printf(", \"type\": ");
+            cli_json_string(stdout, n->type);
+            printf(", \"computed\": %d, \"reused\": %d, \"ms\": %.3f}%s\n", n->computed, n->reused,
+                   n->ms, i + 1 < t->n ? "," : "");
+        }
+        printf("  ]\n}\n");
+        return;
+    }
+    fprintf(stderr, "%-32s %-12s %9s %9s %10s\n", "node", "type", "computed", "reused", "ms");
+    for (int i = 0; i < t->n; i++) {
+        const NodeTotal *n = &t->nodes[i];
+        fprintf(stderr, "%-32s %-12s %9d %9d %10.2f\n", n->id, n->type, n->computed, n->reused,
+                n->ms);
+    }
+    fprintf(stderr, "%d frames, %.1f ms in all, peak image memory %.1f MiB\n", t->frames, t->ms,
+            t->peak / 1048576.0);
+}
+
+static void totals_free(Totals *t)
+{
+    for (int i = 0; i < t->n; i++) free(t->nodes[i].id);
+    free(t->nodes);
+}
+
+static int write_sheet(const Options *o, const ContactSheet *cs, WgColorspace cspace, WgError *err)
+{
+    WgWriteSet *set = wg_write_set_new();
+    if (!set) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int rc = wg_write_set_image(set, o->contact_sheet, contact_sheet_image(cs), WG_FORMAT_PNG,
+                                cspace, err);
+    if (!rc) rc = wg_write_set_commit(set, err);
+    wg_write_set_free(set);
+    if (!rc && !o->quiet) fprintf(stderr, "wrote %s\n", o->contact_sheet);
+    return rc;
+}
+
+int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e, WgError *err)
+{
+    Totals totals = {0};
+    ContactSheet *sheet = NULL;
+    WgColorspace sheet_space = WG_LINEAR;
+    int count = o->frame_last - o->frame_first + 1, rc = WG_OK;
+    for (int f = o->frame_first; !rc && f <= o->frame_last; f++) {
+        double t = (o->has_time ? o->time : 0) + f / o->fps;
+        WgResult *res = NULL;
+        wg_request_set_time(r, t);
+        rc = wg_render(e, r, &res, err);
+        if (!rc) rc = write_outputs(o, g, res, f, err);
+        if (!rc && o->contact_sheet && wg_result_output_count(res) > 0) {
+            const WgImage *img = wg_result_output_image(res, 0);
+            if (!sheet) {
+                sheet = contact_sheet_new(count, img->width, img->height, img->channels);
+                sheet_space = wg_result_output_colorspace(res, 0);
+                if (!sheet) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+            }
+            contact_sheet_add(sheet, f - o->frame_first, img);
+        }
+        if (!rc && o->stats && totals_add(&totals, res))
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        if (rc && err && err->message[0]) { /* say which frame failed */
+            char msg[sizeof err->message];
+            snprintf(msg, sizeof msg, "frame %d ($time = %g): %s", f, t, err->message);
+            snprintf(err->message, sizeof err->message, "%s", msg);
+        }
+        wg_result_free(res);
+    }
+    if (!rc && sheet) rc = write_sheet(o, sheet, sheet_space, err);
+    if (!rc && o->stats) totals_print(&totals, o->stats_json);
+    contact_sheet_free(sheet);
+    totals_free(&totals);
+    return rc;
+}

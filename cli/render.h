@@ -1,0 +1,35 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph render`'s options and the pieces its frame-sequence mode (cli/frames.c) shares with
+ * the single render (cli/render.c). */
+#ifndef WETGRAPH_CLI_RENDER_H
+#define WETGRAPH_CLI_RENDER_H
+
+#include "cli.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+enum { MAX_FRAME = 9999999, MAX_FRAMES = 100000 };
+
+typedef struct {
+    const char *file, *out_dir, *layered, *cache, *contact_sheet;
+    const char **sets, **inputs, **outputs;
+    int n_sets, n_inputs, n_outputs;
+    int width, height, threads, format;
+    bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json;
+    uint64_t seed;
+    double time, fps;
+    int frame_first, frame_last;
+    size_t budget;
+} Options;
+
+/* Write every output of res (frame >= 0: with "_<frame>" in the names), all or none. */
+int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err);
+/* The per-node table (stderr) or JSON (stdout) of one render. */
+void print_stats(const WgResult *res, bool json);
+/* path with "_<frame>" (4 digits at least) before its extension; path itself for frame < 0. */
+void frame_path(const char *path, int frame, char *buf, size_t size);
+/* Frames o->frame_first..o->frame_last of request r with engine e (cli/frames.c). */
+int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e, WgError *err);
+
+#endif
