@@ -106,9 +106,7 @@ int wg__resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError *e
         if (rc) return rc;
         if (!found) {
             const char *names[256];
-            int count = 0;
-            for (; wg_node_types[count] && count < 256; count++)
-                names[count] = wg_node_types[count]->name;
+            int count = wg__node_type_names(names, 256);
             const char *s = wg_suggest(n->type_name, names, count);
             if (s)
                 return wg_error_set_at(err, WG_ERR_TYPE, d->path, n->line, 0,

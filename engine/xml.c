@@ -580,7 +580,7 @@ static int parse_node(LoadCtx *lc, Doc *d, WgGraph *g, xmlNodePtr x)
                              g->nodes[dup].line);
         goto fail;
     }
-    n->type = wg_node_type_find(n->type_name);
+    n->type = wg__node_type_lookup(n->type_name);
     if (!n->type) {
         /* a subgraph type resolves the same way every time within one file */
         int same = wg__name_index_get(&d->subgraphs, n->type_name, strlen(n->type_name));
