@@ -41,6 +41,13 @@ int wg__key_index_get(const WgKeyIndex *ix, const uint64_t key[2], int aux); /* 
 void wg__key_index_remove(WgKeyIndex *ix, const uint64_t key[2], int aux);
 void wg__key_index_free(WgKeyIndex *ix);
 
+/* ---- node types (types.c) ----------------------------------------------------------------- */
+
+/* The type of that name in the table given to wg_set_node_types, or NULL. */
+const WgNodeType *wg__node_type_lookup(const char *name);
+/* The first `max` names of that table, in order; returns how many. */
+int wg__node_type_names(const char **names, int max);
+
 /* ---- values ------------------------------------------------------------------------------ */
 
 typedef struct WgValue {

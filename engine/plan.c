@@ -431,7 +431,7 @@ static int engine_source(Builder *b, const char *type_name, const char *id, cons
 {
     const WgNodeType *t = !strcmp(type_name, "constant")  ? &wg__node_constant
                           : !strcmp(type_name, "promote") ? &wg__node_promote
-                                                          : wg_node_type_find(type_name);
+                                                          : wg__node_type_lookup(type_name);
     if (!t) return wg_error_set(b->err, WG_ERR_TYPE, NULL, "internal: no node '%s'", type_name);
     WgInst *in = inst_push(b);
     if (!in) return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");

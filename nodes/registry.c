@@ -87,6 +87,15 @@ const WgNodeType *const wg_node_types[] = {
     NULL,
 };
 
+/* The engine reads graphs with the table it is handed: give it the built-in one when the
+ * library, or a program linking it statically, loads (before main, so before any graph is
+ * read). A static link keeps this file through the symbol wg_node_types (see the root
+ * meson.build). */
+__attribute__((constructor)) static void register_builtin_types(void)
+{
+    wg_set_node_types(wg_node_types);
+}
+
 const WgNodeType *wg_node_type_find(const char *name)
 {
     for (int i = 0; wg_node_types[i]; i++)

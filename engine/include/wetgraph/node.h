@@ -193,6 +193,11 @@ typedef struct WgNodeType {
 /* The registry: a NULL-terminated array in fixed order. */
 extern const WgNodeType *const wg_node_types[];
 const WgNodeType *wg_node_type_find(const char *name);
+/* The node types graphs are read with: a NULL-terminated table (borrowed: it and its
+ * descriptors must outlive every graph loaded meanwhile), or NULL for none. The library hands
+ * the engine the registry above when it loads; graph inputs need `uniform` and `image` in the
+ * table. Not thread-safe: change it only while no graph is being loaded or rendered. */
+void wg_set_node_types(const WgNodeType *const *types);
 
 /* Run fn(user, y0, y1) over [0, height) in chunks of rows. The chunks depend only on `height`
  * (never on the thread count) so per-chunk reductions combine in a fixed order. Chunk i covers
