@@ -137,12 +137,18 @@ static void range_of(const WgImage *img, double *lo, double *hi)
         }
 }
 
-/* The range the graph measures: min and max of the height blurred by 0.75 length units. */
-static void smoothed_range(const WgImage *h, double *lo, double *hi)
+/* The height as the graph sees it: blurred by 0.75 length units (caller unrefs). */
+static WgImage *smoothed(const WgImage *h)
 {
     const char *names[] = {"source"};
     const WgImage *in[] = {h};
-    WgImage *sm = wgt_node("blur", "sigma=\"0.75\"", h->width, h->height, 1, names, in, 0, 1);
+    return wgt_node("blur", "sigma=\"0.75\"", h->width, h->height, 1, names, in, 0, 1);
+}
+
+/* The range the graph measures: min and max of the smoothed height. */
+static void smoothed_range(const WgImage *h, double *lo, double *hi)
+{
+    WgImage *sm = smoothed(h);
     range_of(sm, lo, hi);
     wg_image_unref(sm);
 }
@@ -232,15 +238,16 @@ static void test_level_one_is_immersed(void **state)
 }
 
 /* The immersed mask grows with the level at every pixel; it lies below the water surface (the
- * height, normalised by the range the graph measures and clamped to [0, 1], is below the
- * level); water_height is the height in the input's units, flattened at the surface there. */
+ * smoothed height the graph measures, normalised by its range, is below the level);
+ * water_height is the height in the input's units, flattened at the surface there. */
 static void test_immersed_grows_and_lies_below(void **state)
 {
     (void)state;
     WgImage *maps[] = {bricks, wood};
     for (int i = 0; i < 2; i++) {
         double lo, hi;
-        smoothed_range(maps[i], &lo, &hi);
+        WgImage *sm = smoothed(maps[i]);
+        range_of(sm, &lo, &hi);
         WgImage *prev = NULL;
         double prev_area = 0;
         for (int k = 0; k <= 10; k++) {
@@ -255,7 +262,7 @@ static void test_immersed_grows_and_lies_below(void **state)
             for (int y = 0; y < m.imm->height; y++)
                 for (int x = 0; x < m.imm->width; x++) {
                     double a = px(m.imm, x, y), h = px(maps[i], x, y), w = px(m.wh, x, y);
-                    double hn = fmin(fmax((h - lo) / (hi - lo), 0), 1);
+                    double hn = (px(sm, x, y) - lo) / (hi - lo);
                     area += a;
                     if (prev && a < px(prev, x, y))
                         fail_msg("level %g: immersed shrank at (%d, %d)", wl, x, y);
@@ -282,6 +289,7 @@ static void test_immersed_grows_and_lies_below(void **state)
             masks_free(&m);
         }
         wg_image_unref(prev);
+        wg_image_unref(sm);
     }
 }
 
