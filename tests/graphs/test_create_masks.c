@@ -294,25 +294,18 @@ static void test_immersed_grows_and_lies_below(void **state)
 }
 
 /* Distance in length units (pixels of a 256-wide image) from every pixel to the nearest
- * immersed (>= 0.5) pixel on the torus, by brute force. */
+ * immersed (>= 0.5) pixel on the torus, from the exact distance node (tested on its own). */
 static double *length_to_water(const WgImage *imm)
 {
     int w = imm->width, h = imm->height;
+    const char *names[] = {"mask"};
+    const WgImage *in[] = {imm};
+    WgImage *dist = wgt_node("distance", "mode=\"pixels\"", w, h, 1, names, in, 0, 1);
     double *d = malloc(sizeof(double) * (size_t)w * h);
     assert_non_null(d);
     for (int y = 0; y < h; y++)
-        for (int x = 0; x < w; x++) {
-            double best = INFINITY;
-            for (int j = 0; j < h; j++)
-                for (int i = 0; i < w; i++) {
-                    if (!(px(imm, i, j) >= 0.5f)) continue;
-                    double dx = fabs((double)(x - i)), dy = fabs((double)(y - j));
-                    dx = fmin(dx, w - dx);
-                    dy = fmin(dy, h - dy);
-                    best = fmin(best, dx * dx + dy * dy);
-                }
-            d[(size_t)y * w + x] = sqrt(best) * 256 / w;
-        }
+        for (int x = 0; x < w; x++) d[(size_t)y * w + x] = px(dist, x, y) * 256.0 / w;
+    wg_image_unref(dist);
     return d;
 }
 
@@ -355,6 +348,51 @@ static void test_dry_far_from_water(void **state)
         }
     wg_image_unref(c);
     wg_image_unref(n);
+}
+
+/* Puddles lie in hollows (the smoothed, normalised height below its blur over puddle_size),
+ * within wet_distance of the water, and get fewer with the distance: the share of puddle pixels
+ * in the nearest third of that band is larger than in the farthest third. */
+static void test_puddles_in_hollows_near_water(void **state)
+{
+    (void)state;
+    const char *names[] = {"source"};
+    const WgImage *in[] = {bricks};
+    WgImage *sm = wgt_node("blur", "sigma=\"0.75\"", 256, 128, 1, names, in, 0, 1);
+    in[0] = sm;
+    WgImage *sn = wgt_node("auto_levels", "", 256, 128, 1, names, in, 0, 1);
+    in[0] = sn;
+    WgImage *hb = wgt_node("blur", "sigma=\"4\"", 256, 128, 1, names, in, 0, 1);
+    const char *levels[] = {"water_level=0.6 puddle_density=1 wet_distance=12",
+                            "water_level=0.65 puddle_density=0.6 wet_distance=12"};
+    for (int l = 0; l < 2; l++) {
+        Masks m = render(bricks, NULL, levels[l]);
+        double *d = length_to_water(m.imm);
+        double count[3] = {0, 0, 0}, area[3] = {0, 0, 0};
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double p = px(m.pud, x, y), dl = d[y * 256 + x];
+                if (p > 0 && !(px(hb, x, y) > px(sn, x, y)))
+                    fail_msg("%s: puddle %g at (%d, %d) is not in a hollow", levels[l], p, x, y);
+                if (p > 0 && !(dl < 12))
+                    fail_msg("%s: puddle %g at (%d, %d), %g from the water", levels[l], p, x, y,
+                             dl);
+                if (dl > 0 && dl < 12) {
+                    int band = (int)(dl / 4);
+                    count[band] += p;
+                    area[band] += 1;
+                }
+            }
+        printf("%s: puddle share by distance %.4f %.4f %.4f\n", levels[l], count[0] / area[0],
+               count[1] / area[1], count[2] / area[2]);
+        assert_true(count[0] > 0);
+        assert_true(count[0] / area[0] > count[2] / area[2]);
+        free(d);
+        masks_free(&m);
+    }
+    wg_image_unref(sm);
+    wg_image_unref(sn);
+    wg_image_unref(hb);
 }
 
 /* Slope of the graph's smoothed, normalised height, computed with the nodes the graph uses
@@ -636,6 +674,7 @@ int main(void)
         cmocka_unit_test(test_immersed_grows_and_lies_below),
         cmocka_unit_test(test_dry_far_from_water),
         cmocka_unit_test(test_steep_walls_stay_dry),
+        cmocka_unit_test(test_puddles_in_hollows_near_water),
         cmocka_unit_test(test_partition_and_ranges),
         cmocka_unit_test(test_zones_view),
         cmocka_unit_test(test_partial_range_and_16_bit),
