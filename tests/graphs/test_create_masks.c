@@ -505,6 +505,38 @@ static void test_partition_and_ranges(void **state)
     wg_image_unref(n);
 }
 
+/* Hard cases: a flat map (no range: the height counts as the middle of the range), one pixel,
+ * a 3x2 map, a single spike on flat ground; levels 0 and 1 stay exact and every output is
+ * finite and partitions. */
+static void test_hard_cases(void **state)
+{
+    (void)state;
+    float flat_v[16 * 8], tiny_v[6] = {0.1f, 0.9f, 0.4f, 0.4f, 0.2f, 0.7f}, one_v = 0.3f;
+    for (int i = 0; i < 16 * 8; i++) flat_v[i] = 0.25f;
+    WgImage *flat = wgt_image(16, 8, 1, flat_v), *tiny = wgt_image(3, 2, 1, tiny_v);
+    WgImage *one = wgt_image(1, 1, 1, &one_v);
+    WgImage *spike = wgt_image(64, 32, 1, NULL);
+    wg_image_row(spike, 10)[20] = 5;
+    WgImage *maps[] = {flat, tiny, one, spike};
+    const char *levels[] = {"0", "0.3", "0.6", "1"};
+    for (int i = 0; i < 4; i++)
+        for (int l = 0; l < 4; l++) {
+            char sets[128];
+            snprintf(sets, sizeof sets, "water_level=%s noise_intensity=1 puddle_density=1",
+                     levels[l]);
+            Masks m = render(maps[i], NULL, sets);
+            check_masks(&m, sets);
+            if (l == 0) assert_all(m.imm, 0, "immersed");
+            if (l == 0) assert_all(m.wet, 0, "wet");
+            if (l == 0) assert_all(m.moist, 0, "moist");
+            if (l == 3) assert_all(m.imm, 1, "immersed");
+            if (i == 0) /* flat: all or nothing, around the middle of the range */
+                assert_all(m.imm, l >= 2 ? 1.0f : 0.0f, "immersed (flat)");
+            masks_free(&m);
+        }
+    for (int i = 0; i < 4; i++) wg_image_unref(maps[i]);
+}
+
 /* The zones view is an opaque colour image in [0, 1]. */
 static void test_zones_view(void **state)
 {
@@ -685,6 +717,7 @@ int main(void)
         cmocka_unit_test(test_steep_walls_stay_dry),
         cmocka_unit_test(test_puddles_in_hollows_near_water),
         cmocka_unit_test(test_partition_and_ranges),
+        cmocka_unit_test(test_hard_cases),
         cmocka_unit_test(test_zones_view),
         cmocka_unit_test(test_partial_range_and_16_bit),
         cmocka_unit_test(test_tiling),
