@@ -383,6 +383,11 @@ static void test_puddles_in_hollows_near_water(void **state)
                     area[band] += 1;
                 }
             }
+        Masks none = render(bricks, NULL,
+                            l ? "water_level=0.65 puddle_density=0 wet_distance=12"
+                              : "water_level=0.6 puddle_density=0 wet_distance=12");
+        assert_all(none.pud, 0, "puddles at density 0");
+        masks_free(&none);
         printf("%s: puddle share by distance %.4f %.4f %.4f\n", levels[l], count[0] / area[0],
                count[1] / area[1], count[2] / area[2]);
         assert_true(count[0] > 0);
@@ -671,7 +676,8 @@ static void test_resolution_independence(void **state)
             double mean = sum / (256 * 128);
             printf("%s mask %d: mean |1K - 2K| %.4f (mean value %.4f), max %.3f\n", levels[l], k,
                    mean, ref / (256 * 128), worst);
-            if (!(mean <= 0.01 && worst <= 0.3))
+            /* puddles are small, with a sharp depth threshold: a few pixels differ more */
+            if (!(mean <= 0.01 && worst <= (k == 3 ? 0.5 : 0.25)))
                 fail_msg("%s mask %d: mean difference %g, max %g", levels[l], k, mean, worst);
             wg_image_unref(sa);
             wg_image_unref(sb);
