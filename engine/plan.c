@@ -652,6 +652,7 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
             WgParamType pt = i < g->n_params ? g->params[i].info.type : WG_PARAM_FLOAT_T;
             if (pt == WG_PARAM_COLOR_T || pt == WG_PARAM_STRING_T) continue;
             const char *nm = i < g->n_params ? g->params[i].info.name : specials[i - g->n_params];
+            if (t->uses_scope_name && !t->uses_scope_name(in->params, nm)) continue;
             if (!(in->scope_names[in->n_scope] = wg_strdup(nm))) {
                 rc = WG_ERR_NOMEM;
                 goto out_slots;

@@ -16,6 +16,7 @@
 #include "pixel_program.h"
 
 #include <float.h>
+#include <ctype.h>
 #include <math.h>
 #include <stdatomic.h>
 #include <string.h>
@@ -477,6 +478,24 @@ static int pixel_eval(WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
+/* Does `expr` contain `name` as a whole token? Names are letters, digits and _ (with a leading
+ * $ for $time and its kin), so this finds every use; a name that also appears as a channel
+ * (c.r) or hidden by an input only costs a recomputation. $time enters the node through here,
+ * so a pixel node whose expression does not read $time is computed once per frame sequence. */
+static bool pixel_uses_scope_name(const void *params, const char *name)
+{
+    const char *e = ((const PixelParams *)params)->expr;
+    size_t n = strlen(name);
+    if (!e || !n) return false;
+    for (const char *p = strstr(e, name); p; p = strstr(p + 1, name)) {
+        char before = p > e ? p[-1] : ' ', after = p[n];
+        bool word_before = isalnum((unsigned char)before) || before == '_' || before == '$';
+        bool word_after = isalnum((unsigned char)after) || after == '_';
+        if (!word_before && !word_after) return true;
+    }
+    return false;
+}
+
 const WgNodeType wg_node_pixel = {
     .name = "pixel",
     .summary = "Per-pixel expression over any number of named inputs (Pixel Processor)",
@@ -535,8 +554,9 @@ const WgNodeType wg_node_pixel = {
     .params_size = sizeof(PixelParams),
     .outputs = pixel_out,
     .flags = WG_NODE_GLOBAL | WG_NODE_DYNAMIC_INPUTS | WG_NODE_EXTRA_PARAMS | WG_NODE_SCOPED |
-             WG_NODE_TIMED | WG_NODE_SEEDED,
+             WG_NODE_SEEDED,
     .output_channels = pixel_channels,
     .check = pixel_check,
     .eval = pixel_eval,
+    .uses_scope_name = pixel_uses_scope_name,
 };

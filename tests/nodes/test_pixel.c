@@ -906,6 +906,52 @@ static WgImage *render_with(WgEngine *e, const WgGraph *g, const char *k, int *e
     return out;
 }
 
+/* Only the names the expression reads are in the node's key: a change of another graph
+ * parameter or of $time reuses it; a change of one it reads (also as $time) recomputes it. */
+static void test_key_holds_only_names_read(void **state)
+{
+    (void)state;
+    WgError err = {0};
+    WgEngineOptions opt = {1, 0, NULL};
+    WgEngine *e = NULL;
+    if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"4x2\">\n"
+                          "  <param name=\"k\" type=\"float\" default=\"0.25\"/>\n"
+                          "  <param name=\"kk\" type=\"float\" default=\"1\"/>\n"
+                          "  <node id=\"a\" type=\"pixel\" expr=\"x + kk\"/>\n"
+                          "  <node id=\"b\" type=\"pixel\" expr=\"x * $time\"/>\n"
+                          "  <output name=\"out\" from=\"a\"/>\n"
+                          "  <output name=\"timed\" from=\"b\"/>\n</wetgraph>\n");
+    const struct {
+        const char *k;
+        double time;
+        int evaluated; /* nodes computed */
+    } steps[] = {{"0.25", 0, 2}, {"0.5", 0, 0}, {"0.5", 2, 1}, {"0.75", 2, 0}};
+    for (int i = 0; i < 4; i++) {
+        WgRequest *r = wg_request_new(g);
+        if (wg_request_set(r, "k", steps[i].k, &err)) fail_msg("set: %s", err.message);
+        wg_request_set_time(r, steps[i].time);
+        WgResult *res = NULL;
+        if (wg_render(e, r, &res, &err)) fail_msg("render: %s", err.message);
+        if (wg_result_evaluated_count(res) != steps[i].evaluated)
+            fail_msg("step %d: %d nodes computed, expected %d", i, wg_result_evaluated_count(res),
+                     steps[i].evaluated);
+        assert_float_equal(at(wgt_output(res, "timed"), 3, 0), 3 * steps[i].time, 0);
+        wg_result_free(res);
+        wg_request_free(r);
+    }
+    /* kk (read) changes: recomputed */
+    WgRequest *r = wg_request_new(g);
+    if (wg_request_set(r, "kk", "5", &err)) fail_msg("set: %s", err.message);
+    WgResult *res = NULL;
+    if (wg_render(e, r, &res, &err)) fail_msg("render: %s", err.message);
+    assert_float_equal(at(wgt_output(res, "out"), 2, 0), 7, 0);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+    wg_engine_free(e);
+}
+
 static void test_cache_key(void **state)
 {
     (void)state;
@@ -1081,6 +1127,7 @@ int main(void)
         cmocka_unit_test(test_nonfinite),
         cmocka_unit_test(test_thread_count_invariance),
         cmocka_unit_test(test_cache_key),
+        cmocka_unit_test(test_key_holds_only_names_read),
         cmocka_unit_test(test_compiled_program),
         cmocka_unit_test(test_long_expressions),
     };

@@ -188,6 +188,11 @@ typedef struct WgNodeType {
      * node runs; an estimate must not be below what eval really takes. Buffers of a few rows
      * may be left out: they are part of the budget's fixed overhead (docs/engine.md). */
     size_t (*scratch_bytes)(const WgNodeContext *ctx);
+    /* Optional, for WG_NODE_SCOPED nodes: does the node read the scope name `name` (a graph
+     * parameter or $time, $seed, $width, $height) with these params? Only the names it reads
+     * enter its scope and its cache key, so a change of another parameter or of $time does not
+     * recompute it. An over-estimate is safe. Default: every name. */
+    bool (*uses_scope_name)(const void *params, const char *name);
 } WgNodeType;
 
 /* The registry: a NULL-terminated array in fixed order. */

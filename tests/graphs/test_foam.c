@@ -1,0 +1,276 @@
+/* SPDX-License-Identifier: MIT */
+/* graphs/foam.wetgraph and graphs/foam_pattern.wetgraph on a synthetic periodic shore that
+ * crosses the tile edges: the foam is seamless at every frame (v exactly: a rolled shore gives
+ * the rolled v); a looping setting gives frame N equal to frame 0; a higher threshold never adds
+ * foam; no foam beyond the band's sea-side edge nor inland beyond the inland reach; the nodes
+ * that do not depend on $time are computed once for a sequence; T tiles and merges its two
+ * layers with max; everything is finite and in range. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { N = 128 };
+
+static WgGraph *foam_graph;
+
+static double shore_fn(int x, int y, int k)
+{
+    (void)k;
+    double u = (x + 0.5) / N, v = (y + 0.5) / N;
+    return cos(2 * M_PI * u) + 0.6 * sin(4 * M_PI * v) > 0.3 ? 1.0 : 0.0;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    const char *src = getenv("WETGRAPH_SOURCE");
+    if (!src) return -1;
+    char path[2048];
+    snprintf(path, sizeof path, "%s/graphs/foam.wetgraph", src);
+    WgError err = {0};
+    if (wg_graph_load(path, &foam_graph, &err)) {
+        fprintf(stderr, "%s\n", err.message);
+        return -1;
+    }
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    wg_graph_free(foam_graph);
+    return 0;
+}
+
+/* Render the foam graph on shore at time t with "name=value" settings (NULL-terminated). */
+static WgResult *render(WgEngine *e, const WgImage *shore, double t, const char *const *sets)
+{
+    WgRequest *r = wg_request_new(foam_graph);
+    WgError err = {0};
+    assert_non_null(r);
+    if (wg_request_set_input_image(r, "shore", shore, &err)) fail_msg("%s", err.message);
+    for (int i = 0; sets && sets[i]; i++) {
+        char name[64];
+        const char *eq = strchr(sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - sets[i]), sets[i]);
+        if (wg_request_set(r, name, eq + 1, &err)) fail_msg("%s: %s", sets[i], err.message);
+    }
+    wg_request_set_time(r, t);
+    WgResult *res = wgt_render_request(e, r);
+    wg_request_free(r);
+    return res;
+}
+
+static WgImage *roll(const WgImage *a, int dx, int dy)
+{
+    WgImage *b = wg_image_new(a->width, a->height, a->channels);
+    assert_non_null(b);
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++)
+            for (int k = 0; k < a->channels; k++)
+                wg_image_row(b, (y + dy) % a->height)[((x + dx) % a->width) * a->channels + k] =
+                    wgt_px(a, x, y, k);
+    return b;
+}
+
+/* Mean |difference| between column c and the next one (wrapping), and the same for rows. */
+static double column_step(const WgImage *f, int c)
+{
+    double s = 0;
+    for (int y = 0; y < f->height; y++)
+        s += fabs(wgt_px(f, c, y, 0) - wgt_px(f, (c + 1) % f->width, y, 0));
+    return s / f->height;
+}
+static double row_step(const WgImage *f, int r)
+{
+    double s = 0;
+    for (int x = 0; x < f->width; x++)
+        s += fabs(wgt_px(f, x, r, 0) - wgt_px(f, x, (r + 1) % f->height, 0));
+    return s / f->width;
+}
+
+/* A seam would show as a step across the last column (row) far above the steps inside. */
+static void test_seamless_at_every_frame(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const double times[] = {0, 1.3, 7.9};
+    for (int i = 0; i < 3; i++) {
+        WgResult *res = render(e, shore, times[i], NULL);
+        const WgImage *f = wgt_output(res, "foam");
+        wgt_assert_range(f, 0, 1);
+        double inner_c = 0, inner_r = 0;
+        for (int c = 0; c < N - 1; c++) inner_c += column_step(f, c) / (N - 1);
+        for (int r = 0; r < N - 1; r++) inner_r += row_step(f, r) / (N - 1);
+        double seam_c = column_step(f, N - 1), seam_r = row_step(f, N - 1);
+        if (!(seam_c <= 3 * inner_c + 0.02 && seam_r <= 3 * inner_r + 0.02))
+            fail_msg("t=%g: seam steps %g / %g against %g / %g inside", times[i], seam_c, seam_r,
+                     inner_c, inner_r);
+        assert_true(inner_c > 0.001); /* there is foam with edges at all */
+        wgt_assert_range(wgt_output(res, "preview"), 0, 1);
+        wgt_assert_range(wgt_output(res, "maps"), 0, 1);
+        wg_result_free(res);
+    }
+    /* v is exact: a rolled shore gives the rolled v */
+    WgResult *a = render(e, shore, 0, NULL);
+    WgImage *rolled = roll(shore, 37, 90);
+    WgResult *b = render(e, rolled, 0, NULL);
+    WgImage *want = roll(wgt_output(a, "v"), 37, 90);
+    wgt_assert_near(wgt_output(b, "v"), want, 1e-5);
+    wg_image_unref(want);
+    wg_image_unref(rolled);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* loop_seconds 2: every speed snaps, so the frame at t = 2 (frame 48 at 24 fps) is frame 0. */
+static void test_loop(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const sets[] = {
+        "loop_seconds=2",    "speed=0.3",   "tex_speed_x=0.04",   "warp_speed=0.1",
+        "layer2_speed=-0.2", "come_go=0.3", "come_go_period=0.7", NULL};
+    WgResult *a = render(e, shore, 0, sets), *b = render(e, shore, 2, sets),
+             *c = render(e, shore, 0.5, sets);
+    double same = wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(b, "foam"));
+    double moved = wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(c, "foam"));
+    if (!(same <= 1e-4)) fail_msg("frame at loop_seconds differs from frame 0 by %g", same);
+    assert_true(moved > 0.5); /* and the animation does move in between */
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+static void test_threshold_and_band(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const lo[] = {"threshold=0.1", NULL}, *const hi[] = {"threshold=0.3", NULL},
+                      *const dry[] = {"inland_reach=0", "threshold=-2", NULL};
+    WgResult *a = render(e, shore, 1.5, lo), *b = render(e, shore, 1.5, hi),
+             *c = render(e, shore, 1.5, dry);
+    const WgImage *fa = wgt_output(a, "foam"), *fb = wgt_output(b, "foam"),
+                  *fc = wgt_output(c, "foam"), *v = wgt_output(c, "v");
+    double sum_a = 0, sum_b = 0;
+    int sea = 0, land = 0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double pa = wgt_px(fa, x, y, 0), pb = wgt_px(fb, x, y, 0);
+            if (pb > pa + 1e-6)
+                fail_msg("a higher threshold adds foam at (%d,%d): %g > %g", x, y, pb, pa);
+            sum_a += pa;
+            sum_b += pb;
+            double vv = wgt_px(v, x, y, 0), pc = wgt_px(fc, x, y, 0);
+            /* threshold -2 puts foam everywhere in the band: none outside it */
+            if (vv <= 0 && pc != 0) fail_msg("foam %g beyond the band at sea (v = %g)", pc, vv);
+            if (vv >= 1.02 && pc != 0) fail_msg("foam %g inland (v = %g)", pc, vv);
+            sea += vv <= 0;
+            land += vv >= 1.02;
+            if (vv > 0.05 && vv < 0.95 && !(pc > 0.99))
+                fail_msg("no foam in the band at v = %g", vv);
+        }
+    assert_true(sum_b < sum_a);           /* it does remove some */
+    assert_true(sea > 100 && land > 100); /* the shore has both far sea and inland */
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* Three frames through one engine: the shore's distance transform, v, the noises and T are
+ * computed for the first frame only (a pixel node's key holds $time only when its expression
+ * reads it); the per-frame nodes every time. */
+static void test_untimed_nodes_once(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    static const char *const once[] = {"sd", "v", "n1", "n2", "n3", "pattern/d1", "pattern/t"};
+    static const char *const every[] = {"tex", "mix", "grad", "foam"};
+    for (int f = 0; f < 3; f++) {
+        WgResult *res = render(e, shore, f / 24.0, NULL);
+        for (size_t i = 0; i < sizeof once / sizeof once[0]; i++) {
+            /* after the first frame a node is either a cache hit or not needed at all (its
+             * consumer was a hit) */
+            const WgNodeStat *s = wgt_stat(res, once[i]);
+            bool computed = s && s->cache == WG_COMPUTED;
+            if (computed != (f == 0))
+                fail_msg("frame %d: %s %s", f, once[i], f ? "recomputed" : "not computed");
+        }
+        for (size_t i = 0; i < sizeof every / sizeof every[0]; i++)
+            assert_int_equal(wgt_stat(res, every[i])->cache, WG_COMPUTED);
+        wg_result_free(res);
+    }
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* foam_pattern: 1 on the strokes, 0 beyond `width`, max of the two layers, and wrapping: a
+ * stroke on the left edge reaches the right edge. */
+static void test_pattern(void **state)
+{
+    (void)state;
+    const char *src = getenv("WETGRAPH_SOURCE");
+    char xml[2048];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"64\">\n"
+             "  <input name=\"a\" type=\"gray\"/><input name=\"b\" type=\"gray\"/>\n"
+             "  <node id=\"p\" type=\"%s/graphs/foam_pattern.wetgraph\" width=\"32\" width2=\"16\" "
+             "contrast=\"1\">\n"
+             "    <in name=\"strokes\" from=\"$a\"/><in name=\"strokes2\" from=\"$b\"/>\n"
+             "  </node>\n"
+             "  <output name=\"t\" from=\"p.T\"/>\n"
+             "</wetgraph>\n",
+             src);
+    WgGraph *g = wgt_load(xml);
+    float a[64 * 64] = {0}, b[64 * 64] = {0};
+    for (int y = 0; y < 64; y++) a[y * 64 + 0] = 1; /* a line on column 0 */
+    b[32 * 64 + 32] = 1;                            /* a dot in the middle */
+    WgImage *ia = wgt_image(64, 64, 1, a), *ib = wgt_image(64, 64, 1, b);
+    WgRequest *r = wg_request_new(g);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "a", ia, &err), 0);
+    assert_int_equal(wg_request_set_input_image(r, "b", ib, &err), 0);
+    WgEngine *e = wgt_engine(1, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    const WgImage *t = wgt_output(res, "t");
+    /* width 32 length units at 64 px = 8 px: falloff 1 - d/8 from column 0, wrapping */
+    for (int x = 0; x < 64; x++) {
+        int d = x < 32 ? x : 64 - x;
+        double want = fmax(0, 1 - d / 8.0);
+        int dd = abs(x - 32); /* the dot's layer on row 32: 1 - d/4 */
+        double want32 = fmax(want, fmax(0, 1 - dd / 4.0));
+        assert_float_equal(wgt_px(t, x, 0, 0), want, 1e-6);
+        assert_float_equal(wgt_px(t, x, 32, 0), want32, 1e-6);
+    }
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_image_unref(ia);
+    wg_image_unref(ib);
+    wg_graph_free(g);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_seamless_at_every_frame),
+        cmocka_unit_test(test_loop),
+        cmocka_unit_test(test_threshold_and_band),
+        cmocka_unit_test(test_untimed_nodes_once),
+        cmocka_unit_test(test_pattern),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
