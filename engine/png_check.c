@@ -114,15 +114,23 @@ static int inflate_piece(ImageData *d, const unsigned char *in, size_t n, char *
     return 0;
 }
 
-int wg__png_check(const char *path, bool whole, char *msg, size_t size)
+/* What a probe learns on the way: the IHDR and whether a tRNS chunk comes before the data. */
+typedef struct PngInfo {
+    uint32_t width, height;
+    int colour_type;
+    bool trns;
+} PngInfo;
+
+/* 1: not a PNG; 0: fine; -1: damaged, with msg. */
+static int walk(const char *path, bool whole, PngInfo *info, char *msg, size_t size)
 {
     static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     FILE *f = fopen(path, "rb");
-    if (!f) return 0; /* the reader reports it */
+    if (!f) return 1; /* the reader reports it */
     unsigned char head[8];
     if (fread(head, 1, 8, f) != 8 || memcmp(head, signature, 8)) {
         fclose(f);
-        return 0;
+        return 1;
     }
     ImageData data = {0};
     int rc = 0;
@@ -191,6 +199,12 @@ int wg__png_check(const char *path, bool whole, char *msg, size_t size)
             break;
         }
         if (is_header && (rc = read_header(&data, header, len, msg, size))) break;
+        if (is_header && info) {
+            info->width = be32(header);
+            info->height = be32(header + 4);
+            info->colour_type = header[9];
+        }
+        if (info && !strcmp(type, "tRNS")) info->trns = true;
         at += 12 + (long long)len;
         if (!strcmp(type, "IEND")) {
             ended = true;
@@ -205,4 +219,22 @@ int wg__png_check(const char *path, bool whole, char *msg, size_t size)
     if (data.z_open) inflateEnd(&data.z);
     fclose(f);
     return rc;
+}
+
+int wg__png_check(const char *path, bool whole, char *msg, size_t size)
+{
+    return walk(path, whole, NULL, msg, size) < 0 ? -1 : 0;
+}
+
+int wg__png_probe(const char *path, int *w, int *h, int *c, char *msg, size_t size)
+{
+    PngInfo info = {0};
+    int rc = walk(path, false, &info, msg, size);
+    if (rc) return rc;
+    /* libpng as OpenImageIO sets it up: palette expanded to RGB, tRNS expanded to alpha */
+    static const int channels[7] = {1, 0, 3, 3, 2, 0, 4};
+    *w = (int)info.width;
+    *h = (int)info.height;
+    *c = channels[info.colour_type] + (info.trns && !(info.colour_type & 4) ? 1 : 0);
+    return 0;
 }
