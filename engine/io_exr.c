@@ -177,6 +177,7 @@ struct WgExrIn {
     int file_index[4]; /* for output channel k, its index in the file's (sorted) channel list */
     exr_decode_pipeline_t dec;
     bool dec_ready;
+    float *alpha; /* one chunk of the fourth channel (see wg__exr_read_rows) */
 };
 
 void wg__exr_close(WgExrIn *in)
@@ -184,6 +185,7 @@ void wg__exr_close(WgExrIn *in)
     if (!in) return;
     if (in->dec_ready) exr_decoding_destroy(in->ctx, &in->dec);
     exr_finish(&in->ctx);
+    free(in->alpha);
     free(in);
 }
 
@@ -253,9 +255,21 @@ int wg__exr_open(const char *path, WgExrIn **out, int *w, int *h, int *c, int *s
     return 0;
 }
 
+/* Four channels decoded into one interleaved buffer take a fast path in OpenEXR 3.1 that puts
+ * them in the wrong places for half data (alpha lands in red). Decoding the fourth channel into
+ * a buffer of its own makes the layout non-interleaved, which the general routine handles; it is
+ * copied into place afterwards. */
 int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
                       ptrdiff_t ystride, char *msg, size_t msg_size)
 {
+    bool split = ce - cb == 4;
+    if (split && !in->alpha) {
+        in->alpha = malloc((size_t)in->w * (size_t)in->lines * sizeof(float));
+        if (!in->alpha) {
+            snprintf(msg, msg_size, "out of memory");
+            return -1;
+        }
+    }
     for (int y = y0; y < y1; y += in->lines) {
         exr_chunk_info_t ci;
         exr_result_t rv = exr_read_scanline_chunk_info(in->ctx, 0, y, &ci);
@@ -267,19 +281,29 @@ int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, 
             for (int i = 0; i < in->dec.channel_count; i++) {
                 exr_coding_channel_info_t *ch = &in->dec.channels[i];
                 ch->decode_to_ptr = NULL; /* channels outside [cb, ce) are skipped */
+                ch->user_pixel_stride = (int32_t)xstride;
+                ch->user_line_stride = (int32_t)ystride;
                 for (int k = cb; k < ce; k++) {
                     if (in->file_index[k] != i) continue;
                     ch->decode_to_ptr = (uint8_t *)data + (ptrdiff_t)(ci.start_y - y0) * ystride +
                                         (ptrdiff_t)(k - cb) * (ptrdiff_t)sizeof(float);
+                    if (split && k == cb + 3) {
+                        ch->decode_to_ptr = (uint8_t *)in->alpha;
+                        ch->user_pixel_stride = (int32_t)sizeof(float);
+                        ch->user_line_stride = (int32_t)((size_t)in->w * sizeof(float));
+                    }
                 }
-                ch->user_pixel_stride = (int32_t)xstride;
-                ch->user_line_stride = (int32_t)ystride;
                 ch->user_bytes_per_element = 4;
                 ch->user_data_type = EXR_PIXEL_FLOAT;
             }
             rv = exr_decoding_choose_default_routines(in->ctx, 0, &in->dec);
         }
         if (!rv) rv = exr_decoding_run(in->ctx, 0, &in->dec);
+        for (int r = 0; !rv && split && r < ci.height; r++) {
+            uint8_t *row = (uint8_t *)data + (ptrdiff_t)(ci.start_y - y0 + r) * ystride;
+            const float *a = in->alpha + (size_t)r * (size_t)in->w;
+            for (int x = 0; x < in->w; x++) memcpy(row + x * xstride + 3 * sizeof(float), a + x, 4);
+        }
         if (rv) {
             snprintf(msg, msg_size, "the EXR data is damaged: rows %d to %d: %s", y,
                      y + in->lines - 1 < in->h ? y + in->lines - 1 : in->h - 1,
