@@ -284,12 +284,14 @@ bool wg__hash_file(const char *path, uint64_t out[2]);
  * fails with a message naming the module paths tried when it cannot be loaded). */
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
 /* Reading a file in strips of rows: *decoder_bytes is what the decoder itself holds meanwhile
- * (the whole file at its native type for formats decoded at once, such as PNG). */
+ * (the whole file at its native type for formats decoded at once, such as PNG); *bits is 8 or
+ * 16 when the file stores unsigned integers of that size, else 0. */
 typedef struct WgOiioIn WgOiioIn;
-int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
-                  char *msg, size_t msg_size);
-/* Rows [y0, y1), channels [cb, ce), pixels xstride and rows ystride bytes apart. */
-int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, float *data,
+int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, int *bits,
+                  size_t *decoder_bytes, char *msg, size_t msg_size);
+/* Rows [y0, y1), channels [cb, ce), as float (bits 0) or the file's integers (bits 8 or 16),
+ * pixels xstride and rows ystride bytes apart. */
+int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, void *data,
                        ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size);
 void wg__oiio_close(WgOiioIn *in);
 /* Whether this process has loaded the module (for tests). */
@@ -311,8 +313,8 @@ int wg__oiio_write(const char *path, const char *format_ext, const void *data, i
  * wg__exr_open returns 1 (and opens nothing) for other EXR files, which go to OpenImageIO. */
 int wg__exr_is_exr(const char *path);
 typedef struct WgExrIn WgExrIn;
-int wg__exr_open(const char *path, WgExrIn **in, int *w, int *h, int *c, int *strip_rows,
-                 char *msg, size_t msg_size);
+int wg__exr_open(const char *path, WgExrIn **in, int *w, int *h, int *c, int *strip_rows, char *msg,
+                 size_t msg_size);
 /* Rows [y0, y1) (y0 a multiple of the strip height, y1 too or the height), channels [cb, ce),
  * as wg__oiio_read_rows. */
 int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
@@ -325,6 +327,19 @@ int wg__exr_write_image(const char *file, const char *path, const WgImage *img, 
 /* PNG header read natively (png_check.c): size and the channels OpenImageIO gives (palette
  * expanded to RGB, a tRNS chunk adding alpha). 1 when `path` is not a PNG. */
 int wg__png_probe(const char *path, int *w, int *h, int *c, char *msg, size_t size);
+/* PNG decoded natively while it is checked as wg__png_check does: 8- or 16-bit gray, gray-alpha,
+ * RGB or RGBA, not interlaced, without tRNS. Each row goes to `row` unfiltered (samples
+ * big-endian) as soon as it is inflated. 1 when the file is not such a PNG (nothing was
+ * decoded; read it otherwise), -1 with msg when it is damaged or not of the expected size and
+ * channels. */
+typedef struct WgPngSink {
+    int width, height, channels;
+    void (*row)(void *user, int y, const unsigned char *data, int depth); /* depth 8 or 16 */
+    void *user;
+} WgPngSink;
+int wg__png_read(const char *path, const WgPngSink *sink, char *msg, size_t size);
+/* Whether wg__png_read decodes the file. */
+bool wg__png_decodable(const char *path);
 /* Multi-layer EXR (io_exr.c): the layer checks, and the encoder writing straight to `file` with
  * errors naming `path`. */
 int wg__exr_check_layers(const char *path, int count, const char *const *names,

@@ -228,6 +228,7 @@ typedef struct {
     WgExrIn *exr;
     WgOiioIn *oiio;
     int w, h, c, strip;
+    int bits; /* 8 or 16: an integer file read as its codes; 0: read as float */
 } Reader;
 
 static int reader_open(const char *path, Reader *r, size_t *decoder, char *msg, size_t msg_size)
@@ -240,15 +241,16 @@ static int reader_open(const char *path, Reader *r, size_t *decoder, char *msg, 
         if (decoder) *decoder = 2 * (size_t)r->w * (size_t)r->strip * (size_t)r->c * sizeof(float);
         return 0;
     }
-    return wg__oiio_open(path, &r->oiio, &r->w, &r->h, &r->c, decoder, msg, msg_size);
+    return wg__oiio_open(path, &r->oiio, &r->w, &r->h, &r->c, &r->bits, decoder, msg, msg_size);
 }
 
-static int reader_rows(Reader *r, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
-                       ptrdiff_t ystride, char *msg, size_t msg_size)
+/* Rows as float (bits 0) or, for an integer file, as its codes (bits r->bits). */
+static int reader_rows(Reader *r, int y0, int y1, int cb, int ce, int bits, void *data,
+                       ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size)
 {
     if (r->exr)
         return wg__exr_read_rows(r->exr, y0, y1, cb, ce, data, xstride, ystride, msg, msg_size);
-    return wg__oiio_read_rows(r->oiio, y0, y1, cb, ce, data, xstride, ystride, msg, msg_size);
+    return wg__oiio_read_rows(r->oiio, y0, y1, cb, ce, bits, data, xstride, ystride, msg, msg_size);
 }
 
 static void reader_close(Reader *r)
@@ -262,6 +264,10 @@ size_t wg_image_read_scratch(const char *path)
     Reader r;
     size_t decoder = 0;
     char msg[512];
+    int w, h, c;
+    /* a PNG decoded here holds two rows of the file */
+    if (wg__png_decodable(path) && !wg__png_probe(path, &w, &h, &c, msg, sizeof msg))
+        return (size_t)w * (size_t)c * 2 * 3 + 2;
     if (reader_open(path, &r, &decoder, msg, sizeof msg)) return 0;
     reader_close(&r);
     /* the strip of the general path; a direct read needs none */
@@ -321,7 +327,7 @@ static int read_strips(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad,
     if (!buf) return WG_ERR_NOMEM;
     for (int y0 = 0; y0 < h; y0 += r->strip) {
         int y1 = h - y0 < r->strip ? h : y0 + r->strip;
-        if (reader_rows(r, y0, y1, 0, c, buf, c * (ptrdiff_t)sizeof(float),
+        if (reader_rows(r, y0, y1, 0, c, 0, buf, c * (ptrdiff_t)sizeof(float),
                         (ptrdiff_t)(row * sizeof(float)), msg, msg_size)) {
             wg_free(buf);
             return WG_ERR_IO;
@@ -345,7 +351,7 @@ static int read_direct(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad,
     ptrdiff_t ystride = (ptrdiff_t)(dst->stride * sizeof(float));
     for (int y0 = 0; y0 < r->h; y0 += r->strip) {
         int y1 = r->h - y0 < r->strip ? r->h : y0 + r->strip;
-        if (reader_rows(r, y0, y1, 0, c, wg_image_row(dst, y0), dc * (ptrdiff_t)sizeof(float),
+        if (reader_rows(r, y0, y1, 0, c, 0, wg_image_row(dst, y0), dc * (ptrdiff_t)sizeof(float),
                         ystride, msg, msg_size))
             return WG_ERR_IO;
         for (int y = y0; y < y1; y++) {
@@ -369,10 +375,123 @@ static int read_direct(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad,
     return WG_OK;
 }
 
+/* Integer files: the decoder hands over its 8- or 16-bit codes (a quarter or half of the bytes
+ * of floats) and each becomes a float through a table: the value OpenImageIO gives the code
+ * (k times the float reciprocal of 255 or 65535, which is not always the float nearest
+ * k/255), and for sRGB colour channels srgb_decode of that value, so every path, native or
+ * OpenImageIO, gives the same floats. */
+static float code_lin8[256], code_srgb8[256], code_lin16[65536], code_srgb16[65536];
+static pthread_once_t code_once = PTHREAD_ONCE_INIT;
+
+static void code_tables_build(void)
+{
+    pthread_once(&srgb_once, srgb_lut_build);
+    volatile float r8 = 1.0f / 255.0f, r16 = 1.0f / 65535.0f; /* rounded to float first */
+    for (int i = 0; i < 256; i++) code_lin8[i] = (float)i * r8;
+    for (int i = 0; i < 65536; i++) code_lin16[i] = (float)i * r16;
+    for (int i = 0; i < 256; i++) code_srgb8[i] = srgb_decode(code_lin8[i]);
+    for (int i = 0; i < 65536; i++) code_srgb16[i] = srgb_decode(code_lin16[i]);
+}
+
+/* One row of codes to the destination's channels, as convert_row does for floats. */
+#define CONVERT_CODES(T)                                                                           \
+    for (int x = 0; x < w; x++) {                                                                  \
+        const T *p = (const T *)src + (size_t)x * (size_t)c;                                       \
+        if (c <= 2) {                                                                              \
+            float v = col[p[0]];                                                                   \
+            if (channels == 1) {                                                                   \
+                dst[x] = v;                                                                        \
+            } else {                                                                               \
+                dst[4 * x] = dst[4 * x + 1] = dst[4 * x + 2] = v;                                  \
+                dst[4 * x + 3] = 1.0f;                                                             \
+            }                                                                                      \
+        } else {                                                                                   \
+            float px[4] = {col[p[0]], col[p[1]], col[p[2]], c >= 4 ? lin[p[3]] : 1.0f};            \
+            if (channels == 1)                                                                     \
+                dst[x] = wg__luminance(px);                                                        \
+            else                                                                                   \
+                memcpy(dst + 4 * x, px, sizeof px);                                                \
+        }                                                                                          \
+    }
+
+static void convert_codes(const void *src, int bits, int c, WgColorspace cs, float *dst, int w,
+                          int channels)
+{
+    const float *lin = bits == 8 ? code_lin8 : code_lin16;
+    const float *col = cs != WG_SRGB ? lin : bits == 8 ? code_srgb8 : code_srgb16;
+    if (bits == 8) {
+        CONVERT_CODES(uint8_t)
+    } else {
+        CONVERT_CODES(uint16_t)
+    }
+}
+
+static int read_codes(Reader *r, WgColorspace cs, WgImage *dst, char *msg, size_t msg_size)
+{
+    pthread_once(&code_once, code_tables_build);
+    size_t b = (size_t)r->bits / 8, row = (size_t)r->w * (size_t)r->c * b;
+    unsigned char *buf = wg_malloc(row * (size_t)r->strip);
+    if (!buf) return WG_ERR_NOMEM;
+    for (int y0 = 0; y0 < r->h; y0 += r->strip) {
+        int y1 = r->h - y0 < r->strip ? r->h : y0 + r->strip;
+        if (reader_rows(r, y0, y1, 0, r->c, r->bits, buf, (ptrdiff_t)((size_t)r->c * b),
+                        (ptrdiff_t)row, msg, msg_size)) {
+            wg_free(buf);
+            return WG_ERR_IO;
+        }
+        for (int y = y0; y < y1; y++)
+            convert_codes(buf + row * (size_t)(y - y0), r->bits, r->c, cs, wg_image_row(dst, y),
+                          r->w, dst->channels);
+    }
+    wg_free(buf);
+    return WG_OK;
+}
+
+/* Native PNG rows: big-endian samples to codes, then as read_codes. */
+typedef struct {
+    WgImage *dst;
+    WgColorspace cs;
+    int c;
+    uint16_t *row16;
+} PngRows;
+
+static void png_row(void *user, int y, const unsigned char *data, int depth)
+{
+    PngRows *p = user;
+    const void *codes = data;
+    if (depth == 16) {
+        size_t n = (size_t)p->dst->width * (size_t)p->c;
+        for (size_t i = 0; i < n; i++) p->row16[i] = (uint16_t)(data[2 * i] << 8 | data[2 * i + 1]);
+        codes = p->row16;
+    }
+    convert_codes(codes, depth, p->c, p->cs, wg_image_row(p->dst, y), p->dst->width,
+                  p->dst->channels);
+}
+
+/* 1 when the file is not a PNG decoded natively. */
+static int read_png(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
+{
+    char msg[512];
+    int w, h, c;
+    if (wg__png_probe(path, &w, &h, &c, msg, sizeof msg)) return 1;
+    pthread_once(&code_once, code_tables_build);
+    PngRows rows = {dst, cs, c, NULL};
+    rows.row16 = wg_malloc((size_t)w * (size_t)c * sizeof(uint16_t));
+    if (!rows.row16)
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
+    WgPngSink sink = {dst->width, dst->height, c, png_row, &rows};
+    int rc = wg__png_read(path, &sink, msg, sizeof msg);
+    wg_free(rows.row16);
+    if (rc < 0)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    return rc;
+}
+
 int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
 {
     int rc = check_regular(path, err);
     if (rc) return rc;
+    if ((rc = read_png(path, cs, dst, err)) <= 0) return rc;
     char msg[512];
     Reader r;
     if (wg__png_check(path, true, msg, sizeof msg) || reader_open(path, &r, NULL, msg, sizeof msg))
@@ -390,8 +509,12 @@ int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError 
     if (cs == WG_SRGB) pthread_once(&srgb_once, srgb_lut_build);
     BadValues bad = {0};
     bool direct = r.c == 1 || (dst->channels == 4 && (r.c == 3 || r.c == 4));
-    rc = direct ? read_direct(&r, cs, dst, &bad, msg, sizeof msg)
-                : read_strips(&r, cs, dst, &bad, msg, sizeof msg);
+    if (r.bits)
+        rc = read_codes(&r, cs, dst, msg, sizeof msg);
+    else if (direct)
+        rc = read_direct(&r, cs, dst, &bad, msg, sizeof msg);
+    else
+        rc = read_strips(&r, cs, dst, &bad, msg, sizeof msg);
     if (rc == WG_ERR_NOMEM)
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
     else if (rc)

@@ -97,11 +97,16 @@ static void load(void)
         try_dir(WG_BUILD_DIR);
 }
 
-/* The module, or NULL with msg saying which paths were tried. */
-static const WgOiioModule *get(char *msg, size_t msg_size)
+/* The module, or NULL with msg saying which paths were tried (and the file to be read, which
+ * an error about a node's parameters would not name otherwise). */
+static const WgOiioModule *get(const char *reading, char *msg, size_t msg_size)
 {
     pthread_once(&load_once, load);
-    if (!module)
+    if (!module && reading)
+        snprintf(msg, msg_size,
+                 "reading '%s' needs the OpenImageIO module, which cannot be loaded (%s)", reading,
+                 load_error);
+    else if (!module)
         snprintf(msg, msg_size,
                  "this format needs the OpenImageIO module, which cannot be loaded (%s)",
                  load_error);
@@ -115,22 +120,22 @@ bool wg__oiio_loaded(void)
 
 int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size)
 {
-    const WgOiioModule *m = get(msg, msg_size);
+    const WgOiioModule *m = get(path, msg, msg_size);
     return m ? m->probe(path, w, h, c, msg, msg_size) : -1;
 }
 
-int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
-                  char *msg, size_t msg_size)
+int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, int *bits,
+                  size_t *decoder_bytes, char *msg, size_t msg_size)
 {
     *in = NULL;
-    const WgOiioModule *m = get(msg, msg_size);
-    return m ? m->open(path, in, w, h, c, decoder_bytes, msg, msg_size) : -1;
+    const WgOiioModule *m = get(path, msg, msg_size);
+    return m ? m->open(path, in, w, h, c, bits, decoder_bytes, msg, msg_size) : -1;
 }
 
-int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
-                       ptrdiff_t ystride, char *msg, size_t msg_size)
+int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, void *data,
+                       ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size)
 {
-    return module->read_rows(in, y0, y1, cb, ce, data, xstride, ystride, msg, msg_size);
+    return module->read_rows(in, y0, y1, cb, ce, bits, data, xstride, ystride, msg, msg_size);
 }
 
 void wg__oiio_close(WgOiioIn *in)
@@ -142,7 +147,7 @@ int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int 
                     WgOiioOut **out, char *msg, size_t msg_size)
 {
     *out = NULL;
-    const WgOiioModule *m = get(msg, msg_size);
+    const WgOiioModule *m = get(NULL, msg, msg_size);
     return m ? m->create(path, format_ext, w, h, c, bits, out, msg, msg_size) : -1;
 }
 

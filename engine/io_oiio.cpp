@@ -105,7 +105,7 @@ struct WgOiioIn {
     int c;
 };
 
-static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c,
+static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, int *bits,
                      size_t *decoder_bytes, char *msg, size_t msg_size)
 {
     *out = nullptr;
@@ -123,6 +123,9 @@ static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c,
         if (fmt == "jpeg" || (fmt == "openexr" && spec.tile_width == 0))
             whole = (size_t)spec.width * 64 * spec.pixel_bytes(true);
         if (decoder_bytes) *decoder_bytes = whole;
+        *bits = 0;
+        if (spec.channelformats.empty() && spec.format == TypeDesc::UINT8) *bits = 8;
+        if (spec.channelformats.empty() && spec.format == TypeDesc::UINT16) *bits = 16;
         WgOiioIn *r = new WgOiioIn;
         r->c = spec.nchannels;
         r->path = path;
@@ -135,12 +138,15 @@ static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c,
     }
 }
 
-static int oiio_read_rows(WgOiioIn *r, int y0, int y1, int cb, int ce, float *data,
+static int oiio_read_rows(WgOiioIn *r, int y0, int y1, int cb, int ce, int bits, void *data,
                           ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size)
 {
     try {
-        bool ok =
-            r->in->read_scanlines(0, 0, y0, y1, 0, cb, ce, TypeDesc::FLOAT, data, xstride, ystride);
+        bool ok = r->in->read_scanlines(0, 0, y0, y1, 0, cb, ce,
+                                        bits == 8    ? TypeDesc::UINT8
+                                        : bits == 16 ? TypeDesc::UINT16
+                                                     : TypeDesc::FLOAT,
+                                        data, xstride, ystride);
         if (!ok || r->in->has_error()) {
             std::string text = r->in->geterror();
             // a decoder that recovered from damaged data reports it only as a message

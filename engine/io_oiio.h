@@ -13,7 +13,7 @@
 extern "C" {
 #endif
 
-#define WG_OIIO_MODULE_ABI 2
+#define WG_OIIO_MODULE_ABI 3
 #define WG_OIIO_MODULE_FILE "wetgraph-oiio.so"
 #define WG_OIIO_MODULE_ENTRY "wg_oiio_module_get"
 
@@ -25,13 +25,14 @@ typedef struct WgOiioModule {
     size_t size; /* sizeof(WgOiioModule) */
     int (*probe)(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
     /* *decoder_bytes: what the decoder itself holds while reading (the whole file at its native
-     * type for formats decoded at once, such as PNG) */
-    int (*open)(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
-                char *msg, size_t msg_size);
-    /* Rows [y0, y1), channels [cb, ce) as float to data, pixels xstride and rows ystride bytes
-     * apart. */
-    int (*read_rows)(WgOiioIn *in, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
-                     ptrdiff_t ystride, char *msg, size_t msg_size);
+     * type for formats decoded at once, such as PNG); *bits: 8 or 16 when every channel is
+     * stored as unsigned 8- or 16-bit integers, else 0 */
+    int (*open)(const char *path, WgOiioIn **in, int *w, int *h, int *c, int *bits,
+                size_t *decoder_bytes, char *msg, size_t msg_size);
+    /* Rows [y0, y1), channels [cb, ce) to data as `bits` (0: float, 8 or 16: the file's own
+     * unsigned integers), pixels xstride and rows ystride bytes apart. */
+    int (*read_rows)(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, void *data,
+                     ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size);
     void (*close)(WgOiioIn *in);
     int (*create)(const char *path, const char *format_ext, int w, int h, int c, int bits,
                   WgOiioOut **out, char *msg, size_t msg_size);

@@ -12,6 +12,7 @@
 #include "internal.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
 
@@ -20,7 +21,8 @@ static uint32_t be32(const unsigned char *p)
     return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
 }
 
-/* What the IHDR promises, and the inflate state of the image data. */
+/* What the IHDR promises, the inflate state of the image data, and when decoding, the rows
+ * being unfiltered (the current one filling up, and the one above it). */
 typedef struct ImageData {
     bool have_header;
     uint64_t expected;  /* bytes of filtered rows */
@@ -29,7 +31,57 @@ typedef struct ImageData {
     uint64_t got;
     z_stream z;
     bool z_open, z_end;
+    const WgPngSink *sink;
+    unsigned char *cur, *prev;
+    size_t fill, bpp; /* bytes in cur; bytes per pixel (at least 1) */
+    int y, depth;
 } ImageData;
+
+/* Undo a row's filter (PNG specification, section 9.2) given the unfiltered row above. */
+static void unfilter(unsigned char *x, const unsigned char *above, size_t n, size_t bpp, int type)
+{
+    switch (type) {
+    case 1:
+        for (size_t i = bpp; i < n; i++) x[i] = (unsigned char)(x[i] + x[i - bpp]);
+        break;
+    case 2:
+        for (size_t i = 0; i < n; i++) x[i] = (unsigned char)(x[i] + above[i]);
+        break;
+    case 3:
+        for (size_t i = 0; i < n; i++)
+            x[i] = (unsigned char)(x[i] + ((i >= bpp ? x[i - bpp] : 0) + above[i]) / 2);
+        break;
+    case 4:
+        for (size_t i = 0; i < n; i++) {
+            int a = i >= bpp ? x[i - bpp] : 0, b = above[i], c = i >= bpp ? above[i - bpp] : 0;
+            int p = a + b - c, pa = abs(p - a), pb = abs(p - b), pc = abs(p - c);
+            x[i] = (unsigned char)(x[i] + (pa <= pb && pa <= pc ? a : pb <= pc ? b : c));
+        }
+        break;
+    default:
+        break;
+    }
+}
+
+/* Inflated bytes to rows: each complete row is unfiltered and handed to the sink. */
+static void feed(ImageData *d, const unsigned char *p, size_t n)
+{
+    size_t rb = (size_t)d->row_bytes;
+    while (n > 0 && d->y < d->sink->height) {
+        size_t take = rb - d->fill < n ? rb - d->fill : n;
+        memcpy(d->cur + d->fill, p, take);
+        d->fill += take;
+        p += take;
+        n -= take;
+        if (d->fill < rb) break;
+        unfilter(d->cur + 1, d->prev + 1, rb - 1, d->bpp, d->cur[0]);
+        d->sink->row(d->sink->user, d->y++, d->cur + 1, d->depth);
+        unsigned char *t = d->prev;
+        d->prev = d->cur;
+        d->cur = t;
+        d->fill = 0;
+    }
+}
 
 static uint64_t row_size(uint64_t width, int bits_per_pixel)
 {
@@ -102,6 +154,7 @@ static int inflate_piece(ImageData *d, const unsigned char *in, size_t n, char *
                 return -1;
             }
         }
+        if (d->sink) feed(d, out, (size_t)produced);
         d->got += produced;
         if (r == Z_STREAM_END) {
             d->z_end = true;
@@ -117,12 +170,29 @@ static int inflate_piece(ImageData *d, const unsigned char *in, size_t n, char *
 /* What a probe learns on the way: the IHDR and whether a tRNS chunk comes before the data. */
 typedef struct PngInfo {
     uint32_t width, height;
-    int colour_type;
+    int depth, colour_type, interlace;
     bool trns;
 } PngInfo;
 
-/* 1: not a PNG; 0: fine; -1: damaged, with msg. */
-static int walk(const char *path, bool whole, PngInfo *info, char *msg, size_t size)
+/* The channels OpenImageIO gives (libpng as it sets it up: palette expanded to RGB, tRNS
+ * expanded to alpha). */
+static int info_channels(const PngInfo *info)
+{
+    static const int channels[7] = {1, 0, 3, 3, 2, 0, 4};
+    return channels[info->colour_type] + (info->trns && !(info->colour_type & 4) ? 1 : 0);
+}
+
+/* Decoded here: 8 or 16 bits, gray, gray-alpha, RGB or RGBA, not interlaced, no tRNS. */
+static bool decodable(const PngInfo *info)
+{
+    return (info->depth == 8 || info->depth == 16) && info->colour_type != 3 && !info->trns &&
+           !info->interlace;
+}
+
+/* 1: not a PNG (or, with a sink, not one decoded here: nothing was read); 0: fine; -1: damaged,
+ * with msg. With a sink, the rows go to it as they are inflated. */
+static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *sink, char *msg,
+                size_t size)
 {
     static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     FILE *f = fopen(path, "rb");
@@ -166,6 +236,31 @@ static int walk(const char *path, bool whole, PngInfo *info, char *msg, size_t s
             break;
         }
         if (!whole && !strcmp(type, "IDAT")) break;
+        if (sink && !data.sink && !strcmp(type, "IDAT")) {
+            /* the header and tRNS are known: decode here or leave the file to OpenImageIO */
+            if (!decodable(info)) {
+                rc = 1;
+                break;
+            }
+            if ((int)info->width != sink->width || (int)info->height != sink->height ||
+                info_channels(info) != sink->channels) {
+                snprintf(msg, size,
+                         "the file changed while it was being read (now %ux%u, was %dx%d)",
+                         info->width, info->height, sink->width, sink->height);
+                rc = -1;
+                break;
+            }
+            data.bpp = (size_t)(info_channels(info) * info->depth / 8);
+            data.depth = info->depth;
+            data.cur = calloc(2, (size_t)data.row_bytes);
+            if (!data.cur) {
+                snprintf(msg, size, "out of memory");
+                rc = -1;
+                break;
+            }
+            data.prev = data.cur + data.row_bytes;
+            data.sink = sink;
+        }
         bool is_header = index == 0, is_data = whole && !strcmp(type, "IDAT");
         unsigned char header[13];
         uLong crc = crc32(0, head + 4, 4);
@@ -202,7 +297,9 @@ static int walk(const char *path, bool whole, PngInfo *info, char *msg, size_t s
         if (is_header && info) {
             info->width = be32(header);
             info->height = be32(header + 4);
+            info->depth = header[8];
             info->colour_type = header[9];
+            info->interlace = header[12];
         }
         if (info && !strcmp(type, "tRNS")) info->trns = true;
         at += 12 + (long long)len;
@@ -217,24 +314,36 @@ static int walk(const char *path, bool whole, PngInfo *info, char *msg, size_t s
         rc = -1;
     }
     if (data.z_open) inflateEnd(&data.z);
+    free(data.cur < data.prev ? data.cur : data.prev);
     fclose(f);
     return rc;
 }
 
 int wg__png_check(const char *path, bool whole, char *msg, size_t size)
 {
-    return walk(path, whole, NULL, msg, size) < 0 ? -1 : 0;
+    return walk(path, whole, NULL, NULL, msg, size) < 0 ? -1 : 0;
 }
 
 int wg__png_probe(const char *path, int *w, int *h, int *c, char *msg, size_t size)
 {
     PngInfo info = {0};
-    int rc = walk(path, false, &info, msg, size);
+    int rc = walk(path, false, &info, NULL, msg, size);
     if (rc) return rc;
-    /* libpng as OpenImageIO sets it up: palette expanded to RGB, tRNS expanded to alpha */
-    static const int channels[7] = {1, 0, 3, 3, 2, 0, 4};
     *w = (int)info.width;
     *h = (int)info.height;
-    *c = channels[info.colour_type] + (info.trns && !(info.colour_type & 4) ? 1 : 0);
+    *c = info_channels(&info);
     return 0;
+}
+
+bool wg__png_decodable(const char *path)
+{
+    PngInfo info = {0};
+    char msg[512];
+    return walk(path, false, &info, NULL, msg, sizeof msg) == 0 && decodable(&info);
+}
+
+int wg__png_read(const char *path, const WgPngSink *sink, char *msg, size_t size)
+{
+    PngInfo info = {0};
+    return walk(path, true, &info, sink, msg, size);
 }

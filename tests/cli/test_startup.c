@@ -2,10 +2,13 @@
 /* Which commands load OpenImageIO: the wetgraph command (WETGRAPH_BIN) runs with LD_DEBUG=files,
  * which makes the dynamic linker name on stderr every library it loads, at start-up or later by
  * dlopen. `nodes`, `--help`, and `check`, `info` and `dot` of a graph with PNG inputs and
- * outputs, and a render whose files are all EXR must not load libOpenImageIO; a render reading
- * a PNG must (through the module wetgraph-oiio.so), and when the module cannot be found the
- * render fails with a message naming the image file and the module path tried. */
+ * outputs, a render whose files are all EXR, and a render reading a PNG (decoded natively) into
+ * an EXR must not load libOpenImageIO; a render writing a PNG or reading a JPEG must (through
+ * the module wetgraph-oiio.so), and when the module cannot be found such a render fails with a
+ * message naming the image file and the module path tried. */
 #include "wgtest.h"
+
+#include "internal.h"
 
 #include <signal.h>
 #include <stdio.h>
@@ -73,6 +76,15 @@ static const char *const png_graph =
     "  <node id=\"inv\" type=\"invert\"><in name=\"source\" from=\"img\"/></node>\n"
     "  <output name=\"out\" from=\"inv\" format=\"png16\"/>\n"
     "</wetgraph>\n";
+static const char *const png_exr_graph =
+    "<wetgraph version=\"1\" size=\"8\">\n"
+    "  <node id=\"img\" type=\"image\" path=\"in.png\" colorspace=\"srgb\"/>\n"
+    "  <output name=\"out\" from=\"img\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+static const char *const jpg_graph = "<wetgraph version=\"1\" size=\"8\">\n"
+                                     "  <node id=\"img\" type=\"image\" path=\"in.jpg\"/>\n"
+                                     "  <output name=\"out\" from=\"img\" format=\"exr\"/>\n"
+                                     "</wetgraph>\n";
 static const char *const exr_graph =
     "<wetgraph version=\"1\" size=\"8\">\n"
     "  <node id=\"img\" type=\"image\" path=\"in.exr\"/>\n"
@@ -89,8 +101,15 @@ static void test_oiio_loaded_only_when_needed(void **state)
     WgError err = {0};
     assert_int_equal(wg_image_write(wgt_path("in.png"), img, WG_FORMAT_PNG, WG_LINEAR, &err), 0);
     assert_int_equal(wg_image_write(wgt_path("in.exr"), img, WG_FORMAT_EXR, WG_LINEAR, &err), 0);
+    unsigned char rgb[64 * 3];
+    for (int i = 0; i < 64 * 3; i++) rgb[i] = (unsigned char)(i * 5);
+    char msg[512];
+    if (wg__oiio_write(wgt_path("in.jpg"), "jpg", rgb, 8, 8, 3, 8, msg, sizeof msg))
+        fail_msg("%s", msg);
     wg_image_unref(img);
     wgt_write_file(wgt_path("png.wetgraph"), png_graph);
+    wgt_write_file(wgt_path("png_exr.wetgraph"), png_exr_graph);
+    wgt_write_file(wgt_path("jpg.wetgraph"), jpg_graph);
     wgt_write_file(wgt_path("exr.wetgraph"), exr_graph);
 
     static const struct {
@@ -103,7 +122,9 @@ static void test_oiio_loaded_only_when_needed(void **state)
         {{"info", "png.wetgraph"}, false},
         {{"dot", "png.wetgraph"}, false},
         {{"render", "exr.wetgraph", "-q", "-o", "exr_out"}, false},
+        {{"render", "png_exr.wetgraph", "-q", "-o", "png_exr_out"}, false},
         {{"render", "png.wetgraph", "-q", "-o", "png_out"}, true},
+        {{"render", "jpg.wetgraph", "-q", "-o", "jpg_out"}, true},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         Run r = run(NULL, cases[i].args);
@@ -116,7 +137,9 @@ static void test_oiio_loaded_only_when_needed(void **state)
     /* the renders wrote their outputs */
     int w, h, c;
     assert_int_equal(wg_image_probe(wgt_path("exr_out/exr_out.exr"), &w, &h, &c, &err), 0);
+    assert_int_equal(wg_image_probe(wgt_path("png_exr_out/png_exr_out.exr"), &w, &h, &c, &err), 0);
     assert_int_equal(wg_image_probe(wgt_path("png_out/png_out.png"), &w, &h, &c, &err), 0);
+    assert_int_equal(wg_image_probe(wgt_path("jpg_out/jpg_out.exr"), &w, &h, &c, &err), 0);
 }
 
 static void test_missing_module_is_a_clear_error(void **state)
@@ -124,20 +147,29 @@ static void test_missing_module_is_a_clear_error(void **state)
     (void)state;
     char dir[1200];
     snprintf(dir, sizeof dir, "%s/no-module-here", wgt_tmpdir());
-    const char *args[] = {"render", "png.wetgraph", "-q", "-o", "missing_out", NULL};
-    Run r = run(dir, args);
-    assert_int_equal(r.status, 1);
     char want[1300];
     snprintf(want, sizeof want, "%s/wetgraph-oiio.so", dir);
-    if (!strstr(r.err, "in.png") || !strstr(r.err, want) || !strstr(r.err, "OpenImageIO module"))
-        fail_msg("expected the image, the module path and the reason in:\n%.3000s", r.err);
-    free(r.err);
-    /* EXR needs no module */
-    const char *exr[] = {"render", "exr.wetgraph", "-q", "-o", "missing_out", NULL};
-    r = run(dir, exr);
-    assert_int_equal(r.status, 0);
-    expect_oiio(&r, "render exr.wetgraph", false);
-    free(r.err);
+    static const struct {
+        const char *graph, *file;
+    } need[] = {{"jpg.wetgraph", "in.jpg"}, {"png.wetgraph", "png_out.png"}};
+    for (int i = 0; i < 2; i++) {
+        const char *args[] = {"render", need[i].graph, "-q", "-o", "missing_out", NULL};
+        Run r = run(dir, args);
+        if (r.status != 1) fail_msg("'render %s' exited %d", need[i].graph, r.status);
+        if (!strstr(r.err, i == 0 ? "in.jpg" : "missing_out/png_out.png") || !strstr(r.err, want) ||
+            !strstr(r.err, "OpenImageIO module"))
+            fail_msg("expected the image, the module path and the reason in:\n%.3000s", r.err);
+        free(r.err);
+    }
+    /* PNG in, EXR out, and EXR only need no module */
+    const char *const ok[2] = {"png_exr.wetgraph", "exr.wetgraph"};
+    for (int i = 0; i < 2; i++) {
+        const char *args[] = {"render", ok[i], "-q", "-o", "missing_out", NULL};
+        Run r = run(dir, args);
+        if (r.status != 0) fail_msg("'render %s' exited %d:\n%.3000s", ok[i], r.status, r.err);
+        expect_oiio(&r, ok[i], false);
+        free(r.err);
+    }
 }
 
 int main(void)

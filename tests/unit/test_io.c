@@ -1348,11 +1348,13 @@ static float *oiio_read_all(const char *path, int *w, int *h, int *c)
 {
     WgOiioIn *in;
     char msg[512];
-    if (wg__oiio_open(path, &in, w, h, c, NULL, msg, sizeof msg)) fail_msg("%s: %s", path, msg);
+    int bits;
+    if (wg__oiio_open(path, &in, w, h, c, &bits, NULL, msg, sizeof msg))
+        fail_msg("%s: %s", path, msg);
     size_t n = (size_t)*w * (size_t)*h * (size_t)*c;
     float *v = malloc(n * sizeof(float));
     assert_non_null(v);
-    if (wg__oiio_read_rows(in, 0, *h, 0, *c, v, *c * (ptrdiff_t)sizeof(float),
+    if (wg__oiio_read_rows(in, 0, *h, 0, *c, 0, v, *c * (ptrdiff_t)sizeof(float),
                            (ptrdiff_t)((size_t)*w * (size_t)*c * sizeof(float)), msg, sizeof msg))
         fail_msg("%s: %s", path, msg);
     wg__oiio_close(in);
@@ -1488,9 +1490,11 @@ static void make_png(const char *path, int w, int h, int depth, int type, bool t
     size_t raw_size = row * (size_t)h;
     unsigned char *raw = calloc(raw_size, 1);
     assert_non_null(raw);
-    for (size_t i = 0; i < raw_size; i++) raw[i] = i % row ? (unsigned char)(i * 7) : 0;
+    /* every filter type in turn (the bytes after it are whatever they are) */
+    for (size_t i = 0; i < raw_size; i++)
+        raw[i] = i % row ? (unsigned char)(i * 7 + i / 5) : (unsigned char)(i / row % 5);
     if (type == 3) /* palette indices within the 4 entries */
-        for (size_t i = 0; i < raw_size; i++) raw[i] = i % row ? raw[i] & 0x00 : 0;
+        for (size_t i = 0; i < raw_size; i++) raw[i] = 0;
     uLongf zsize = compressBound(raw_size);
     unsigned char *z = malloc(zsize);
     assert_non_null(z);
@@ -1537,7 +1541,7 @@ static void test_png_probe_matches_openimageio(void **state)
         char name[64], msg[512];
         snprintf(name, sizeof name, "kind%zu.png", i);
         const char *path = wgt_path(name);
-        make_png(path, 5, 3, kinds[i].depth, kinds[i].type, kinds[i].trns);
+        make_png(path, 11, 7, kinds[i].depth, kinds[i].type, kinds[i].trns);
         int w, h, c, ow, oh, oc;
         assert_int_equal(wg__png_probe(path, &w, &h, &c, msg, sizeof msg), 0);
         if (wg__oiio_probe(path, &ow, &oh, &oc, msg, sizeof msg)) fail_msg("%s: %s", name, msg);
@@ -1545,14 +1549,90 @@ static void test_png_probe_matches_openimageio(void **state)
             fail_msg("%s (depth %d, colour type %d%s): %dx%d, %d channels; OpenImageIO %dx%d, %d",
                      name, kinds[i].depth, kinds[i].type, kinds[i].trns ? ", tRNS" : "", w, h, c,
                      ow, oh, oc);
-        /* and the whole file reads with that many channels */
+        /* and the whole file reads with that many channels, the values OpenImageIO reads */
         WgImage *img = read_ok(path, 0, WG_LINEAR);
         assert_int_equal(img->channels, c <= 2 ? 1 : 4);
+        float *ref = oiio_read_all(path, &ow, &oh, &oc);
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++)
+                for (int k = 0; k < img->channels; k++) {
+                    const float *r = ref + ((size_t)y * (size_t)w + (size_t)x) * (size_t)c;
+                    float want = k < c ? r[k] : 1.0f, got = wgt_px(img, x, y, k);
+                    if (memcmp(&want, &got, sizeof got))
+                        fail_msg("%s (%d, %d) channel %d: %.9g, OpenImageIO %.9g", name, x, y, k,
+                                 got, want);
+                }
+        free(ref);
         wg_image_unref(img);
     }
     char msg[512];
     int w, h, c;
     assert_int_equal(wg__png_probe(wgt_path("ya.exr"), &w, &h, &c, msg, sizeof msg), 1);
+}
+
+/* Integer files are read as their codes and converted through tables: the result equals
+ * OpenImageIO's float read of the file, sRGB-decoded with the formula, for every path (gray or
+ * colour file, to gray or colour, 8 and 16 bits, PNG and JPEG). */
+static void test_integer_files_read_as_openimageio_floats(void **state)
+{
+    (void)state;
+    int w = 256, h = 4;
+    unsigned short *px = malloc((size_t)w * (size_t)h * 4 * sizeof *px);
+    assert_non_null(px);
+    static const struct {
+        const char *name, *ext;
+        int c, bits;
+    } files[] = {{"codes8.png", "png", 4, 8}, {"codes16.png", "png", 3, 16},
+                 {"gray8.png", "png", 1, 8},  {"gray16.png", "png", 1, 16},
+                 {"ga8.png", "png", 2, 8},    {"codes.jpg", "jpg", 3, 8}};
+    for (size_t f = 0; f < sizeof files / sizeof files[0]; f++) {
+        int c = files[f].c, bits = files[f].bits;
+        size_t n = (size_t)w * (size_t)h * (size_t)c;
+        unsigned char *p8 = (unsigned char *)px;
+        for (size_t i = 0; i < n; i++) { /* every code of the type along the rows */
+            unsigned v = (unsigned)(i * (bits == 8 ? 1u : 257u) + i / 7 * 13);
+            if (bits == 8)
+                p8[i] = (unsigned char)v;
+            else
+                px[i] = (unsigned short)(v * 97);
+        }
+        char msg[512];
+        const char *path = wgt_path(files[f].name);
+        if (wg__oiio_write(path, files[f].ext, px, w, h, c, bits, msg, sizeof msg))
+            fail_msg("%s", msg);
+        int ow, oh, oc;
+        float *ref = oiio_read_all(path, &ow, &oh, &oc);
+        assert_int_equal(oc, c);
+        for (int cs = 0; cs < 2; cs++) {
+            for (int channels = 1; channels <= 4; channels += 3) {
+                WgImage *img = read_ok(path, channels, cs ? WG_SRGB : WG_LINEAR);
+                for (int y = 0; y < h; y++) {
+                    for (int x = 0; x < w; x++) {
+                        const float *r = ref + ((size_t)y * (size_t)w + (size_t)x) * (size_t)c;
+                        float want[4];
+                        int colour = c <= 2 ? 1 : 3;
+                        for (int k = 0; k < colour; k++)
+                            want[k] = cs ? wg_srgb_to_linear(r[k]) : r[k];
+                        if (colour == 1) want[1] = want[2] = want[0];
+                        want[3] = c == 4 ? r[3] : 1.0f;
+                        float lum = wg__luminance(want);
+                        for (int k = 0; k < channels; k++) {
+                            float e = channels == 1 ? (colour == 1 ? want[0] : lum) : want[k];
+                            float got = wgt_px(img, x, y, k);
+                            if (memcmp(&e, &got, sizeof got))
+                                fail_msg("%s %s to %d channels, (%d, %d) channel %d: %.9g, "
+                                         "expected %.9g",
+                                         files[f].name, cs ? "srgb" : "linear", channels, x, y, k,
+                                         got, e);
+                        }
+                    }
+                }
+                wg_image_unref(img);
+            }
+        }
+        free(ref);
+    }
+    free(px);
 }
 
 int main(void)
@@ -1593,6 +1673,7 @@ int main(void)
         cmocka_unit_test(test_write_to_a_full_device_says_so),
         cmocka_unit_test(test_exr_native_matches_openimageio),
         cmocka_unit_test(test_png_probe_matches_openimageio),
+        cmocka_unit_test(test_integer_files_read_as_openimageio_floats),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
