@@ -37,9 +37,11 @@ typedef struct ImageData {
     int y, depth;
 } ImageData;
 
-/* Undo a row's filter (PNG specification, section 9.2) given the unfiltered row above. */
+/* Undo a row's filter (PNG specification, section 9.2) given the unfiltered row above. The
+ * first pixel has no left neighbour (a = c = 0), so each loop starts past it. */
 static void unfilter(unsigned char *x, const unsigned char *above, size_t n, size_t bpp, int type)
 {
+    size_t first = bpp < n ? bpp : n;
     switch (type) {
     case 1:
         for (size_t i = bpp; i < n; i++) x[i] = (unsigned char)(x[i] + x[i - bpp]);
@@ -48,13 +50,15 @@ static void unfilter(unsigned char *x, const unsigned char *above, size_t n, siz
         for (size_t i = 0; i < n; i++) x[i] = (unsigned char)(x[i] + above[i]);
         break;
     case 3:
-        for (size_t i = 0; i < n; i++)
-            x[i] = (unsigned char)(x[i] + ((i >= bpp ? x[i - bpp] : 0) + above[i]) / 2);
+        for (size_t i = 0; i < first; i++) x[i] = (unsigned char)(x[i] + above[i] / 2);
+        for (size_t i = bpp; i < n; i++) x[i] = (unsigned char)(x[i] + (x[i - bpp] + above[i]) / 2);
         break;
     case 4:
-        for (size_t i = 0; i < n; i++) {
-            int a = i >= bpp ? x[i - bpp] : 0, b = above[i], c = i >= bpp ? above[i - bpp] : 0;
-            int p = a + b - c, pa = abs(p - a), pb = abs(p - b), pc = abs(p - c);
+        /* with a = c = 0 the Paeth predictor is b */
+        for (size_t i = 0; i < first; i++) x[i] = (unsigned char)(x[i] + above[i]);
+        for (size_t i = bpp; i < n; i++) {
+            int a = x[i - bpp], b = above[i], c = above[i - bpp];
+            int pa = abs(b - c), pb = abs(a - c), pc = abs(a + b - 2 * c);
             x[i] = (unsigned char)(x[i] + (pa <= pb && pa <= pc ? a : pb <= pc ? b : c));
         }
         break;
