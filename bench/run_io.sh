@@ -124,6 +124,7 @@ cat >"$tmp/exr_only.wetgraph" <<EOF
 EOF
 
 echo "Whole-process time, median of $runs (ms):"
+echo
 printf '| %-48s | %8s |\n' "command" "ms"
 printf '|%s|%s|\n' "--------------------------------------------------" "----------"
 row() { printf '| %-48s | %8s |\n' "$1" "$2"; }
@@ -153,6 +154,7 @@ oiiotool_ms() {
 }
 echo
 echo "Reading an image file, median of $runs (ms):"
+echo
 printf '| %-28s | %10s | %16s | %9s | %13s |\n' "file" "image node" "OIIO ImageInput" "oiiotool" "node / OIIO"
 printf '|%s|%s|%s|%s|%s|\n' "------------------------------" "------------" "------------------" "-----------" "---------------"
 for spec in "$jpeg:1024:srgb:1024² JPEG (sRGB)" "$tmp/gen_png16.png:2048:linear:2048² 16-bit RGB PNG" \
