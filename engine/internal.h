@@ -340,6 +340,9 @@ typedef struct WgPngSink {
 int wg__png_read(const char *path, const WgPngSink *sink, char *msg, size_t size);
 /* Whether wg__png_read decodes the file. */
 bool wg__png_decodable(const char *path);
+/* JPEG header read natively (jpeg_header.c): 0 with the size and channels of an 8-bit gray or
+ * colour JPEG whose header is well formed; 1 for anything else, which OpenImageIO probes. */
+int wg__jpeg_probe(const char *path, int *w, int *h, int *c);
 /* Multi-layer EXR (io_exr.c): the layer checks, and the encoder writing straight to `file` with
  * errors naming `path`. */
 int wg__exr_check_layers(const char *path, int count, const char *const *names,

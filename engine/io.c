@@ -204,7 +204,7 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
     if (rc) return rc;
     if (wg__png_check(path, false, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-    /* PNG and EXR headers are read here: checking a graph needs no OpenImageIO */
+    /* PNG, EXR and JPEG headers are read here: checking a graph needs no OpenImageIO */
     rc = wg__png_probe(path, width, height, channels, msg, sizeof msg);
     if (rc > 0 && wg__exr_is_exr(path)) {
         WgExrIn *in;
@@ -212,6 +212,7 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
         rc = wg__exr_open(path, &in, width, height, channels, &strip, msg, sizeof msg);
         wg__exr_close(in);
     }
+    if (rc > 0) rc = wg__jpeg_probe(path, width, height, channels);
     if (rc > 0) rc = wg__oiio_probe(path, width, height, channels, msg, sizeof msg);
     if (rc) return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (*width < 1 || *height < 1 || *width > WG_MAX_SIDE || *height > WG_MAX_SIDE)

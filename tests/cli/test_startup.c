@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /* Which commands load OpenImageIO: the wetgraph command (WETGRAPH_BIN) runs with LD_DEBUG=files,
  * which makes the dynamic linker name on stderr every library it loads, at start-up or later by
- * dlopen. `nodes`, `--help`, and `check`, `info` and `dot` of a graph with PNG inputs and
- * outputs, a render whose files are all EXR, and a render reading a PNG (decoded natively) into
- * an EXR must not load libOpenImageIO; a render writing a PNG or reading a JPEG must (through
- * the module wetgraph-oiio.so), and when the module cannot be found such a render fails with a
- * message naming the image file and the module path tried. */
+ * dlopen. `nodes`, `--help`, `check` of graphs reading PNG, EXR and JPEG files, `info` and
+ * `dot` of a graph with PNG inputs and outputs, a render whose files are all EXR, and a render
+ * reading a PNG (decoded natively) into an EXR must not load libOpenImageIO; a render writing a PNG
+ * or reading a JPEG must (through the module wetgraph-oiio.so), and when the module cannot be found
+ * such a render fails with a message naming the image file and the module path tried. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -118,7 +118,7 @@ static void test_oiio_loaded_only_when_needed(void **state)
     } cases[] = {
         {{"nodes"}, false},
         {{"--help"}, false},
-        {{"check", "png.wetgraph", "exr.wetgraph"}, false},
+        {{"check", "png.wetgraph", "exr.wetgraph", "jpg.wetgraph"}, false},
         {{"info", "png.wetgraph"}, false},
         {{"dot", "png.wetgraph"}, false},
         {{"render", "exr.wetgraph", "-q", "-o", "exr_out"}, false},

@@ -1635,6 +1635,64 @@ static void test_integer_files_read_as_openimageio_floats(void **state)
     free(px);
 }
 
+/* JPEG sizes and channels come from the header without OpenImageIO and agree with it; a header
+ * that is cut, or a file that is not a JPEG, is left to OpenImageIO. */
+static void expect_jpeg_probe(const char *path)
+{
+    int w, h, c, ow, oh, oc;
+    char msg[512];
+    if (wg__jpeg_probe(path, &w, &h, &c)) fail_msg("%s: not probed natively", path);
+    if (wg__oiio_probe(path, &ow, &oh, &oc, msg, sizeof msg)) fail_msg("%s: %s", path, msg);
+    if (w != ow || h != oh || c != oc)
+        fail_msg("%s: %dx%d, %d channels; OpenImageIO %dx%d, %d", path, w, h, c, ow, oh, oc);
+}
+
+static void test_jpeg_probe_matches_openimageio(void **state)
+{
+    (void)state;
+    unsigned char px[37 * 23 * 3];
+    for (size_t i = 0; i < sizeof px; i++) px[i] = (unsigned char)(i * 13);
+    char msg[512];
+    for (int c = 1; c <= 3; c += 2) {
+        const char *path = wgt_path(c == 1 ? "probe_gray.jpg" : "probe_rgb.jpg");
+        if (wg__oiio_write(path, "jpg", px, 37, 23, c, 8, msg, sizeof msg)) fail_msg("%s", msg);
+        expect_jpeg_probe(path);
+    }
+    /* the header is all a probe needs */
+    size_t n;
+    char *data = wgt_read_file(wgt_path("probe_rgb.jpg"), &n);
+    assert_non_null(data);
+    const char *cut = wgt_path("probe_cut.jpg");
+    put_file(cut, data, n - 40);
+    expect_jpeg_probe(cut);
+    int w, h, c;
+    put_file(cut, data, 30); /* inside the header */
+    assert_int_equal(wg__jpeg_probe(cut, &w, &h, &c), 1);
+    free(data);
+    wgt_write_file(wgt_path("probe_text.jpg"), "not a JPEG\n");
+    assert_int_equal(wg__jpeg_probe(wgt_path("probe_text.jpg"), &w, &h, &c), 1);
+    /* real photographs (EXIF and other segments before the frame), when they are there */
+    const char *shared = getenv("WETGRAPH_SHARED");
+    char dir[2048];
+    snprintf(dir, sizeof dir, "%s/materials", shared ? shared : "");
+    DIR *d = shared ? opendir(dir) : NULL;
+    for (struct dirent *e; d && (e = readdir(d));) {
+        if (e->d_name[0] == '.') continue;
+        char sub[2300];
+        snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name);
+        DIR *m = opendir(sub);
+        for (struct dirent *f; m && (f = readdir(m));) {
+            size_t len = strlen(f->d_name);
+            if (len < 4 || strcmp(f->d_name + len - 4, ".jpg")) continue;
+            char path[2600];
+            snprintf(path, sizeof path, "%s/%s", sub, f->d_name);
+            expect_jpeg_probe(path);
+        }
+        if (m) closedir(m);
+    }
+    if (d) closedir(d);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1674,6 +1732,7 @@ int main(void)
         cmocka_unit_test(test_exr_native_matches_openimageio),
         cmocka_unit_test(test_png_probe_matches_openimageio),
         cmocka_unit_test(test_integer_files_read_as_openimageio_floats),
+        cmocka_unit_test(test_jpeg_probe_matches_openimageio),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
