@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
-/* Image file reading and writing: single-layer EXR natively (io_exr.c), PNG headers natively
- * (png_check.c), everything else through the OpenImageIO module (io_oiio.cpp, loaded on first
- * use by io_module.c). Decoders write straight into the image's rows when every file channel
- * has its place there, else a strip at a time through a buffer. Here: channel
+/* Image file reading and writing: single-layer EXR natively (io_exr.c), most PNGs natively
+ * (png_check.c), JPEG headers natively (jpeg_header.c), everything else through the
+ * OpenImageIO module (io_oiio.cpp, loaded on first use by io_module.c). Decoders write straight
+ * into the image's rows when every file channel has its place there, integer files go through
+ * tables of their codes, else a strip at a time through a float buffer. Here: channel
  * mapping, sRGB transfer, quantisation, and replacement of target files. Integer formats are
  * quantised here, not by the library, so rounding is exactly round-to-nearest of
  * clamp(v, 0, 1) * (2^bits - 1) and a 16-bit file round-trips bit for bit. Every write goes
