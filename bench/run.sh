@@ -32,3 +32,6 @@ echo "== sharpen, emboss, edge_detect, directional_blur, normal_blend, normal_no
 echo
 echo "== blur fast vs exact (2048² gray, 2 threads; exact takes tens of seconds)"
 "$build/bench/bench_blur" --size 2048 --threads 2 --reps 15
+echo
+echo "== start-up and image reading (whole process; image node vs OpenImageIO)"
+"$root/bench/run_io.sh" "$build" 11

@@ -1,5 +1,9 @@
 /* SPDX-License-Identifier: MIT */
-/* Image file reading and writing on top of the OpenImageIO bridge (io_oiio.cpp): channel
+/* Image file reading and writing: single-layer EXR natively (io_exr.c), most PNGs natively
+ * (png_check.c), JPEG headers natively (jpeg_header.c), everything else through the
+ * OpenImageIO module (io_oiio.cpp, loaded on first use by io_module.c). Decoders write straight
+ * into the image's rows when every file channel has its place there, integer files go through
+ * tables of their codes, else a strip at a time through a float buffer. Here: channel
  * mapping, sRGB transfer, quantisation, and replacement of target files. Integer formats are
  * quantised here, not by the library, so rounding is exactly round-to-nearest of
  * clamp(v, 0, 1) * (2^bits - 1) and a 16-bit file round-trips bit for bit. Every write goes
@@ -201,8 +205,17 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
     if (rc) return rc;
     if (wg__png_check(path, false, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-    if (wg__oiio_probe(path, width, height, channels, msg, sizeof msg))
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    /* PNG, EXR and JPEG headers are read here: checking a graph needs no OpenImageIO */
+    rc = wg__png_probe(path, width, height, channels, msg, sizeof msg);
+    if (rc > 0 && wg__exr_is_exr(path)) {
+        WgExrIn *in;
+        int strip;
+        rc = wg__exr_open(path, &in, width, height, channels, &strip, msg, sizeof msg);
+        wg__exr_close(in);
+    }
+    if (rc > 0) rc = wg__jpeg_probe(path, width, height, channels);
+    if (rc > 0) rc = wg__oiio_probe(path, width, height, channels, msg, sizeof msg);
+    if (rc) return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (*width < 1 || *height < 1 || *width > WG_MAX_SIDE || *height > WG_MAX_SIDE)
         return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0, "image is %dx%d; sides must be 1..%d",
                                *width, *height, WG_MAX_SIDE);
@@ -212,15 +225,55 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
 /* Rows decoded and converted at a time, so reading and writing hold a strip, not an image. */
 #define STRIP_ROWS 16
 
+/* A file being read: natively (single-layer EXR) or through OpenImageIO. */
+typedef struct {
+    WgExrIn *exr;
+    WgOiioIn *oiio;
+    int w, h, c, strip;
+    int bits; /* 8 or 16: an integer file read as its codes; 0: read as float */
+} Reader;
+
+static int reader_open(const char *path, Reader *r, size_t *decoder, char *msg, size_t msg_size)
+{
+    memset(r, 0, sizeof *r);
+    r->strip = STRIP_ROWS;
+    if (wg__exr_is_exr(path) &&
+        !wg__exr_open(path, &r->exr, &r->w, &r->h, &r->c, &r->strip, msg, msg_size)) {
+        /* one chunk compressed and unpacked */
+        if (decoder) *decoder = 2 * (size_t)r->w * (size_t)r->strip * (size_t)r->c * sizeof(float);
+        return 0;
+    }
+    return wg__oiio_open(path, &r->oiio, &r->w, &r->h, &r->c, &r->bits, decoder, msg, msg_size);
+}
+
+/* Rows as float (bits 0) or, for an integer file, as its codes (bits r->bits). */
+static int reader_rows(Reader *r, int y0, int y1, int cb, int ce, int bits, void *data,
+                       ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size)
+{
+    if (r->exr)
+        return wg__exr_read_rows(r->exr, y0, y1, cb, ce, data, xstride, ystride, msg, msg_size);
+    return wg__oiio_read_rows(r->oiio, y0, y1, cb, ce, bits, data, xstride, ystride, msg, msg_size);
+}
+
+static void reader_close(Reader *r)
+{
+    wg__exr_close(r->exr);
+    wg__oiio_close(r->oiio);
+}
+
 size_t wg_image_read_scratch(const char *path)
 {
-    WgOiioIn *in;
-    int w, h, c;
+    Reader r;
     size_t decoder = 0;
     char msg[512];
-    if (wg__oiio_open(path, &in, &w, &h, &c, &decoder, msg, sizeof msg)) return 0;
-    wg__oiio_close(in);
-    return decoder + (size_t)w * STRIP_ROWS * (size_t)c * sizeof(float);
+    int w, h, c;
+    /* a PNG decoded here holds two rows of the file */
+    if (wg__png_decodable(path) && !wg__png_probe(path, &w, &h, &c, msg, sizeof msg))
+        return (size_t)w * (size_t)c * 2 * 3 + 2;
+    if (reader_open(path, &r, &decoder, msg, sizeof msg)) return 0;
+    reader_close(&r);
+    /* the strip of the general path; a direct read needs none */
+    return decoder + (size_t)r.w * (size_t)r.strip * (size_t)r.c * sizeof(float);
 }
 
 /* One decoded row (c file channels) to the destination's channels: gray files and 1-2 channel
@@ -249,62 +302,232 @@ static void convert_row(const float *src, int c, WgColorspace cs, float *dst, in
     }
 }
 
+/* Non-finite values: how many, and the first in file order. */
+typedef struct {
+    size_t count, x, y;
+} BadValues;
+
+static void count_bad(BadValues *b, const float *v, size_t n, int c, int w, int y0)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (isfinite(v[i])) continue;
+        if (!b->count++) {
+            size_t px = i / (size_t)c;
+            b->x = px % (size_t)w;
+            b->y = (size_t)y0 + px / (size_t)w;
+        }
+    }
+}
+
+/* The general path: strips of the file's channels, converted row by row. */
+static int read_strips(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad, char *msg,
+                       size_t msg_size)
+{
+    int w = r->w, h = r->h, c = r->c;
+    size_t row = (size_t)w * (size_t)c;
+    float *buf = wg_malloc(row * (size_t)r->strip * sizeof(float));
+    if (!buf) return WG_ERR_NOMEM;
+    for (int y0 = 0; y0 < h; y0 += r->strip) {
+        int y1 = h - y0 < r->strip ? h : y0 + r->strip;
+        if (reader_rows(r, y0, y1, 0, c, 0, buf, c * (ptrdiff_t)sizeof(float),
+                        (ptrdiff_t)(row * sizeof(float)), msg, msg_size)) {
+            wg_free(buf);
+            return WG_ERR_IO;
+        }
+        count_bad(bad, buf, row * (size_t)(y1 - y0), c, w, y0);
+        for (int y = y0; y < y1 && !bad->count; y++)
+            convert_row(buf + row * (size_t)(y - y0), c, cs, wg_image_row(dst, y), w,
+                        dst->channels);
+    }
+    wg_free(buf);
+    return WG_OK;
+}
+
+/* The direct path, when every file channel has its place in the destination (gray to gray or
+ * colour, RGB or RGBA to colour): the decoder writes straight into the image's rows, then each
+ * row is finished in place (non-finite check, sRGB decoding, gray copied to G and B, alpha 1). */
+static int read_direct(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad, char *msg,
+                       size_t msg_size)
+{
+    int w = r->w, c = r->c, dc = dst->channels;
+    ptrdiff_t ystride = (ptrdiff_t)(dst->stride * sizeof(float));
+    for (int y0 = 0; y0 < r->h; y0 += r->strip) {
+        int y1 = r->h - y0 < r->strip ? r->h : y0 + r->strip;
+        if (reader_rows(r, y0, y1, 0, c, 0, wg_image_row(dst, y0), dc * (ptrdiff_t)sizeof(float),
+                        ystride, msg, msg_size))
+            return WG_ERR_IO;
+        for (int y = y0; y < y1; y++) {
+            float *p = wg_image_row(dst, y);
+            for (int x = 0; x < w; x++, p += dc) {
+                for (int k = 0; k < c; k++) {
+                    if (isfinite(p[k])) continue;
+                    if (!bad->count++) {
+                        bad->x = (size_t)x;
+                        bad->y = (size_t)y;
+                    }
+                }
+                if (bad->count) continue;
+                if (cs == WG_SRGB)
+                    for (int k = 0; k < c && k < 3; k++) p[k] = srgb_decode(p[k]);
+                if (dc == 4 && c == 1) p[1] = p[2] = p[0];
+                if (dc == 4 && c < 4) p[3] = 1.0f;
+            }
+        }
+    }
+    return WG_OK;
+}
+
+/* Integer files: the decoder hands over its 8- or 16-bit codes (a quarter or half of the bytes
+ * of floats) and each becomes a float through a table: the value OpenImageIO gives the code
+ * (k times the float reciprocal of 255 or 65535, which is not always the float nearest
+ * k/255), and for sRGB colour channels srgb_decode of that value, so every path, native or
+ * OpenImageIO, gives the same floats. */
+static float code_lin8[256], code_srgb8[256], code_lin16[65536], code_srgb16[65536];
+static pthread_once_t code_once = PTHREAD_ONCE_INIT;
+
+static void code_tables_build(void)
+{
+    pthread_once(&srgb_once, srgb_lut_build);
+    volatile float r8 = 1.0f / 255.0f, r16 = 1.0f / 65535.0f; /* rounded to float first */
+    for (int i = 0; i < 256; i++) code_lin8[i] = (float)i * r8;
+    for (int i = 0; i < 65536; i++) code_lin16[i] = (float)i * r16;
+    for (int i = 0; i < 256; i++) code_srgb8[i] = srgb_decode(code_lin8[i]);
+    for (int i = 0; i < 65536; i++) code_srgb16[i] = srgb_decode(code_lin16[i]);
+}
+
+/* One row of codes to the destination's channels, as convert_row does for floats. */
+#define CONVERT_CODES(T)                                                                           \
+    for (int x = 0; x < w; x++) {                                                                  \
+        const T *p = (const T *)src + (size_t)x * (size_t)c;                                       \
+        if (c <= 2) {                                                                              \
+            float v = col[p[0]];                                                                   \
+            if (channels == 1) {                                                                   \
+                dst[x] = v;                                                                        \
+            } else {                                                                               \
+                dst[4 * x] = dst[4 * x + 1] = dst[4 * x + 2] = v;                                  \
+                dst[4 * x + 3] = 1.0f;                                                             \
+            }                                                                                      \
+        } else {                                                                                   \
+            float px[4] = {col[p[0]], col[p[1]], col[p[2]], c >= 4 ? lin[p[3]] : 1.0f};            \
+            if (channels == 1)                                                                     \
+                dst[x] = wg__luminance(px);                                                        \
+            else                                                                                   \
+                memcpy(dst + 4 * x, px, sizeof px);                                                \
+        }                                                                                          \
+    }
+
+static void convert_codes(const void *src, int bits, int c, WgColorspace cs, float *dst, int w,
+                          int channels)
+{
+    const float *lin = bits == 8 ? code_lin8 : code_lin16;
+    const float *col = cs != WG_SRGB ? lin : bits == 8 ? code_srgb8 : code_srgb16;
+    if (bits == 8) {
+        CONVERT_CODES(uint8_t)
+    } else {
+        CONVERT_CODES(uint16_t)
+    }
+}
+
+static int read_codes(Reader *r, WgColorspace cs, WgImage *dst, char *msg, size_t msg_size)
+{
+    pthread_once(&code_once, code_tables_build);
+    size_t b = (size_t)r->bits / 8, row = (size_t)r->w * (size_t)r->c * b;
+    unsigned char *buf = wg_malloc(row * (size_t)r->strip);
+    if (!buf) return WG_ERR_NOMEM;
+    for (int y0 = 0; y0 < r->h; y0 += r->strip) {
+        int y1 = r->h - y0 < r->strip ? r->h : y0 + r->strip;
+        if (reader_rows(r, y0, y1, 0, r->c, r->bits, buf, (ptrdiff_t)((size_t)r->c * b),
+                        (ptrdiff_t)row, msg, msg_size)) {
+            wg_free(buf);
+            return WG_ERR_IO;
+        }
+        for (int y = y0; y < y1; y++)
+            convert_codes(buf + row * (size_t)(y - y0), r->bits, r->c, cs, wg_image_row(dst, y),
+                          r->w, dst->channels);
+    }
+    wg_free(buf);
+    return WG_OK;
+}
+
+/* Native PNG rows: big-endian samples to codes, then as read_codes. */
+typedef struct {
+    WgImage *dst;
+    WgColorspace cs;
+    int c;
+    uint16_t *row16;
+} PngRows;
+
+static void png_row(void *user, int y, const unsigned char *data, int depth)
+{
+    PngRows *p = user;
+    const void *codes = data;
+    if (depth == 16) {
+        size_t n = (size_t)p->dst->width * (size_t)p->c;
+        for (size_t i = 0; i < n; i++) p->row16[i] = (uint16_t)(data[2 * i] << 8 | data[2 * i + 1]);
+        codes = p->row16;
+    }
+    convert_codes(codes, depth, p->c, p->cs, wg_image_row(p->dst, y), p->dst->width,
+                  p->dst->channels);
+}
+
+/* 1 when the file is not a PNG decoded natively. */
+static int read_png(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
+{
+    char msg[512];
+    int w, h, c;
+    if (wg__png_probe(path, &w, &h, &c, msg, sizeof msg)) return 1;
+    pthread_once(&code_once, code_tables_build);
+    PngRows rows = {dst, cs, c, NULL};
+    rows.row16 = wg_malloc((size_t)w * (size_t)c * sizeof(uint16_t));
+    if (!rows.row16)
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
+    WgPngSink sink = {dst->width, dst->height, c, png_row, &rows};
+    int rc = wg__png_read(path, &sink, msg, sizeof msg);
+    wg_free(rows.row16);
+    if (rc < 0)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    return rc;
+}
+
 int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
 {
     int rc = check_regular(path, err);
     if (rc) return rc;
+    if ((rc = read_png(path, cs, dst, err)) <= 0) return rc;
     char msg[512];
-    WgOiioIn *in;
-    int w, h, c;
-    if (wg__png_check(path, true, msg, sizeof msg) ||
-        wg__oiio_open(path, &in, &w, &h, &c, NULL, msg, sizeof msg))
+    Reader r;
+    if (wg__png_check(path, true, msg, sizeof msg) || reader_open(path, &r, NULL, msg, sizeof msg))
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-    float *buf = NULL;
-    if (w != dst->width || h != dst->height) {
+    if (r.w != dst->width || r.h != dst->height) {
         rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0,
-                             "the file changed while it was being read (now %dx%d, was %dx%d)", w,
-                             h, dst->width, dst->height);
+                             "the file changed while it was being read (now %dx%d, was %dx%d)", r.w,
+                             r.h, dst->width, dst->height);
         goto out;
     }
-    if (c < 1) {
+    if (r.c < 1) {
         rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "image has no channels");
         goto out;
     }
     if (cs == WG_SRGB) pthread_once(&srgb_once, srgb_lut_build);
-    size_t row = (size_t)w * (size_t)c;
-    buf = wg_malloc(row * STRIP_ROWS * sizeof(float));
-    if (!buf) {
+    BadValues bad = {0};
+    bool direct = r.c == 1 || (dst->channels == 4 && (r.c == 3 || r.c == 4));
+    if (r.bits)
+        rc = read_codes(&r, cs, dst, msg, sizeof msg);
+    else if (direct)
+        rc = read_direct(&r, cs, dst, &bad, msg, sizeof msg);
+    else
+        rc = read_strips(&r, cs, dst, &bad, msg, sizeof msg);
+    if (rc == WG_ERR_NOMEM)
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", path);
-        goto out;
-    }
-    size_t bad = 0, first_bad = 0;
-    for (int y0 = 0; y0 < h; y0 += STRIP_ROWS) {
-        int y1 = h - y0 < STRIP_ROWS ? h : y0 + STRIP_ROWS;
-        if (wg__oiio_read_rows(in, y0, y1, buf, msg, sizeof msg)) {
-            rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-            goto out;
-        }
-        size_t count = row * (size_t)(y1 - y0);
-        for (size_t i = 0; i < count; i++) {
-            if (!isfinite(buf[i])) {
-                if (!bad) first_bad = row * (size_t)y0 + i;
-                bad++;
-            }
-        }
-        for (int y = y0; y < y1 && !bad; y++)
-            convert_row(buf + row * (size_t)(y - y0), c, cs, wg_image_row(dst, y), w,
-                        dst->channels);
-    }
-    if (bad) {
-        size_t px = first_bad / (size_t)c;
+    else if (rc)
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    else if (bad.count)
         rc = wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0,
                              "image has %zu non-finite values (NaN or infinity), the first at "
                              "pixel (%zu, %zu)",
-                             bad, px % (size_t)w, px / (size_t)w);
-    }
+                             bad.count, bad.x, bad.y);
 out:
-    wg_free(buf);
-    wg__oiio_close(in);
+    reader_close(&r);
     return rc;
 }
 
@@ -504,7 +727,9 @@ int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFo
     if (rc) return rc;
     char msg[512];
     errno = 0;
-    if (encode_to_file(tmp, img, format, cs, c, bits, msg, sizeof msg))
+    if (format == WG_FORMAT_EXR || format == WG_FORMAT_EXR32)
+        rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, err);
+    else if (encode_to_file(tmp, img, format, cs, c, bits, msg, sizeof msg))
         rc = write_failed(err, path, msg);
     return stage_end(s, rc, err);
 }

@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: MIT
-// The only C++ in wetgraph: a C interface to OpenImageIO's ImageInput/ImageOutput. Alpha is
-// kept unassociated both ways (OpenImageIO would otherwise premultiply PNG alpha on read and
-// divide on write), and no colour conversion happens here: io.c does the sRGB transfer.
+// The only C++ in wetgraph: a C interface to OpenImageIO's ImageInput/ImageOutput, built as the
+// shared module wetgraph-oiio.so that the library loads only when a file needs it (io_oiio.h,
+// io_module.c), so programs that read and write only EXR files, or none, never load
+// OpenImageIO and its hundreds of libraries. Alpha is kept unassociated both ways (OpenImageIO
+// would otherwise premultiply PNG alpha on read and divide on write), and no colour conversion
+// happens here: io.c does the sRGB transfer.
 // A read that OpenImageIO completes but with errors recorded (libjpeg reports a truncated or
 // corrupt JPEG only as a warning and fills in the missing part) is a failure. Files are written
 // through an I/O proxy of our own that checks every write, because some encoders (PNG) ignore a
 // failed write and would report a truncated file as written; a failed write names its cause
 // (errno). Library messages are reduced to one line.
+#include "io_oiio.h"
+
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
@@ -19,22 +24,6 @@
 #include <string>
 #include <unistd.h>
 #include <vector>
-
-extern "C" {
-struct WgOiioIn;
-struct WgOiioOut;
-int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, size_t *decoder_bytes,
-                  char *msg, size_t msg_size);
-int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, float *data, char *msg, size_t msg_size);
-void wg__oiio_close(WgOiioIn *in);
-int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
-                    WgOiioOut **out, char *msg, size_t msg_size);
-int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size);
-int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size);
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
-                   int bits, char *msg, size_t msg_size);
-}
 
 using namespace OIIO;
 
@@ -93,7 +82,7 @@ static std::unique_ptr<ImageInput> open_input(const char *path, char *msg, size_
     return in;
 }
 
-int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size)
+static int oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size)
 {
     try {
         auto in = open_input(path, msg, msg_size);
@@ -116,8 +105,8 @@ struct WgOiioIn {
     int c;
 };
 
-int wg__oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, size_t *decoder_bytes,
-                  char *msg, size_t msg_size)
+static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, int *bits,
+                     size_t *decoder_bytes, char *msg, size_t msg_size)
 {
     *out = nullptr;
     try {
@@ -134,6 +123,9 @@ int wg__oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, size
         if (fmt == "jpeg" || (fmt == "openexr" && spec.tile_width == 0))
             whole = (size_t)spec.width * 64 * spec.pixel_bytes(true);
         if (decoder_bytes) *decoder_bytes = whole;
+        *bits = 0;
+        if (spec.channelformats.empty() && spec.format == TypeDesc::UINT8) *bits = 8;
+        if (spec.channelformats.empty() && spec.format == TypeDesc::UINT16) *bits = 16;
         WgOiioIn *r = new WgOiioIn;
         r->c = spec.nchannels;
         r->path = path;
@@ -146,10 +138,15 @@ int wg__oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, size
     }
 }
 
-int wg__oiio_read_rows(WgOiioIn *r, int y0, int y1, float *data, char *msg, size_t msg_size)
+static int oiio_read_rows(WgOiioIn *r, int y0, int y1, int cb, int ce, int bits, void *data,
+                          ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size)
 {
     try {
-        bool ok = r->in->read_scanlines(0, 0, y0, y1, 0, 0, r->c, TypeDesc::FLOAT, data);
+        bool ok = r->in->read_scanlines(0, 0, y0, y1, 0, cb, ce,
+                                        bits == 8    ? TypeDesc::UINT8
+                                        : bits == 16 ? TypeDesc::UINT16
+                                                     : TypeDesc::FLOAT,
+                                        data, xstride, ystride);
         if (!ok || r->in->has_error()) {
             std::string text = r->in->geterror();
             // a decoder that recovered from damaged data reports it only as a message
@@ -166,7 +163,7 @@ int wg__oiio_read_rows(WgOiioIn *r, int y0, int y1, float *data, char *msg, size
     }
 }
 
-void wg__oiio_close(WgOiioIn *r)
+static void oiio_close(WgOiioIn *r)
 {
     if (!r) return;
     try {
@@ -242,8 +239,8 @@ static void set_errno_msg(char *msg, size_t msg_size, int e)
     set_msg(msg, msg_size, text);
 }
 
-int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
-                    WgOiioOut **result, char *msg, size_t msg_size)
+static int oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
+                       WgOiioOut **result, char *msg, size_t msg_size)
 {
     *result = nullptr;
     int fd = open(path, O_RDWR | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
@@ -289,7 +286,8 @@ fail:
     return -1;
 }
 
-int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size)
+static int oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg,
+                           size_t msg_size)
 {
     try {
         if (!o->out->write_scanlines(y0, y1, 0, o->in_type, data)) {
@@ -306,7 +304,7 @@ int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *ms
     }
 }
 
-int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size)
+static int oiio_finish(WgOiioOut *o, int ok, char *msg, size_t msg_size)
 {
     int rc = ok ? 0 : -1;
     try {
@@ -333,11 +331,11 @@ int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size)
     return rc;
 }
 
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
-                   int bits, char *msg, size_t msg_size)
+extern "C" __attribute__((visibility("default"))) const WgOiioModule *wg_oiio_module_get(void)
 {
-    WgOiioOut *o;
-    if (wg__oiio_create(path, format_ext, w, h, c, bits, &o, msg, msg_size)) return -1;
-    bool ok = !wg__oiio_write_rows(o, 0, h, data, msg, msg_size);
-    return wg__oiio_finish(o, ok, msg, msg_size);
+    static const WgOiioModule table = {
+        WG_OIIO_MODULE_ABI, sizeof(WgOiioModule), oiio_probe,      oiio_open,   oiio_read_rows,
+        oiio_close,         oiio_create,          oiio_write_rows, oiio_finish,
+    };
+    return &table;
 }

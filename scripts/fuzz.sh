@@ -23,8 +23,9 @@ if [[ ! -f $dir/build.ninja ]]; then
         exit 1
     fi
 fi
-if ! ninja -C "$dir" "${targets[@]/#/tests/fuzz/}" >/dev/null; then
-    ninja -C "$dir" "${targets[@]/#/tests/fuzz/}" | tail -30
+# the OpenImageIO module (wetgraph-oiio.so) is loaded by fuzz_image from the build folder
+if ! ninja -C "$dir" "${targets[@]/#/tests/fuzz/}" wetgraph-oiio.so >/dev/null; then
+    ninja -C "$dir" "${targets[@]/#/tests/fuzz/}" wetgraph-oiio.so | tail -30
     echo "fuzz: 0 passed, ${#targets[@]} failed"
     exit 1
 fi

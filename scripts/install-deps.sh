@@ -8,7 +8,8 @@ pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libope
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks
-           libopencv-dev python3-numpy python3-scipy)  # blur and distance peers (bench/run_peers.sh)
+           libopencv-dev python3-numpy python3-scipy  # blur and distance peers (bench/run_peers.sh)
+           openimageio-tools)  # oiiotool, the image-reading peer (bench/run_io.sh)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

@@ -3,9 +3,9 @@
  * or graph error), help and error messages, every render option and the files it writes (or,
  * on failure, does not write), and the check, info, nodes and dot subcommands.
  *
- * Starting the binary costs about 0.2 s (the dynamic linker resolving OpenImageIO's many
- * libraries), so commands that do not depend on each other run as one concurrent batch, each
- * with its own stdout and stderr files, and every command checks as much as it can. */
+ * Commands that do not depend on each other run as one concurrent batch (a command that loads
+ * OpenImageIO takes about 0.2 s to start), each with its own stdout and stderr files, and every
+ * command checks as much as it can. */
 #include "wgtest.h"
 
 #include "internal.h"

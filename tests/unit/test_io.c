@@ -1341,6 +1341,358 @@ static void test_write_to_a_full_device_says_so(void **state)
     free(data);
 }
 
+/* ---- native readers against OpenImageIO -------------------------------------------------- */
+
+/* The whole file through the OpenImageIO module, packed floats of all its channels. */
+static float *oiio_read_all(const char *path, int *w, int *h, int *c)
+{
+    WgOiioIn *in;
+    char msg[512];
+    int bits;
+    if (wg__oiio_open(path, &in, w, h, c, &bits, NULL, msg, sizeof msg))
+        fail_msg("%s: %s", path, msg);
+    size_t n = (size_t)*w * (size_t)*h * (size_t)*c;
+    float *v = malloc(n * sizeof(float));
+    assert_non_null(v);
+    if (wg__oiio_read_rows(in, 0, *h, 0, *c, 0, v, *c * (ptrdiff_t)sizeof(float),
+                           (ptrdiff_t)((size_t)*w * (size_t)*c * sizeof(float)), msg, sizeof msg))
+        fail_msg("%s: %s", path, msg);
+    wg__oiio_close(in);
+    return v;
+}
+
+/* The file read by wetgraph (natively for these files) equals OpenImageIO's read bit for bit. */
+static void expect_native_read_equals_oiio(const char *path)
+{
+    WgExrIn *ex;
+    int w, h, c, strip;
+    char msg[512];
+    if (wg__exr_open(path, &ex, &w, &h, &c, &strip, msg, sizeof msg))
+        fail_msg("%s is not read natively", path);
+    wg__exr_close(ex);
+    int ow, oh, oc;
+    float *ref = oiio_read_all(path, &ow, &oh, &oc);
+    assert_int_equal(ow, w);
+    assert_int_equal(oh, h);
+    assert_int_equal(oc, c);
+    assert_int_equal(probe_channels(path), c);
+    WgImage *img = read_ok(path, c <= 2 ? 1 : 4, WG_LINEAR);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int k = 0; k < (c == 2 ? 1 : c); k++) {
+                float want = ref[((size_t)y * (size_t)w + (size_t)x) * (size_t)c + (size_t)k];
+                float got = wgt_px(img, x, y, k);
+                if (memcmp(&want, &got, sizeof got))
+                    fail_msg("%s (%d, %d) channel %d: %.9g, OpenImageIO %.9g", path, x, y, k, got,
+                             want);
+            }
+    wg_image_unref(img);
+    free(ref);
+}
+
+static double exr_pattern(int x, int y, int k)
+{
+    /* values that round differently to half: ties, tiny, negative, large, near 1 */
+    static const double special[] = {1.0 + 1.0 / 2048, 1.0 + 3.0 / 2048, -0.3333333, 6.1e-5, 3e-8,
+                                     65504.0,          65519.0,          0.999};
+    int i = (x * 7 + y * 13 + k * 5) % 40;
+    return i < 8 ? special[i] : (x * 37 + y * 11 + k * 101) % 1000 / 997.0 - 0.1;
+}
+
+/* Single-layer EXR is written and read with OpenEXR's C API; the files match OpenImageIO's. */
+static void test_exr_native_matches_openimageio(void **state)
+{
+    (void)state;
+    int w = 37, h = 45; /* not a multiple of the 16-row ZIP chunk */
+    for (int layout = 0; layout < 3; layout++) {
+        int channels = layout == 0 ? 1 : 4;
+        WgImage *img = wgt_image_fn(w, h, channels, exr_pattern);
+        if (layout == 1) /* opaque: written as RGB */
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w; x++) wg_image_row(img, y)[4 * x + 3] = 1.0f;
+        int c = layout == 0 ? 1 : layout == 1 ? 3 : 4;
+        for (int half = 0; half < 2; half++) {
+            char native[64], oiio[64];
+            snprintf(native, sizeof native, "native%d%d.exr", layout, half);
+            snprintf(oiio, sizeof oiio, "oiio%d%d.exr", layout, half);
+            write_ok(wgt_path(native), img, half ? WG_FORMAT_EXR : WG_FORMAT_EXR32, WG_LINEAR);
+            /* the same pixels written by OpenImageIO */
+            float *packed = malloc((size_t)w * (size_t)h * (size_t)c * sizeof(float));
+            assert_non_null(packed);
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w; x++)
+                    for (int k = 0; k < c; k++)
+                        packed[((size_t)y * (size_t)w + (size_t)x) * (size_t)c + (size_t)k] =
+                            wgt_px(img, x, y, k);
+            char msg[512];
+            if (wg__oiio_write(wgt_path(oiio), "exr", packed, w, h, c, half ? -16 : 32, msg,
+                               sizeof msg))
+                fail_msg("%s", msg);
+            free(packed);
+            expect_native_read_equals_oiio(wgt_path(native));
+            expect_native_read_equals_oiio(wgt_path(oiio));
+            /* both writers convert to half alike */
+            WgImage *a = read_ok(wgt_path(native), channels, WG_LINEAR);
+            WgImage *b = read_ok(wgt_path(oiio), channels, WG_LINEAR);
+            wgt_assert_identical(a, b);
+            if (!half) wgt_assert_identical(a, img);
+            wg_image_unref(a);
+            wg_image_unref(b);
+        }
+        wg_image_unref(img);
+    }
+    /* Y A in OpenImageIO's order, gray with alpha */
+    float ya[2 * 6] = {0.25f, 1, 0.5f, 0.75f, 0.125f, 0, 1, 0.5f, 0.375f, 1, 2, 0.25f};
+    char msg[512];
+    const char *path = wgt_path("ya.exr");
+    if (wg__oiio_write(path, "exr", ya, 3, 2, 2, 32, msg, sizeof msg)) fail_msg("%s", msg);
+    int ow, oh, oc;
+    float *ref = oiio_read_all(path, &ow, &oh, &oc);
+    free(ref);
+    if (oc == 2) { /* OpenImageIO names 2 channels R G, which is left to it */
+        WgImage *g = read_ok(path, 1, WG_LINEAR);
+        for (int i = 0; i < 6; i++) assert_true(wgt_px(g, i % 3, i / 3, 0) == ya[2 * i]);
+        wg_image_unref(g);
+    }
+    /* a layered EXR is left to OpenImageIO and still reads */
+    WgImage *l1 = wgt_image_fn(4, 4, 1, exr_pattern);
+    const char *names[] = {"height"};
+    const WgImage *layers[] = {l1};
+    WgError err = {0};
+    assert_int_equal(wg_exr_write_layers(wgt_path("lay1.exr"), 1, names, layers, false, &err), 0);
+    WgExrIn *ex;
+    int lw, lh, lc, strip;
+    assert_int_equal(
+        wg__exr_open(wgt_path("lay1.exr"), &ex, &lw, &lh, &lc, &strip, msg, sizeof msg), 1);
+    WgImage *back = read_ok(wgt_path("lay1.exr"), 1, WG_LINEAR);
+    wgt_assert_identical(back, l1);
+    wg_image_unref(back);
+    wg_image_unref(l1);
+}
+
+/* A PNG built from its parts: IHDR, optional PLTE and tRNS, one IDAT of unfiltered rows. */
+static void put_chunk(FILE *f, const char *type, const unsigned char *data, uint32_t len)
+{
+    unsigned char be[4] = {len >> 24, len >> 16 & 255, len >> 8 & 255, len & 255};
+    fwrite(be, 1, 4, f);
+    fwrite(type, 1, 4, f);
+    if (len) fwrite(data, 1, len, f);
+    uLong crc = crc32(0, (const Bytef *)type, 4);
+    if (len) crc = crc32(crc, data, len); /* crc32 of a NULL buffer is 0, not the CRC */
+    unsigned char cb[4] = {crc >> 24, crc >> 16 & 255, crc >> 8 & 255, crc & 255};
+    fwrite(cb, 1, 4, f);
+}
+
+static void make_png(const char *path, int w, int h, int depth, int type, bool trns)
+{
+    static const int samples[7] = {1, 0, 3, 1, 2, 0, 4};
+    size_t row = 1 + ((size_t)w * (size_t)(samples[type] * depth) + 7) / 8;
+    size_t raw_size = row * (size_t)h;
+    unsigned char *raw = calloc(raw_size, 1);
+    assert_non_null(raw);
+    /* every filter type in turn (the bytes after it are whatever they are) */
+    for (size_t i = 0; i < raw_size; i++)
+        raw[i] = i % row ? (unsigned char)(i * 7 + i / 5) : (unsigned char)(i / row % 5);
+    if (type == 3) /* palette indices within the 4 entries */
+        for (size_t i = 0; i < raw_size; i++) raw[i] = 0;
+    uLongf zsize = compressBound(raw_size);
+    unsigned char *z = malloc(zsize);
+    assert_non_null(z);
+    assert_int_equal(compress(z, &zsize, raw, raw_size), Z_OK);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fwrite("\x89PNG\r\n\x1a\n", 1, 8, f);
+    unsigned char ihdr[13] = {0,
+                              0,
+                              0,
+                              (unsigned char)w,
+                              0,
+                              0,
+                              0,
+                              (unsigned char)h,
+                              (unsigned char)depth,
+                              (unsigned char)type,
+                              0,
+                              0,
+                              0};
+    put_chunk(f, "IHDR", ihdr, 13);
+    unsigned char plte[12] = {0, 0, 0, 255, 0, 0, 0, 255, 0, 0, 0, 255};
+    if (type == 3) put_chunk(f, "PLTE", plte, 12);
+    unsigned char t[6] = {0, 1, 0, 2, 0, 3};
+    if (trns) put_chunk(f, "tRNS", t, type == 3 ? 2 : type == 0 ? 2 : 6);
+    put_chunk(f, "IDAT", z, (uint32_t)zsize);
+    put_chunk(f, "IEND", NULL, 0);
+    fclose(f);
+    free(raw);
+    free(z);
+}
+
+/* PNG sizes and channels come from the header without OpenImageIO, and agree with it. */
+static void test_png_probe_matches_openimageio(void **state)
+{
+    (void)state;
+    static const struct {
+        int depth, type;
+        bool trns;
+    } kinds[] = {{8, 0, false}, {8, 0, true}, {16, 0, false}, {1, 0, false}, {8, 4, false},
+                 {8, 2, false}, {8, 2, true}, {16, 2, false}, {8, 6, false}, {16, 6, false},
+                 {8, 3, false}, {8, 3, true}, {2, 3, true},   {16, 0, true}};
+    for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++) {
+        char name[64], msg[512];
+        snprintf(name, sizeof name, "kind%zu.png", i);
+        const char *path = wgt_path(name);
+        make_png(path, 11, 7, kinds[i].depth, kinds[i].type, kinds[i].trns);
+        int w, h, c, ow, oh, oc;
+        assert_int_equal(wg__png_probe(path, &w, &h, &c, msg, sizeof msg), 0);
+        if (wg__oiio_probe(path, &ow, &oh, &oc, msg, sizeof msg)) fail_msg("%s: %s", name, msg);
+        if (w != ow || h != oh || c != oc)
+            fail_msg("%s (depth %d, colour type %d%s): %dx%d, %d channels; OpenImageIO %dx%d, %d",
+                     name, kinds[i].depth, kinds[i].type, kinds[i].trns ? ", tRNS" : "", w, h, c,
+                     ow, oh, oc);
+        /* and the whole file reads with that many channels, the values OpenImageIO reads */
+        WgImage *img = read_ok(path, 0, WG_LINEAR);
+        assert_int_equal(img->channels, c <= 2 ? 1 : 4);
+        float *ref = oiio_read_all(path, &ow, &oh, &oc);
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++)
+                for (int k = 0; k < img->channels; k++) {
+                    const float *r = ref + ((size_t)y * (size_t)w + (size_t)x) * (size_t)c;
+                    float want = k < c ? r[k] : 1.0f, got = wgt_px(img, x, y, k);
+                    if (memcmp(&want, &got, sizeof got))
+                        fail_msg("%s (%d, %d) channel %d: %.9g, OpenImageIO %.9g", name, x, y, k,
+                                 got, want);
+                }
+        free(ref);
+        wg_image_unref(img);
+    }
+    char msg[512];
+    int w, h, c;
+    assert_int_equal(wg__png_probe(wgt_path("ya.exr"), &w, &h, &c, msg, sizeof msg), 1);
+}
+
+/* Integer files are read as their codes and converted through tables: the result equals
+ * OpenImageIO's float read of the file, sRGB-decoded with the formula, for every path (gray or
+ * colour file, to gray or colour, 8 and 16 bits, PNG and JPEG). */
+static void test_integer_files_read_as_openimageio_floats(void **state)
+{
+    (void)state;
+    int w = 256, h = 4;
+    unsigned short *px = malloc((size_t)w * (size_t)h * 4 * sizeof *px);
+    assert_non_null(px);
+    static const struct {
+        const char *name, *ext;
+        int c, bits;
+    } files[] = {{"codes8.png", "png", 4, 8}, {"codes16.png", "png", 3, 16},
+                 {"gray8.png", "png", 1, 8},  {"gray16.png", "png", 1, 16},
+                 {"ga8.png", "png", 2, 8},    {"codes.jpg", "jpg", 3, 8}};
+    for (size_t f = 0; f < sizeof files / sizeof files[0]; f++) {
+        int c = files[f].c, bits = files[f].bits;
+        size_t n = (size_t)w * (size_t)h * (size_t)c;
+        unsigned char *p8 = (unsigned char *)px;
+        for (size_t i = 0; i < n; i++) { /* every code of the type along the rows */
+            unsigned v = (unsigned)(i * (bits == 8 ? 1u : 257u) + i / 7 * 13);
+            if (bits == 8)
+                p8[i] = (unsigned char)v;
+            else
+                px[i] = (unsigned short)(v * 97);
+        }
+        char msg[512];
+        const char *path = wgt_path(files[f].name);
+        if (wg__oiio_write(path, files[f].ext, px, w, h, c, bits, msg, sizeof msg))
+            fail_msg("%s", msg);
+        int ow, oh, oc;
+        float *ref = oiio_read_all(path, &ow, &oh, &oc);
+        assert_int_equal(oc, c);
+        for (int cs = 0; cs < 2; cs++) {
+            for (int channels = 1; channels <= 4; channels += 3) {
+                WgImage *img = read_ok(path, channels, cs ? WG_SRGB : WG_LINEAR);
+                for (int y = 0; y < h; y++) {
+                    for (int x = 0; x < w; x++) {
+                        const float *r = ref + ((size_t)y * (size_t)w + (size_t)x) * (size_t)c;
+                        float want[4];
+                        int colour = c <= 2 ? 1 : 3;
+                        for (int k = 0; k < colour; k++)
+                            want[k] = cs ? wg_srgb_to_linear(r[k]) : r[k];
+                        if (colour == 1) want[1] = want[2] = want[0];
+                        want[3] = c == 4 ? r[3] : 1.0f;
+                        float lum = wg__luminance(want);
+                        for (int k = 0; k < channels; k++) {
+                            float e = channels == 1 ? (colour == 1 ? want[0] : lum) : want[k];
+                            float got = wgt_px(img, x, y, k);
+                            if (memcmp(&e, &got, sizeof got))
+                                fail_msg("%s %s to %d channels, (%d, %d) channel %d: %.9g, "
+                                         "expected %.9g",
+                                         files[f].name, cs ? "srgb" : "linear", channels, x, y, k,
+                                         got, e);
+                        }
+                    }
+                }
+                wg_image_unref(img);
+            }
+        }
+        free(ref);
+    }
+    free(px);
+}
+
+/* JPEG sizes and channels come from the header without OpenImageIO and agree with it; a header
+ * that is cut, or a file that is not a JPEG, is left to OpenImageIO. */
+static void expect_jpeg_probe(const char *path)
+{
+    int w, h, c, ow, oh, oc;
+    char msg[512];
+    if (wg__jpeg_probe(path, &w, &h, &c)) fail_msg("%s: not probed natively", path);
+    if (wg__oiio_probe(path, &ow, &oh, &oc, msg, sizeof msg)) fail_msg("%s: %s", path, msg);
+    if (w != ow || h != oh || c != oc)
+        fail_msg("%s: %dx%d, %d channels; OpenImageIO %dx%d, %d", path, w, h, c, ow, oh, oc);
+}
+
+static void test_jpeg_probe_matches_openimageio(void **state)
+{
+    (void)state;
+    unsigned char px[37 * 23 * 3];
+    for (size_t i = 0; i < sizeof px; i++) px[i] = (unsigned char)(i * 13);
+    char msg[512];
+    for (int c = 1; c <= 3; c += 2) {
+        const char *path = wgt_path(c == 1 ? "probe_gray.jpg" : "probe_rgb.jpg");
+        if (wg__oiio_write(path, "jpg", px, 37, 23, c, 8, msg, sizeof msg)) fail_msg("%s", msg);
+        expect_jpeg_probe(path);
+    }
+    /* the header is all a probe needs */
+    size_t n;
+    char *data = wgt_read_file(wgt_path("probe_rgb.jpg"), &n);
+    assert_non_null(data);
+    const char *cut = wgt_path("probe_cut.jpg");
+    put_file(cut, data, n - 40);
+    expect_jpeg_probe(cut);
+    int w, h, c;
+    put_file(cut, data, 30); /* inside the header */
+    assert_int_equal(wg__jpeg_probe(cut, &w, &h, &c), 1);
+    free(data);
+    wgt_write_file(wgt_path("probe_text.jpg"), "not a JPEG\n");
+    assert_int_equal(wg__jpeg_probe(wgt_path("probe_text.jpg"), &w, &h, &c), 1);
+    /* real photographs (EXIF and other segments before the frame), when they are there */
+    const char *shared = getenv("WETGRAPH_SHARED");
+    char dir[2048];
+    snprintf(dir, sizeof dir, "%s/materials", shared ? shared : "");
+    DIR *d = shared ? opendir(dir) : NULL;
+    for (struct dirent *e; d && (e = readdir(d));) {
+        if (e->d_name[0] == '.') continue;
+        char sub[2300];
+        snprintf(sub, sizeof sub, "%s/%s", dir, e->d_name);
+        DIR *m = opendir(sub);
+        for (struct dirent *f; m && (f = readdir(m));) {
+            size_t len = strlen(f->d_name);
+            if (len < 4 || strcmp(f->d_name + len - 4, ".jpg")) continue;
+            char path[2600];
+            snprintf(path, sizeof path, "%s/%s", sub, f->d_name);
+            expect_jpeg_probe(path);
+        }
+        if (m) closedir(m);
+    }
+    if (d) closedir(d);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1377,6 +1729,10 @@ int main(void)
         cmocka_unit_test(test_damaged_png_is_refused),
         cmocka_unit_test(test_png_with_bad_image_data_is_refused),
         cmocka_unit_test(test_write_to_a_full_device_says_so),
+        cmocka_unit_test(test_exr_native_matches_openimageio),
+        cmocka_unit_test(test_png_probe_matches_openimageio),
+        cmocka_unit_test(test_integer_files_read_as_openimageio_floats),
+        cmocka_unit_test(test_jpeg_probe_matches_openimageio),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,0 +1,60 @@
+/* SPDX-License-Identifier: MIT */
+/* The size and channels of a JPEG file from its header, without OpenImageIO, so that checking a
+ * graph whose images are JPEGs loads no image library. The marker segments (ITU-T T.81, annex
+ * B.1) are walked from SOI to the first SOS: every segment's length must lie within the file,
+ * and exactly one frame header (SOF0-3, 5-7, 9-11, 13-15) must come before the scan. Answered
+ * here: 8-bit frames of 1 component (gray) or 3 (colour), with a height in the frame header. Any
+ * other file (not a JPEG, damaged, 12-bit, CMYK, a height given later by a DNL marker) is left to
+ * OpenImageIO, so it is refused or read exactly as before. The tables' contents are not checked
+ * here; a JPEG whose tables are damaged is refused when it is read. */
+#include "internal.h"
+
+#include <stdio.h>
+
+static bool is_frame(int m)
+{
+    return m >= 0xc0 && m <= 0xcf && m != 0xc4 && m != 0xc8 && m != 0xcc;
+}
+
+int wg__jpeg_probe(const char *path, int *w, int *h, int *c)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 1;
+    unsigned char b[8];
+    int rc = 1, frames = 0;
+    int fw = 0, fh = 0, fc = 0, precision = 0;
+    if (fread(b, 1, 2, f) != 2 || b[0] != 0xff || b[1] != 0xd8) goto out;
+    for (int segments = 0; segments < 4096; segments++) {
+        int m = fgetc(f);
+        if (m != 0xff) goto out;
+        while ((m = fgetc(f)) == 0xff) continue; /* fill bytes */
+        if (m == EOF || m == 0 || m == 0xd8 || m == 0xd9) goto out;
+        if (m == 0x01 || (m >= 0xd0 && m <= 0xd7)) continue; /* no length */
+        if (fread(b, 1, 2, f) != 2) goto out;
+        long len = (long)b[0] << 8 | b[1];
+        if (len < 2) goto out;
+        if (m == 0xda) { /* the scan: the header is complete */
+            if (frames == 1 && precision == 8 && fw > 0 && fh > 0 && (fc == 1 || fc == 3)) {
+                *w = fw;
+                *h = fh;
+                *c = fc;
+                rc = 0;
+            }
+            goto out;
+        }
+        if (is_frame(m)) {
+            if (len < 8 || fread(b, 1, 6, f) != 6) goto out;
+            precision = b[0];
+            fh = b[1] << 8 | b[2];
+            fw = b[3] << 8 | b[4];
+            fc = b[5];
+            frames++;
+            len -= 6;
+        }
+        /* the rest of the segment must be in the file */
+        if (fseek(f, len - 3, SEEK_CUR) != 0 || fgetc(f) == EOF) goto out;
+    }
+out:
+    fclose(f);
+    return rc;
+}
