@@ -263,6 +263,77 @@ static void test_pattern(void **state)
     wg_graph_free(g);
 }
 
+/* docs/shaders/foam.frag's formula, written as pixel nodes over the graph's packed `maps` (v/2,
+ * T, N1, N2), with the graph's default parameters, reproduces the graph's foam at three times;
+ * only the anti-aliasing differs in the shader (fwidth), so it is the graph's one here. */
+static void test_shader_formula_on_packed_maps(void **state)
+{
+    (void)state;
+    const char *src = getenv("WETGRAPH_SOURCE");
+    static const char body[] =
+        "  <node id=\"mixs\" type=\"pixel\" sp=\"=fract(0.25 * $time)\"\n"
+        "        cg=\"=sin(6.283185307179586 * fract($time / 6))\" wd=\"=fract(0.02 * $time)\"\n"
+        "        tx=\"=fract(0.01 * $time)\" ty=\"=fract(-0.005 * $time)\"\n"
+        "        l2=\"=fract(-0.015 * $time)\" wk=\"=2 * 6 / 256\"\n"
+        "        expr=\"0.55 * (sin(6.283185307179586 * ((4 + 1 * (2 * m.b - 1)) * (m.r * 2) - sp "
+        "- "
+        "0.15 * cg)) + 0.9 * (m.r * 2) - 0.75 + 0.25 * (2 * sample(m.b, u + 0.25, v + 0.25) - 1))"
+        " + 0.8 * (max(sample(m.g, u + wk * (sample(m.a, u + wd, v + wd) - 0.5) + tx,"
+        " v + wk * (sample(m.a, u + wd + 0.5, v + wd + 0.5) - 0.5) + ty),"
+        " 0.8 * sample(m.g, (u + wk * (sample(m.a, u + wd, v + wd) - 0.5)) * 2 + l2,"
+        " (v + wk * (sample(m.a, u + wd + 0.5, v + wd + 0.5) - 0.5)) * 2))"
+        " + 0.9 * (m.r * 2) - 0.75 + 0.25 * (2 * sample(m.b, u + 0.25, v + 0.25) - 1))"
+        " - 0.45 - 0.1 * (2 * sample(m.b, u + 0.75, v + 0.75) - 1)\">\n"
+        "    <in name=\"m\" from=\"f.maps\"/>\n"
+        "  </node>\n"
+        "  <node id=\"grad\" type=\"edge_detect\" mode=\"magnitude\">\n"
+        "    <in name=\"source\" from=\"mixs\"/>\n"
+        "  </node>\n"
+        "  <node id=\"fs\" type=\"pixel\" expr=\"clamp(x1 / max(0.5 * g, 1e-4) + 0.5, 0, 1) * "
+        "smoothstep(0, 0.04, m.r * 2) * (1 - smoothstep(1.08, 1.12, m.r * 2))\">\n"
+        "    <in name=\"x1\" from=\"mixs\"/><in name=\"g\" from=\"grad\"/>"
+        "<in name=\"m\" from=\"f.maps\"/>\n"
+        "  </node>\n"
+        "  <output name=\"graph\" from=\"f.foam\"/>\n"
+        "  <output name=\"shader\" from=\"fs\"/>\n"
+        "</wetgraph>\n";
+    char xml[8192];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"%d\">\n"
+             "  <input name=\"shore\" type=\"gray\"/>\n"
+             "  <node id=\"f\" type=\"%s/graphs/foam.wetgraph\"><in name=\"shore\" "
+             "from=\"$shore\"/></node>\n%s",
+             N, src, body);
+    WgGraph *g = wgt_load(xml);
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const double times[] = {0.4, 3.3, 11.7};
+    for (int i = 0; i < 3; i++) {
+        WgRequest *r = wg_request_new(g);
+        WgError err = {0};
+        if (wg_request_set_input_image(r, "shore", shore, &err)) fail_msg("%s", err.message);
+        wg_request_set_time(r, times[i]);
+        WgResult *res = wgt_render_request(e, r);
+        const WgImage *a = wgt_output(res, "graph"), *b = wgt_output(res, "shader");
+        int differ = 0, edge = 0;
+        for (int y = 0; y < N; y++)
+            for (int x = 0; x < N; x++) {
+                float p = wgt_px(a, x, y, 0);
+                edge += p > 0.02f && p < 0.98f;
+                differ += fabsf(p - wgt_px(b, x, y, 0)) > 0.02f;
+            }
+        /* differences only where the foam has an edge (about one pixel wide) */
+        if (differ > edge / 4 + 2)
+            fail_msg("t=%g: %d pixels differ (%d edge pixels)", times[i], differ, edge);
+        assert_true(edge > 50);
+        wg_result_free(res);
+        wg_request_free(r);
+    }
+    wg_engine_free(e);
+    wg_image_unref(shore);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -271,6 +342,7 @@ int main(void)
         cmocka_unit_test(test_threshold_and_band),
         cmocka_unit_test(test_untimed_nodes_once),
         cmocka_unit_test(test_pattern),
+        cmocka_unit_test(test_shader_formula_on_packed_maps),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
