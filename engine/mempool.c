@@ -120,9 +120,9 @@ static void unref(WgMemPool *p)
     wg_free(p);
 }
 
-/* Detaches idle buffers until at most max_idle bytes are idle, the least recently freed buffer
- * of the class holding the most bytes first; the caller gives the returned list back to the
- * system outside the lock. Called with the lock held. */
+/* Detaches idle buffers until at most max_idle bytes are idle, from the class holding the most
+ * bytes first; the caller gives the returned list back to the system outside the lock. Called
+ * with the lock held. */
 static Idle *detach(WgMemPool *p, size_t max_idle)
 {
     Idle *out = NULL;
@@ -133,10 +133,8 @@ static Idle *detach(WgMemPool *p, size_t max_idle)
             if (c->count && (!best || c->count * c->bytes > best->count * best->bytes)) best = c;
         }
         if (!best) break;
-        Idle **link = &best->head;
-        while ((*link)->next) link = &(*link)->next;
-        Idle *b = *link;
-        *link = NULL;
+        Idle *b = best->head;
+        best->head = b->next;
         best->count--;
         p->idle -= best->bytes;
         p->idle_count--;
