@@ -194,7 +194,8 @@ static int eval_node(Run *run, Node *node, WgError *err)
         goto out;
     }
     if (in->constant) {
-        WgImage *img = wg_image_convert(in->constant, in->width, in->height, in->out_channels[0]);
+        WgImage *img = wg__image_convert_in(run->e->mem, in->constant, in->width, in->height,
+                                            in->out_channels[0]);
         if (!img) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         outputs[0] = img;
         goto out;
@@ -207,7 +208,7 @@ static int eval_node(Run *run, Node *node, WgError *err)
         int want = src->channels;
         if (i < n_fixed && t->inputs[i].kind == WG_COLOR) want = 4;
         if (src->width != in->width || src->height != in->height || src->channels != want) {
-            owned[i] = wg_image_convert(src, in->width, in->height, want);
+            owned[i] = wg__image_convert_in(run->e->mem, src, in->width, in->height, want);
             if (!owned[i]) {
                 rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory converting input '%s'",
                                   in->in_names[i]);

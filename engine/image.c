@@ -203,14 +203,14 @@ static inline float saturate(float v)
     return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
 }
 
-static WgImage *resample(const WgImage *src, int width, int height)
+static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
 {
     int c = src->channels;
     Axis ax = {0}, ay = {0};
     WgImage *tmp = NULL, *dst = NULL;
     if (axis_build(&ax, src->width, width) || axis_build(&ay, src->height, height)) goto done;
-    tmp = wg_image_new(width, src->height, c);
-    dst = wg_image_new(width, height, c);
+    tmp = wg__image_new_in(pool, width, src->height, c);
+    dst = wg__image_new_in(pool, width, height, c);
     if (!tmp || !dst) goto fail;
     for (int y = 0; y < src->height; y++) {
         const float *in = wg_image_row(src, y);
@@ -262,9 +262,9 @@ float wg__luminance(const float *p)
     return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
 }
 
-static WgImage *convert_channels(const WgImage *src, int channels)
+static WgImage *convert_channels(WgMemPool *pool, const WgImage *src, int channels)
 {
-    WgImage *dst = wg_image_new(src->width, src->height, channels);
+    WgImage *dst = wg__image_new_in(pool, src->width, src->height, channels);
     if (!dst) return NULL;
     for (int y = 0; y < src->height; y++) {
         const float *in = wg_image_row(src, y);
@@ -281,14 +281,15 @@ static WgImage *convert_channels(const WgImage *src, int channels)
     return dst;
 }
 
-WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels)
+WgImage *wg__image_convert_in(WgMemPool *pool, const WgImage *src, int width, int height,
+                              int channels)
 {
     if (!src || width < 1 || height < 1 || width > WG_MAX_SIDE || height > WG_MAX_SIDE ||
         (channels != 1 && channels != 4))
         return NULL;
     WgImage *sized = NULL;
     if (width != src->width || height != src->height) {
-        sized = resample(src, width, height);
+        sized = resample(pool, src, width, height);
         if (!sized) return NULL;
     } else {
         sized = wg_image_ref(src);
@@ -296,12 +297,17 @@ WgImage *wg_image_convert(const WgImage *src, int width, int height, int channel
     if (channels == sized->channels) {
         if (sized != src) return sized;
         /* a real copy so the caller may own and modify it */
-        WgImage *copy = wg_image_new(width, height, channels);
+        WgImage *copy = wg__image_new_in(pool, width, height, channels);
         if (copy) memcpy(copy->data, src->data, wg_image_bytes(src));
         wg_image_unref(sized);
         return copy;
     }
-    WgImage *out = convert_channels(sized, channels);
+    WgImage *out = convert_channels(pool, sized, channels);
     wg_image_unref(sized);
     return out;
+}
+
+WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels)
+{
+    return wg__image_convert_in(NULL, src, width, height, channels);
 }

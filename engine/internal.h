@@ -272,6 +272,9 @@ void wg__mempool_stats(WgMemPool *p, WgMemoryStats *out);
 void wg__mempool_set_poison(bool on);
 /* An image whose pixels come from (and go back to) `pool`. */
 WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels);
+/* wg_image_convert with the new images from (and back to) `pool`. */
+WgImage *wg__image_convert_in(WgMemPool *pool, const WgImage *src, int width, int height,
+                              int channels);
 bool wg__alloc_hooked(void);
 void *wg__malloc_aligned(size_t size);
 /* The engine's pool (for tests). */

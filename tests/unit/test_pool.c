@@ -18,8 +18,8 @@
 #define MIB ((size_t)1 << 20)
 
 /* Most node families, with intermediates at 512² (1 MiB gray: mapped buffers; colour 4 MiB:
- * 2 MiB aligned huge-page buffers) and scratch memory (exact and fast blur, distance,
- * sharpen). */
+ * 2 MiB aligned huge-page buffers), scratch memory (exact and fast blur, distance, sharpen) and
+ * inputs the engine converts (a half-size image resampled, gray promoted to colour). */
 static const char *mixed_xml(int size)
 {
     static char xml[4096];
@@ -45,6 +45,10 @@ static const char *mixed_xml(int size)
         "  <node id=\"db\" type=\"directional_blur\" length=\"3\"><in name=\"source\" "
         "from=\"w\"/></node>\n"
         "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"s\"/></node>\n"
+        "  <node id=\"h\" type=\"invert\" size=\"/2\"><in name=\"source\" from=\"l\"/></node>\n"
+        "  <node id=\"bl\" type=\"blend\" mode=\"overlay\"><in name=\"foreground\" from=\"h\"/>"
+        "<in name=\"background\" from=\"nm\"/></node>\n"
+        "  <output name=\"e\" from=\"bl\"/>\n"
         "  <output name=\"a\" from=\"db\"/>\n"
         "  <output name=\"b\" from=\"cv\"/>\n"
         "  <output name=\"c\" from=\"ao\"/>\n"
@@ -123,7 +127,7 @@ static void test_outlives_engine(void **state)
     WgEngine *e = wgt_engine(2, 0, NULL);
     WgResult *res = render_on(e, g);
     wg_engine_free(e);
-    assert_true(wg_result_output_count(res) == 4);
+    assert_true(wg_result_output_count(res) == 5);
     wgt_assert_range(wg_result_output_image(res, 1), 0, 1);
     wg_result_free(res);
     wg_graph_free(g);
