@@ -117,7 +117,8 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     e->mem = wg__mempool_new(e->budget);
     if (!e->pool || !e->cache || !e->mem) {
         int rc =
-            opt->cache_dir && e->pool
+            !e->mem ? wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory")
+            : opt->cache_dir && e->pool
                 ? wg_error_set(err, WG_ERR_IO, NULL, "cannot create the cache folder '%s'",
                                opt->cache_dir)
                 : wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot start %d worker threads", threads);
