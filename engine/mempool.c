@@ -4,15 +4,17 @@
  * pay for fresh pages (the kernel's first touch of new memory costs more than a copy of it) for
  * every node. Idle buffers sit in free lists by size class (the size rounded up to 64 bytes, or
  * to a page from 1 MiB on); a request takes the most recently freed buffer of exactly its class.
+ * A graph's images come in a few sizes, so CLASSES lists suffice; a buffer of yet another size
+ * while all of them hold buffers is given back to the system.
  * The engine counts the idle bytes against its memory budget and trims the pool before it evicts
  * cached images (eval.c); the pool never keeps more idle bytes than its limit. The free lists are
  * intrusive (an idle buffer's first bytes link it), so putting a buffer back never allocates.
  * Buffers of 1 MiB and more, without an allocation hook, are memory mappings of their own; from
  * 2 MiB on they are aligned to 2 MiB and advised as transparent huge pages where the kernel
  * allows (the advice failing changes nothing). Smaller buffers, and all buffers while an
- * allocation hook is installed, come from wg_malloc. The pool is thread-safe (one mutex); each
- * buffer handed out holds a reference to it, so images may outlive their engine: after
- * wg__mempool_close, returned buffers go straight back to the system. */
+ * allocation hook is installed, come from the hook or aligned_alloc (wg__malloc_aligned). The pool
+ * is thread-safe (one mutex); each buffer handed out holds a reference to it, so images may outlive
+ * their engine: after wg__mempool_close, returned buffers go straight back to the system. */
 #include "internal.h"
 
 #include <stdatomic.h>
