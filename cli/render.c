@@ -231,13 +231,18 @@ static int parse_args(int argc, char **argv, Options *o)
     return 0;
 }
 
-void print_stats(const WgResult *res, bool json)
+void print_stats(const WgEngine *e, const WgResult *res, bool json)
 {
     int n = wg_result_stat_count(res);
+    WgMemoryStats m;
+    wg_engine_memory_stats(e, &m);
     if (json) {
         printf("{\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"evaluated\": %d,\n  "
-               "\"nodes\": [\n",
-               wg_result_total_ms(res), wg_result_peak_bytes(res), wg_result_evaluated_count(res));
+               "\"pool\": {\"bytes\": %zu, \"buffers\": %d, \"hits\": %llu, \"misses\": %llu, "
+               "\"released_bytes\": %zu},\n  \"nodes\": [\n",
+               wg_result_total_ms(res), wg_result_peak_bytes(res), wg_result_evaluated_count(res),
+               m.pool_bytes, m.pool_buffers, (unsigned long long)m.pool_hits,
+               (unsigned long long)m.pool_misses, m.pool_released);
         for (int i = 0; i < n; i++) {
             const WgNodeStat *s = wg_result_stat(res, i);
             static const char *const cache[] = {"miss", "memory", "disk"};
@@ -266,6 +271,11 @@ void print_stats(const WgResult *res, bool json)
     fprintf(stderr, "%d of %d nodes computed, %.1f ms in all, peak image memory %.1f MiB\n",
             wg_result_evaluated_count(res), n, wg_result_total_ms(res),
             wg_result_peak_bytes(res) / 1048576.0);
+    fprintf(stderr,
+            "buffer pool: %llu hits, %llu misses; %d idle buffers, %.1f MiB, kept for reuse; "
+            "%.1f MiB given back\n",
+            (unsigned long long)m.pool_hits, (unsigned long long)m.pool_misses, m.pool_buffers,
+            m.pool_bytes / 1048576.0, m.pool_released / 1048576.0);
 }
 
 /* The folder part of a file path ("." when there is none). */
@@ -411,14 +421,17 @@ int cmd_render(int argc, char **argv)
     if (wg_request_check(r, &err)) goto fail;
 
     status = EXIT_FAILED;
-    WgEngineOptions eo = {o.threads, o.budget, o.cache};
+    /* one render: results kept in memory would never be read again, and freeing intermediates
+     * lets the engine reuse their buffers. A frame sequence keeps them: the nodes that do not
+     * depend on $time are taken from the memory cache for every frame after the first. */
+    WgEngineOptions eo = {o.threads, o.budget, o.cache, !o.has_frames};
     if (wg_engine_new(&eo, &e, &err)) goto fail;
     if (o.has_frames) {
         if (render_frames(&o, g, r, e, &err)) goto fail;
     } else {
         if (wg_render(e, r, &res, &err)) goto fail;
         if (write_outputs(&o, g, res, -1, &err)) goto fail;
-        if (o.stats) print_stats(res, o.stats_json);
+        if (o.stats) print_stats(e, res, o.stats_json);
     }
     status = EXIT_OK;
     goto out;

@@ -26,7 +26,7 @@ typedef struct {
 /* Write every output of res (frame >= 0: with "_<frame>" in the names), all or none. */
 int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err);
 /* The per-node table (stderr) or JSON (stdout) of one render. */
-void print_stats(const WgResult *res, bool json);
+void print_stats(const WgEngine *e, const WgResult *res, bool json);
 /* path with "_<frame>" (4 digits at least) before its extension; path itself for frame < 0. */
 void frame_path(const char *path, int frame, char *buf, size_t size);
 /* Frames o->frame_first..o->frame_last of request r with engine e (cli/frames.c). */

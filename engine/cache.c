@@ -217,6 +217,14 @@ out:
     pthread_mutex_unlock(&c->mu);
 }
 
+size_t wg__cache_bytes(WgCache *c)
+{
+    pthread_mutex_lock(&c->mu);
+    size_t held = c->held;
+    pthread_mutex_unlock(&c->mu);
+    return held;
+}
+
 void wg__cache_trim(WgCache *c, size_t max_bytes)
 {
     pthread_mutex_lock(&c->mu);

@@ -15,7 +15,9 @@
 struct WgEngine {
     WgPool *pool;
     WgCache *cache;
+    WgMemPool *mem; /* freed image and scratch buffers, for reuse */
     size_t budget;
+    bool memory_cache;
 };
 
 typedef struct Run Run;
@@ -109,11 +111,14 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     WgEngine *e = wg_calloc(1, sizeof *e);
     if (!e) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     e->budget = opt->memory_budget ? opt->memory_budget : default_budget();
+    e->memory_cache = !opt->no_memory_cache;
     e->pool = wg__pool_new(threads);
     e->cache = wg__cache_new(opt->cache_dir);
-    if (!e->pool || !e->cache) {
+    e->mem = wg__mempool_new(e->budget);
+    if (!e->pool || !e->cache || !e->mem) {
         int rc =
-            opt->cache_dir && e->pool
+            !e->mem ? wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory")
+            : opt->cache_dir && e->pool
                 ? wg_error_set(err, WG_ERR_IO, NULL, "cannot create the cache folder '%s'",
                                opt->cache_dir)
                 : wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot start %d worker threads", threads);
@@ -129,6 +134,7 @@ void wg_engine_free(WgEngine *e)
     if (!e) return;
     wg__pool_free(e->pool);
     wg__cache_free(e->cache);
+    wg__mempool_close(e->mem);
     wg_free(e);
 }
 
@@ -140,6 +146,33 @@ void wg_engine_clear_cache(WgEngine *e)
 size_t wg_engine_memory_budget(const WgEngine *e)
 {
     return e->budget;
+}
+
+void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out)
+{
+    wg__mempool_stats(e->mem, out);
+}
+
+WgMemPool *wg__engine_mempool(WgEngine *e)
+{
+    return e->mem;
+}
+
+/* The cache and the pool's idle buffers share what the working set (`live`) leaves of the
+ * budget; the pool gives way first. Images the cache evicts go to the pool, hence the second
+ * trim. */
+static void fit_budget(WgEngine *e, size_t live)
+{
+    size_t room = live < e->budget ? e->budget - live : 0;
+    size_t cached = wg__cache_bytes(e->cache);
+    if (cached <= room) {
+        wg__mempool_trim(e->mem, room - cached);
+        return;
+    }
+    wg__mempool_trim(e->mem, 0);
+    wg__cache_trim(e->cache, room);
+    cached = wg__cache_bytes(e->cache);
+    wg__mempool_trim(e->mem, cached < room ? room - cached : 0);
 }
 
 /* ---- evaluating one node ----------------------------------------------------------------- */
@@ -162,7 +195,8 @@ static int eval_node(Run *run, Node *node, WgError *err)
         goto out;
     }
     if (in->constant) {
-        WgImage *img = wg_image_convert(in->constant, in->width, in->height, in->out_channels[0]);
+        WgImage *img = wg__image_convert_in(run->e->mem, in->constant, in->width, in->height,
+                                            in->out_channels[0]);
         if (!img) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         outputs[0] = img;
         goto out;
@@ -175,7 +209,7 @@ static int eval_node(Run *run, Node *node, WgError *err)
         int want = src->channels;
         if (i < n_fixed && t->inputs[i].kind == WG_COLOR) want = 4;
         if (src->width != in->width || src->height != in->height || src->channels != want) {
-            owned[i] = wg_image_convert(src, in->width, in->height, want);
+            owned[i] = wg__image_convert_in(run->e->mem, src, in->width, in->height, want);
             if (!owned[i]) {
                 rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory converting input '%s'",
                                   in->in_names[i]);
@@ -187,7 +221,7 @@ static int eval_node(Run *run, Node *node, WgError *err)
         inputs[i] = src;
     }
     for (int o = 0; o < in->n_out; o++) {
-        outputs[o] = wg_image_new(in->width, in->height, in->out_channels[o]);
+        outputs[o] = wg__image_new_in(run->e->mem, in->width, in->height, in->out_channels[o]);
         if (!outputs[o]) {
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image", in->width,
                               in->height);
@@ -199,6 +233,7 @@ static int eval_node(Run *run, Node *node, WgError *err)
     ctx.outputs = outputs;
     ctx.pool_ = run->e->pool;
     ctx.cancel_ = &run->cancel;
+    ctx.mem_ = run->e->mem;
     rc = t->eval(&ctx, err);
     if (!rc && run->cancel) rc = WG_ERR_CANCELLED;
 out:
@@ -280,7 +315,7 @@ static void node_job(void *user)
     node->stat.ms = wg__now_ms() - t0;
     if (!rc) {
         for (int o = 0; o < in->n_out; o++) {
-            wg__cache_put(run->e->cache, in->key, o, node->out[o]);
+            if (run->e->memory_cache) wg__cache_put(run->e->cache, in->key, o, node->out[o]);
             if (wg__cache_has_disk(run->e->cache) && disk_cacheable(in))
                 wg__cache_disk_put(run->e->cache, in->key, o, node->out[o]);
         }
@@ -313,10 +348,9 @@ static void node_job(void *user)
         }
         if (node->consumers == 0) release(run, node->index);
     }
-    /* The cache may hold what the working set leaves of the budget (images in both are counted
-     * twice, so this errs towards evicting). */
-    size_t budget = run->e->budget;
-    wg__cache_trim(run->e->cache, run->live < budget ? budget - run->live : 0);
+    /* The cache and the pool may hold what the working set leaves of the budget (images in the
+     * cache and the working set are counted twice, so this errs towards evicting). */
+    fit_budget(run->e, run->live);
     pthread_cond_signal(&run->cv);
     pthread_mutex_unlock(&run->mu);
 }
@@ -392,7 +426,8 @@ static bool lookup_cache(Run *run, int i)
         all = (n->out[o] =
                    wg__cache_disk_get(c, in->key, o, in->width, in->height, in->out_channels[o]));
     if (all) {
-        for (int o = 0; o < in->n_out; o++) wg__cache_put(c, in->key, o, n->out[o]);
+        if (run->e->memory_cache)
+            for (int o = 0; o < in->n_out; o++) wg__cache_put(c, in->key, o, n->out[o]);
         n->stat.cache = WG_HIT_DISK;
         return true;
     }
@@ -647,8 +682,8 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
                 (after > e->budget ||
                  (ahead && run.ahead + n->need + run.seq_peak[run.frontier] > e->budget)))
                 break;
-            /* make room: the cache keeps only what the working set leaves */
-            wg__cache_trim(e->cache, after < e->budget ? e->budget - after : 0);
+            /* make room: the cache and the pool keep only what the working set leaves */
+            fit_budget(e, after);
             ready_pop(&run);
             run.running++;
             run.live = after;
@@ -701,7 +736,7 @@ done:
     if (rc == WG_OK)
         for (int k = 0; k < plan->n_outputs; k++)
             kept += wg_image_bytes(wg_result_output_image(*out, k));
-    wg__cache_trim(e->cache, kept < e->budget ? e->budget - kept : 0);
+    fit_budget(e, kept);
     wg_free(run.nodes);
     wg_free(run.ready);
     wg_free(run.dependents);

@@ -5,8 +5,9 @@
  * average when shrinking. The weights are normalised per output sample, and a sample whose taps
  * all read the same value is that value, so a constant image stays exactly constant (a float sum
  * of weights times v can be off by an ulp). Other samples saturate at ±FLT_MAX. Pixel buffers
- * of 1 MiB and more are mapped directly (without an allocation hook), so freeing an image
- * returns its memory to the system at once. */
+ * come from a buffer pool (mempool.c): an engine's, which keeps freed buffers for reuse, or none
+ * (wg_image_new), in which case buffers of 1 MiB and more are mappings of their own, returned to
+ * the system as soon as the image is freed. */
 #include "internal.h"
 
 #include <float.h>
@@ -14,7 +15,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 
 static WgAllocFn alloc_hook;
 static WgFreeFn free_hook;
@@ -27,8 +27,13 @@ void wg_set_allocator(WgAllocFn alloc, WgFreeFn free_fn, void *user)
     hook_user = user;
 }
 
+bool wg__alloc_hooked(void)
+{
+    return alloc_hook != NULL;
+}
+
 /* 64-byte aligned memory: image rows start on a cache line. */
-static void *wg_malloc_aligned(size_t size)
+void *wg__malloc_aligned(size_t size)
 {
     if (size == 0) size = 1;
     if (alloc_hook) return alloc_hook(size, hook_user);
@@ -43,7 +48,7 @@ void *wg_malloc(size_t size)
      * sorts its free lists on every call: with it, loading a 100,000-node graph spent half its
      * time in the allocator. free() takes both kinds of block. */
     if (!alloc_hook && size <= 256) return malloc(size ? size : 1);
-    return wg_malloc_aligned(size);
+    return wg__malloc_aligned(size);
 }
 
 void *wg_calloc(size_t count, size_t size)
@@ -90,12 +95,6 @@ char *wg_strdup(const char *s)
     return s ? wg_strndup(s, strlen(s)) : NULL;
 }
 
-/* Pixel buffers from this size on are mappings of their own, given back to the system when the
- * image is freed. From malloc they could stay in the process after being freed (glibc raises
- * its mmap threshold up to 32 MiB as large blocks are freed, and keeps freed heap memory for
- * reuse), so the process would grow past the memory budget. */
-#define MAP_MIN_BYTES ((size_t)1 << 20)
-
 size_t wg_image_bytes_for(int width, int height, int channels)
 {
     size_t row = ((size_t)width * (size_t)channels + 15) & ~(size_t)15;
@@ -107,7 +106,7 @@ size_t wg_image_bytes(const WgImage *img)
     return img ? img->stride * (size_t)img->height * sizeof(float) : 0;
 }
 
-WgImage *wg_image_new(int width, int height, int channels)
+WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels)
 {
     if (width < 1 || height < 1 || width > WG_MAX_SIDE || height > WG_MAX_SIDE) return NULL;
     if (channels != 1 && channels != 4) return NULL;
@@ -117,21 +116,19 @@ WgImage *wg_image_new(int width, int height, int channels)
     img->height = height;
     img->channels = channels;
     img->stride = ((size_t)width * (size_t)channels + 15) & ~(size_t)15;
-    size_t bytes = wg_image_bytes_for(width, height, channels);
-    img->mapped_ = 0;
-    if (!alloc_hook && bytes >= MAP_MIN_BYTES) {
-        void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-        img->data = p == MAP_FAILED ? NULL : p;
-        img->mapped_ = 1;
-    } else {
-        img->data = wg_malloc_aligned(bytes);
-    }
+    img->pool_ = pool;
+    img->data = wg__mempool_get(pool, wg_image_bytes(img), &img->mapped_);
     if (!img->data) {
         wg_free(img);
         return NULL;
     }
     img->refcount_ = 1;
     return img;
+}
+
+WgImage *wg_image_new(int width, int height, int channels)
+{
+    return wg__image_new_in(NULL, width, height, channels);
 }
 
 WgImage *wg_image_new_zero(int width, int height, int channels)
@@ -153,10 +150,7 @@ void wg_image_unref(const WgImage *img)
     WgImage *m = (WgImage *)img;
     if (!m) return;
     if (atomic_fetch_sub_explicit((_Atomic int *)&m->refcount_, 1, memory_order_acq_rel) == 1) {
-        if (m->mapped_)
-            munmap(m->data, wg_image_bytes(m));
-        else
-            wg_free(m->data);
+        wg__mempool_put(m->pool_, m->data, wg_image_bytes(m), m->mapped_);
         wg_free(m);
     }
 }
@@ -209,14 +203,14 @@ static inline float saturate(float v)
     return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
 }
 
-static WgImage *resample(const WgImage *src, int width, int height)
+static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
 {
     int c = src->channels;
     Axis ax = {0}, ay = {0};
     WgImage *tmp = NULL, *dst = NULL;
     if (axis_build(&ax, src->width, width) || axis_build(&ay, src->height, height)) goto done;
-    tmp = wg_image_new(width, src->height, c);
-    dst = wg_image_new(width, height, c);
+    tmp = wg__image_new_in(pool, width, src->height, c);
+    dst = wg__image_new_in(pool, width, height, c);
     if (!tmp || !dst) goto fail;
     for (int y = 0; y < src->height; y++) {
         const float *in = wg_image_row(src, y);
@@ -268,9 +262,9 @@ float wg__luminance(const float *p)
     return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2];
 }
 
-static WgImage *convert_channels(const WgImage *src, int channels)
+static WgImage *convert_channels(WgMemPool *pool, const WgImage *src, int channels)
 {
-    WgImage *dst = wg_image_new(src->width, src->height, channels);
+    WgImage *dst = wg__image_new_in(pool, src->width, src->height, channels);
     if (!dst) return NULL;
     for (int y = 0; y < src->height; y++) {
         const float *in = wg_image_row(src, y);
@@ -287,14 +281,15 @@ static WgImage *convert_channels(const WgImage *src, int channels)
     return dst;
 }
 
-WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels)
+WgImage *wg__image_convert_in(WgMemPool *pool, const WgImage *src, int width, int height,
+                              int channels)
 {
     if (!src || width < 1 || height < 1 || width > WG_MAX_SIDE || height > WG_MAX_SIDE ||
         (channels != 1 && channels != 4))
         return NULL;
     WgImage *sized = NULL;
     if (width != src->width || height != src->height) {
-        sized = resample(src, width, height);
+        sized = resample(pool, src, width, height);
         if (!sized) return NULL;
     } else {
         sized = wg_image_ref(src);
@@ -302,12 +297,17 @@ WgImage *wg_image_convert(const WgImage *src, int width, int height, int channel
     if (channels == sized->channels) {
         if (sized != src) return sized;
         /* a real copy so the caller may own and modify it */
-        WgImage *copy = wg_image_new(width, height, channels);
+        WgImage *copy = wg__image_new_in(pool, width, height, channels);
         if (copy) memcpy(copy->data, src->data, wg_image_bytes(src));
         wg_image_unref(sized);
         return copy;
     }
-    WgImage *out = convert_channels(sized, channels);
+    WgImage *out = convert_channels(pool, sized, channels);
     wg_image_unref(sized);
     return out;
+}
+
+WgImage *wg_image_convert(const WgImage *src, int width, int height, int channels)
+{
+    return wg__image_convert_in(NULL, src, width, height, channels);
 }

@@ -252,9 +252,40 @@ bool wg__cache_has_disk(const WgCache *c);
 /* Evict least recently used memory entries until they hold at most max_bytes that nothing
  * else references. */
 void wg__cache_trim(WgCache *c, size_t max_bytes);
+/* Bytes of the memory entries' images (shared ones too). */
+size_t wg__cache_bytes(WgCache *c);
 void wg__cache_clear(WgCache *c);
 /* The disk file of an entry (for tests and tools); caller frees. */
 char *wg__cache_entry_path(const WgCache *c, const uint64_t key[2], int port);
+
+/* ---- buffer pool (mempool.c) ------------------------------------------------------------- */
+
+/* Free lists of pixel and scratch buffers by size class, keeping at most `limit` idle bytes.
+ * NULL everywhere means no pool: new memory, freed at once. */
+WgMemPool *wg__mempool_new(size_t limit);
+/* Releases the idle buffers and drops the owner's reference: buffers still out go back to the
+ * system when they are returned. */
+void wg__mempool_close(WgMemPool *p);
+/* A 64-byte aligned buffer of at least `bytes`, an idle one of its class when there is one;
+ * *mapped says which kind it is (pass it back to wg__mempool_put). NULL when out of memory. */
+void *wg__mempool_get(WgMemPool *p, size_t bytes, int *mapped);
+void wg__mempool_put(WgMemPool *p, void *ptr, size_t bytes, int mapped);
+/* Gives idle buffers back to the system until at most max_idle bytes are idle. */
+void wg__mempool_trim(WgMemPool *p, size_t max_idle);
+size_t wg__mempool_idle(WgMemPool *p);
+void wg__mempool_stats(WgMemPool *p, WgMemoryStats *out);
+/* Fill every buffer handed out with 0xff bytes (NaN floats), fresh or reused (for tests: a node
+ * that reads memory it has not written then shows). */
+void wg__mempool_set_poison(bool on);
+/* An image whose pixels come from (and go back to) `pool`. */
+WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels);
+/* wg_image_convert with the new images from (and back to) `pool`. */
+WgImage *wg__image_convert_in(WgMemPool *pool, const WgImage *src, int width, int height,
+                              int channels);
+bool wg__alloc_hooked(void);
+void *wg__malloc_aligned(size_t size);
+/* The engine's pool (for tests). */
+WgMemPool *wg__engine_mempool(WgEngine *e);
 
 /* ---- worker pool ------------------------------------------------------------------------- */
 

@@ -200,7 +200,8 @@ static int exact_eval(WgNodeContext *ctx, double sigma, WgError *err)
     ExactJob j = {in, NULL, ctx->outputs[0], {0}, {0}};
     int rc = kernel_build(&j.kx, sigma, in->width);
     if (!rc) rc = kernel_build(&j.ky, sigma, in->height);
-    if (!rc && !(j.tmp = wg_image_new(in->width, in->height, in->channels))) rc = WG_ERR_NOMEM;
+    if (!rc && !(j.tmp = wg_scratch_image(ctx, in->width, in->height, in->channels)))
+        rc = WG_ERR_NOMEM;
     if (rc) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     if (!rc) rc = wg_parallel_rows(ctx, in->height, exact_horizontal, &j);
     if (!rc) rc = wg_parallel_rows(ctx, in->height, exact_vertical, &j);
@@ -525,7 +526,7 @@ static int fft_eval(WgNodeContext *ctx, const WgImage *in, WgImage *out, double 
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot plan FFTs of %d and %d points", w, h);
     double *gx = wg_malloc(sizeof(double) * ((size_t)w + 1)),
            *gy = wg_malloc(sizeof(double) * (size_t)h);
-    void *raw = NULL;
+    size_t spec_bytes = 0;
     int rc = gx && gy ? WG_OK : WG_ERR_NOMEM;
     if (!rc) {
         gaussian_spectrum(gx, w, sigma);
@@ -534,7 +535,8 @@ static int fft_eval(WgNodeContext *ctx, const WgImage *in, WgImage *out, double 
         j.gy = gy;
         j.kmax = kept_columns(gx, w);
         j.sstride = spectrum_stride(j.kmax);
-        j.spec = aligned_alloc64(sizeof(fftwf_complex) * j.sstride * (size_t)h, &raw);
+        spec_bytes = sizeof(fftwf_complex) * j.sstride * (size_t)h;
+        j.spec = wg_scratch_alloc(ctx, spec_bytes);
         if (!j.spec) rc = WG_ERR_NOMEM;
     }
     int blocks = (j.kmax + COLUMN_BLOCK - 1) / COLUMN_BLOCK;
@@ -547,7 +549,7 @@ static int fft_eval(WgNodeContext *ctx, const WgImage *in, WgImage *out, double 
         if (!rc && j.failed) rc = WG_ERR_NOMEM;
     }
     if (rc == WG_ERR_NOMEM) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    wg_free(raw);
+    wg_scratch_free(ctx, j.spec, spec_bytes);
     wg_free(gx);
     wg_free(gy);
     return rc;

@@ -333,6 +333,11 @@ static int transform(WgNodeContext *ctx, Job *j, bool *empty, WgError *err)
     return rc;
 }
 
+static size_t near_bytes(const Job *j)
+{
+    return sizeof(int16_t) * (size_t)j->w * (size_t)j->h;
+}
+
 static int job_init(Job *j, WgNodeContext *ctx, bool wrap, WgError *err)
 {
     memset(j, 0, sizeof *j);
@@ -341,7 +346,7 @@ static int job_init(Job *j, WgNodeContext *ctx, bool wrap, WgError *err)
     j->w = ctx->width;
     j->h = ctx->height;
     j->wrap = wrap;
-    j->near = wg_malloc(sizeof(int16_t) * (size_t)j->w * (size_t)j->h);
+    j->near = wg_scratch_alloc(ctx, near_bytes(j));
     if (!j->near) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     return WG_OK;
 }
@@ -376,7 +381,7 @@ static int distance_eval(WgNodeContext *ctx, WgError *err)
             if (!rc && empty) fill(j.out, (float)-none); /* a full mask */
         }
     }
-    wg_free(j.near);
+    wg_scratch_free(ctx, j.near, near_bytes(&j));
     return rc;
 }
 
@@ -393,7 +398,7 @@ static int morph_eval(WgNodeContext *ctx, WgError *err, bool erode)
     bool empty;
     rc = transform(ctx, &j, &empty, err);
     if (!rc && empty) fill(j.out, erode ? 1.0f : 0.0f);
-    wg_free(j.near);
+    wg_scratch_free(ctx, j.near, near_bytes(&j));
     return rc;
 }
 

@@ -239,9 +239,9 @@ static int sharpen_eval(WgNodeContext *ctx, WgError *err)
     SharpenJob j = {in, ctx->outputs[0], NULL, NULL, {0}, {0}, p->amount};
     int rc = gauss_build(&j.gx, sigma, in->width);
     if (!rc) rc = gauss_build(&j.gy, sigma, in->height);
-    if (!rc && !(j.tmp = wg_malloc(sizeof(double) * (size_t)in->width * (size_t)in->height *
-                                   (size_t)in->channels)))
-        rc = WG_ERR_NOMEM;
+    size_t tmp_bytes =
+        sizeof(double) * (size_t)in->width * (size_t)in->height * (size_t)in->channels;
+    if (!rc && !(j.tmp = wg_scratch_alloc(ctx, tmp_bytes))) rc = WG_ERR_NOMEM;
     if (rc) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     if (!rc) rc = wg_parallel_rows(ctx, in->height, sharpen_horizontal, &j);
     if (!rc && j.gy.mean) {
@@ -255,7 +255,7 @@ static int sharpen_eval(WgNodeContext *ctx, WgError *err)
     }
     if (!rc) rc = wg_parallel_rows(ctx, in->height, sharpen_vertical, &j);
     wg_free(j.colmean);
-    wg_free(j.tmp);
+    wg_scratch_free(ctx, j.tmp, tmp_bytes);
     gauss_free(&j.gx);
     gauss_free(&j.gy);
     return rc;

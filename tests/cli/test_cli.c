@@ -392,6 +392,7 @@ static void test_render_outputs_and_options(void **state)
     /* --stats: a table on stderr, the paths still alone on stdout */
     ERR_HAS(&c[0], "6 of 6 nodes computed");
     ERR_HAS(&c[0], "peak image memory");
+    ERR_HAS(&c[0], "buffer pool: ");
     ERR_HAS(&c[0], "blur");
     ERR_HAS(&c[0], "16x8c");
     WgImage *mask = read_image(at("out/deep/er/g_mask.png"));
@@ -467,6 +468,8 @@ static void test_render_outputs_and_options(void **state)
     assert_true(peak >= 3 * 8 * 64 + 8 * 512); /* 3 gray and 1 colour 16x8 outputs alive */
     assert_true(peak <= 64ll << 20);
     assert_int_equal(count_substr(j, "\"id\": "), 6);
+    expect_in(j, "\"pool\": {\"bytes\": ", &c[5], "stdout");
+    assert_true(json_int(j, "misses") >= 1); /* the first buffers are new */
     expect_in(j, "{\"id\": \"$base\", \"type\": \"uniform\"", &c[5], "stdout");
     expect_in(j, "\"width\": 16, \"height\": 8, \"channels\": 4", &c[5], "stdout");
     assert_int_equal(count_substr(j, "\"cache\": \"miss\""), 6);

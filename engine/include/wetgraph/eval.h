@@ -29,6 +29,9 @@ typedef struct WgEngineOptions {
                               and the cache (docs/engine.md); 0 = default: half of physical
                               memory, at most 16 GiB */
     const char *cache_dir; /* persistent cache folder (created if missing); NULL = none */
+    bool no_memory_cache;  /* keep no results in memory between renders (for a process that
+                              renders once): every intermediate's buffer is then reused as soon
+                              as its last consumer has run */
 } WgEngineOptions;
 
 /* The caller owns the engine. NULL options means defaults. */
@@ -37,6 +40,18 @@ void wg_engine_free(WgEngine *e);
 /* Drop every in-memory cache entry. */
 void wg_engine_clear_cache(WgEngine *e);
 size_t wg_engine_memory_budget(const WgEngine *e);
+
+/* The engine's buffer pool: pixel and scratch buffers freed by a render are kept (within the
+ * memory budget, given up before cached images) and handed out again. Counts since the engine
+ * was created. */
+typedef struct WgMemoryStats {
+    size_t pool_bytes;    /* idle buffers held now */
+    int pool_buffers;     /* how many */
+    uint64_t pool_hits;   /* buffer requests served by an idle buffer */
+    uint64_t pool_misses; /* requests that took new memory */
+    size_t pool_released; /* bytes given back to the system (trimmed or not kept) */
+} WgMemoryStats;
+void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out);
 
 /* A request refers to the graph (which must outlive it). */
 WgRequest *wg_request_new(const WgGraph *g);

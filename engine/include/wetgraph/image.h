@@ -20,8 +20,9 @@ typedef struct WgImage {
     int channels;  /* 1 or 4 */
     size_t stride; /* floats between the starts of two rows */
     float *data;
-    int refcount_; /* private: use wg_image_ref / wg_image_unref */
-    int mapped_;   /* private: data is a memory mapping of its own */
+    int refcount_;           /* private: use wg_image_ref / wg_image_unref */
+    int mapped_;             /* private: data is a memory mapping of its own */
+    struct WgMemPool *pool_; /* private: the buffer pool data goes back to, or NULL */
 } WgImage;
 
 /* New image with undefined pixels; the caller owns the returned reference. NULL when out of
@@ -55,9 +56,10 @@ WgImage *wg_image_convert(const WgImage *src, int width, int height, int channel
 
 /* Allocation hook used for all engine memory. `alloc` must return 64-byte aligned memory.
  * Passing NULLs restores the default: image pixels are 64-byte aligned (their own memory
- * mapping from 1 MiB on), other blocks above 256 bytes come from aligned_alloc and smaller ones
- * from malloc (no alignment beyond malloc's); all are released with free or munmap. Not
- * thread-safe to change while a render runs. */
+ * mapping from 1 MiB on, 2 MiB aligned and advised as huge pages from 2 MiB on; an engine keeps
+ * freed ones for reuse within its memory budget), other blocks above 256 bytes come from
+ * aligned_alloc and smaller ones from malloc (no alignment beyond malloc's); all are released with
+ * free or munmap. Not thread-safe to change while a render runs. */
 typedef void *(*WgAllocFn)(size_t size, void *user);
 typedef void (*WgFreeFn)(void *ptr, void *user);
 void wg_set_allocator(WgAllocFn alloc, WgFreeFn free_fn, void *user);

@@ -21,7 +21,8 @@
  * 6. Fail with `return wg_error_set(err, WG_ERR_..., NULL, "...")`; the engine adds the file,
  *    line and node id.
  * 7. If eval allocates image-sized memory of its own (an intermediate image, a decode buffer),
- *    say how much in `scratch_bytes`, so the memory budget holds.
+ *    take it with wg_scratch_alloc or wg_scratch_image (reused from the engine's buffer pool)
+ *    and say how much in `scratch_bytes`, so the memory budget holds.
  * 8. Add the node to tests/nodes/: exact small cases, a float64 reference for fast paths,
  *    tiling, thread-count invariance, hard cases. */
 #ifndef WETGRAPH_NODE_H
@@ -136,6 +137,7 @@ enum {
 };
 
 typedef struct WgPool WgPool;
+typedef struct WgMemPool WgMemPool;
 
 /* Everything a node sees while it is checked or evaluated. */
 typedef struct WgNodeContext {
@@ -164,6 +166,7 @@ typedef struct WgNodeContext {
 
     WgPool *pool_;         /* private */
     volatile int *cancel_; /* private */
+    WgMemPool *mem_;       /* private: the engine's buffer pool */
 } WgNodeContext;
 
 typedef struct WgNodeType {
@@ -211,6 +214,15 @@ void wg_set_node_types(const WgNodeType *const *types);
 typedef void (*WgRowsFn)(void *user, int y0, int y1);
 int wg_parallel_rows(const WgNodeContext *ctx, int height, WgRowsFn fn, void *user);
 int wg_parallel_chunks(int height);
+
+/* Scratch memory for eval: 64-byte aligned, contents undefined, from the engine's buffer pool
+ * (a buffer another node has freed, when one of that size is idle). NULL when out of memory.
+ * Give it back with wg_scratch_free, with the same size, before eval returns. */
+void *wg_scratch_alloc(const WgNodeContext *ctx, size_t bytes);
+void wg_scratch_free(const WgNodeContext *ctx, void *ptr, size_t bytes);
+/* An intermediate image from the same pool (undefined pixels); release it with wg_image_unref
+ * before eval returns. NULL when out of memory or for an invalid size. */
+WgImage *wg_scratch_image(const WgNodeContext *ctx, int width, int height, int channels);
 
 /* Deterministic hashing for procedural nodes. */
 static inline uint32_t wg_hash_u32(uint32_t x)
