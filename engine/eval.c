@@ -70,6 +70,8 @@ struct Run {
     volatile int cancel;
     int rc;
     WgError err;
+    bool fuse;   /* fuse point operations (fuse.c) */
+    size_t need; /* the sequential peak the plan needs */
 };
 
 struct WgResult {
@@ -470,7 +472,7 @@ static int plan_fusion(Run *run, WgError *err)
     WgPlan *p = run->plan;
     int n = p->n_insts, rc = WG_OK;
     for (int i = 0; i < n; i++) run->nodes[i].job = i;
-    if (!run->e->fuse) return WG_OK;
+    if (!run->fuse) return WG_OK;
     bool *flags = wg_calloc(2 * (size_t)n + 1, sizeof(bool));
     int *sink = wg_calloc((size_t)n + 1, sizeof(int));
     int groups = -1;
@@ -641,6 +643,7 @@ static int plan_work(Run *run, WgError *err)
         if (later > run->seq_peak[i]) run->seq_peak[i] = later;
         after = i;
     }
+    run->need = peak;
     if (peak > run->e->budget) {
         char detail[1024] = "";
         if (biggest >= 0) {
@@ -725,7 +728,8 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     return WG_OK;
 }
 
-int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
+static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, size_t *need,
+                  WgError *err)
 {
     double t0 = wg__now_ms();
     *out = NULL;
@@ -736,7 +740,7 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
         wg_free(plan);
         return rc;
     }
-    Run run = {.e = e, .r = req, .plan = plan};
+    Run run = {.e = e, .r = req, .plan = plan, .fuse = fuse};
     pthread_mutex_init(&run.mu, NULL);
     pthread_cond_init(&run.cv, NULL);
     run.nodes = wg_calloc((size_t)plan->n_insts + 1, sizeof(Node));
@@ -847,8 +851,24 @@ done:
     wg_free(run.seq_peak);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
+    *need = run.need;
     wg__plan_free(plan);
     wg_free(plan);
+    return rc;
+}
+
+int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
+{
+    size_t need = 0, unfused = 0;
+    int rc = render(e, req, e->fuse, out, &need, err);
+    /* A group keeps its inputs until its sink has run: where a chain's ends are larger than
+     * its middle, fused needs more than unfused. Nothing has run yet when the plan is refused:
+     * try again unfused, which may fit; if neither fits, report the smaller need. */
+    if (rc == WG_ERR_BUDGET && e->fuse) {
+        WgError fused = err ? *err : (WgError){0};
+        rc = render(e, req, false, out, &unfused, err);
+        if (rc == WG_ERR_BUDGET && err && need < unfused) *err = fused;
+    }
     return rc;
 }
 

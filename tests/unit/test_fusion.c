@@ -371,6 +371,57 @@ static void test_a_long_chain_peaks_lower_fused(void **state)
     wg_graph_free(g);
 }
 
+/* Colour, reduced to gray, coloured again: a fused group keeps the colour input until its
+ * colour output exists (two colour images), unfused never holds more than one colour and one
+ * gray image. A budget between the two renders unfused instead of failing. */
+static void test_a_budget_only_unfused_fits_renders_unfused(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"512\">\n"
+                          "  <input name=\"src\" type=\"color\"/>\n"
+                          "  <node id=\"gr\" type=\"grayscale\"><in name=\"source\" "
+                          "from=\"$src\"/></node>\n"
+                          "  <node id=\"iv\" type=\"invert\"><in name=\"source\" "
+                          "from=\"gr\"/></node>\n"
+                          "  <node id=\"gm\" type=\"gradient_map\" keys=\"0:#000 1:#8af\">"
+                          "<in name=\"source\" from=\"iv\"/></node>\n"
+                          "  <output name=\"out\" from=\"gm\"/>\n"
+                          "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    WgImage *src = wgt_image_fn(512, 512, 4, src_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
+    size_t gray = wg_image_bytes_for(512, 512, 1), color = wg_image_bytes_for(512, 512, 4);
+    WgResult *fused = render(1, true, r), *unfused = render(1, false, r);
+    assert_int_equal(fused_of(fused, "gr"), 1);
+    assert_int_equal(wg_result_peak_bytes(fused), 2 * color);
+    assert_int_equal(wg_result_peak_bytes(unfused), color + gray);
+    WgEngineOptions opt = {.threads = 2, .memory_budget = color + gray + 1024};
+    WgEngine *e = NULL;
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+    WgResult *res = wgt_render_request(e, r);
+    assert_int_equal(fused_of(res, "gr"), 0);
+    assert_true(wg_result_peak_bytes(res) <= opt.memory_budget);
+    expect_same_outputs(res, fused);
+    wg_result_free(res);
+    wg_engine_free(e);
+    /* neither fits: the error states the smaller need */
+    opt.memory_budget = color + gray - 1024;
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+    res = NULL;
+    assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_BUDGET);
+    char need[64];
+    snprintf(need, sizeof need, "needs at least %.1f MiB", (color + gray) / 1048576.0);
+    assert_string_equal(need, "needs at least 5.0 MiB"); /* fused: 8.0 */
+    wgt_assert_error(&err, WG_ERR_BUDGET, 0, need);
+    wg_engine_free(e);
+    wg_result_free(fused);
+    wg_result_free(unfused);
+    wg_image_unref(src);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 /* ---- listing the groups ----------------------------------------------------------------- */
 
 static void test_stats_list_the_groups(void **state)
@@ -455,6 +506,7 @@ int main(void)
         cmocka_unit_test(test_requested_intermediates_are_materialised),
         cmocka_unit_test(test_the_cache_keeps_what_is_materialised),
         cmocka_unit_test(test_a_long_chain_peaks_lower_fused),
+        cmocka_unit_test(test_a_budget_only_unfused_fits_renders_unfused),
         cmocka_unit_test(test_stats_list_the_groups),
         cmocka_unit_test(test_the_command_line_lists_and_draws_the_groups),
     };
