@@ -115,9 +115,12 @@ static int band_rows_for(const WgPlan *p, const int *members, int n)
     const WgInst *sink = &p->insts[members[n - 1]];
     size_t row = stride_for(sink->width, group_channels(p, members, n)) * sizeof(float);
     size_t rows = FUSE_BAND_BYTES / row;
-    /* enough bands to share between threads on small images */
-    size_t most = (size_t)sink->height / 8;
+    /* eight bands or more to share between threads, unless that makes bands of less than
+     * 32 KiB: on small images each band's overhead (every member's call) would dominate */
+    size_t eighth = ((size_t)sink->height + 7) / 8, small = ((size_t)32 << 10) / row;
+    size_t most = eighth > small ? eighth : small;
     if (rows > most) rows = most;
+    if (rows > (size_t)sink->height) rows = (size_t)sink->height;
     return rows < 1 ? 1 : (int)rows;
 }
 
