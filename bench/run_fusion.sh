@@ -12,7 +12,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
 sizes=${2:-"2048 4096"}
 threads=${3:-2}
-reps=${4:-8}
+reps=${4:-10}
 [ -f "$build/build.ninja" ] || meson setup "$build" "$root" --buildtype=release >/dev/null
 ninja -C "$build" bench/bench_fusion >/dev/null
 echo "# load average: $(cut -d' ' -f1-3 /proc/loadavg)"
