@@ -23,6 +23,10 @@
 
 /* Bytes of one image's band: small enough that the buffers a band passes through stay in L2. */
 #define FUSE_BAND_BYTES ((size_t)256 << 10)
+/* The most band buffers of one group hold, per thread. A group is a tree; evaluated in plan
+ * order, a wide one can hold many intermediates at once (a balanced tree of blends, one per
+ * level): beyond this, its nodes run alone. */
+#define FUSE_MAX_SCRATCH ((size_t)4 << 20)
 
 /* Node kinds that cannot work on a band even if they claim to be point operations. */
 enum {
@@ -54,6 +58,8 @@ static bool direct_input(const WgPlan *p, const WgInst *in, int k)
     return src->width == in->width && src->height == in->height && input_want(in, k, sc) == sc;
 }
 
+static int limit_scratch(const WgPlan *p, int *sink, int *groups);
+
 int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink)
 {
     int n = p->n_insts, groups = 0;
@@ -74,6 +80,7 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
     }
     for (int i = n - 1; i >= 0; i--) sink[i] = -1;
     /* consumers come after their inputs in the plan: a consumer's group is known first */
+    int rc = WG_OK;
     for (int i = n - 1; i >= 0; i--) {
         int j = consumer[i];
         if (!run[i] || requested[i] || j <= i || !wg__fuse_capable(&p->insts[i])) continue;
@@ -84,6 +91,7 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
         sink[i] = sink[j];
     }
     wg_free(consumer);
+    if (groups > 0 && (rc = limit_scratch(p, sink, &groups))) return rc;
     return groups;
 }
 
@@ -170,6 +178,49 @@ static int assign_slots(const WgPlan *p, const int *members, int n, int *first_o
     }
     wg_free(free_slots);
     return n_slots;
+}
+
+/* Ungroups the groups whose band buffers would exceed FUSE_MAX_SCRATCH. */
+static int limit_scratch(const WgPlan *p, int *sink, int *groups)
+{
+    int n = p->n_insts, rc = WG_OK;
+    int *start = wg_calloc((size_t)n + 2, sizeof(int)), *members = NULL, *first_out = NULL,
+        *slot = NULL;
+    size_t ports = 0;
+    for (int i = 0; i < n; i++) ports += (size_t)p->insts[i].n_out;
+    if (!start || !(members = wg_calloc((size_t)n + 1, sizeof(int))) ||
+        !(first_out = wg_calloc((size_t)n + 1, sizeof(int))) ||
+        !(slot = wg_calloc(ports + 1, sizeof(int)))) {
+        rc = WG_ERR_NOMEM;
+        goto out;
+    }
+    /* members of each sink, in plan order: a counting sort */
+    for (int i = 0; i < n; i++)
+        if (sink[i] >= 0) start[sink[i] + 1]++;
+    for (int i = 0; i < n; i++) start[i + 1] += start[i];
+    for (int i = 0; i < n; i++)
+        if (sink[i] >= 0) members[start[sink[i]]++] = i;
+    for (int s = 0, at = 0; s < n; s++) { /* start[s] is now the end of group s */
+        int count = start[s] - at, *m = members + at;
+        at = start[s];
+        if (count == 0 || sink[s] != s) continue;
+        int slots = assign_slots(p, m, count, first_out, slot);
+        if (slots < 0) {
+            rc = WG_ERR_NOMEM;
+            goto out;
+        }
+        size_t band = (size_t)band_rows_for(p, m, count) *
+                      stride_for(p->insts[s].width, group_channels(p, m, count)) * sizeof(float);
+        if ((size_t)slots * band <= FUSE_MAX_SCRATCH) continue;
+        for (int k = 0; k < count; k++) sink[m[k]] = -1;
+        --*groups;
+    }
+out:
+    wg_free(start);
+    wg_free(members);
+    wg_free(first_out);
+    wg_free(slot);
+    return rc;
 }
 
 /* ---- evaluation -------------------------------------------------------------------------- */

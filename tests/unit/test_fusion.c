@@ -422,6 +422,41 @@ static void test_a_budget_only_unfused_fits_renders_unfused(void **state)
     wg_graph_free(g);
 }
 
+/* A right-deep comb of blends over uniforms: in plan order every uniform comes before the
+ * blends, so all are alive at once. With 8 the group fits its band buffers; with 40 bands of
+ * 256 KiB it would need 10 MiB per thread, and its nodes run alone. */
+static void test_wide_groups_are_not_fused(void **state)
+{
+    (void)state;
+    for (int leaves = 8; leaves <= 40; leaves += 32) {
+        char xml[16384];
+        size_t n = (size_t)snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"2048x256\">\n");
+        for (int i = 0; i < leaves; i++)
+            n += (size_t)snprintf(xml + n, sizeof xml - n,
+                                  "  <node id=\"u%d\" type=\"uniform\" value=\"%g\"/>\n", i,
+                                  i / (double)leaves);
+        for (int i = 0; i + 1 < leaves; i++)
+            n += (size_t)snprintf(xml + n, sizeof xml - n,
+                                  "  <node id=\"b%d\" type=\"blend\" mode=\"add\" "
+                                  "clamp=\"false\"><in name=\"foreground\" from=\"u%d\"/>"
+                                  "<in name=\"background\" from=\"%c%d\"/></node>\n",
+                                  i, i, i + 2 < leaves ? 'b' : 'u', i + 1);
+        snprintf(xml + n, sizeof xml - n, "  <output name=\"out\" from=\"b0\"/>\n</wetgraph>\n");
+        WgGraph *g = wgt_load(xml);
+        WgRequest *r = wg_request_new(g);
+        for (int threads = 1; threads <= 2; threads++) {
+            WgResult *fused = render(threads, true, r), *unfused = render(threads, false, r);
+            expect_same_outputs(fused, unfused);
+            assert_int_equal(fused_of(fused, "u0"), leaves == 8 ? 1 : 0);
+            assert_int_equal(fused_of(fused, "b0"), leaves == 8 ? 1 : 0);
+            wg_result_free(fused);
+            wg_result_free(unfused);
+        }
+        wg_request_free(r);
+        wg_graph_free(g);
+    }
+}
+
 /* ---- listing the groups ----------------------------------------------------------------- */
 
 static void test_stats_list_the_groups(void **state)
@@ -507,6 +542,7 @@ int main(void)
         cmocka_unit_test(test_the_cache_keeps_what_is_materialised),
         cmocka_unit_test(test_a_long_chain_peaks_lower_fused),
         cmocka_unit_test(test_a_budget_only_unfused_fits_renders_unfused),
+        cmocka_unit_test(test_wide_groups_are_not_fused),
         cmocka_unit_test(test_stats_list_the_groups),
         cmocka_unit_test(test_the_command_line_lists_and_draws_the_groups),
     };
