@@ -430,7 +430,8 @@ static void test_wide_groups_are_not_fused(void **state)
     (void)state;
     for (int leaves = 8; leaves <= 40; leaves += 32) {
         char xml[16384];
-        size_t n = (size_t)snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"2048x256\">\n");
+        size_t n =
+            (size_t)snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"2048x256\">\n");
         for (int i = 0; i < leaves; i++)
             n += (size_t)snprintf(xml + n, sizeof xml - n,
                                   "  <node id=\"u%d\" type=\"uniform\" value=\"%g\"/>\n", i,
