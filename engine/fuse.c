@@ -296,11 +296,13 @@ static void fail(Group *g, int rc, int member, const WgError *err)
 
 static WgImage band_view(const WgImage *whole, int y0, int rows)
 {
-    WgImage v = *whole;
-    v.data = whole->data + (size_t)y0 * whole->stride;
+    WgImage v = {0}; /* field by field: other threads may change whole's reference count */
+    v.width = whole->width;
     v.height = rows;
+    v.channels = whole->channels;
+    v.stride = whole->stride;
+    v.data = whole->data + (size_t)y0 * whole->stride;
     v.refcount_ = 1;
-    v.mapped_ = 0;
     return v;
 }
 
