@@ -38,8 +38,9 @@ static const char help[] =
     "  --threads N            worker threads (default: number of cores)\n"
     "  --cache DIR            persistent result cache: unchanged nodes are not recomputed\n"
     "  --memory-budget MB     image memory for the working set and the cache\n"
-    "  --stats[=json]         per-node time, cache outcome and size, and peak memory\n"
-    "                         (table on stderr, or JSON on stdout)\n"
+    "  --stats[=json]         per-node time, cache outcome and size, fused groups, and peak\n"
+    "                         memory (table on stderr, or JSON on stdout)\n"
+    "  --no-fuse              evaluate every node whole: no point operations fused into bands\n"
     "  -q, --quiet            print nothing but errors\n";
 
 static int mkdir_p(const char *path)
@@ -210,6 +211,8 @@ static int parse_args(int argc, char **argv, Options *o)
             o->stats = o->stats_json = true;
         } else if (!strncmp(a, "--stats=", 8)) {
             return cli_usage_error("render", "--stats takes no value or =json, not '%s'", a + 8);
+        } else if (!strcmp(a, "--no-fuse")) {
+            o->no_fuse = true;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             o->quiet = true;
         } else if (a[0] == '-' && a[1]) {
@@ -231,9 +234,40 @@ static int parse_args(int argc, char **argv, Options *o)
     return 0;
 }
 
+/* Fused groups, numbered 1..n in the stats; each group's members in plan order, its sink (the
+ * one node materialised) last. */
+typedef struct {
+    int first, last, count;
+    double ms;
+} Group;
+
+static Group *fused_groups(const WgResult *res, int *count)
+{
+    int n = wg_result_stat_count(res), most = 0;
+    for (int i = 0; i < n; i++)
+        if (wg_result_stat(res, i)->fused > most) most = wg_result_stat(res, i)->fused;
+    *count = most;
+    Group *g = calloc((size_t)most + 1, sizeof *g);
+    if (!g) {
+        *count = 0;
+        return NULL;
+    }
+    for (int i = 0; i < n; i++) {
+        const WgNodeStat *s = wg_result_stat(res, i);
+        Group *x = &g[s->fused];
+        if (!s->fused) continue;
+        if (!x->count) x->first = i;
+        x->last = i;
+        x->count++;
+        x->ms += s->ms;
+    }
+    return g;
+}
+
 void print_stats(const WgEngine *e, const WgResult *res, bool json)
 {
-    int n = wg_result_stat_count(res);
+    int n = wg_result_stat_count(res), n_groups;
+    Group *groups = fused_groups(res, &n_groups);
     WgMemoryStats m;
     wg_engine_memory_stats(e, &m);
     if (json) {
@@ -251,23 +285,43 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             printf(", \"type\": ");
             cli_json_string(stdout, s->type);
             printf(", \"ms\": %.3f, \"cache\": \"%s\", \"width\": %d, \"height\": %d, "
-                   "\"channels\": %d, \"bytes\": %zu}%s\n",
-                   s->ms, cache[s->cache], s->width, s->height, s->channels, s->bytes,
+                   "\"channels\": %d, \"bytes\": %zu, \"fused\": %d}%s\n",
+                   s->ms, cache[s->cache], s->width, s->height, s->channels, s->bytes, s->fused,
                    i + 1 < n ? "," : "");
         }
-        printf("  ]\n}\n");
+        printf("  ],\n  \"fused\": [");
+        for (int k = 1; k <= n_groups; k++) {
+            printf("%s\n    {\"group\": %d, \"nodes\": %d, \"ms\": %.3f, \"first\": ",
+                   k > 1 ? "," : "", k, groups[k].count, groups[k].ms);
+            cli_json_string(stdout, wg_result_stat(res, groups[k].first)->id);
+            printf(", \"sink\": ");
+            cli_json_string(stdout, wg_result_stat(res, groups[k].last)->id);
+            printf("}");
+        }
+        printf("\n  ]\n}\n");
+        free(groups);
         return;
     }
-    fprintf(stderr, "%-32s %-12s %10s  %-6s %11s %9s\n", "node", "type", "ms", "cache", "size",
-            "MiB");
+    fprintf(stderr, "%-32s %-12s %10s  %-6s %11s %9s  %s\n", "node", "type", "ms", "cache", "size",
+            "MiB", "fused");
     for (int i = 0; i < n; i++) {
         const WgNodeStat *s = wg_result_stat(res, i);
         static const char *const cache[] = {"miss", "memory", "disk"};
-        char size[32];
+        char size[32], group[16] = "";
         snprintf(size, sizeof size, "%dx%d%s", s->width, s->height, s->channels == 4 ? "c" : "g");
-        fprintf(stderr, "%-32s %-12s %10.2f  %-6s %11s %9.2f\n", s->id, s->type, s->ms,
-                cache[s->cache], size, s->bytes / 1048576.0);
+        if (s->fused) snprintf(group, sizeof group, "#%d", s->fused);
+        fprintf(stderr, "%-32s %-12s %10.2f  %-6s %11s %9.2f  %s\n", s->id, s->type, s->ms,
+                cache[s->cache], size, s->bytes / 1048576.0, group);
     }
+    for (int k = 1; k <= n_groups; k++) {
+        const char *sink = wg_result_stat(res, groups[k].last)->id;
+        fprintf(stderr,
+                "fused group #%d: %d point operations from '%s' to '%s', in bands, %.2f ms in "
+                "all; only '%s' is materialised\n",
+                k, groups[k].count, wg_result_stat(res, groups[k].first)->id, sink, groups[k].ms,
+                sink);
+    }
+    free(groups);
     fprintf(stderr, "%d of %d nodes computed, %.1f ms in all, peak image memory %.1f MiB\n",
             wg_result_evaluated_count(res), n, wg_result_total_ms(res),
             wg_result_peak_bytes(res) / 1048576.0);
@@ -424,7 +478,7 @@ int cmd_render(int argc, char **argv)
     /* one render: results kept in memory would never be read again, and freeing intermediates
      * lets the engine reuse their buffers. A frame sequence keeps them: the nodes that do not
      * depend on $time are taken from the memory cache for every frame after the first. */
-    WgEngineOptions eo = {o.threads, o.budget, o.cache, !o.has_frames};
+    WgEngineOptions eo = {o.threads, o.budget, o.cache, !o.has_frames, o.no_fuse};
     if (wg_engine_new(&eo, &e, &err)) goto fail;
     if (o.has_frames) {
         if (render_frames(&o, g, r, e, &err)) goto fail;

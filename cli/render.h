@@ -16,7 +16,7 @@ typedef struct {
     const char **sets, **inputs, **outputs;
     int n_sets, n_inputs, n_outputs;
     int width, height, threads, format;
-    bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json;
+    bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json, no_fuse;
     uint64_t seed;
     double time, fps;
     int frame_first, frame_last;

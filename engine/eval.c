@@ -18,6 +18,7 @@ struct WgEngine {
     WgMemPool *mem; /* freed image and scratch buffers, for reuse */
     size_t budget;
     bool memory_cache;
+    bool fuse;
 };
 
 typedef struct Run Run;
@@ -35,6 +36,13 @@ typedef struct Node {
     size_t need;      /* held while it runs: outputs, inputs converted for it, scratch */
     bool started, ahead;
     size_t ahead_bytes; /* what it adds to Run.ahead */
+    /* Fusion (fuse.c): a group runs as one job, its sink's. `fused` marks the other members,
+     * which are never scheduled on their own; a sink lists the members (plan order, itself
+     * last). */
+    bool fused;
+    int job; /* the node whose job evaluates this one: itself, or its group's sink */
+    int *members;
+    int n_members;
     WgNodeStat stat;
 } Node;
 
@@ -51,6 +59,7 @@ struct Run {
                    estimate assumes */
     int n_ready;
     int *dependents;   /* storage of every node's dependents list */
+    int *members;      /* storage of every fused group's members list */
     size_t live, peak; /* outputs held and needs of the running nodes */
     /* The memory guarantee. A sequential run in plan order needs at most seq_peak[i] from node i
      * on. Nodes started ahead of the frontier (the first node not yet started) hold `ahead`
@@ -63,6 +72,8 @@ struct Run {
     volatile int cancel;
     int rc;
     WgError err;
+    bool fuse;   /* fuse point operations (fuse.c) */
+    size_t need; /* the sequential peak the plan needs */
 };
 
 struct WgResult {
@@ -112,6 +123,7 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     if (!e) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     e->budget = opt->memory_budget ? opt->memory_budget : default_budget();
     e->memory_cache = !opt->no_memory_cache;
+    e->fuse = !opt->no_fuse;
     e->pool = wg__pool_new(threads);
     e->cache = wg__cache_new(opt->cache_dir);
     e->mem = wg__mempool_new(e->budget);
@@ -182,6 +194,20 @@ static bool disk_cacheable(const WgInst *in)
     return !(in->type->flags & WG_NODE_CHEAP) && !in->constant;
 }
 
+/* Names the failing node (and a file it read) in its error. */
+static void locate_error(const WgInst *in, WgError *err)
+{
+    if (err->file[0]) { /* a file the node read: name it in the message, locate the node */
+        char msg[sizeof err->message];
+        snprintf(msg, sizeof msg, "%s: %s", err->file, err->message);
+        memcpy(err->message, msg, sizeof msg);
+        err->file[0] = '\0';
+        err->line = err->column = 0;
+    }
+    wg_error_locate(err, in->file, in->line, in->id);
+    wg_error_locate_type(err, in->type->name);
+}
+
 static int eval_node(Run *run, Node *node, WgError *err)
 {
     WgInst *in = &run->plan->insts[node->index];
@@ -247,17 +273,36 @@ out:
     wg_free(inputs);
     wg_free(owned);
     wg_free(outputs);
-    if (rc && rc != WG_ERR_CANCELLED) {
-        if (err->file[0]) { /* a file the node read: name it in the message, locate the node */
-            char msg[sizeof err->message];
-            snprintf(msg, sizeof msg, "%s: %s", err->file, err->message);
-            memcpy(err->message, msg, sizeof msg);
-            err->file[0] = '\0';
-            err->line = err->column = 0;
-        }
-        wg_error_locate(err, in->file, in->line, in->id);
-        wg_error_locate_type(err, in->type->name);
+    if (rc && rc != WG_ERR_CANCELLED) locate_error(in, err);
+    return rc;
+}
+
+static const WgImage *group_source(void *user, int inst, int port)
+{
+    Run *run = user;
+    return run->nodes[inst].out[port];
+}
+
+/* A fused group (fuse.c), run as its sink's job. Leaves each member's own time, summed over
+ * threads, in its stat.ms (node_job turns them into shares of the group's time). */
+static int eval_group(Run *run, Node *node, WgError *err)
+{
+    WgInst *sink = &run->plan->insts[node->index];
+    double *ms = wg_calloc((size_t)node->n_members + 1, sizeof(double));
+    WgImage **outputs = wg_calloc((size_t)sink->n_out + 1, sizeof *outputs);
+    int failed = node->n_members - 1, rc;
+    if (!ms || !outputs) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    } else {
+        rc = wg__fuse_eval(run->plan, node->members, node->n_members, group_source, run,
+                           run->e->pool, &run->cancel, outputs, ms, &failed, err);
+        for (int k = 0; k < node->n_members; k++) run->nodes[node->members[k]].stat.ms = ms[k];
     }
+    if (rc == WG_OK)
+        for (int o = 0; o < sink->n_out; o++) node->out[o] = outputs[o];
+    wg_free(ms);
+    wg_free(outputs);
+    if (rc && rc != WG_ERR_CANCELLED) locate_error(&run->plan->insts[node->members[failed]], err);
     return rc;
 }
 
@@ -311,8 +356,23 @@ static void node_job(void *user)
     WgInst *in = &run->plan->insts[node->index];
     WgError err = {0};
     double t0 = wg__now_ms();
-    int rc = run->cancel ? WG_ERR_CANCELLED : eval_node(run, node, &err);
-    node->stat.ms = wg__now_ms() - t0;
+    int rc = run->cancel       ? WG_ERR_CANCELLED
+             : node->n_members ? eval_group(run, node, &err)
+                               : eval_node(run, node, &err);
+    double ms = wg__now_ms() - t0;
+    /* one job, many nodes: the group's members (or the node alone) */
+    int n_members = node->n_members ? node->n_members : 1;
+    const int *members = node->n_members ? node->members : &node->index;
+    if (node->n_members) { /* the group's time, shared as the members' own times were */
+        double sum = 0;
+        for (int k = 0; k < n_members; k++) sum += run->nodes[members[k]].stat.ms;
+        for (int k = 0; k < n_members; k++) {
+            WgNodeStat *st = &run->nodes[members[k]].stat;
+            st->ms = sum > 0 ? ms * (st->ms / sum) : ms / n_members;
+        }
+    } else {
+        node->stat.ms = ms;
+    }
     if (!rc) {
         for (int o = 0; o < in->n_out; o++) {
             if (run->e->memory_cache) wg__cache_put(run->e->cache, in->key, o, node->out[o]);
@@ -322,7 +382,7 @@ static void node_job(void *user)
     }
     pthread_mutex_lock(&run->mu);
     run->running--;
-    run->completed++;
+    run->completed += n_members;
     node->done = true;
     if (rc) {
         if (run->rc == WG_OK && rc != WG_ERR_CANCELLED) {
@@ -337,10 +397,13 @@ static void node_job(void *user)
             run->ahead -= node->ahead_bytes - node->out_bytes;
             node->ahead_bytes = node->out_bytes;
         }
-        for (int i = 0; i < in->n_in; i++) {
-            int src = in->in[i].inst;
-            if (src < 0) continue;
-            if (--run->nodes[src].consumers == 0) release(run, src);
+        for (int m = 0; m < n_members; m++) {
+            const WgInst *mi = &run->plan->insts[members[m]];
+            for (int i = 0; i < mi->n_in; i++) {
+                int src = mi->in[i].inst;
+                if (src < 0) continue;
+                if (--run->nodes[src].consumers == 0) release(run, src);
+            }
         }
         for (int k = 0; k < node->n_dependents; k++) {
             Node *d = &run->nodes[node->dependents[k]];
@@ -438,6 +501,76 @@ static bool lookup_cache(Run *run, int i)
     return false;
 }
 
+/* Which evaluations run fused (fuse.c): each group's members, numbers and jobs. */
+static int plan_fusion(Run *run, WgError *err)
+{
+    WgPlan *p = run->plan;
+    int n = p->n_insts, rc = WG_OK;
+    for (int i = 0; i < n; i++) run->nodes[i].job = i;
+    if (!run->fuse) return WG_OK;
+    bool *flags = wg_calloc(2 * (size_t)n + 1, sizeof(bool));
+    int *sink = wg_calloc((size_t)n + 1, sizeof(int));
+    int groups = -1;
+    if (flags && sink) {
+        for (int i = 0; i < n; i++) {
+            flags[i] = run->nodes[i].evaluate;
+            flags[n + i] = run->nodes[i].requested;
+        }
+        groups = wg__fuse_find(p, flags, flags + n, sink);
+    }
+    size_t total = 0;
+    for (int i = 0; i < n && groups > 0; i++)
+        if (sink[i] >= 0) {
+            run->nodes[sink[i]].n_members++;
+            total++;
+        }
+    if (groups > 0 && !(run->members = wg_calloc(total + 1, sizeof(int)))) groups = -1;
+    if (groups < 0) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    } else if (groups > 0) {
+        size_t at = 0;
+        int number = 0;
+        for (int i = 0; i < n; i++) {
+            Node *s = &run->nodes[i];
+            if (sink[i] != i) continue;
+            s->members = run->members + at;
+            at += (size_t)s->n_members;
+            s->n_members = 0;
+            s->stat.fused = ++number;
+        }
+        for (int i = 0; i < n; i++) { /* in plan order: the sink comes last */
+            if (sink[i] < 0) continue;
+            Node *m = &run->nodes[i], *s = &run->nodes[sink[i]];
+            s->members[s->n_members++] = i;
+            m->stat.fused = s->stat.fused;
+            m->job = sink[i];
+            if (i != sink[i]) {
+                m->fused = true;
+                m->out_bytes = 0; /* never materialised */
+            }
+        }
+    }
+    wg_free(flags);
+    wg_free(sink);
+    return rc;
+}
+
+/* What a job holds while it runs, beside its inputs: a node's need, or for a fused group its
+ * members' needs without the intermediates' images (the band buffers are fixed overhead, like
+ * other per-band rows: their size does not grow with the image, docs/engine.md). */
+static size_t job_need(Run *run, int i)
+{
+    const WgPlan *p = run->plan;
+    Node *n = &run->nodes[i];
+    if (!n->n_members) return inst_need(p, &p->insts[i]);
+    size_t need = 0;
+    for (int k = 0; k < n->n_members; k++) {
+        const WgInst *m = &p->insts[n->members[k]];
+        need += inst_need(p, m) - (k < n->n_members - 1 ? inst_bytes(m) : 0);
+    }
+    return need;
+}
+
 static int plan_work(Run *run, WgError *err)
 {
     WgPlan *p = run->plan;
@@ -456,6 +589,8 @@ static int plan_work(Run *run, WgError *err)
         for (int k = 0; k < in->n_in; k++)
             if (in->in[k].inst >= 0) run->nodes[in->in[k].inst].needed = true;
     }
+    int rc = plan_fusion(run, err);
+    if (rc) return rc;
     /* dependents lists: counted, then laid out in one array and filled */
     size_t n_edges = 0;
     for (int i = 0; i < p->n_insts; i++) {
@@ -466,8 +601,8 @@ static int plan_work(Run *run, WgError *err)
             int s = in->in[k].inst;
             if (s < 0) continue;
             run->nodes[s].consumers++;
-            if (run->nodes[s].evaluate) {
-                n->pending++;
+            if (run->nodes[s].evaluate && !run->nodes[s].fused) { /* else within n's group */
+                run->nodes[n->job].pending++;
                 run->nodes[s].n_dependents++;
                 n_edges++;
             }
@@ -486,8 +621,8 @@ static int plan_work(Run *run, WgError *err)
         if (!run->nodes[i].evaluate) continue;
         for (int k = 0; k < in->n_in; k++) {
             int s = in->in[k].inst;
-            if (s >= 0 && run->nodes[s].evaluate)
-                run->nodes[s].dependents[run->nodes[s].n_dependents++] = i;
+            if (s >= 0 && run->nodes[s].evaluate && !run->nodes[s].fused)
+                run->nodes[s].dependents[run->nodes[s].n_dependents++] = run->nodes[i].job;
         }
     }
     /* Peak memory of a sequential run in plan order: what node i holds while it runs plus the
@@ -505,9 +640,9 @@ static int plan_work(Run *run, WgError *err)
     peak = live;
     for (int i = 0; i < p->n_insts; i++) {
         Node *n = &run->nodes[i];
-        if (!n->evaluate) continue;
+        if (!n->evaluate || n->fused) continue; /* a group runs at its sink's place */
         WgInst *in = &p->insts[i];
-        n->need = inst_need(p, in);
+        n->need = job_need(run, i);
         size_t own = n->need; /* its inputs too */
         for (int k = 0; k < in->n_in; k++) {
             int s = in->in[k].inst;
@@ -523,23 +658,27 @@ static int plan_work(Run *run, WgError *err)
         run->seq_peak[i] = live + n->need;
         if (live + n->need > peak) peak = live + n->need;
         live += n->out_bytes;
-        for (int k = 0; k < in->n_in; k++) {
-            int s = in->in[k].inst;
-            if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
-                live -= run->nodes[s].out_bytes;
+        for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
+            const WgInst *mi = &p->insts[n->n_members ? n->members[m] : i];
+            for (int k = 0; k < mi->n_in; k++) {
+                int s = mi->in[k].inst;
+                if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
+                    live -= run->nodes[s].out_bytes;
+            }
         }
         if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
     }
     wg_free(left);
     for (int i = p->n_insts - 1, after = -1; i >= 0; i--) { /* from node i on */
         size_t later = after >= 0 ? run->seq_peak[after] : 0;
-        if (!run->nodes[i].evaluate) {
+        if (!run->nodes[i].evaluate || run->nodes[i].fused) {
             run->seq_peak[i] = later;
             continue;
         }
         if (later > run->seq_peak[i]) run->seq_peak[i] = later;
         after = i;
     }
+    run->need = peak;
     if (peak > run->e->budget) {
         char detail[1024] = "";
         if (biggest >= 0) {
@@ -624,7 +763,8 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     return WG_OK;
 }
 
-int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
+static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, size_t *need,
+                  WgError *err)
 {
     double t0 = wg__now_ms();
     *out = NULL;
@@ -635,7 +775,7 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
         wg_free(plan);
         return rc;
     }
-    Run run = {.e = e, .r = req, .plan = plan};
+    Run run = {.e = e, .r = req, .plan = plan, .fuse = fuse};
     pthread_mutex_init(&run.mu, NULL);
     pthread_cond_init(&run.cv, NULL);
     run.nodes = wg_calloc((size_t)plan->n_insts + 1, sizeof(Node));
@@ -659,14 +799,16 @@ int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
         if (run.nodes[i].needed && !run.nodes[i].evaluate) run.live += run.nodes[i].out_bytes;
     run.peak = run.live;
     for (int i = 0; i < plan->n_insts; i++)
-        if (run.nodes[i].evaluate && run.nodes[i].pending == 0) ready_push(&run, i);
+        if (run.nodes[i].evaluate && !run.nodes[i].fused && run.nodes[i].pending == 0)
+            ready_push(&run, i);
 
     int reported = 0;
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total) {
         while (!run.cancel && run.n_ready > 0) {
             while (run.frontier < plan->n_insts &&
-                   (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started)) {
+                   (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started ||
+                    run.nodes[run.frontier].fused)) {
                 Node *f = &run.nodes[run.frontier++];
                 if (f->ahead) { /* now in plan order: covered by seq_peak */
                     run.ahead -= f->ahead_bytes;
@@ -740,11 +882,28 @@ done:
     wg_free(run.nodes);
     wg_free(run.ready);
     wg_free(run.dependents);
+    wg_free(run.members);
     wg_free(run.seq_peak);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
+    *need = run.need;
     wg__plan_free(plan);
     wg_free(plan);
+    return rc;
+}
+
+int wg_render(WgEngine *e, const WgRequest *req, WgResult **out, WgError *err)
+{
+    size_t need = 0, unfused = 0;
+    int rc = render(e, req, e->fuse, out, &need, err);
+    /* A group keeps its inputs until its sink has run: where a chain's ends are larger than
+     * its middle, fused needs more than unfused. Nothing has run yet when the plan is refused:
+     * try again unfused, which may fit; if neither fits, report the smaller need. */
+    if (rc == WG_ERR_BUDGET && e->fuse) {
+        WgError fused = err ? *err : (WgError){0};
+        rc = render(e, req, false, out, &unfused, err);
+        if (rc == WG_ERR_BUDGET && err && need < unfused) *err = fused;
+    }
     return rc;
 }
 

@@ -174,6 +174,12 @@ static void dot_string(FILE *f, const char *s)
 
 int wg_graph_write_dot(const WgGraph *g, FILE *f)
 {
+    wg__graph_write_dot(g, NULL, f);
+    return ferror(f) ? WG_ERR_IO : WG_OK;
+}
+
+void wg__graph_write_dot(const WgGraph *g, const int *cluster, FILE *f)
+{
     fprintf(f, "digraph ");
     dot_string(f, g->name);
     fprintf(f, " {\n  rankdir=LR;\n  node [fontname=\"Helvetica\", fontsize=10];\n");
@@ -212,6 +218,30 @@ int wg_graph_write_dot(const WgGraph *g, FILE *f)
             fprintf(f, "  \"$%s\" -> \"out:%s\";\n", g->inputs[g->output_input[i]].info.name,
                     g->outputs[i].name);
     }
+    /* clusters by number, their nodes listed in file order: a counting sort */
+    int most = 0;
+    for (int i = 0; cluster && i < g->n_nodes; i++)
+        if (cluster[i] > most) most = cluster[i];
+    int *first = most ? wg_calloc((size_t)most + 2, sizeof(int)) : NULL;
+    int *order = most ? wg_calloc((size_t)g->n_nodes + 1, sizeof(int)) : NULL;
+    if (first && order) {
+        for (int i = 0; i < g->n_nodes; i++) first[cluster[i] + 1] += cluster[i] > 0;
+        for (int c = 1; c <= most; c++) first[c + 1] += first[c];
+        for (int i = 0; i < g->n_nodes; i++)
+            if (cluster[i] > 0) order[first[cluster[i]]++] = i;
+        for (int c = 1, at = 0; c <= most; c++) {
+            if (at == first[c]) continue;
+            fprintf(f,
+                    "  subgraph cluster_fused_%d {\n    label=\"fused #%d\";\n    style=\"dashed,"
+                    "rounded\";\n    color=\"#4070a0\";\n",
+                    c, c);
+            for (; at < first[c]; at++) fprintf(f, "    \"n:%s\";\n", g->nodes[order[at]].id);
+            fprintf(f, "  }\n");
+        }
+    } else if (most) {
+        fprintf(f, "  /* out of memory: fused groups not drawn */\n");
+    }
+    wg_free(first);
+    wg_free(order);
     fprintf(f, "}\n");
-    return ferror(f) ? WG_ERR_IO : WG_OK;
 }

@@ -14,6 +14,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -32,6 +33,8 @@ typedef struct WgEngineOptions {
     bool no_memory_cache;  /* keep no results in memory between renders (for a process that
                               renders once): every intermediate's buffer is then reused as soon
                               as its last consumer has run */
+    bool no_fuse;          /* evaluate every node whole, also runs of point operations that are
+                              otherwise fused into bands (docs/engine.md) */
 } WgEngineOptions;
 
 /* The caller owns the engine. NULL options means defaults. */
@@ -73,6 +76,9 @@ void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user);
 
 /* Resolve everything (sizes, parameters, types, files) without evaluating. */
 int wg_request_check(const WgRequest *r, WgError *err);
+/* Graphviz description of the request's graph (as wg_graph_write_dot) with a cluster around
+ * each group of its nodes that a render of the request with nothing cached evaluates fused. */
+int wg_request_write_dot(const WgRequest *r, FILE *f, WgError *err);
 
 /* Evaluate. On success the caller owns *out. */
 int wg_render(WgEngine *e, const WgRequest *r, WgResult **out, WgError *err);
@@ -82,10 +88,12 @@ typedef enum { WG_COMPUTED = 0, WG_HIT_MEMORY = 1, WG_HIT_DISK = 2 } WgCacheOutc
 typedef struct WgNodeStat {
     const char *id;
     const char *type;
-    double ms; /* evaluation time (0 for cache hits) */
+    double ms; /* evaluation time (0 for cache hits); in a fused group, the node's share of the
+                  group's time */
     WgCacheOutcome cache;
     int width, height, channels; /* first output */
-    size_t bytes;                /* all outputs */
+    size_t bytes;                /* all outputs (0 for a fused intermediate: never materialised) */
+    int fused;                   /* 0, or the number (1, 2, ...) of the fused group it ran in */
 } WgNodeStat;
 
 int wg_result_output_count(const WgResult *r);

@@ -24,7 +24,12 @@
  *    take it with wg_scratch_alloc or wg_scratch_image (reused from the engine's buffer pool)
  *    and say how much in `scratch_bytes`, so the memory budget holds.
  * 8. Add the node to tests/nodes/: exact small cases, a float64 reference for fast paths,
- *    tiling, thread-count invariance, hard cases. */
+ *    tiling, thread-count invariance, hard cases.
+ * 9. A WG_NODE_POINT node may be evaluated a band of rows at a time, fused with the point
+ *    operations around it (docs/engine.md): its inputs and outputs are then views of the band
+ *    (data at the band's first row, height the band's) and ctx->height is the band's height.
+ *    Address pixels only through wg_image_row() and the images' sizes, and never depend on a
+ *    pixel's absolute row: a node that does is not a point operation. */
 #ifndef WETGRAPH_NODE_H
 #define WETGRAPH_NODE_H
 
@@ -124,7 +129,8 @@ typedef struct WgPortSpec {
     }
 
 enum {
-    WG_NODE_POINT = 1 << 0,          /* each pixel depends only on the same pixel of the inputs */
+    WG_NODE_POINT = 1 << 0,          /* each pixel depends only on the same pixel of the inputs
+                                        (and may be evaluated on bands of rows, see 9 above) */
     WG_NODE_NEIGHBOURHOOD = 1 << 1,  /* reads a window around each pixel */
     WG_NODE_GLOBAL = 1 << 2,         /* needs the whole image (statistics, transforms) */
     WG_NODE_SOURCE = 1 << 3,         /* no image inputs */

@@ -1,0 +1,539 @@
+/* SPDX-License-Identifier: MIT */
+/* Fused point operations. A run of point operations (WG_NODE_POINT: each output pixel depends
+ * only on the same pixel of the inputs) whose intermediate results have exactly one consumer,
+ * which is itself such a node, and which no output requests, is evaluated as one group, band
+ * by band: every member computes a band of rows (about FUSE_BAND_BYTES per image, so that the
+ * band stays in the L2 cache while the next member reads it) before the next band starts. The
+ * intermediates then exist only as per-thread band buffers, never as whole images: fewer
+ * allocations, less memory traffic, lower peak memory. Only the group's last node (its sink)
+ * is materialised, and it is cached like any node; intermediates are not (there is nothing to
+ * cache). Since every intermediate has a single consumer node inside the group, the members
+ * form an in-tree rooted at the sink, so the group as a whole depends on nothing it feeds.
+ *
+ * A member is evaluated by handing its eval a context whose images are views of the band: the
+ * data pointer of each input and output starts at the band's first row and the height is the
+ * band's. ctx->height is the band's height too; nodes see no absolute row. Point nodes only
+ * address pixels through wg_image_row and the sizes, so this is exact: results are
+ * bit-identical to unfused evaluation, and the bands do not depend on the thread count. Bands
+ * run in parallel on the worker pool; a member's own wg_parallel_rows runs inline then. */
+#include "internal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+/* Bytes of one image's band: small enough that the buffers a band passes through stay in L2. */
+#define FUSE_BAND_BYTES ((size_t)256 << 10)
+/* The most band buffers of one group hold, per thread. A group is a tree; evaluated in plan
+ * order, a wide one can hold many intermediates at once (a balanced tree of blends, one per
+ * level): beyond this, its nodes run alone. */
+#define FUSE_MAX_SCRATCH ((size_t)4 << 20)
+
+/* Node kinds that cannot work on a band even if they claim to be point operations. */
+enum {
+    NOT_BANDED = WG_NODE_NEIGHBOURHOOD | WG_NODE_GLOBAL | WG_NODE_SEEDED | WG_NODE_TIMED |
+                 WG_NODE_SCOPED | WG_NODE_DYNAMIC_INPUTS | WG_NODE_EXTRA_PARAMS,
+};
+
+bool wg__fuse_capable(const WgInst *in)
+{
+    const WgNodeType *t = in->type;
+    return !in->constant && (t->flags & WG_NODE_POINT) && !(t->flags & NOT_BANDED) &&
+           !t->scratch_bytes;
+}
+
+/* Channels input k of `in` is evaluated with: colour ports promote gray sources. */
+static int input_want(const WgInst *in, int k, int source_channels)
+{
+    const WgPortSpec *ports = in->type->inputs;
+    for (int i = 0; ports && ports[i].name; i++)
+        if (i == k) return ports[i].kind == WG_COLOR ? 4 : source_channels;
+    return source_channels;
+}
+
+/* Whether input k of `in` reads its source as it is (no resampling, no promotion). */
+static bool direct_input(const WgPlan *p, const WgInst *in, int k)
+{
+    const WgInst *src = &p->insts[in->in[k].inst];
+    int sc = src->out_channels[in->in[k].port];
+    return src->width == in->width && src->height == in->height && input_want(in, k, sc) == sc;
+}
+
+static int limit_scratch(const WgPlan *p, int *sink, int *groups);
+
+int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink)
+{
+    int n = p->n_insts, groups = 0;
+    /* the one node reading node i through direct inputs only; -1 none yet, -2 anything else */
+    int *consumer = wg_calloc((size_t)n + 1, sizeof(int));
+    if (!consumer) return WG_ERR_NOMEM;
+    for (int i = 0; i < n; i++) consumer[i] = -1;
+    for (int j = 0; j < n; j++) {
+        if (!run[j]) continue;
+        const WgInst *in = &p->insts[j];
+        bool capable = wg__fuse_capable(in);
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            if (s < 0) continue;
+            int c = consumer[s];
+            consumer[s] = (c == -1 || c == j) && capable && direct_input(p, in, k) ? j : -2;
+        }
+    }
+    for (int i = n - 1; i >= 0; i--) sink[i] = -1;
+    /* consumers come after their inputs in the plan: a consumer's group is known first */
+    int rc = WG_OK;
+    for (int i = n - 1; i >= 0; i--) {
+        int j = consumer[i];
+        if (!run[i] || requested[i] || j <= i || !wg__fuse_capable(&p->insts[i])) continue;
+        if (sink[j] < 0) {
+            sink[j] = j;
+            groups++;
+        }
+        sink[i] = sink[j];
+    }
+    wg_free(consumer);
+    if (groups > 0 && (rc = limit_scratch(p, sink, &groups))) return rc;
+    return groups;
+}
+
+/* ---- band buffers ------------------------------------------------------------------------ */
+
+static size_t stride_for(int width, int channels)
+{
+    return ((size_t)width * (size_t)channels + 15) & ~(size_t)15; /* as wg_image_new */
+}
+
+/* Channels of the widest image a member reads or writes. */
+static int group_channels(const WgPlan *p, const int *members, int n)
+{
+    for (int m = 0; m < n; m++) {
+        const WgInst *in = &p->insts[members[m]];
+        for (int o = 0; o < in->n_out; o++)
+            if (in->out_channels[o] == 4) return 4;
+        for (int k = 0; k < in->n_in; k++) {
+            if (in->in[k].inst < 0) continue;
+            int sc = p->insts[in->in[k].inst].out_channels[in->in[k].port];
+            if (input_want(in, k, sc) == 4) return 4;
+        }
+    }
+    return 1;
+}
+
+static int band_rows_for(const WgPlan *p, const int *members, int n)
+{
+    const WgInst *sink = &p->insts[members[n - 1]];
+    size_t row = stride_for(sink->width, group_channels(p, members, n)) * sizeof(float);
+    size_t rows = FUSE_BAND_BYTES / row;
+    /* eight bands or more to share between threads, unless that makes bands of less than
+     * 32 KiB: on small images each band's overhead (every member's call) would dominate */
+    size_t eighth = ((size_t)sink->height + 7) / 8, small = ((size_t)32 << 10) / row;
+    size_t most = eighth > small ? eighth : small;
+    if (rows > most) rows = most;
+    if (rows > (size_t)sink->height) rows = (size_t)sink->height;
+    return rows < 1 ? 1 : (int)rows;
+}
+
+/* The position of plan index `inst` among the members (sorted), or -1. */
+static int member_of(const int *members, int n, int inst)
+{
+    int lo = 0, hi = n - 1;
+    while (lo <= hi) {
+        int mid = (lo + hi) / 2;
+        if (members[mid] == inst) return mid;
+        if (members[mid] < inst)
+            lo = mid + 1;
+        else
+            hi = mid - 1;
+    }
+    return -1;
+}
+
+/* The band buffer of each internal member's output port, reused once its consumer has run
+ * (a chain needs two). slot[first_out[m] + o]; returns the number of buffers, or -1. */
+static int assign_slots(const WgPlan *p, const int *members, int n, int *first_out, int *slot)
+{
+    int n_ports = 0;
+    for (int m = 0; m < n; m++) {
+        first_out[m] = n_ports;
+        n_ports += p->insts[members[m]].n_out;
+    }
+    first_out[n] = n_ports;
+    int *free_slots = wg_calloc((size_t)n_ports + 1, sizeof(int));
+    if (!free_slots) return -1;
+    int n_free = 0, n_slots = 0;
+    for (int m = 0; m < n; m++) {
+        const WgInst *in = &p->insts[members[m]];
+        for (int o = 0; o < in->n_out; o++)
+            slot[first_out[m] + o] = m == n - 1 ? -1 : n_free ? free_slots[--n_free] : n_slots++;
+        /* inputs made by members are read only here (one consumer each): free their buffers,
+         * after this member's outputs took theirs, so no member writes what it reads */
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst < 0 ? -1 : member_of(members, n, in->in[k].inst);
+            if (s < 0) continue;
+            bool seen = false;
+            for (int q = 0; q < k && !seen; q++) seen = in->in[q].inst == in->in[k].inst;
+            if (seen) continue;
+            for (int o = 0; o < p->insts[members[s]].n_out; o++)
+                free_slots[n_free++] = slot[first_out[s] + o];
+        }
+    }
+    wg_free(free_slots);
+    return n_slots;
+}
+
+/* Ungroups the groups whose band buffers would exceed FUSE_MAX_SCRATCH. */
+static int limit_scratch(const WgPlan *p, int *sink, int *groups)
+{
+    int n = p->n_insts, rc = WG_OK;
+    int *start = wg_calloc((size_t)n + 2, sizeof(int)), *members = NULL, *first_out = NULL,
+        *slot = NULL;
+    size_t ports = 0;
+    for (int i = 0; i < n; i++) ports += (size_t)p->insts[i].n_out;
+    if (!start || !(members = wg_calloc((size_t)n + 1, sizeof(int))) ||
+        !(first_out = wg_calloc((size_t)n + 1, sizeof(int))) ||
+        !(slot = wg_calloc(ports + 1, sizeof(int)))) {
+        rc = WG_ERR_NOMEM;
+        goto out;
+    }
+    /* members of each sink, in plan order: a counting sort */
+    for (int i = 0; i < n; i++)
+        if (sink[i] >= 0) start[sink[i] + 1]++;
+    for (int i = 0; i < n; i++) start[i + 1] += start[i];
+    for (int i = 0; i < n; i++)
+        if (sink[i] >= 0) members[start[sink[i]]++] = i;
+    for (int s = 0, at = 0; s < n; s++) { /* start[s] is now the end of group s */
+        int count = start[s] - at, *m = members + at;
+        at = start[s];
+        if (count == 0 || sink[s] != s) continue;
+        int slots = assign_slots(p, m, count, first_out, slot);
+        if (slots < 0) {
+            rc = WG_ERR_NOMEM;
+            goto out;
+        }
+        size_t band = (size_t)band_rows_for(p, m, count) *
+                      stride_for(p->insts[s].width, group_channels(p, m, count)) * sizeof(float);
+        if ((size_t)slots * band <= FUSE_MAX_SCRATCH) continue;
+        for (int k = 0; k < count; k++) sink[m[k]] = -1;
+        --*groups;
+    }
+out:
+    wg_free(start);
+    wg_free(members);
+    wg_free(first_out);
+    wg_free(slot);
+    return rc;
+}
+
+/* ---- evaluation -------------------------------------------------------------------------- */
+
+/* What one thread holds while it runs bands: the band buffers, views and time sums. */
+typedef struct Scratch {
+    float *buffers;
+    WgImage *views; /* max_in + max_out */
+    const WgImage **in_ptrs;
+    WgImage **out_ptrs;
+    double *ms; /* per member */
+    struct Scratch *next;
+} Scratch;
+
+typedef struct Group {
+    const WgPlan *p;
+    const int *members;
+    int n;
+    const WgImage **ext; /* per input of each member (first_in): a whole image, or NULL */
+    int *from;           /* per input: the member making it, or -1 */
+    int *first_in, *first_out, *slot;
+    int n_slots, max_in, max_out;
+    size_t slot_floats;
+    int band_rows, n_bands, width, height;
+    WgImage **out; /* the sink's outputs */
+    volatile int *cancel;
+    volatile int stop;
+    pthread_mutex_t mu;
+    Scratch *spare;
+    double *ms;
+    int rc, failed;
+    WgError err;
+} Group;
+
+static void scratch_free(Scratch *s)
+{
+    if (!s) return;
+    wg_free(s->buffers);
+    wg_free(s->views);
+    wg_free(s->in_ptrs);
+    wg_free(s->out_ptrs);
+    wg_free(s->ms);
+    wg_free(s);
+}
+
+static Scratch *scratch_new(const Group *g)
+{
+    Scratch *s = wg_calloc(1, sizeof *s);
+    if (!s) return NULL;
+    s->buffers = wg_malloc(((size_t)g->n_slots * g->slot_floats + 1) * sizeof(float));
+    s->views = wg_calloc((size_t)(g->max_in + g->max_out) + 1, sizeof(WgImage));
+    s->in_ptrs = wg_calloc((size_t)g->max_in + 1, sizeof(WgImage *));
+    s->out_ptrs = wg_calloc((size_t)g->max_out + 1, sizeof(WgImage *));
+    s->ms = wg_calloc((size_t)g->n + 1, sizeof(double));
+    if (!s->buffers || !s->views || !s->in_ptrs || !s->out_ptrs || !s->ms) {
+        scratch_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+static void fail(Group *g, int rc, int member, const WgError *err)
+{
+    pthread_mutex_lock(&g->mu);
+    if (g->rc == WG_OK || (g->rc == WG_ERR_CANCELLED && rc != WG_ERR_CANCELLED)) {
+        g->rc = rc;
+        g->failed = member;
+        if (err) g->err = *err;
+    }
+    g->stop = 1;
+    pthread_mutex_unlock(&g->mu);
+}
+
+static WgImage band_view(const WgImage *whole, int y0, int rows)
+{
+    WgImage v = {0}; /* field by field: other threads may change whole's reference count */
+    v.width = whole->width;
+    v.height = rows;
+    v.channels = whole->channels;
+    v.stride = whole->stride;
+    v.data = whole->data + (size_t)y0 * whole->stride;
+    v.refcount_ = 1;
+    return v;
+}
+
+static WgImage slot_view(const Group *g, const Scratch *s, int slot, int channels, int rows)
+{
+    WgImage v = {0};
+    v.width = g->width;
+    v.height = rows;
+    v.channels = channels;
+    v.stride = stride_for(g->width, channels);
+    v.data = s->buffers + (size_t)slot * g->slot_floats;
+    v.refcount_ = 1;
+    return v;
+}
+
+static int run_band(Group *g, Scratch *s, int y0, int rows)
+{
+    for (int m = 0; m < g->n; m++) {
+        if (*g->cancel || g->stop) return WG_ERR_CANCELLED;
+        const WgInst *in = &g->p->insts[g->members[m]];
+        int nv = 0;
+        for (int k = 0; k < in->n_in; k++) {
+            int at = g->first_in[m] + k, f = g->from[at];
+            s->in_ptrs[k] = NULL;
+            if (f >= 0) {
+                int port = in->in[k].port;
+                int c = g->p->insts[g->members[f]].out_channels[port];
+                s->views[nv] = slot_view(g, s, g->slot[g->first_out[f] + port], c, rows);
+                s->in_ptrs[k] = &s->views[nv++];
+            } else if (g->ext[at]) {
+                s->views[nv] = band_view(g->ext[at], y0, rows);
+                s->in_ptrs[k] = &s->views[nv++];
+            }
+        }
+        for (int o = 0; o < in->n_out; o++) {
+            if (m == g->n - 1)
+                s->views[nv] = band_view(g->out[o], y0, rows);
+            else
+                s->views[nv] =
+                    slot_view(g, s, g->slot[g->first_out[m] + o], in->out_channels[o], rows);
+            s->out_ptrs[o] = &s->views[nv++];
+        }
+        WgNodeContext ctx = wg__inst_context(in);
+        ctx.height = rows;
+        ctx.inputs = s->in_ptrs;
+        ctx.outputs = s->out_ptrs;
+        ctx.pool_ = NULL; /* the bands are what runs in parallel */
+        ctx.cancel_ = g->cancel;
+        WgError err = {0};
+        double t0 = wg__now_ms();
+        int rc = in->type->eval(&ctx, &err);
+        s->ms[m] += wg__now_ms() - t0;
+        if (!rc && *g->cancel) rc = WG_ERR_CANCELLED;
+        if (rc) {
+            fail(g, rc, m, &err);
+            return rc;
+        }
+    }
+    return WG_OK;
+}
+
+/* Bands [b0, b1): one chunk of the pool's row batch, run by one thread. */
+static void run_bands(void *user, int b0, int b1)
+{
+    Group *g = user;
+    pthread_mutex_lock(&g->mu);
+    Scratch *s = g->spare;
+    if (s) g->spare = s->next;
+    pthread_mutex_unlock(&g->mu);
+    if (!s && !(s = scratch_new(g))) {
+        WgError err = {0};
+        wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory for the band buffers");
+        fail(g, WG_ERR_NOMEM, g->n - 1, &err);
+        return;
+    }
+    for (int b = b0; b < b1; b++) {
+        int y0 = b * g->band_rows;
+        int rows = g->height - y0 < g->band_rows ? g->height - y0 : g->band_rows;
+        if (run_band(g, s, y0, rows)) break;
+    }
+    pthread_mutex_lock(&g->mu);
+    s->next = g->spare;
+    g->spare = s;
+    pthread_mutex_unlock(&g->mu);
+}
+
+int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgFuseSourceFn source, void *user,
+                  WgPool *pool, volatile int *cancel, WgImage **out, double *ms, int *failed,
+                  WgError *err)
+{
+    const WgInst *sink = &p->insts[members[n - 1]];
+    Group g = {.p = p, .members = members, .n = n, .cancel = cancel, .ms = ms};
+    g.width = sink->width;
+    g.height = sink->height;
+    *failed = n - 1;
+    int n_in = 0, n_out = 0, rc = WG_OK;
+    for (int m = 0; m < n; m++) {
+        const WgInst *in = &p->insts[members[m]];
+        n_in += in->n_in;
+        n_out += in->n_out;
+        if (in->n_in > g.max_in) g.max_in = in->n_in;
+        if (in->n_out > g.max_out) g.max_out = in->n_out;
+        ms[m] = 0;
+    }
+    g.ext = wg_calloc((size_t)n_in + 1, sizeof *g.ext);
+    const WgImage **owned = wg_calloc((size_t)n_in + 1, sizeof *owned);
+    g.from = wg_calloc((size_t)n_in + 1, sizeof(int));
+    g.first_in = wg_calloc((size_t)n + 1, sizeof(int));
+    g.first_out = wg_calloc((size_t)n + 1, sizeof(int));
+    g.slot = wg_calloc((size_t)n_out + 1, sizeof(int));
+    g.out = out;
+    if (!g.ext || !owned || !g.from || !g.first_in || !g.first_out || !g.slot ||
+        (g.n_slots = assign_slots(p, members, n, g.first_out, g.slot)) < 0) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto out;
+    }
+    g.band_rows = band_rows_for(p, members, n);
+    g.n_bands = (g.height + g.band_rows - 1) / g.band_rows;
+    g.slot_floats = (size_t)g.band_rows * stride_for(g.width, group_channels(p, members, n));
+    /* inputs from outside the group: whole images, converted here when the node needs it */
+    for (int m = 0, at = 0; m < n; m++) {
+        WgInst *in = &p->insts[members[m]];
+        g.first_in[m] = at;
+        for (int k = 0; k < in->n_in; k++, at++) {
+            g.from[at] = in->in[k].inst < 0 ? -1 : member_of(members, n, in->in[k].inst);
+            if (in->in[k].inst < 0 || g.from[at] >= 0) continue;
+            const WgImage *src = source(user, in->in[k].inst, in->in[k].port);
+            int want = input_want(in, k, src->channels);
+            if (src->width != in->width || src->height != in->height || src->channels != want) {
+                owned[at] = wg_image_convert(src, in->width, in->height, want);
+                if (!owned[at]) {
+                    *failed = m;
+                    rc = wg_error_set(err, WG_ERR_NOMEM, NULL,
+                                      "out of memory converting input '%s'", in->in_names[k]);
+                    goto out;
+                }
+                in->in_channels[k] = want;
+                src = owned[at];
+            }
+            g.ext[at] = src;
+        }
+    }
+    for (int o = 0; o < sink->n_out; o++) {
+        out[o] = wg_image_new(sink->width, sink->height, sink->out_channels[o]);
+        if (!out[o]) {
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image",
+                              sink->width, sink->height);
+            goto out;
+        }
+    }
+    pthread_mutex_init(&g.mu, NULL);
+    int prc = wg__pool_rows(pool, &g.stop, g.n_bands, run_bands, &g);
+    pthread_mutex_destroy(&g.mu);
+    while (g.spare) {
+        Scratch *s = g.spare;
+        g.spare = s->next;
+        for (int m = 0; m < n; m++) ms[m] += s->ms[m];
+        scratch_free(s);
+    }
+    if (g.rc) {
+        rc = g.rc;
+        *failed = g.failed;
+        if (err) *err = g.err;
+    } else if (prc || *cancel) {
+        rc = WG_ERR_CANCELLED;
+    }
+out:
+    if (rc)
+        for (int o = 0; o < sink->n_out; o++) {
+            wg_image_unref(out[o]);
+            out[o] = NULL;
+        }
+    if (owned)
+        for (int i = 0; i < n_in; i++) wg_image_unref(owned[i]);
+    wg_free(owned);
+    wg_free(g.ext);
+    wg_free(g.from);
+    wg_free(g.first_in);
+    wg_free(g.first_out);
+    wg_free(g.slot);
+    return rc;
+}
+
+/* ---- drawing the groups ------------------------------------------------------------------ */
+
+int wg_request_write_dot(const WgRequest *r, FILE *f, WgError *err)
+{
+    const WgGraph *g = r->graph;
+    WgPlan plan = {0};
+    int rc = wg__plan_build(r, &plan, err);
+    if (rc) return rc;
+    int n = plan.n_insts;
+    bool *flags = wg_calloc(2 * (size_t)n + 1, sizeof(bool));
+    int *sink = wg_calloc((size_t)n + 1, sizeof(int));
+    int *number = wg_calloc((size_t)n + 1, sizeof(int));
+    int *size = wg_calloc((size_t)n + 1, sizeof(int));
+    int *cluster = wg_calloc((size_t)g->n_nodes + 1, sizeof(int));
+    if (!flags || !sink || !number || !size || !cluster) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto out;
+    }
+    /* a render with nothing cached computes what the outputs reach */
+    for (int k = 0; k < plan.n_outputs; k++)
+        flags[plan.outputs[k].ref.inst] = flags[n + plan.outputs[k].ref.inst] = true;
+    for (int i = n - 1; i >= 0; i--)
+        for (int k = 0; k < plan.insts[i].n_in && flags[i]; k++)
+            if (plan.insts[i].in[k].inst >= 0) flags[plan.insts[i].in[k].inst] = true;
+    if (wg__fuse_find(&plan, flags, flags + n, sink) < 0) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto out;
+    }
+    /* numbered as the render's --stats numbers them; only the graph's own nodes are drawn (a
+     * subgraph is one box), and a group is drawn when two or more of them belong to it */
+    for (int i = 0, groups = 0; i < n; i++)
+        if (sink[i] == i) number[i] = ++groups;
+    for (int i = 0; i < n; i++) {
+        int node = sink[i] < 0 ? -1 : wg__graph_find_node(g, plan.insts[i].id);
+        if (node < 0) continue;
+        cluster[node] = number[sink[i]];
+        size[cluster[node]]++;
+    }
+    for (int i = 0; i < g->n_nodes; i++)
+        if (size[cluster[i]] < 2) cluster[i] = 0;
+    wg__graph_write_dot(g, cluster, f);
+    if (ferror(f)) rc = wg_error_set(err, WG_ERR_IO, NULL, "cannot write the dot output");
+out:
+    wg_free(flags);
+    wg_free(sink);
+    wg_free(number);
+    wg_free(size);
+    wg_free(cluster);
+    wg__plan_free(&plan);
+    return rc;
+}

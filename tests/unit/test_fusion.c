@@ -1,0 +1,551 @@
+/* SPDX-License-Identifier: MIT */
+/* Fused point operations (engine/fuse.c): renders with fusion are bit-identical to renders
+ * without (WgEngineOptions.no_fuse) for 1, 2 and 3 threads, on graphs mixing point and
+ * non-point nodes, shared and requested intermediates, promotions and resampling between point
+ * nodes, multi-output nodes, point sources and subgraphs; shared and requested intermediates are
+ * materialised and cached, the others are not; the counted peak memory of a long chain is lower
+ * fused; --stats and the result list the groups; dot --fused draws them. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+/* 203 rows: several bands, the last one partial. */
+#define W 96
+#define H 203
+
+/* Every kind of edge around point nodes:
+ * - n -> lev: a non-point source feeds a group; lev is shared (crv and thr), so materialised;
+ * - crv is requested and feeds gm: materialised, gm starts a group (gm -> hs -> sblur);
+ * - a blur between point nodes ends one group (hs) and starts another (inv -> cs);
+ * - a, b and ml meet in a masked blend: a tree-shaped group of four;
+ * - pr (gray) into hsl's colour port is promoted: not fused across;
+ * - half is resampled from hl: not fused across;
+ * - split's four outputs meet in merge, then shuffle;
+ * - a colour uniform is the foreground of a blend (a point source fused in);
+ * - the subgraph `tone` (levels -> invert) sits between point nodes of the parent. */
+static const char *const mixed_xml =
+    "<wetgraph version=\"1\" size=\"96x203\" seed=\"5\">\n"
+    "  <input name=\"src\" type=\"color\"/>\n"
+    "  <input name=\"h\" type=\"gray\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\" octaves=\"3\"/>\n"
+    "  <node id=\"lev\" type=\"levels\" in_low=\"0.2\" in_high=\"0.8\" in_mid=\"0.4\">"
+    "<in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"crv\" type=\"curve\" points=\"0:0 0.3:0.6 1:1\">"
+    "<in name=\"source\" from=\"lev\"/></node>\n"
+    "  <node id=\"thr\" type=\"threshold\" position=\"0.4\" contrast=\"0.2\">"
+    "<in name=\"source\" from=\"lev\"/></node>\n"
+    "  <node id=\"gm\" type=\"gradient_map\" keys=\"0:#102030 0.5:#806040 1:#f0e0d0\">"
+    "<in name=\"source\" from=\"crv\"/></node>\n"
+    "  <node id=\"hs\" type=\"hsl\" hue=\"0.1\" saturation=\"0.3\" lightness=\"-0.1\">"
+    "<in name=\"source\" from=\"gm\"/></node>\n"
+    "  <node id=\"sblur\" type=\"blur\" sigma=\"1.5\"><in name=\"source\" from=\"hs\"/></node>\n"
+    "  <node id=\"inv\" type=\"invert\"><in name=\"source\" from=\"sblur\"/></node>\n"
+    "  <node id=\"cs\" type=\"colorspace\" direction=\"to_srgb\">"
+    "<in name=\"source\" from=\"inv\"/></node>\n"
+    "  <node id=\"a\" type=\"invert\"><in name=\"source\" from=\"$h\"/></node>\n"
+    "  <node id=\"b\" type=\"clamp\" min=\"0.1\" max=\"0.7\"><in name=\"source\" "
+    "from=\"$h\"/></node>\n"
+    "  <node id=\"ml\" type=\"levels\" out_low=\"0.2\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"overlay\" opacity=\"0.8\">"
+    "<in name=\"foreground\" from=\"a\"/><in name=\"background\" from=\"b\"/>"
+    "<in name=\"mask\" from=\"ml\"/></node>\n"
+    "  <node id=\"pr\" type=\"clamp\" min=\"0.2\" max=\"0.9\"><in name=\"source\" "
+    "from=\"$h\"/></node>\n"
+    "  <node id=\"hp\" type=\"hsl\" hue=\"0.3\"><in name=\"source\" from=\"pr\"/></node>\n"
+    "  <node id=\"hl\" type=\"levels\" in_low=\"0.1\"><in name=\"source\" from=\"$h\"/></node>\n"
+    "  <node id=\"half\" type=\"invert\" size=\"48x101\"><in name=\"source\" from=\"hl\"/></node>\n"
+    "  <node id=\"s\" type=\"split\"><in name=\"source\" from=\"$src\"/></node>\n"
+    "  <node id=\"m\" type=\"merge\"><in name=\"r\" from=\"s.b\"/><in name=\"g\" from=\"s.g\"/>"
+    "<in name=\"b\" from=\"s.r\"/><in name=\"a\" from=\"s.a\"/></node>\n"
+    "  <node id=\"sh\" type=\"shuffle\" a=\"one\"><in name=\"source\" from=\"m\"/></node>\n"
+    "  <node id=\"tint\" type=\"uniform\" kind=\"color\" color=\"0.9 0.4 0.2 1\"/>\n"
+    "  <node id=\"tinted\" type=\"blend\" mode=\"multiply\" opacity=\"0.6\">"
+    "<in name=\"foreground\" from=\"tint\"/><in name=\"background\" from=\"sh\"/></node>\n"
+    "  <node id=\"pre\" type=\"clamp\" min=\"0.05\" max=\"0.95\">"
+    "<in name=\"source\" from=\"$h\"/></node>\n"
+    "  <node id=\"t\" type=\"tone\" gain=\"0.7\"><in name=\"source\" from=\"pre\"/></node>\n"
+    "  <node id=\"post\" type=\"curve\" points=\"0:0.1 1:0.9\"><in name=\"source\" "
+    "from=\"t\"/></node>\n"
+    "  <output name=\"crv\" from=\"crv\"/>\n"
+    "  <output name=\"thr\" from=\"thr\"/>\n"
+    "  <output name=\"cs\" from=\"cs\"/>\n"
+    "  <output name=\"mix\" from=\"mix\"/>\n"
+    "  <output name=\"hp\" from=\"hp\"/>\n"
+    "  <output name=\"half\" from=\"half\"/>\n"
+    "  <output name=\"tinted\" from=\"tinted\"/>\n"
+    "  <output name=\"post\" from=\"post\"/>\n"
+    "</wetgraph>\n";
+
+static const char *const tone_xml =
+    "<wetgraph version=\"1\">\n"
+    "  <param name=\"gain\" type=\"float\" default=\"1\" min=\"0\" max=\"1\"/>\n"
+    "  <input name=\"source\" type=\"gray\"/>\n"
+    "  <node id=\"l\" type=\"levels\" out_high=\"=gain\"><in name=\"source\" "
+    "from=\"$source\"/></node>\n"
+    "  <node id=\"i\" type=\"invert\"><in name=\"source\" from=\"l\"/></node>\n"
+    "  <output name=\"out\" from=\"i\"/>\n"
+    "</wetgraph>\n";
+
+static double src_fn(int x, int y, int k)
+{
+    if (k == 3) return 0.5 + 0.5 * sin(x * 0.3 + y * 0.11);
+    return 0.5 + 0.6 * sin(x * 0.37 + y * 0.23 * (k + 1) + k) * cos(y * 0.19 - x * 0.05 * k);
+}
+
+static double h_fn(int x, int y, int k)
+{
+    (void)k;
+    return fmod(x * 0.137 + y * y * 0.0173, 1.0) * 1.5 - 0.2;
+}
+
+static WgGraph *mixed_graph(void)
+{
+    wgt_write_file(wgt_path("tone.wetgraph"), tone_xml);
+    return wgt_load_at(mixed_xml, wgt_path("mixed.wetgraph"));
+}
+
+static WgRequest *mixed_request(const WgGraph *g)
+{
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    WgImage *src = wgt_image_fn(W, H, 4, src_fn);
+    WgImage *h = wgt_image_fn(W, H, 1, h_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
+    assert_int_equal(wg_request_set_input_image(r, "h", h, &err), WG_OK);
+    wg_image_unref(src);
+    wg_image_unref(h);
+    return r;
+}
+
+static WgEngine *engine(int threads, bool fuse)
+{
+    WgEngineOptions opt = {.threads = threads, .no_fuse = !fuse};
+    WgEngine *e = NULL;
+    WgError err = {0};
+    if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
+    return e;
+}
+
+static WgResult *render(int threads, bool fuse, const WgRequest *r)
+{
+    WgEngine *e = engine(threads, fuse);
+    WgResult *res = wgt_render_request(e, r);
+    wg_engine_free(e);
+    return res;
+}
+
+static void expect_same_outputs(const WgResult *a, const WgResult *b)
+{
+    assert_int_equal(wg_result_output_count(a), wg_result_output_count(b));
+    for (int i = 0; i < wg_result_output_count(a); i++) {
+        assert_string_equal(wg_result_output_name(a, i), wg_result_output_name(b, i));
+        wgt_assert_identical(wg_result_output_image(a, i), wg_result_output_image(b, i));
+    }
+}
+
+static int fused_of(const WgResult *res, const char *id)
+{
+    const WgNodeStat *s = wgt_stat(res, id);
+    if (!s) fail_msg("no stat for '%s'", id);
+    return s->fused;
+}
+
+/* ---- identical results ------------------------------------------------------------------- */
+
+static void test_fused_renders_are_identical_to_unfused(void **state)
+{
+    (void)state;
+    WgGraph *g = mixed_graph();
+    WgRequest *r = mixed_request(g);
+    WgResult *ref = render(1, false, r);
+    for (int i = 0; i < wg_result_stat_count(ref); i++)
+        assert_int_equal(wg_result_stat(ref, i)->fused, 0);
+    for (int threads = 1; threads <= 3; threads++) {
+        WgResult *unfused = render(threads, false, r);
+        WgResult *fused = render(threads, true, r);
+        expect_same_outputs(ref, unfused);
+        expect_same_outputs(ref, fused);
+        assert_int_equal(wg_result_evaluated_count(fused), wg_result_evaluated_count(unfused));
+        /* the groups, in plan order of their sinks: gm -> hs; inv -> cs; a, b, ml -> mix;
+         * split -> merge -> shuffle -> blend with the uniform; pre -> tone -> post */
+        int g_hs = fused_of(fused, "hs"), g_cs = fused_of(fused, "cs");
+        int g_mix = fused_of(fused, "mix"), g_tinted = fused_of(fused, "tinted");
+        int g_post = fused_of(fused, "post");
+        assert_true(g_hs > 0 && g_cs > 0 && g_mix > 0 && g_tinted > 0 && g_post > 0);
+        assert_int_equal(fused_of(fused, "gm"), g_hs);
+        assert_int_equal(fused_of(fused, "inv"), g_cs);
+        assert_int_equal(fused_of(fused, "a"), g_mix);
+        assert_int_equal(fused_of(fused, "b"), g_mix);
+        assert_int_equal(fused_of(fused, "ml"), g_mix);
+        assert_int_equal(fused_of(fused, "s"), g_tinted);
+        assert_int_equal(fused_of(fused, "m"), g_tinted);
+        assert_int_equal(fused_of(fused, "sh"), g_tinted);
+        assert_int_equal(fused_of(fused, "tint"), g_tinted);
+        assert_int_equal(fused_of(fused, "pre"), g_post);
+        assert_int_equal(fused_of(fused, "t/l"), g_post);
+        assert_int_equal(fused_of(fused, "t/i"), g_post);
+        /* shared, requested, promoted or resampled: alone */
+        static const char *const alone[] = {"n",  "lev", "crv", "thr", "sblur",
+                                            "pr", "hp",  "hl",  "half"};
+        for (size_t k = 0; k < sizeof alone / sizeof *alone; k++)
+            if (fused_of(fused, alone[k])) fail_msg("'%s' was fused", alone[k]);
+        int groups[] = {g_hs, g_cs, g_mix, g_tinted, g_post};
+        for (int x = 0; x < 5; x++)
+            for (int y = x + 1; y < 5; y++) assert_int_not_equal(groups[x], groups[y]);
+        wg_result_free(unfused);
+        wg_result_free(fused);
+    }
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* Requesting an intermediate materialises it: the group ends there. */
+static void test_requested_intermediates_are_materialised(void **state)
+{
+    (void)state;
+    WgGraph *g = mixed_graph();
+    WgRequest *r = mixed_request(g);
+    WgError err = {0};
+    assert_int_equal(wg_request_add_output(r, "mix", &err), WG_OK);
+    WgResult *all = render(2, true, r);
+    assert_true(fused_of(all, "ml") > 0);
+    assert_int_equal(wgt_stat(all, "ml")->bytes, 0);
+    assert_true(wgt_stat(all, "mix")->bytes > 0);
+    wg_request_free(r);
+
+    /* the same graph with ml as an output too */
+    char *xml = malloc(strlen(mixed_xml) + 64);
+    strcpy(xml, mixed_xml);
+    char *end = strstr(xml, "</wetgraph>");
+    strcpy(end, "  <output name=\"ml\" from=\"ml\"/>\n</wetgraph>\n");
+    WgGraph *g2 = wgt_load_at(xml, wgt_path("mixed2.wetgraph"));
+    free(xml);
+    r = mixed_request(g2);
+    for (int threads = 1; threads <= 3; threads++) {
+        WgResult *fused = render(threads, true, r), *unfused = render(threads, false, r);
+        expect_same_outputs(fused, unfused);
+        assert_int_equal(fused_of(fused, "ml"), 0);
+        assert_true(wgt_stat(fused, "ml")->bytes > 0);
+        assert_true(fused_of(fused, "mix") > 0); /* still with a and b */
+        assert_int_equal(fused_of(fused, "a"), fused_of(fused, "mix"));
+        wgt_assert_identical(wgt_output(fused, "mix"), wgt_output(all, "mix"));
+        wg_result_free(fused);
+        wg_result_free(unfused);
+    }
+    wg_result_free(all);
+    wg_request_free(r);
+    wg_graph_free(g2);
+    wg_graph_free(g);
+}
+
+/* ---- the cache ---------------------------------------------------------------------------- */
+
+static const char *const chain_xml =
+    "<wetgraph version=\"1\" size=\"64x150\">\n"
+    "  <param name=\"gain\" type=\"float\" default=\"0.8\" min=\"0\" max=\"1\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\" octaves=\"2\"/>\n"
+    "  <node id=\"p1\" type=\"levels\" in_low=\"0.1\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"p2\" type=\"invert\"><in name=\"source\" from=\"p1\"/></node>\n"
+    "  <node id=\"p3\" type=\"levels\" out_high=\"=gain\"><in name=\"source\" "
+    "from=\"p2\"/></node>\n"
+    "  <node id=\"p4\" type=\"clamp\" min=\"0.1\"><in name=\"source\" from=\"p3\"/></node>\n"
+    "  <node id=\"bl\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"p2\"/></node>\n"
+    "  <output name=\"out\" from=\"p4\"/>\n"
+    "  <output name=\"soft\" from=\"bl\"/>\n"
+    "</wetgraph>\n";
+
+/* What is materialised is cached as before: p2 (shared with the blur) and p4 (requested); p1
+ * and p3 are not, and an edit downstream of p2 recomputes p3 and p4 only. */
+static void test_the_cache_keeps_what_is_materialised(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(chain_xml);
+    WgRequest *r = wg_request_new(g);
+    WgEngine *e = engine(2, true);
+    WgResult *first = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(first), 6);
+    assert_true(fused_of(first, "p1") > 0);
+    assert_int_equal(fused_of(first, "p1"), fused_of(first, "p2"));
+    assert_true(fused_of(first, "p3") > 0);
+    assert_int_equal(fused_of(first, "p3"), fused_of(first, "p4"));
+    assert_int_not_equal(fused_of(first, "p2"), fused_of(first, "p4"));
+
+    WgResult *again = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(again), 0);
+    assert_int_equal(wgt_stat(again, "p4")->cache, WG_HIT_MEMORY);
+
+    WgError err = {0};
+    assert_int_equal(wg_request_set(r, "gain", "0.6", &err), WG_OK);
+    WgResult *edited = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(edited), 2);
+    assert_int_equal(wgt_stat(edited, "p2")->cache, WG_HIT_MEMORY);
+    assert_int_equal(wgt_stat(edited, "p3")->cache, WG_COMPUTED);
+    assert_int_equal(wgt_stat(edited, "p4")->cache, WG_COMPUTED);
+    assert_true(fused_of(edited, "p3") > 0);
+    WgResult *cold = render(3, false, r);
+    expect_same_outputs(edited, cold);
+
+    /* back: both outputs from memory, nothing upstream looked at */
+    assert_int_equal(wg_request_set(r, "gain", "0.8", &err), WG_OK);
+    WgResult *back = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(back), 0);
+    expect_same_outputs(back, first);
+    assert_null(wgt_stat(back, "p1"));
+
+    wg_result_free(first);
+    wg_result_free(again);
+    wg_result_free(edited);
+    wg_result_free(cold);
+    wg_result_free(back);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* ---- memory ------------------------------------------------------------------------------ */
+
+/* A gray height coloured, adjusted in colour and reduced to gray again: unfused, two colour
+ * images are alive at every colour step; fused, only the gray source and the gray result. */
+static const char *const long_chain_xml =
+    "<wetgraph version=\"1\" size=\"256\">\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\" octaves=\"2\"/>\n"
+    "  <node id=\"c1\" type=\"gradient_map\" keys=\"0:#203040 1:#e0c0a0\">"
+    "<in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"c2\" type=\"hsl\" hue=\"0.2\"><in name=\"source\" from=\"c1\"/></node>\n"
+    "  <node id=\"c3\" type=\"levels\" in_low=\"0.1\"><in name=\"source\" from=\"c2\"/></node>\n"
+    "  <node id=\"c4\" type=\"invert\"><in name=\"source\" from=\"c3\"/></node>\n"
+    "  <node id=\"c5\" type=\"colorspace\"><in name=\"source\" from=\"c4\"/></node>\n"
+    "  <node id=\"c6\" type=\"clamp\" max=\"0.8\"><in name=\"source\" from=\"c5\"/></node>\n"
+    "  <node id=\"c7\" type=\"shuffle\" r=\"g\" g=\"b\" b=\"r\"><in name=\"source\" "
+    "from=\"c6\"/></node>\n"
+    "  <node id=\"c8\" type=\"curve\" points=\"0:0 0.5:0.7 1:1\"><in name=\"source\" "
+    "from=\"c7\"/></node>\n"
+    "  <node id=\"c9\" type=\"threshold\" contrast=\"0.1\"><in name=\"source\" "
+    "from=\"c8\"/></node>\n"
+    "  <node id=\"c10\" type=\"grayscale\"><in name=\"source\" from=\"c9\"/></node>\n"
+    "  <output name=\"out\" from=\"c10\"/>\n"
+    "</wetgraph>\n";
+
+static void test_a_long_chain_peaks_lower_fused(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(long_chain_xml);
+    WgRequest *r = wg_request_new(g);
+    size_t gray = wg_image_bytes_for(256, 256, 1), color = wg_image_bytes_for(256, 256, 4);
+    for (int threads = 1; threads <= 3; threads++) {
+        WgResult *fused = render(threads, true, r), *unfused = render(threads, false, r);
+        expect_same_outputs(fused, unfused);
+        for (int i = 1; i <= 10; i++) {
+            char id[8];
+            snprintf(id, sizeof id, "c%d", i);
+            assert_int_equal(fused_of(fused, id), 1);
+        }
+        assert_int_equal(fused_of(fused, "n"), 0);
+        assert_int_equal(wg_result_peak_bytes(unfused), 2 * color);
+        assert_int_equal(wg_result_peak_bytes(fused), 2 * gray);
+        wg_result_free(fused);
+        wg_result_free(unfused);
+    }
+    /* the lower need is what the budget checks: a budget between the two now suffices */
+    WgEngineOptions opt = {.threads = 2, .memory_budget = 2 * gray + 1024};
+    WgEngine *e = NULL;
+    WgError err = {0};
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+    WgResult *res = wgt_render_request(e, r);
+    assert_true(wg_result_peak_bytes(res) <= opt.memory_budget);
+    wg_result_free(res);
+    wg_engine_free(e);
+    opt.no_fuse = true;
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+    res = NULL;
+    assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_BUDGET);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* Colour, reduced to gray, coloured again: a fused group keeps the colour input until its
+ * colour output exists (two colour images), unfused never holds more than one colour and one
+ * gray image. A budget between the two renders unfused instead of failing. */
+static void test_a_budget_only_unfused_fits_renders_unfused(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"512\">\n"
+                          "  <input name=\"src\" type=\"color\"/>\n"
+                          "  <node id=\"gr\" type=\"grayscale\"><in name=\"source\" "
+                          "from=\"$src\"/></node>\n"
+                          "  <node id=\"iv\" type=\"invert\"><in name=\"source\" "
+                          "from=\"gr\"/></node>\n"
+                          "  <node id=\"gm\" type=\"gradient_map\" keys=\"0:#000 1:#8af\">"
+                          "<in name=\"source\" from=\"iv\"/></node>\n"
+                          "  <output name=\"out\" from=\"gm\"/>\n"
+                          "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    WgImage *src = wgt_image_fn(512, 512, 4, src_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
+    size_t gray = wg_image_bytes_for(512, 512, 1), color = wg_image_bytes_for(512, 512, 4);
+    WgResult *fused = render(1, true, r), *unfused = render(1, false, r);
+    assert_int_equal(fused_of(fused, "gr"), 1);
+    assert_int_equal(wg_result_peak_bytes(fused), 2 * color);
+    assert_int_equal(wg_result_peak_bytes(unfused), color + gray);
+    WgEngineOptions opt = {.threads = 2, .memory_budget = color + gray + 1024};
+    WgEngine *e = NULL;
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+    WgResult *res = wgt_render_request(e, r);
+    assert_int_equal(fused_of(res, "gr"), 0);
+    assert_true(wg_result_peak_bytes(res) <= opt.memory_budget);
+    expect_same_outputs(res, fused);
+    wg_result_free(res);
+    wg_engine_free(e);
+    /* neither fits: the error states the smaller need */
+    opt.memory_budget = color + gray - 1024;
+    assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+    res = NULL;
+    assert_int_equal(wg_render(e, r, &res, &err), WG_ERR_BUDGET);
+    char need[64];
+    snprintf(need, sizeof need, "needs at least %.1f MiB", (color + gray) / 1048576.0);
+    assert_string_equal(need, "needs at least 5.0 MiB"); /* fused: 8.0 */
+    wgt_assert_error(&err, WG_ERR_BUDGET, 0, need);
+    wg_engine_free(e);
+    wg_result_free(fused);
+    wg_result_free(unfused);
+    wg_image_unref(src);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* A right-deep comb of blends over uniforms: in plan order every uniform comes before the
+ * blends, so all are alive at once. With 8 the group fits its band buffers; with 40 bands of
+ * 256 KiB it would need 10 MiB per thread, and its nodes run alone. */
+static void test_wide_groups_are_not_fused(void **state)
+{
+    (void)state;
+    for (int leaves = 8; leaves <= 40; leaves += 32) {
+        char xml[16384];
+        size_t n =
+            (size_t)snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"2048x256\">\n");
+        for (int i = 0; i < leaves; i++)
+            n += (size_t)snprintf(xml + n, sizeof xml - n,
+                                  "  <node id=\"u%d\" type=\"uniform\" value=\"%g\"/>\n", i,
+                                  i / (double)leaves);
+        for (int i = 0; i + 1 < leaves; i++)
+            n += (size_t)snprintf(xml + n, sizeof xml - n,
+                                  "  <node id=\"b%d\" type=\"blend\" mode=\"add\" "
+                                  "clamp=\"false\"><in name=\"foreground\" from=\"u%d\"/>"
+                                  "<in name=\"background\" from=\"%c%d\"/></node>\n",
+                                  i, i, i + 2 < leaves ? 'b' : 'u', i + 1);
+        snprintf(xml + n, sizeof xml - n, "  <output name=\"out\" from=\"b0\"/>\n</wetgraph>\n");
+        WgGraph *g = wgt_load(xml);
+        WgRequest *r = wg_request_new(g);
+        for (int threads = 1; threads <= 2; threads++) {
+            WgResult *fused = render(threads, true, r), *unfused = render(threads, false, r);
+            expect_same_outputs(fused, unfused);
+            assert_int_equal(fused_of(fused, "u0"), leaves == 8 ? 1 : 0);
+            assert_int_equal(fused_of(fused, "b0"), leaves == 8 ? 1 : 0);
+            wg_result_free(fused);
+            wg_result_free(unfused);
+        }
+        wg_request_free(r);
+        wg_graph_free(g);
+    }
+}
+
+/* ---- listing the groups ----------------------------------------------------------------- */
+
+static void test_stats_list_the_groups(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(chain_xml);
+    WgRequest *r = wg_request_new(g);
+    WgResult *res = render(2, true, r);
+    /* plan order: n, p1, p2, bl, p3, p4 (or p3, p4 before bl): group 1 ends at p2 */
+    assert_int_equal(fused_of(res, "p1"), 1);
+    assert_int_equal(fused_of(res, "p2"), 1);
+    assert_int_equal(fused_of(res, "p3"), 2);
+    assert_int_equal(fused_of(res, "p4"), 2);
+    assert_int_equal(fused_of(res, "n"), 0);
+    assert_int_equal(fused_of(res, "bl"), 0);
+    assert_int_equal(wgt_stat(res, "p1")->bytes, 0);
+    assert_int_equal(wgt_stat(res, "p3")->bytes, 0);
+    assert_int_equal(wgt_stat(res, "p2")->bytes, wg_image_bytes_for(64, 150, 1));
+    for (int i = 0; i < wg_result_stat_count(res); i++)
+        assert_true(wg_result_stat(res, i)->ms >= 0);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* Run `cmd` with sh in the test folder; its stdout and stderr into `out` (NUL-terminated). */
+static int run(const char *cmd, char *out, size_t size)
+{
+    char full[4096];
+    snprintf(full, sizeof full, "cd '%s' && %s 2>&1", wgt_tmpdir(), cmd);
+    FILE *p = popen(full, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, size - 1, p);
+    out[n] = '\0';
+    int status = pclose(p);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+static void test_the_command_line_lists_and_draws_the_groups(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) skip();
+    wgt_write_file(wgt_path("chain.wetgraph"), chain_xml);
+    static char out[1 << 16];
+    char cmd[2048];
+
+    snprintf(cmd, sizeof cmd, "'%s' render chain.wetgraph -o fz --stats -q", bin);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    if (!strstr(out, "fused group #1: 2 point operations from 'p1' to 'p2'") ||
+        !strstr(out, "fused group #2: 2 point operations from 'p3' to 'p4'") ||
+        !strstr(out, "only 'p4' is materialised"))
+        fail_msg("--stats output:\n%s", out);
+
+    snprintf(cmd, sizeof cmd, "'%s' render chain.wetgraph -o fz --stats=json -q", bin);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    if (!strstr(out, "\"id\": \"p1\", \"type\": \"levels\"") ||
+        !strstr(out, "\"bytes\": 0, \"fused\": 1}") ||
+        !strstr(out, "{\"group\": 2, \"nodes\": 2, ") || !strstr(out, "\"sink\": \"p4\"}"))
+        fail_msg("--stats=json output:\n%s", out);
+
+    snprintf(cmd, sizeof cmd, "'%s' render chain.wetgraph -o fz --stats --no-fuse -q", bin);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    if (strstr(out, "fused group") || strstr(out, "#1")) fail_msg("--no-fuse output:\n%s", out);
+
+    snprintf(cmd, sizeof cmd, "'%s' dot --fused chain.wetgraph", bin);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    const char *c1 = strstr(out, "subgraph cluster_fused_1 {"),
+               *c2 = strstr(out, "subgraph cluster_fused_2 {");
+    if (!c1 || !c2 || !strstr(c1, "\"n:p1\";\n    \"n:p2\";\n  }") ||
+        !strstr(c2, "\"n:p3\";\n    \"n:p4\";\n  }") || strstr(out, "cluster_fused_3"))
+        fail_msg("dot --fused output:\n%s", out);
+    snprintf(cmd, sizeof cmd, "'%s' dot chain.wetgraph", bin);
+    assert_int_equal(run(cmd, out, sizeof out), 0);
+    if (strstr(out, "cluster")) fail_msg("dot output:\n%s", out);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_fused_renders_are_identical_to_unfused),
+        cmocka_unit_test(test_requested_intermediates_are_materialised),
+        cmocka_unit_test(test_the_cache_keeps_what_is_materialised),
+        cmocka_unit_test(test_a_long_chain_peaks_lower_fused),
+        cmocka_unit_test(test_a_budget_only_unfused_fits_renders_unfused),
+        cmocka_unit_test(test_wide_groups_are_not_fused),
+        cmocka_unit_test(test_stats_list_the_groups),
+        cmocka_unit_test(test_the_command_line_lists_and_draws_the_groups),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
