@@ -42,11 +42,17 @@ typedef struct Mode {
 
 static void unfused(WgEngineOptions *opt)
 {
-    (void)opt;
+    opt->no_fuse = true;
+}
+
+static void fused(WgEngineOptions *opt)
+{
+    opt->no_fuse = false;
 }
 
 static const Mode modes[] = {
     {"unfused", unfused},
+    {"fused", fused},
 };
 
 /* A gradient and CHAIN point nodes "p1".."pCHAIN" on one line, gray, size x size. */

@@ -212,7 +212,8 @@ static void budget_run(bool memory_cache)
              "  <output name=\"out\" from=\"n11\"/>\n</wetgraph>\n");
     WgGraph *g = wgt_load(xml);
     size_t budget = 6 * MIB;
-    WgEngineOptions opt = {2, budget, NULL, !memory_cache};
+    /* unfused: the chain's intermediates are whole images whose buffers the pool passes on */
+    WgEngineOptions opt = {2, budget, NULL, !memory_cache, true};
     Watch w = {NULL, budget, 0};
     WgError err = {0};
     assert_int_equal(wg_engine_new(&opt, &w.e, &err), WG_OK);
