@@ -16,6 +16,7 @@ extern const WgNodeType wg_node_noise, wg_node_cells, wg_node_gradient, wg_node_
     wg_node_sine, wg_node_shape, wg_node_bricks;
 /* colour and value */
 extern const WgNodeType wg_node_curve, wg_node_clamp, wg_node_threshold, wg_node_auto_levels;
+extern const WgNodeType wg_node_statistics;
 extern const WgNodeType wg_node_gradient_map, wg_node_hsl, wg_node_colorspace, wg_node_split,
     wg_node_merge, wg_node_shuffle;
 /* pixel */
@@ -55,6 +56,7 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_clamp,
     &wg_node_threshold,
     &wg_node_auto_levels,
+    &wg_node_statistics,
     &wg_node_gradient_map,
     &wg_node_hsl,
     &wg_node_colorspace,
