@@ -331,6 +331,69 @@ static void test_only_basecolor_evaluated(void **state)
     wg_graph_free(g);
 }
 
+/* wet_material renders the material, the layer maps and the masks; the given params. */
+static WgResult *render_wet_material(const WgGraph *g, const Material *m, const char *level,
+                                     const char *only)
+{
+    WgRequest *r = wg_request_new(g);
+    set_input(r, "basecolor", m->base);
+    set_input(r, "height", m->height);
+    set_input(r, "normal", m->normal);
+    set_input(r, "roughness", m->rough);
+    set_param(r, "water_level", level);
+    if (only) {
+        WgError err = {0};
+        if (wg_request_add_output(r, only, &err)) fail_msg("%s", err.message);
+    }
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    wg_engine_free(e);
+    wg_request_free(r);
+    return res;
+}
+
+/* Water level 0: empty masks, the dry material comes back unchanged. */
+static void test_wet_material_dry_at_level_0(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("wet_material");
+    Material m = material(W, H);
+    WgResult *res = render_wet_material(g, &m, "0", NULL);
+    wgt_assert_range(wgt_output(res, "immersed"), 0, 0);
+    wgt_assert_range(wgt_output(res, "wet"), 0, 0);
+    wgt_assert_range(wgt_output(res, "puddles"), 0, 0);
+    wgt_assert_near(wgt_output(res, "basecolor"), m.base, 1e-6);
+    wgt_assert_near(wgt_output(res, "normal"), m.normal, 1e-6);
+    wgt_assert_near(wgt_output(res, "roughness"), m.rough, 1e-6);
+    wgt_assert_near(wgt_output(res, "height"), m.height, 1e-6);
+    wg_result_free(res);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
+/* A wet material: darker and richer, everything in range; basecolor alone does not run the
+ * normal nodes nor the zones view. */
+static void test_wet_material_wet(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("wet_material");
+    Material m = material(W, H);
+    WgResult *res = render_wet_material(g, &m, "0.5", NULL);
+    check_darker_richer(m.base, wgt_output(res, "basecolor"), 0.01);
+    check_outputs_in_range(res, 1.1);
+    wg_result_free(res);
+    res = render_wet_material(g, &m, "0.5", "basecolor");
+    assert_int_equal(wg_result_output_count(res), 1);
+    assert_non_null(wgt_stat(res, "tex/albedo"));
+    assert_non_null(wgt_stat(res, "masks/immersed"));
+    const char *unneeded[] = {"tex/normal_out", "tex/water_normal", "tex/edge", "masks/zones"};
+    for (size_t i = 0; i < sizeof unneeded / sizeof unneeded[0]; i++)
+        if (wgt_stat(res, unneeded[i])) fail_msg("node '%s' ran for basecolor alone", unneeded[i]);
+    wg_result_free(res);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -340,6 +403,8 @@ int main(void)
         cmocka_unit_test(test_outputs_finite_in_range),
         cmocka_unit_test(test_files_16bit_non_square),
         cmocka_unit_test(test_only_basecolor_evaluated),
+        cmocka_unit_test(test_wet_material_dry_at_level_0),
+        cmocka_unit_test(test_wet_material_wet),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
