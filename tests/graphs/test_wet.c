@@ -394,6 +394,39 @@ static void test_wet_material_wet(void **state)
     wg_graph_free(g);
 }
 
+/* The custom-masks example renders with its own masks and darkens where they are. */
+static void test_custom_masks_example(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("examples/custom_masks");
+    Material m = material(W, H);
+    WgRequest *r = wg_request_new(g);
+    set_input(r, "basecolor", m.base);
+    set_input(r, "height", m.height);
+    set_input(r, "splash", m.wet);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    check_darker_richer(m.base, wgt_output(res, "basecolor"), 0.01);
+    /* fully painted and above the water: wet; unpainted: dry */
+    const WgImage *wet = wgt_output(res, "wet");
+    int painted = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double s = wet_fn(x, y, 0);
+            if (s == 0) assert_float_equal(wgt_px(wet, x, y, 0), 0, 1e-6);
+            if (s == 1 && height_fn(x, y, 0) > 0.48) {
+                assert_float_equal(wgt_px(wet, x, y, 0), 1, 1e-6);
+                painted++;
+            }
+        }
+    assert_true(painted > 100);
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -405,6 +438,7 @@ int main(void)
         cmocka_unit_test(test_only_basecolor_evaluated),
         cmocka_unit_test(test_wet_material_dry_at_level_0),
         cmocka_unit_test(test_wet_material_wet),
+        cmocka_unit_test(test_custom_masks_example),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
