@@ -1,0 +1,728 @@
+/* SPDX-License-Identifier: MIT */
+/* graphs/create_masks.wetgraph: physical invariants of the wet zone masks on real height maps
+ * (bricks102, 8-bit JPEG; wood_cabinet_worn_long, 16-bit PNG; both downscaled to 256x128, so
+ * non-square) and synthetic ones: water_level 0 gives exactly empty masks and 1 all immersed;
+ * the immersed part grows with the level and lies below it; water_height is the height with the
+ * immersed part flattened at the level, in the input's units; wet and moist are empty far from
+ * the water; slopes steeper than slope_limit are never wet; the zones partition every pixel;
+ * every output is finite and in range for default and extreme parameters; an affine change of
+ * the height (a map using part of 0..1) changes nothing; a cyclic shift of the inputs shifts the
+ * outputs; renders at two resolutions agree up to filtering. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static WgGraph *graph;
+static WgEngine *engine;
+static WgImage *bricks, *wood; /* 256x128 */
+
+typedef struct {
+    WgImage *imm, *wet, *moist, *pud, *wh;
+} Masks;
+
+static const char *env(const char *name)
+{
+    const char *s = getenv(name);
+    if (!s) fail_msg("%s is not set (run through meson test)", name);
+    return s;
+}
+
+static WgImage *load_height(const char *rel, int w, int h)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/%s", env("WETGRAPH_SHARED"), rel);
+    WgError err = {0};
+    WgImage *img = NULL;
+    if (wg_image_read(path, 1, WG_LINEAR, &img, &err)) fail_msg("%s: %s", path, err.message);
+    WgImage *small = wg_image_convert(img, w, h, 1);
+    assert_non_null(small);
+    wg_image_unref(img);
+    return small;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    char path[2048];
+    snprintf(path, sizeof path, "%s/graphs/create_masks.wetgraph", env("WETGRAPH_SOURCE"));
+    WgError err = {0};
+    if (wg_graph_load(path, &graph, &err)) {
+        char buf[2048];
+        wg_error_format(&err, buf, sizeof buf);
+        fprintf(stderr, "%s\n", buf);
+        return -1;
+    }
+    engine = wgt_engine(2, 0, NULL);
+    bricks =
+        load_height("materials/bricks102_stonewall_1k/Bricks102_1K-JPG_Displacement.jpg", 256, 128);
+    wood = load_height("materials/wood_cabinet_worn_long_1k/wood_cabinet_worn_long_disp_1k.png",
+                       256, 128);
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    wg_image_unref(bricks);
+    wg_image_unref(wood);
+    wg_engine_free(engine);
+    wg_graph_free(graph);
+    return 0;
+}
+
+/* Render the masks of `height` (and `noise`, may be NULL) with parameters "name=value ...". */
+static Masks render(const WgImage *height, const WgImage *noise, const char *sets)
+{
+    WgError err = {0};
+    WgRequest *r = wg_request_new(graph);
+    assert_non_null(r);
+    if (wg_request_set_input_image(r, "height", height, &err)) fail_msg("%s", err.message);
+    if (noise && wg_request_set_input_image(r, "noise", noise, &err)) fail_msg("%s", err.message);
+    char buf[1024];
+    snprintf(buf, sizeof buf, "%s", sets ? sets : "");
+    char *save = NULL;
+    for (char *p = strtok_r(buf, " ", &save); p; p = strtok_r(NULL, " ", &save)) {
+        char *eq = strchr(p, '=');
+        assert_non_null(eq);
+        *eq = 0;
+        if (wg_request_set(r, p, eq + 1, &err)) fail_msg("%s=%s: %s", p, eq + 1, err.message);
+    }
+    const char *outs[] = {"immersed", "wet", "moist", "puddles", "water_height"};
+    for (int i = 0; i < 5; i++)
+        if (wg_request_add_output(r, outs[i], &err)) fail_msg("%s", err.message);
+    WgResult *res = wgt_render_request(engine, r);
+    Masks m = {
+        wg_image_ref(wgt_output(res, "immersed")),     wg_image_ref(wgt_output(res, "wet")),
+        wg_image_ref(wgt_output(res, "moist")),        wg_image_ref(wgt_output(res, "puddles")),
+        wg_image_ref(wgt_output(res, "water_height")),
+    };
+    wg_result_free(res);
+    wg_request_free(r);
+    return m;
+}
+
+static void masks_free(Masks *m)
+{
+    wg_image_unref(m->imm);
+    wg_image_unref(m->wet);
+    wg_image_unref(m->moist);
+    wg_image_unref(m->pud);
+    wg_image_unref(m->wh);
+}
+
+static float px(const WgImage *img, int x, int y)
+{
+    return wg_image_row(img, y)[x];
+}
+
+static void assert_all(const WgImage *img, float v, const char *what)
+{
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++)
+            if (px(img, x, y) != v)
+                fail_msg("%s at (%d, %d) is %.9g, expected %g", what, x, y, px(img, x, y), v);
+}
+
+static void range_of(const WgImage *img, double *lo, double *hi)
+{
+    *lo = INFINITY;
+    *hi = -INFINITY;
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++) {
+            *lo = fmin(*lo, px(img, x, y));
+            *hi = fmax(*hi, px(img, x, y));
+        }
+}
+
+/* The height as the graph sees it: blurred by 0.75 length units (caller unrefs). */
+static WgImage *smoothed(const WgImage *h)
+{
+    const char *names[] = {"source"};
+    const WgImage *in[] = {h};
+    return wgt_node("blur", "sigma=\"0.75\"", h->width, h->height, 1, names, in, 0, 1);
+}
+
+/* The range the graph measures: min and max of the smoothed height. */
+static void smoothed_range(const WgImage *h, double *lo, double *hi)
+{
+    WgImage *sm = smoothed(h);
+    range_of(sm, lo, hi);
+    wg_image_unref(sm);
+}
+
+/* ---- synthetic height maps ---------------------------------------------------------------- */
+
+#define PI 3.14159265358979323846
+
+/* Rolling tileable hills, non-square. */
+static double hills(int x, int y, int k)
+{
+    (void)k;
+    double u = (x + 0.5) / 192, v = (y + 0.5) / 128;
+    return 0.5 + 0.25 * sin(2 * PI * u) * cos(4 * PI * v) + 0.1 * sin(6 * PI * (u + v));
+}
+
+/* A cone: 0 at the centre of a 160x96 tile, rising with the distance on the torus. */
+static double cone(int x, int y, int k)
+{
+    (void)k;
+    double dx = fabs(x - 80.0), dy = fabs(y - 48.0);
+    return sqrt(dx * dx + dy * dy) / 100;
+}
+
+/* Flat low ground at 0.1 with a mesa at 0.9 whose walls are vertical, gentle ripples on top. */
+static double mesa(int x, int y, int k)
+{
+    (void)k;
+    bool in = x >= 40 && x < 100 && y >= 30 && y < 90;
+    return (in ? 0.9 : 0.1) + 0.02 * sin(2 * PI * x / 32.0) * sin(2 * PI * y / 32.0);
+}
+
+/* A smooth tileable noise image in [0, 1] for the `noise` input. */
+static double wavy(int x, int y, int k)
+{
+    (void)k;
+    double u = (x + 0.5) / 256, v = (y + 0.5) / 128;
+    return 0.5 + 0.3 * sin(2 * PI * 3 * u + 1) * sin(2 * PI * 2 * v) + 0.2 * cos(2 * PI * 5 * u);
+}
+
+/* ---- tests -------------------------------------------------------------------------------- */
+
+/* water_level 0: no water at all, even with the widest reach and the strongest noise. */
+static void test_level_zero_is_dry(void **state)
+{
+    (void)state;
+    WgImage *maps[] = {bricks, wood, wgt_image_fn(192, 128, 1, hills),
+                       wgt_image_fn(160, 96, 1, mesa)};
+    const char *params[] = {
+        "water_level=0",
+        "water_level=0 noise_intensity=1 wet_distance=128 moist_distance=128 wet_height=1 "
+        "moist_height=1 puddle_density=1 edge_softness=1 slope_limit=1",
+    };
+    for (int i = 0; i < 4; i++)
+        for (int p = 0; p < 2; p++) {
+            Masks m = render(maps[i], NULL, params[p]);
+            assert_all(m.imm, 0, "immersed");
+            assert_all(m.wet, 0, "wet");
+            assert_all(m.moist, 0, "moist");
+            assert_all(m.pud, 0, "puddles");
+            wgt_assert_identical(m.wh, maps[i]); /* nothing flattened */
+            masks_free(&m);
+        }
+    wg_image_unref(maps[2]);
+    wg_image_unref(maps[3]);
+}
+
+/* water_level 1: everything immersed, nothing wet or moist, a flat water surface above the
+ * highest point. */
+static void test_level_one_is_immersed(void **state)
+{
+    (void)state;
+    WgImage *maps[] = {bricks, wood, wgt_image_fn(192, 128, 1, hills)};
+    for (int i = 0; i < 3; i++) {
+        Masks m = render(maps[i], NULL, "water_level=1 noise_intensity=1 edge_softness=0");
+        assert_all(m.imm, 1, "immersed");
+        assert_all(m.wet, 0, "wet");
+        assert_all(m.moist, 0, "moist");
+        assert_all(m.pud, 0, "puddles");
+        double lo, hi, wlo, whi;
+        smoothed_range(maps[i], &lo, &hi);
+        range_of(m.wh, &wlo, &whi);
+        assert_true(wlo == whi && fabs(wlo - (lo + (1 + 1.0 / 128) * (hi - lo))) <= 1e-6);
+        masks_free(&m);
+    }
+    wg_image_unref(maps[2]);
+}
+
+/* The immersed mask grows with the level at every pixel; it lies below the water surface (the
+ * smoothed height the graph measures, normalised by its range, is below the level);
+ * water_height is the height in the input's units, flattened at the surface there. */
+static void test_immersed_grows_and_lies_below(void **state)
+{
+    (void)state;
+    WgImage *maps[] = {bricks, wood};
+    for (int i = 0; i < 2; i++) {
+        double lo, hi;
+        WgImage *sm = smoothed(maps[i]);
+        range_of(sm, &lo, &hi);
+        WgImage *prev = NULL;
+        double prev_area = 0;
+        for (int k = 0; k <= 10; k++) {
+            double wl = k / 10.0;
+            char sets[64];
+            snprintf(sets, sizeof sets, "water_level=%g", wl);
+            Masks m = render(maps[i], NULL, sets);
+            /* the water surface: water_level of the range plus 1/128, in the input's units */
+            double lw = wl * (1 + 1.0 / 128), level = lo + lw * (hi - lo), tol = 1e-6;
+            double area = 0;
+            int full = 0;
+            for (int y = 0; y < m.imm->height; y++)
+                for (int x = 0; x < m.imm->width; x++) {
+                    double a = px(m.imm, x, y), h = px(maps[i], x, y), w = px(m.wh, x, y);
+                    double hn = (px(sm, x, y) - lo) / (hi - lo);
+                    area += a;
+                    if (prev && a < px(prev, x, y))
+                        fail_msg("level %g: immersed shrank at (%d, %d)", wl, x, y);
+                    if (a > 0 && !(hn < lw + tol))
+                        fail_msg("level %g: immersed %g at (%d, %d) above the water (%g >= %g)", wl,
+                                 a, x, y, hn, lw);
+                    if (a == 0 && w != (float)h)
+                        fail_msg("level %g: dry water_height %g != height %g", wl, w, h);
+                    if (a > 0 && !(w >= fmin(h, level) - tol && w <= fmax(h, level) + tol))
+                        fail_msg("level %g: water_height %g not between %g and %g", wl, w, h,
+                                 level);
+                    if (a == 1) {
+                        if (!(fabs(w - level) <= tol))
+                            fail_msg("level %g: flattened water_height %.9g, level %.9g", wl, w,
+                                     level);
+                        full++;
+                    }
+                }
+            assert_true(area >= prev_area);
+            if (k == 7) assert_true(full > 0); /* the test does see water */
+            prev_area = area;
+            wg_image_unref(prev);
+            prev = wg_image_ref(m.imm);
+            masks_free(&m);
+        }
+        wg_image_unref(prev);
+        wg_image_unref(sm);
+    }
+}
+
+/* Distance in length units (pixels of a 256-wide image) from every pixel to the nearest
+ * immersed (>= 0.5) pixel on the torus, from the exact distance node (tested on its own). */
+static double *length_to_water(const WgImage *imm)
+{
+    int w = imm->width, h = imm->height;
+    const char *names[] = {"mask"};
+    const WgImage *in[] = {imm};
+    WgImage *dist = wgt_node("distance", "mode=\"pixels\"", w, h, 1, names, in, 0, 1);
+    double *d = malloc(sizeof(double) * (size_t)w * h);
+    assert_non_null(d);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) d[(size_t)y * w + x] = px(dist, x, y) * 256.0 / w;
+    wg_image_unref(dist);
+    return d;
+}
+
+/* Beyond twice their reach from the immersed edge (the noise at full intensity can at most
+ * double the reach; a margin of 10% covers rounding), wet, moist and puddles are exactly 0; and
+ * the test does see wet and moist pixels closer in. */
+static void test_dry_far_from_water(void **state)
+{
+    (void)state;
+    WgImage *c = wgt_image_fn(160, 96, 1, cone);
+    WgImage *n = wgt_image_fn(160, 96, 1, wavy);
+    const char *sets[] = {
+        "water_level=0.15 wet_distance=4 moist_distance=12 wet_height=1 moist_height=1 "
+        "noise_intensity=1",
+        "water_level=0.15 wet_distance=10 moist_distance=20 wet_height=1 moist_height=1 "
+        "puddle_density=1 noise_intensity=1",
+    };
+    for (int s = 0; s < 2; s++)
+        for (int with_noise = 0; with_noise < 2; with_noise++) {
+            Masks m = render(c, with_noise ? n : NULL, sets[s]);
+            double *d = length_to_water(m.imm);
+            double wet_reach = s ? 10 : 4, moist_reach = s ? 20 : 12;
+            int near_wet = 0, near_moist = 0;
+            for (int y = 0; y < 96; y++)
+                for (int x = 0; x < 160; x++) {
+                    double dl = d[y * 160 + x];
+                    if (dl >= 2.2 * wet_reach && (px(m.wet, x, y) != 0 || px(m.pud, x, y) != 0))
+                        fail_msg("wet %g at (%d, %d), %g from the water", px(m.wet, x, y), x, y,
+                                 dl);
+                    if (dl >= 2.2 * moist_reach && px(m.moist, x, y) != 0)
+                        fail_msg("moist %g at (%d, %d), %g from the water", px(m.moist, x, y), x, y,
+                                 dl);
+                    near_wet += dl > 0 && dl < wet_reach / 2 && px(m.wet, x, y) > 0.5f;
+                    near_moist += dl > wet_reach && dl < moist_reach && px(m.moist, x, y) > 0.2f;
+                }
+            assert_true(near_wet > 0);
+            assert_true(near_moist > 0);
+            free(d);
+            masks_free(&m);
+        }
+    wg_image_unref(c);
+    wg_image_unref(n);
+}
+
+/* Puddles lie in hollows (the smoothed, normalised height below its blur over puddle_size),
+ * within wet_distance of the water, and get fewer with the distance: the share of puddle pixels
+ * in the nearest third of that band is larger than in the farthest third. */
+static void test_puddles_in_hollows_near_water(void **state)
+{
+    (void)state;
+    const char *names[] = {"source"};
+    const WgImage *in[] = {bricks};
+    WgImage *sm = wgt_node("blur", "sigma=\"0.75\"", 256, 128, 1, names, in, 0, 1);
+    in[0] = sm;
+    WgImage *sn = wgt_node("auto_levels", "", 256, 128, 1, names, in, 0, 1);
+    in[0] = sn;
+    WgImage *hb = wgt_node("blur", "sigma=\"4\"", 256, 128, 1, names, in, 0, 1);
+    const char *levels[] = {"water_level=0.6 puddle_density=1 wet_distance=12",
+                            "water_level=0.65 puddle_density=0.6 wet_distance=12"};
+    for (int l = 0; l < 2; l++) {
+        Masks m = render(bricks, NULL, levels[l]);
+        double *d = length_to_water(m.imm);
+        double count[3] = {0, 0, 0}, area[3] = {0, 0, 0};
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double p = px(m.pud, x, y), dl = d[y * 256 + x];
+                if (p > 0 && !(px(hb, x, y) > px(sn, x, y)))
+                    fail_msg("%s: puddle %g at (%d, %d) is not in a hollow", levels[l], p, x, y);
+                if (p > 0 && !(dl < 12))
+                    fail_msg("%s: puddle %g at (%d, %d), %g from the water", levels[l], p, x, y,
+                             dl);
+                if (dl > 0 && dl < 12) {
+                    int band = (int)(dl / 4);
+                    count[band] += p;
+                    area[band] += 1;
+                }
+            }
+        printf("%s: puddle share by distance %.4f %.4f %.4f\n", levels[l], count[0] / area[0],
+               count[1] / area[1], count[2] / area[2]);
+        assert_true(count[0] > 0);
+        assert_true(count[0] / area[0] > count[2] / area[2]);
+        free(d);
+        masks_free(&m);
+    }
+    wg_image_unref(sm);
+    wg_image_unref(sn);
+    wg_image_unref(hb);
+}
+
+/* Slope of the graph's smoothed, normalised height, computed with the nodes the graph uses
+ * (auto_levels normalises as the graph's pixel expression does, within float rounding). */
+static WgImage *reference_slope(const WgImage *h, double intensity)
+{
+    const char *names[] = {"source"};
+    const WgImage *in[] = {h};
+    WgImage *sm = wgt_node("blur", "sigma=\"0.75\"", h->width, h->height, 1, names, in, 0, 1);
+    in[0] = sm;
+    WgImage *sn = wgt_node("auto_levels", "", h->width, h->height, 1, names, in, 0, 1);
+    const char *hnames[] = {"height"};
+    in[0] = sn;
+    char attrs[128];
+    snprintf(attrs, sizeof attrs, "intensity=\"%g\" method=\"sobel\"", intensity);
+    WgImage *sl = wgt_node("slope", attrs, h->width, h->height, 1, hnames, in, 0, 1);
+    wg_image_unref(sn);
+    wg_image_unref(sm);
+    return sl;
+}
+
+/* Walls steeper than slope_limit + slope_softness / 2 are never wet, although they are next to
+ * the water: with the limit at 1 the same pixels are wet. */
+static void test_steep_walls_stay_dry(void **state)
+{
+    (void)state;
+    WgImage *m2 = wgt_image_fn(160, 96, 1, mesa);
+    WgImage *maps[] = {bricks, m2};
+    const char *levels[] = {"water_level=0.62", "water_level=0.3"};
+    for (int i = 0; i < 2; i++) {
+        WgImage *sl = reference_slope(maps[i], 16);
+        char sets[256];
+        snprintf(sets, sizeof sets, "%s wet_height=0.9 wet_distance=8", levels[i]);
+        Masks m = render(maps[i], NULL, sets);
+        snprintf(sets, sizeof sets,
+                 "%s wet_height=0.9 wet_distance=8 slope_limit=1 "
+                 "slope_softness=0",
+                 levels[i]);
+        Masks all = render(maps[i], NULL, sets);
+        float limit = 0.5f + 0.15f * 0.5f + 1e-4f; /* margin for the normalisation's rounding */
+        int steep = 0, steep_wet_without_limit = 0;
+        for (int y = 0; y < sl->height; y++)
+            for (int x = 0; x < sl->width; x++) {
+                if (!(px(sl, x, y) >= limit)) continue;
+                steep++;
+                if (px(m.wet, x, y) != 0 || px(m.pud, x, y) != 0)
+                    fail_msg("steep pixel (%d, %d), slope %g, is wet (%g)", x, y, px(sl, x, y),
+                             px(m.wet, x, y));
+                steep_wet_without_limit += px(all.wet, x, y) > 0.1f;
+            }
+        printf("map %d: %d steep pixels, %d of them wet without the slope limit\n", i, steep,
+               steep_wet_without_limit);
+        assert_true(steep_wet_without_limit > 20);
+        masks_free(&m);
+        masks_free(&all);
+        wg_image_unref(sl);
+    }
+    wg_image_unref(m2);
+}
+
+static void check_masks(const Masks *m, const char *what)
+{
+    wgt_assert_range(m->imm, 0, 1);
+    wgt_assert_range(m->wet, 0, 1);
+    wgt_assert_range(m->moist, 0, 1);
+    wgt_assert_range(m->pud, 0, 1);
+    wgt_assert_range(m->wh, -1e30, 1e30);
+    for (int y = 0; y < m->imm->height; y++)
+        for (int x = 0; x < m->imm->width; x++) {
+            double s = (double)px(m->imm, x, y) + px(m->wet, x, y) + px(m->moist, x, y);
+            if (!(s <= 1 + 1e-6)) fail_msg("%s: zones sum to %.9g at (%d, %d)", what, s, x, y);
+            if (!(px(m->pud, x, y) <= px(m->wet, x, y) + 1e-6))
+                fail_msg("%s: puddle %g outside the wet zone (%g) at (%d, %d)", what,
+                         px(m->pud, x, y), px(m->wet, x, y), x, y);
+        }
+}
+
+/* Zones partition the surface, every output is finite and in range, for default, smallest and
+ * largest parameters, with and without a noise input. */
+static void test_partition_and_ranges(void **state)
+{
+    (void)state;
+    WgImage *n = wgt_image_fn(256, 128, 1, wavy);
+    WgImage *maps[] = {bricks, wood, wgt_image_fn(192, 128, 1, hills),
+                       wgt_image_fn(160, 96, 1, mesa)};
+    const char *params[] = {
+        "",
+        "wet_height=0.001 wet_distance=0.01 moist_height=0.001 moist_distance=0.01 "
+        "noise_intensity=0 slope_limit=0 slope_softness=0 height_scale=0.001 puddle_density=0 "
+        "puddle_size=0.1 edge_softness=0",
+        "wet_height=1 wet_distance=128 moist_height=1 moist_distance=128 noise_intensity=1 "
+        "slope_limit=1 slope_softness=1 height_scale=4096 puddle_density=1 puddle_size=64 "
+        "edge_softness=1",
+        "wet_height=0.5 moist_height=0.05 wet_distance=30 moist_distance=3",
+    };
+    const char *levels[] = {"0.2", "0.5", "0.8"};
+    for (int i = 0; i < 4; i++)
+        for (int p = 0; p < 4; p++)
+            for (int l = 0; l < 3; l++) {
+                char sets[512];
+                snprintf(sets, sizeof sets, "water_level=%s %s", levels[l], params[p]);
+                for (int with_noise = 0; with_noise < 2; with_noise++) {
+                    Masks m = render(maps[i], with_noise ? n : NULL, sets);
+                    check_masks(&m, sets);
+                    masks_free(&m);
+                }
+            }
+    wg_image_unref(maps[2]);
+    wg_image_unref(maps[3]);
+    wg_image_unref(n);
+}
+
+/* Hard cases: a flat map (no range: the height counts as the middle of the range), one pixel,
+ * a 3x2 map, a single spike on flat ground; levels 0 and 1 stay exact and every output is
+ * finite and partitions. */
+static void test_hard_cases(void **state)
+{
+    (void)state;
+    float flat_v[16 * 8], tiny_v[6] = {0.1f, 0.9f, 0.4f, 0.4f, 0.2f, 0.7f}, one_v = 0.3f;
+    for (int i = 0; i < 16 * 8; i++) flat_v[i] = 0.25f;
+    WgImage *flat = wgt_image(16, 8, 1, flat_v), *tiny = wgt_image(3, 2, 1, tiny_v);
+    WgImage *one = wgt_image(1, 1, 1, &one_v);
+    WgImage *spike = wgt_image(64, 32, 1, NULL);
+    wg_image_row(spike, 10)[20] = 5;
+    WgImage *maps[] = {flat, tiny, one, spike};
+    const char *levels[] = {"0", "0.3", "0.6", "1"};
+    for (int i = 0; i < 4; i++)
+        for (int l = 0; l < 4; l++) {
+            char sets[128];
+            snprintf(sets, sizeof sets, "water_level=%s noise_intensity=1 puddle_density=1",
+                     levels[l]);
+            Masks m = render(maps[i], NULL, sets);
+            check_masks(&m, sets);
+            if (l == 0) assert_all(m.imm, 0, "immersed");
+            if (l == 0) assert_all(m.wet, 0, "wet");
+            if (l == 0) assert_all(m.moist, 0, "moist");
+            if (l == 3) assert_all(m.imm, 1, "immersed");
+            if (i == 0) /* flat: all or nothing, around the middle of the range */
+                assert_all(m.imm, l >= 2 ? 1.0f : 0.0f, "immersed (flat)");
+            masks_free(&m);
+        }
+    for (int i = 0; i < 4; i++) wg_image_unref(maps[i]);
+}
+
+/* The zones view is an opaque colour image in [0, 1]. */
+static void test_zones_view(void **state)
+{
+    (void)state;
+    WgError err = {0};
+    WgRequest *r = wg_request_new(graph);
+    if (wg_request_set_input_image(r, "height", bricks, &err)) fail_msg("%s", err.message);
+    if (wg_request_set(r, "water_level", "0.6", &err)) fail_msg("%s", err.message);
+    if (wg_request_add_output(r, "zones", &err)) fail_msg("%s", err.message);
+    WgResult *res = wgt_render_request(engine, r);
+    const WgImage *z = wgt_output(res, "zones");
+    assert_int_equal(z->channels, 4);
+    wgt_assert_range(z, 0, 1);
+    for (int y = 0; y < z->height; y++)
+        for (int x = 0; x < z->width; x++) assert_true(wg_image_row(z, y)[4 * x + 3] == 1.0f);
+    wg_result_free(res);
+    wg_request_free(r);
+}
+
+/* A map using only part of 0..1 (the 16-bit wood map squeezed into [0.3, 0.45]) gives the same
+ * masks as the full map, and its water_height is the same affine map of the full one. The
+ * 16-bit precision is used: levels 0.0005 apart immerse different areas. */
+static void test_partial_range_and_16_bit(void **state)
+{
+    (void)state;
+    WgImage *squeezed = wg_image_new(wood->width, wood->height, 1);
+    for (int y = 0; y < wood->height; y++)
+        for (int x = 0; x < wood->width; x++)
+            wg_image_row(squeezed, y)[x] = 0.3f + 0.15f * px(wood, x, y);
+    double lo, hi;
+    range_of(wood, &lo, &hi);
+    for (int l = 1; l < 10; l += 2) {
+        char sets[64];
+        snprintf(sets, sizeof sets, "water_level=%g", l / 10.0);
+        Masks a = render(wood, NULL, sets), b = render(squeezed, NULL, sets);
+        const WgImage *ma[] = {a.imm, a.wet, a.moist, a.pud},
+                      *mb[] = {b.imm, b.wet, b.moist, b.pud};
+        for (int k = 0; k < 4; k++) {
+            double sum = 0;
+            for (int y = 0; y < wood->height; y++)
+                for (int x = 0; x < wood->width; x++)
+                    sum += fabs((double)px(ma[k], x, y) - px(mb[k], x, y));
+            double mean = sum / (wood->width * wood->height);
+            if (!(mean <= 1e-4)) fail_msg("%s mask %d: mean difference %g", sets, k, mean);
+        }
+        for (int y = 0; y < wood->height; y++)
+            for (int x = 0; x < wood->width; x++) {
+                double want = 0.3 + 0.15 * px(a.wh, x, y);
+                if (!(fabs(px(b.wh, x, y) - want) <= 1e-4 * 0.15 * (hi - lo)))
+                    fail_msg("%s: water_height %g, expected %g", sets, px(b.wh, x, y), want);
+            }
+        masks_free(&a);
+        masks_free(&b);
+    }
+    double area[2] = {0, 0};
+    for (int k = 0; k < 2; k++) {
+        Masks m = render(wood, NULL, k ? "water_level=0.6005" : "water_level=0.6");
+        for (int y = 0; y < wood->height; y++)
+            for (int x = 0; x < wood->width; x++) area[k] += px(m.imm, x, y);
+        masks_free(&m);
+    }
+    assert_true(area[1] > area[0]);
+    wg_image_unref(squeezed);
+}
+
+static WgImage *roll(const WgImage *img, int dx, int dy)
+{
+    WgImage *out = wg_image_new(img->width, img->height, 1);
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++)
+            wg_image_row(out, (y + dy) % img->height)[(x + dx) % img->width] = px(img, x, y);
+    return out;
+}
+
+/* Shifting the height and the noise cyclically shifts every output (up to the rounding of the
+ * FFT blur). */
+static void test_tiling(void **state)
+{
+    (void)state;
+    WgImage *n = wgt_image_fn(256, 128, 1, wavy);
+    WgImage *hs = roll(bricks, 77, 35), *ns = roll(n, 77, 35);
+    const char *levels[] = {"water_level=0.55", "water_level=0.7 puddle_density=1"};
+    for (int l = 0; l < 2; l++) {
+        Masks a = render(bricks, n, levels[l]), b = render(hs, ns, levels[l]);
+        const WgImage *ma[] = {a.imm, a.wet, a.moist, a.pud, a.wh};
+        const WgImage *mb[] = {b.imm, b.wet, b.moist, b.pud, b.wh};
+        for (int k = 0; k < 5; k++) {
+            WgImage *r = roll(ma[k], 77, 35);
+            double d = wgt_max_abs_diff(r, mb[k]);
+            printf("%s output %d: max difference after the shift %.3g\n", levels[l], k, d);
+            if (!(d <= 2e-3)) fail_msg("%s output %d differs by %g after a shift", levels[l], k, d);
+            wg_image_unref(r);
+        }
+        masks_free(&a);
+        masks_free(&b);
+    }
+    wg_image_unref(n);
+    wg_image_unref(hs);
+    wg_image_unref(ns);
+}
+
+/* Resolution independence: bricks102 at its own 1024x512 and upsampled to 2048x1024 give the
+ * same masks up to filtering: both renders shrunk to 256x128 (which averages away the
+ * one-pixel differences along the zone edges) agree. */
+static void test_resolution_independence(void **state)
+{
+    (void)state;
+    char path[2048];
+    snprintf(path, sizeof path, "%s/%s", env("WETGRAPH_SHARED"),
+             "materials/bricks102_stonewall_1k/Bricks102_1K-JPG_Displacement.jpg");
+    WgError err = {0};
+    WgImage *one = NULL;
+    if (wg_image_read(path, 1, WG_LINEAR, &one, &err)) fail_msg("%s: %s", path, err.message);
+    assert_int_equal(one->width, 1024);
+    WgImage *two = wg_image_convert(one, 2048, 1024, 1);
+    const char *levels[] = {"water_level=0.55", "water_level=0.7", "water_level=0.8"};
+    for (int l = 0; l < 3; l++) {
+        Masks a = render(one, NULL, levels[l]), b = render(two, NULL, levels[l]);
+        const WgImage *ma[] = {a.imm, a.wet, a.moist, a.pud};
+        const WgImage *mb[] = {b.imm, b.wet, b.moist, b.pud};
+        for (int k = 0; k < 4; k++) {
+            WgImage *sa = wg_image_convert(ma[k], 256, 128, 1);
+            WgImage *sb = wg_image_convert(mb[k], 256, 128, 1);
+            double sum = 0, ref = 0, worst = 0;
+            for (int y = 0; y < 128; y++)
+                for (int x = 0; x < 256; x++) {
+                    double d = fabs((double)px(sa, x, y) - px(sb, x, y));
+                    sum += d;
+                    ref += px(sa, x, y);
+                    worst = fmax(worst, d);
+                }
+            double mean = sum / (256 * 128);
+            printf("%s mask %d: mean |1K - 2K| %.4f (mean value %.4f), max %.3f\n", levels[l], k,
+                   mean, ref / (256 * 128), worst);
+            if (!(mean <= 0.01 && worst <= 0.3))
+                fail_msg("%s mask %d: mean difference %g, max %g", levels[l], k, mean, worst);
+            wg_image_unref(sa);
+            wg_image_unref(sb);
+        }
+        masks_free(&a);
+        masks_free(&b);
+    }
+    wg_image_unref(one);
+    wg_image_unref(two);
+}
+
+/* The optional noise input: a constant 0.5 moves nothing (the same zones as noise_intensity 0),
+ * and another noise image moves the wet edge. */
+static void test_noise_input(void **state)
+{
+    (void)state;
+    float half = 0.5f;
+    WgImage *flat = wgt_image(1, 1, 1, &half);
+    WgImage *n = wgt_image_fn(256, 128, 1, wavy);
+    Masks a = render(bricks, flat, "water_level=0.65");
+    Masks b = render(bricks, NULL, "water_level=0.65 noise_intensity=0");
+    Masks c = render(bricks, n, "water_level=0.65");
+    Masks d = render(bricks, NULL, "water_level=0.65");
+    wgt_assert_identical(a.imm, b.imm);
+    wgt_assert_identical(a.wet, b.wet);
+    wgt_assert_identical(a.moist, b.moist);
+    assert_true(wgt_max_abs_diff(c.wet, d.wet) > 0.1);
+    masks_free(&a);
+    masks_free(&b);
+    masks_free(&c);
+    masks_free(&d);
+    wg_image_unref(flat);
+    wg_image_unref(n);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_level_zero_is_dry),
+        cmocka_unit_test(test_level_one_is_immersed),
+        cmocka_unit_test(test_immersed_grows_and_lies_below),
+        cmocka_unit_test(test_dry_far_from_water),
+        cmocka_unit_test(test_steep_walls_stay_dry),
+        cmocka_unit_test(test_puddles_in_hollows_near_water),
+        cmocka_unit_test(test_partition_and_ranges),
+        cmocka_unit_test(test_hard_cases),
+        cmocka_unit_test(test_zones_view),
+        cmocka_unit_test(test_partial_range_and_16_bit),
+        cmocka_unit_test(test_tiling),
+        cmocka_unit_test(test_resolution_independence),
+        cmocka_unit_test(test_noise_input),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
