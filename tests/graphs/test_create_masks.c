@@ -383,6 +383,11 @@ static void test_puddles_in_hollows_near_water(void **state)
                     area[band] += 1;
                 }
             }
+        Masks none = render(bricks, NULL,
+                            l ? "water_level=0.65 puddle_density=0 wet_distance=12"
+                              : "water_level=0.6 puddle_density=0 wet_distance=12");
+        assert_all(none.pud, 0, "puddles at density 0");
+        masks_free(&none);
         printf("%s: puddle share by distance %.4f %.4f %.4f\n", levels[l], count[0] / area[0],
                count[1] / area[1], count[2] / area[2]);
         assert_true(count[0] > 0);
@@ -412,6 +417,51 @@ static WgImage *reference_slope(const WgImage *h, double intensity)
     wg_image_unref(sn);
     wg_image_unref(sm);
     return sl;
+}
+
+/* A wide cone on a 256x256 tile: 0 at the centre. */
+static double wide_cone(int x, int y, int k)
+{
+    (void)k;
+    double dx = fabs(x - 128.0), dy = fabs(y - 128.0);
+    return sqrt(dx * dx + dy * dy) / 180;
+}
+
+/* Transitions are gradients, not steps: on a smooth slope, away from the waterline, wet and
+ * moist change by less than half their range between neighbouring pixels and take many
+ * values in between; with edge_softness 0 the wet edge is a step (so the test can tell). */
+static void test_soft_transitions(void **state)
+{
+    (void)state;
+    WgImage *c = wgt_image_fn(256, 256, 1, wide_cone);
+    for (int hard = 0; hard < 2; hard++) {
+        Masks m = render(c, NULL,
+                         hard ? "water_level=0.3 noise_intensity=0 edge_softness=0 wet_height=1"
+                              : "water_level=0.3 noise_intensity=0 wet_height=1");
+        double jump[2] = {0, 0};
+        int between[2] = {0, 0};
+        const WgImage *img[2] = {m.wet, m.moist};
+        for (int k = 0; k < 2; k++)
+            for (int y = 0; y < 256; y++)
+                for (int x = 0; x < 256; x++) {
+                    float v = px(img[k], x, y);
+                    between[k] += v > 0.05f && v < 0.95f;
+                    int x1 = (x + 1) % 256;
+                    if (px(m.imm, x, y) != 0 || px(m.imm, x1, y) != 0) continue;
+                    jump[k] = fmax(jump[k], fabs((double)px(img[k], x1, y) - v));
+                }
+        printf("edge_softness %s: largest step wet %.3f, moist %.3f; pixels between 0.05 and "
+               "0.95: wet %d, moist %d\n",
+               hard ? "0" : "default", jump[0], jump[1], between[0], between[1]);
+        if (!hard) {
+            assert_true(jump[0] < 0.5 && jump[1] < 0.5);
+            assert_true(between[0] > 500 && between[1] > 500);
+        } else {
+            assert_true(jump[0] > 0.9);
+        }
+        masks_free(&m);
+    }
+    wg_image_unref(c);
 }
 
 /* Walls steeper than slope_limit + slope_softness / 2 are never wet, although they are next to
@@ -671,7 +721,8 @@ static void test_resolution_independence(void **state)
             double mean = sum / (256 * 128);
             printf("%s mask %d: mean |1K - 2K| %.4f (mean value %.4f), max %.3f\n", levels[l], k,
                    mean, ref / (256 * 128), worst);
-            if (!(mean <= 0.01 && worst <= 0.3))
+            /* puddles are small, with a sharp depth threshold: a few pixels differ more */
+            if (!(mean <= 0.01 && worst <= (k == 3 ? 0.5 : 0.25)))
                 fail_msg("%s mask %d: mean difference %g, max %g", levels[l], k, mean, worst);
             wg_image_unref(sa);
             wg_image_unref(sb);
@@ -714,6 +765,7 @@ int main(void)
         cmocka_unit_test(test_level_one_is_immersed),
         cmocka_unit_test(test_immersed_grows_and_lies_below),
         cmocka_unit_test(test_dry_far_from_water),
+        cmocka_unit_test(test_soft_transitions),
         cmocka_unit_test(test_steep_walls_stay_dry),
         cmocka_unit_test(test_puddles_in_hollows_near_water),
         cmocka_unit_test(test_partition_and_ranges),
