@@ -50,7 +50,7 @@ crop=400x300+300+100
 
 # water levels: base colour (dry first) and zones
 render dry "${bricks[@]}" --set water_level=0 --output basecolor --output zones
-levels=(0.6 0.72 0.8)
+levels=(0.5 0.6 0.7)
 for l in "${levels[@]}"; do render "l$l" "${bricks[@]}" --set water_level=$l; done
 panel "$tmp/dry/wet_material_basecolor.png" $crop "$tmp/b0.png"
 panel "$tmp/dry/wet_material_zones.png" $crop "$tmp/z0.png"
@@ -58,20 +58,20 @@ for l in "${levels[@]}"; do
     panel "$tmp/l$l/wet_material_basecolor.png" $crop "$tmp/b$l.png"
     panel "$tmp/l$l/wet_material_zones.png" $crop "$tmp/z$l.png"
 done
-oiiotool "$tmp/b0.png" "$tmp/b0.6.png" "$tmp/b0.72.png" "$tmp/b0.8.png" --mosaic 4x1 -o $img/wet_levels.png
-oiiotool "$tmp/z0.png" "$tmp/z0.6.png" "$tmp/z0.72.png" "$tmp/z0.8.png" --mosaic 4x1 -o $img/wet_zones.png
+oiiotool "$tmp/b0.png" "$tmp/b0.5.png" "$tmp/b0.6.png" "$tmp/b0.7.png" --mosaic 4x1 -o $img/wet_levels.png
+oiiotool "$tmp/z0.png" "$tmp/z0.5.png" "$tmp/z0.6.png" "$tmp/z0.7.png" --mosaic 4x1 -o $img/wet_zones.png
 
-# dry and wet roughness and normal at level 0.72
+# dry and wet roughness and normal at level 0.6
 render drymaps "${bricks[@]}" --set water_level=0 --output roughness --output normal
 gpanel "$tmp/drymaps/wet_material_roughness.png" $crop "$tmp/r0.png"
-gpanel "$tmp/l0.72/wet_material_roughness.png" $crop "$tmp/r1.png"
+gpanel "$tmp/l0.6/wet_material_roughness.png" $crop "$tmp/r1.png"
 panel "$tmp/drymaps/wet_material_normal.png" $crop "$tmp/n0.png"
-panel "$tmp/l0.72/wet_material_normal.png" $crop "$tmp/n1.png"
+panel "$tmp/l0.6/wet_material_normal.png" $crop "$tmp/n1.png"
 oiiotool "$tmp/r0.png" "$tmp/r1.png" "$tmp/n0.png" "$tmp/n1.png" --mosaic 4x1 -o $img/wet_maps.png
 
-# the liquid presets at level 0.8
+# the liquid presets at level 0.7
 for q in water muddy_water tea milk blood oil; do
-    render "q$q" "${bricks[@]}" --set water_level=0.8 --set liquid=$q --output basecolor
+    render "q$q" "${bricks[@]}" --set water_level=0.7 --set liquid=$q --output basecolor
     oiiotool "$tmp/q$q/wet_material_basecolor.png" --ch R,G,B --cut 300x250+400+100 --resize 40% \
         -o "$tmp/q$q.png"
 done
@@ -90,8 +90,8 @@ oiiotool "$tmp/pdry.png" "$tmp/pwet.png" "$tmp/pz.png" "$tmp/wdry.png" "$tmp/wwe
     --mosaic 6x1 --resize 75% -o $img/wet_materials.png
 
 # 1K and 2K: the same area, the 2K render halved
-render k1 "${bricks[@]}" --set water_level=0.72 --output basecolor
-render k2 "${bricks[@]}" --size 2048x1024 --set water_level=0.72 --output basecolor
+render k1 "${bricks[@]}" --set water_level=0.6 --output basecolor
+render k2 "${bricks[@]}" --size 2048x1024 --set water_level=0.6 --output basecolor
 oiiotool "$tmp/k1/wet_material_basecolor.png" --ch R,G,B --cut 150x150+350+150 -o "$tmp/k1.png"
 oiiotool "$tmp/k2/wet_material_basecolor.png" --ch R,G,B --cut 300x300+700+300 --resize 150x150 \
     -o "$tmp/k2.png"
