@@ -1,13 +1,19 @@
 #!/usr/bin/env bash
-# Install, build and render the demo into out/: a wet-look preview of the PavingStones130
-# material from ../shared (darker, glossier where the height map is low).
+# Install, build and render the demo into out/: the Bricks102 stone wall from ../shared wet
+# up to three water levels with graphs/wet_material.wetgraph (zone masks, wet maps, water
+# layer maps), one folder per level: out/water_0.5/wet_material_basecolor.png, ...
+# Extra arguments are passed to every render (e.g. --set liquid=tea).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 scripts/build.sh
-mat=../shared/materials/pavingstones130_1k
-./build/cli/wetgraph render graphs/demo.wetgraph -o out \
-    --input basecolor=$mat/PavingStones130_1K_Color.jpg \
-    --input height=$mat/PavingStones130_1K_Displacement.jpg \
-    --input roughness=$mat/PavingStones130_1K_Roughness.jpg \
-    --set water_level=0.72 "$@"
+mat=../shared/materials/bricks102_stonewall_1k
+for level in 0.5 0.6 0.7; do
+    ./build/cli/wetgraph render graphs/wet_material.wetgraph -o out/water_$level \
+        --input basecolor=$mat/Bricks102_1K-JPG_Color.jpg \
+        --input height=$mat/Bricks102_1K-JPG_Displacement.jpg \
+        --input normal=$mat/Bricks102_1K-JPG_NormalGL.jpg \
+        --input roughness=$mat/Bricks102_1K-JPG_Roughness.jpg \
+        --input ao=$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg \
+        --set water_level=$level "$@"
+done

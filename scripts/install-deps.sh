@@ -2,6 +2,7 @@
 # Install the Debian packages wetgraph needs: only those missing, quietly, idempotently.
 #   scripts/install-deps.sh          build and test dependencies
 #   scripts/install-deps.sh --bench  also the peers the benchmarks compare against
+#   scripts/install-deps.sh --docs   also oiiotool (scripts/wet_pictures.sh crops and tiles)
 set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
@@ -11,6 +12,9 @@ if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks
            libopencv-dev python3-numpy python3-scipy  # blur and distance peers (bench/run_peers.sh)
            openimageio-tools)  # oiiotool, the image-reading peer (bench/run_io.sh)
+fi
+if [[ "${1:-}" == "--docs" ]]; then
+    pkgs+=(openimageio-tools)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

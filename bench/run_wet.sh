@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Speed of the wet-material pipeline: graphs/wet_material.wetgraph on the Bricks102 wall from
+# ../shared at SIZE² (default 2048) with THREADS workers (default 2), all outputs.
+#  cold   node time of a render without cache: the sum of the nodes' own times from
+#         --stats=json, image loading (the `image` nodes that read the input files) excluded;
+#         best of RUNS renders (default 3)
+#  warm   a render with --cache into a fresh folder, then RUNS renders each with a new value
+#         of one texturing parameter (dark_wet): only the texturing nodes that depend on it run
+#         again. Best node time, and its share of the best cold render.
+# Builds wetgraph in BUILD_DIR (default build) first. Timing is noisy on a loaded machine: the
+# load average is printed with the results; run it on an idle machine for the real numbers.
+# Usage: bench/run_wet.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$root/build}
+size=${2:-2048}
+threads=${3:-2}
+runs=${4:-3}
+[[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
+ninja -C "$build" cli/wetgraph >/dev/null
+mat=$root/../shared/materials/bricks102_stonewall_1k
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+render() {
+    "$build/cli/wetgraph" render "$root/graphs/wet_material.wetgraph" -o "$tmp/out" -q \
+        --size "$size" --threads "$threads" --stats=json \
+        --input basecolor="$mat/Bricks102_1K-JPG_Color.jpg" \
+        --input height="$mat/Bricks102_1K-JPG_Displacement.jpg" \
+        --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg" \
+        --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg" \
+        --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" \
+        --set water_level=0.65 "$@"
+}
+# node time (ms) of a --stats=json report, image loading excluded; then the computed count
+node_ms() {
+    python3 -c 'import json, sys
+r = json.load(sys.stdin)
+ms = sum(n["ms"] for n in r["nodes"] if n["type"] != "image")
+print("%.1f %d" % (ms, r["evaluated"]))'
+}
+echo "wet_material, ${size}x${size}, $threads threads; load average: $(cut -d' ' -f1-3 /proc/loadavg)"
+best=
+for ((i = 0; i < runs; i++)); do
+    read -r ms n < <(render | node_ms)
+    echo "  cold run $((i + 1)): $ms ms node time ($n nodes)"
+    if [[ -z "$best" ]] || python3 -c "import sys; sys.exit(not $ms < $best)"; then best=$ms; fi
+done
+read -r fill nf < <(render --cache "$tmp/cache" | node_ms)
+echo "cold (best of $runs): $best ms node time; cache fill: $fill ms ($nf nodes)"
+warm=
+for ((i = 0; i < runs; i++)); do
+    # a new value each time, so that the nodes depending on it miss the cache
+    read -r ms nw < <(render --cache "$tmp/cache" --set dark_wet=0.9$i | node_ms)
+    echo "  after changing dark_wet, run $((i + 1)): $ms ms ($nw nodes computed)"
+    if [[ -z "$warm" ]] || python3 -c "import sys; sys.exit(not $ms < $warm)"; then warm=$ms; fi
+done
+echo "after changing dark_wet (best of $runs): $warm ms," \
+     "$(python3 -c "print('%.0f' % (100 * $warm / $best))") % of the cold render"
