@@ -266,6 +266,9 @@ static int oiio_create(const char *path, const char *format_ext, int w, int h, i
         spec.attribute("oiio:UnassociatedAlpha", 1);
         if (!std::strcmp(format_ext, "exr")) spec.attribute("compression", "zip");
         if (!std::strcmp(format_ext, "tif")) spec.attribute("compression", "zip");
+        /* zlib level 1: writing the wet material's 16 outputs at 2048² took 3.6 s instead of 8.4 s
+         * at the default 6, for files 10% larger */
+        if (!std::strcmp(format_ext, "png")) spec.attribute("png:compressionLevel", 1);
         Filesystem::IOProxy *proxy = o->file.get();
         spec.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
         if (!o->out->open(path, spec)) {
