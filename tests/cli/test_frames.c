@@ -53,21 +53,6 @@ static int run(const char *fmt, ...)
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
-static char *slurp(const char *p)
-{
-    FILE *f = fopen(p, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-    buf[n] = '\0';
-    fclose(f);
-    return buf;
-}
-
 static bool exists(const char *p)
 {
     struct stat st;
@@ -150,7 +135,7 @@ static void test_untimed_nodes_run_once(void **state)
 {
     (void)state;
     assert_int_equal(run("render anim.wetgraph --frames 0:4 -o st -q --stats=json"), 0);
-    char *json = slurp(path("out"));
+    char *json = wgt_read_file(path("out"), NULL);
     assert_non_null(json);
     assert_non_null(strstr(json, "\"frames\": 5"));
     const char *d = strstr(json, "\"id\": \"dist\"");
@@ -219,7 +204,7 @@ static void test_usage_errors(void **state)
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         int st = run("render anim.wetgraph %s -o bad", cases[i].args);
-        char *err = slurp(path("err"));
+        char *err = wgt_read_file(path("err"), NULL);
         if (st != 2 || !err || !strstr(err, cases[i].message))
             fail_msg("'%s': exit %d, stderr:\n%s", cases[i].args, st, err ? err : "");
         free(err);
