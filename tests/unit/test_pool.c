@@ -135,10 +135,10 @@ static void test_outlives_engine(void **state)
 
 /* ---- reuse and determinism --------------------------------------------------------------- */
 
-static void reuse_run(const WgGraph *g, const WgResult *ref, bool memory_cache)
+static void reuse_run(const WgGraph *g, const WgResult *ref, bool memory_cache, int threads)
 {
     wg__mempool_set_poison(true);
-    WgEngineOptions opt = {2, 0, NULL, !memory_cache};
+    WgEngineOptions opt = {threads, 0, NULL, !memory_cache};
     WgEngine *e = NULL;
     WgError err = {0};
     assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
@@ -149,13 +149,15 @@ static void reuse_run(const WgGraph *g, const WgResult *ref, bool memory_cache)
     wg_engine_memory_stats(e, &s1);
     assert_true(s1.pool_hits > 0); /* intermediates freed during the render were reused */
     assert_true(s1.pool_bytes > 0);
-    /* a second render of the same request: every buffer from the pool */
+    /* a second render of the same request: every buffer from the pool. With one thread the
+     * nodes run in the same order both times; with more, the order of frees and allocations
+     * may differ, so one more buffer of a size class can be live at once */
     wg_engine_clear_cache(e);
     WgResult *second = render_on(e, g);
     wg_engine_memory_stats(e, &s2);
     wg__mempool_set_poison(false);
     assert_results_identical(ref, second);
-    if (s2.pool_misses != s1.pool_misses)
+    if (s2.pool_misses > s1.pool_misses + (threads > 1 ? 2 : 0))
         fail_msg("the second render took %llu new buffers",
                  (unsigned long long)(s2.pool_misses - s1.pool_misses));
     assert_true(s2.pool_hits > s1.pool_hits);
@@ -170,8 +172,10 @@ static void test_reuse_identical(void **state)
     WgEngine *e1 = wgt_engine(1, 0, NULL);
     WgResult *ref = render_on(e1, g);
     wg_engine_free(e1);
-    reuse_run(g, ref, true);
-    reuse_run(g, ref, false);
+    for (int threads = 1; threads <= 2; threads++) {
+        reuse_run(g, ref, true, threads);
+        reuse_run(g, ref, false, threads);
+    }
     wg_result_free(ref);
     wg_graph_free(g);
 }
