@@ -155,13 +155,33 @@ enum {
     SLOT_EXTRA = 3 << 24,
     SLOT_SCOPE = 4 << 24,
     SLOT_BUILTIN = 5 << 24, /* index: 0 u, 1 v, 2 x, 3 y */
+    SLOT_LOCAL = 6 << 24,   /* index: a name defined by an earlier `name = ...;` statement */
     SLOT_CLASS = 0xff << 24,
 };
+
+/* A typed subexpression: n = 1 (number) or 4 (colour, one value per channel). `col` is the
+ * column of the first thing that made it a colour, for error messages. */
+typedef struct Typed {
+    int n;
+    int c[4];
+    int col;
+} Typed;
+
+/* A name defined by a statement `name = expression;` before the result. */
+typedef struct {
+    const char *name; /* in the source text, not terminated */
+    size_t len;
+    Typed value;
+} Local;
+
+enum { MAX_LOCALS = 256 };
 
 typedef struct {
     const WgNodeContext *ctx;
     const int *in_ch;
     char hint[256]; /* why the last unknown name is unknown, when we can tell */
+    Local locals[MAX_LOCALS];
+    int n_locals;
 } Names;
 
 static bool same(const char *s, const char *name, size_t len)
@@ -174,6 +194,11 @@ static bool resolve(void *user, const char *name, size_t len, int *slot)
     Names *nm = user;
     const WgNodeContext *ctx = nm->ctx;
     nm->hint[0] = '\0';
+    for (int i = 0; i < nm->n_locals; i++)
+        if (nm->locals[i].len == len && !strncmp(nm->locals[i].name, name, len)) {
+            *slot = SLOT_LOCAL | i;
+            return true;
+        }
     for (int i = 0; i < ctx->n_inputs; i++)
         if (same(ctx->input_names[i], name, len)) {
             *slot = SLOT_INPUT | i;
@@ -225,15 +250,9 @@ typedef struct {
     int *first;              /* per node: the column where its subexpression starts */
     int *index;              /* hash set of the values, for sharing: value + 1, 0 = free */
     int index_cap;           /* a power of two, at least twice the values */
+    int col0;                /* columns of src count from col0 + 1 in the whole `expr` */
+    const Names *names;      /* for the values of locals */
 } Compiler;
-
-/* A typed subexpression: n = 1 (number) or 4 (colour, one value per channel). `col` is the
- * column of the first thing that made it a colour, for error messages. */
-typedef struct Typed {
-    int n;
-    int c[4];
-    int col;
-} Typed;
 
 static int error_at(Compiler *k, int code, int column, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
@@ -244,8 +263,8 @@ static int error_at(Compiler *k, int code, int column, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    wg_error_set(k->err, code, NULL, "expr column %d: %s", column, msg);
-    if (k->err) k->err->column = column;
+    wg_error_set(k->err, code, NULL, "expr column %d: %s", k->col0 + column, msg);
+    if (k->err) k->err->column = k->col0 + column;
     return code;
 }
 
@@ -462,6 +481,10 @@ static int lower_var(Compiler *k, const WgExprNode *e, Typed *out)
     case SLOT_SCOPE:
         out->c[0] = emit_const(k, ctx->scope_values[i]);
         break;
+    case SLOT_LOCAL: /* already lowered; a colour is blamed on this use of its name */
+        *out = k->names->locals[i].value;
+        if (out->n == 4) out->col = e->column;
+        return WG_OK;
     default: {
         static const WgPxOp b[] = {WG_PX_U, WG_PX_V, WG_PX_X, WG_PX_Y};
         out->c[0] = emit(k, b[i & 3], NULL, 0, 0, 0);
@@ -488,6 +511,7 @@ static int lower_call(Compiler *k, const WgExprNode *e, Typed *out)
                 snprintf(what, sizeof what, "'%s' is %s", tok,
                          cls == SLOT_EXTRA   ? "an extra parameter"
                          : cls == SLOT_SCOPE ? "a graph parameter"
+                         : cls == SLOT_LOCAL ? "a local name"
                                              : "a coordinate");
             } else {
                 snprintf(what, sizeof what, "here it is an expression");
@@ -733,35 +757,152 @@ void wg__px_free(WgPxProgram *p)
     wg_free(p);
 }
 
+/* The statements of `expr`, split at the semicolons outside parentheses: [start, end) of each. */
+static int split_statements(const char *src, int *start, int *end, int max)
+{
+    int n = 0, depth = 0, from = 0;
+    for (int i = 0;; i++) {
+        char c = src[i];
+        depth += c == '(' ? 1 : c == ')' ? -1 : 0;
+        if (c == '\0' || (c == ';' && depth <= 0)) {
+            if (n == max) return -1;
+            start[n] = from;
+            end[n++] = i;
+            if (!c) return n;
+            from = i + 1;
+        }
+    }
+}
+
+/* "name =" (and not "==") at the start of src[from, to): the name's extent and where the
+ * expression after '=' starts. */
+static bool definition(const char *src, int from, int to, int *name, int *len, int *rhs)
+{
+    int i = from;
+    while (i < to && (src[i] == ' ' || src[i] == '\t' || src[i] == '\n' || src[i] == '\r')) i++;
+    int n0 = i;
+    if (i >= to || !(src[i] == '_' || ((src[i] | 32) >= 'a' && (src[i] | 32) <= 'z'))) return false;
+    while (i < to && (src[i] == '_' || (src[i] >= '0' && src[i] <= '9') ||
+                      ((src[i] | 32) >= 'a' && (src[i] | 32) <= 'z')))
+        i++;
+    int n1 = i;
+    while (i < to && (src[i] == ' ' || src[i] == '\t' || src[i] == '\n' || src[i] == '\r')) i++;
+    if (i >= to || src[i] != '=' || (i + 1 < to && src[i + 1] == '=')) return false;
+    *name = n0;
+    *len = n1 - n0;
+    *rhs = i + 1;
+    return true;
+}
+
+static bool blank(const char *src, int from, int to)
+{
+    for (int i = from; i < to; i++)
+        if (!(src[i] == ' ' || src[i] == '\t' || src[i] == '\n' || src[i] == '\r')) return false;
+    return true;
+}
+
+/* Parse and lower src[from, to) (columns offset by `from`) into *t. */
+static int lower_text(Compiler *k, Names *names, const char *src, int from, int to, Typed *t)
+{
+    char *text = wg_strndup(src + from, (size_t)(to - from));
+    if (!text) return nomem(k);
+    WgExprOptions opt = {resolve, names, true};
+    WgExpr *e = NULL;
+    WgError pe = {0};
+    int rc = wg_expr_parse(text, &opt, &e, &pe);
+    if (rc) {
+        int column = from + pe.column;
+        if (names->hint[0] && strstr(pe.message, "unknown name"))
+            wg_error_set(k->err, rc, NULL, "expr column %d: %s; %s", column, pe.message,
+                         names->hint);
+        else
+            wg_error_set(k->err, rc, NULL, "expr column %d: %s", column, pe.message);
+        if (k->err) k->err->column = column;
+    } else {
+        k->src = src + from; /* stays valid after text is freed, for messages about this value */
+        k->col0 = from;
+        rc = lower(k, e, t);
+    }
+    wg_expr_free(e);
+    wg_free(text);
+    return rc;
+}
+
+/* A name a statement may define: not one that already means something here. */
+static const char *taken(const WgNodeContext *ctx, const Names *names, const char *name, int len)
+{
+    for (int i = 0; i < names->n_locals; i++)
+        if (names->locals[i].len == (size_t)len && !strncmp(names->locals[i].name, name, len))
+            return "is already defined by an earlier statement";
+    int slot;
+    Names probe = {ctx, names->in_ch, "", {{0}}, 0};
+    if (resolve(&probe, name, (size_t)len, &slot))
+        return "already names an input, an extra attribute, a graph parameter or a coordinate";
+    return NULL;
+}
+
 int wg__px_compile(const WgNodeContext *ctx, const char *src, int out_channels,
                    const int *input_channels, WgPxProgram **out, WgError *err)
 {
     *out = NULL;
+    src = src ? src : "";
     WgPxProgram *p = wg_calloc(1, sizeof *p);
-    if (!p) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    Names *names = wg_calloc(1, sizeof *names);
+    int *start = wg_malloc(sizeof(int) * 2 * (MAX_LOCALS + 1)), *end = start + MAX_LOCALS + 1;
+    if (!p || !names || !start) {
+        wg_free(p);
+        wg_free(names);
+        wg_free(start);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
     p->width = ctx->width;
     p->height = ctx->height;
     p->seed = wg__px_seed(ctx->seed);
     p->out_channels = out_channels;
     const int *in_ch = input_channels ? input_channels : ctx->input_channels;
-    Names names = {ctx, in_ch, ""};
-    WgExprOptions opt = {resolve, &names, true};
-    WgExpr *e = NULL;
-    WgError pe = {0};
-    int rc = wg_expr_parse(src ? src : "", &opt, &e, &pe);
-    if (rc) {
-        if (names.hint[0] && strstr(pe.message, "unknown name"))
-            wg_error_set(err, rc, NULL, "expr column %d: %s; %s", pe.column, pe.message,
-                         names.hint);
-        else
-            wg_error_set(err, rc, NULL, "expr column %d: %s", pe.column, pe.message);
-        if (err) err->column = pe.column;
-        wg__px_free(p);
-        return rc;
+    names->ctx = ctx;
+    names->in_ch = in_ch;
+    Compiler k = {p, ctx, in_ch, src, err};
+    k.names = names;
+    Typed t = {0};
+    int rc = WG_OK, n = split_statements(src, start, end, MAX_LOCALS + 1);
+    if (n < 0)
+        rc = error_at(&k, WG_ERR_PARSE, 1, "more than %d statements (name = ...;)", MAX_LOCALS);
+    /* name = expression; ... then the result */
+    for (int s = 0; !rc && s < n; s++) {
+        int name, len, rhs;
+        bool def = definition(src, start[s], end[s], &name, &len, &rhs);
+        if (s == n - 1) {
+            if (def || blank(src, start[s], end[s])) {
+                k.src = src;
+                k.col0 = 0;
+                rc = error_at(&k, WG_ERR_PARSE, start[s] + 1,
+                              "the expression must end with its result, after the last "
+                              "'name = ...;' statement");
+                break;
+            }
+            rc = lower_text(&k, names, src, start[s], end[s], &t);
+            break;
+        }
+        if (!def) {
+            k.src = src;
+            k.col0 = 0;
+            rc = error_at(&k, WG_ERR_PARSE, start[s] + 1,
+                          "a statement before the result must define a name: 'name = "
+                          "expression;'");
+            break;
+        }
+        const char *why = taken(ctx, names, src + name, len);
+        if (why) {
+            k.src = src;
+            k.col0 = 0;
+            rc = error_at(&k, WG_ERR_PARSE, name + 1, "'%.*s' %s", len, src + name, why);
+            break;
+        }
+        Typed value;
+        rc = lower_text(&k, names, src, rhs, end[s], &value);
+        if (!rc) names->locals[names->n_locals++] = (Local){src + name, (size_t)len, value};
     }
-    Compiler k = {p, ctx, in_ch, e->source, err};
-    Typed t;
-    rc = lower(&k, e, &t);
     if (!rc && t.n == 4 && out_channels == 1) {
         char tok[80];
         token_at(&k, t.col, tok, sizeof tok);
@@ -782,7 +923,8 @@ int wg__px_compile(const WgNodeContext *ctx, const char *src, int out_channels,
     }
     if (!rc) rc = finish(&k);
     wg_free(k.index);
-    wg_expr_free(e);
+    wg_free(names);
+    wg_free(start);
     if (rc) {
         wg__px_free(p);
         return rc;

@@ -763,6 +763,61 @@ static void test_noise(void **state)
 
 /* ---- errors ------------------------------------------------------------------------------ */
 
+/* `name = expression;` statements before the result: the same pixels as the expression with
+ * each name written out, colours as well as numbers, and a name reused by later statements. */
+static void test_statements(void **state)
+{
+    (void)state;
+    WgImage *c = wgt_image_fn(7, 5, 4, rand_color);
+    const char *names[] = {"c"};
+    const WgImage *imgs[] = {c};
+    static const char *const pairs[][2] = {
+        {"a = x * 2.5 + y; b = sin(a) * a; b - a / (1 + b * b)",
+         "sin(x * 2.5 + y) * (x * 2.5 + y) - (x * 2.5 + y) / (1 + (sin(x * 2.5 + y) * "
+         "(x * 2.5 + y)) * (sin(x * 2.5 + y) * (x * 2.5 + y)))"},
+        {"  k2 =u*u ;\n k3 = k2 * u;k3 + k2", "u * u * u + u * u"},
+        {"t = c.g > 0.5; t ? c.r : c.b == 0.25", "c.g > 0.5 ? c.r : c.b == 0.25"},
+        {"m = (u + v) / 2; m == 0.5 ? 1 : m", "(u + v) / 2 == 0.5 ? 1 : (u + v) / 2"},
+    };
+    for (int i = 0; i < 4; i++) {
+        WgImage *a = px_in(pairs[i][0], "", 7, 5, 1, names, imgs, 1);
+        WgImage *b = px_in(pairs[i][1], "", 7, 5, 1, names, imgs, 1);
+        wgt_assert_identical(a, b);
+        wg_image_unref(a);
+        wg_image_unref(b);
+    }
+    WgImage *a =
+        px_in("h = c * 0.5; g = rgb(u, v, 0); h + g", "kind=\"color\"", 7, 5, 1, names, imgs, 2);
+    WgImage *b = px_in("c * 0.5 + rgb(u, v, 0)", "kind=\"color\"", 7, 5, 1, names, imgs, 2);
+    wgt_assert_identical(a, b);
+    wg_image_unref(a);
+    wg_image_unref(b);
+    wg_image_unref(c);
+}
+
+static void test_statement_errors(void **state)
+{
+    (void)state;
+    WgImage *a = wgt_image(4, 4, 1, NULL), *c = wgt_image(4, 4, 4, NULL);
+    const char *names[] = {"a", "c"};
+    const WgImage *imgs[] = {a, c};
+    px_fails("k = 1;", "", 2, names, imgs, WG_ERR_PARSE, 7, "must end with its result");
+    px_fails("k = 1; j = 2", "", 2, names, imgs, WG_ERR_PARSE, 7, "must end with its result");
+    px_fails("u + 1; 2", "", 2, names, imgs, WG_ERR_PARSE, 1, "must define a name");
+    px_fails("k = 1; k = 2; k", "", 2, names, imgs, WG_ERR_PARSE, 8, "already defined");
+    px_fails("k = 1; a = 2; k", "", 2, names, imgs, WG_ERR_PARSE, 8, "already names an input");
+    px_fails("u = 1; u", "", 2, names, imgs, WG_ERR_PARSE, 1, "already names");
+    px_fails("f = 1; f", "f=\"3\"", 2, names, imgs, WG_ERR_PARSE, 1, "already names");
+    /* columns count in the whole expr: the error in the second statement's right side */
+    px_fails("k = 1; j = k + zz; j", "", 2, names, imgs, WG_ERR_PARSE, 16, "unknown name 'zz'");
+    px_fails("k = 1; j = c; j > 0", "", 2, names, imgs, WG_ERR_TYPE, 15,
+             "'j' is a colour but '>' needs a number");
+    px_fails("s = 1; sample(s, u, v)", "", 2, names, imgs, WG_ERR_TYPE, 15, "a local name");
+    px_fails("k = c; k", "", 2, names, imgs, WG_ERR_TYPE, 8, "kind is \"gray\"");
+    wg_image_unref(a);
+    wg_image_unref(c);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -1128,6 +1183,8 @@ int main(void)
         cmocka_unit_test(test_thread_count_invariance),
         cmocka_unit_test(test_cache_key),
         cmocka_unit_test(test_key_holds_only_names_read),
+        cmocka_unit_test(test_statements),
+        cmocka_unit_test(test_statement_errors),
         cmocka_unit_test(test_compiled_program),
         cmocka_unit_test(test_long_expressions),
     };
