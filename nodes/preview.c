@@ -270,8 +270,8 @@ static void prefilter_rows(void *user, int y0, int y1)
                 if (wsum <= 0) wsum = 1;
                 put(o, v3((float)(acc[0] / wsum), (float)(acc[1] / wsum), (float)(acc[2] / wsum)));
             } else {
-                /* the BRDF table in a square of side min(bw/2, bh) at the block's left */
-                int side = bw / 2 < bh ? bw / 2 : bh;
+                /* the BRDF table in the block's left half, a square (bh = bw/2) */
+                int side = bh;
                 if (x >= side || row >= side) {
                     put(o, v3(0, 0, 0));
                     continue;
@@ -609,12 +609,12 @@ static V3 env_irr(const PreviewJob *j, V3 n)
 
 static void brdf_lut(const PreviewJob *j, float nv, float rough, float *A, float *B)
 {
-    /* the table is a square of side s at the block's left: u in [0, s/w) */
+    /* the table fills the left half of its block: u = n·v / 2, v = roughness, in normalised
+     * coordinates (the atlas may reach the preview resampled) */
     const WgImage *a = j->in[IN_ENV];
-    float bw = (float)a->width, bh = (float)a->height / BLOCKS;
-    float side = bw / 2 < bh ? bw / 2 : bh;
-    float u = (clampf(nv, 0.5f / side, 1 - 0.5f / side) * side) / bw;
-    float v = (clampf(rough, 0.5f / side, 1 - 0.5f / side) * side) / bh;
+    float su = 0.5f / (a->width / 2.0f), sv = 0.5f / ((float)a->height / BLOCKS);
+    float u = clampf(nv, su, 1 - su) * 0.5f;
+    float v = clampf(rough, sv, 1 - sv);
     V3 c = atlas(a, LUT_BLOCK, u, v);
     *A = clampf(c.x, 0, 1), *B = clampf(c.y, 0, 1 - *A);
 }
