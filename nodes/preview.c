@@ -2,9 +2,11 @@
 /* `env_prefilter` and `preview`: a physically based picture of a material tile, lit by an
  * equirectangular environment, with an optional water layer over it.
  * `env_prefilter` turns an equirectangular environment (z up; u = 0.5 − φ/2π with φ the azimuth
- * from +x towards +y, v = θ/π from the zenith) into an atlas read by `preview`: 8 blocks stacked
- * vertically, each a W × H/8 equirectangular map read in normalised coordinates (so the engine
- * may resample the atlas to the preview's size): blocks 0-5 hold the GGX specular prefiltered
+ * from +x towards +y, v = θ/π from the zenith) into a square atlas read by `preview`: 8 blocks,
+ * 2 across and 4 down (block b at column b % 2, row b / 2), each an equirectangular map of half
+ * the atlas's width and a quarter of its height, read in normalised coordinates (a square atlas
+ * reaching a square preview of another size is resampled uniformly and stays usable; a preview
+ * smaller than the atlas blurs the lighting): blocks 0-5 hold the GGX specular prefiltered
  * radiance for roughness 0, 0.2, ..., 1 (α = roughness², the split-sum approximation of Karis
  * 2013 with N = V = R; roughness 0 is the environment box-filtered to the block; the others
  * integrate 64 Hammersley GGX samples per texel, each read from a box mip chain at the level
@@ -14,7 +16,8 @@
  * weights so a uniform environment gives exactly its value); block 7 the split-sum BRDF table
  * in its left half (u = n·v, v = roughness; R = A, G = B, with F0·A + B the directional albedo
  * of the GGX lobe with height-correlated Smith visibility, 128 samples per texel, A + B ≤ 1).
- * A size of 256x1024 is a good default; any even width ≥ 8 and a height of 8 × (width/2) work.
+ * A size of 512 (blocks of 256 × 128) is a good default; any square side, a multiple of 4 and
+ * at least 16, works.
  * Negative and non-finite radiances read as 0, larger than 1e6 as 1e6.
  * `preview` renders the tile (twice over, 2 × 2, with `repeat`) seen by a perspective camera
  * at `elevation`/`azimuth` degrees, the relief carved by parallax occlusion mapping below the
@@ -57,6 +60,8 @@
 #endif
 
 enum { LEVELS = 6, BLOCKS = LEVELS + 2, IRR_BLOCK = LEVELS, LUT_BLOCK = LEVELS + 1 };
+/* blocks are laid out 2 across, 4 down: block b at column b % 2, row b / 2 */
+enum { COLS = 2, ROWS = 4 };
 enum { SPEC_SAMPLES = 64, LUT_SAMPLES = 128, IRR_W = 32, IRR_H = 16 };
 
 typedef struct {
@@ -215,9 +220,9 @@ typedef struct {
     float spec_table[4 * SPEC_SAMPLES * (LEVELS - 1)]; /* half vector, mip level */
 } PrefilterJob;
 
-static float *out_px(WgImage *img, int block, int bh, int x, int y)
+static float *out_px(WgImage *img, int block, int bw, int bh, int x, int y)
 {
-    return wg_image_row(img, block * bh + y) + 4 * (size_t)x;
+    return wg_image_row(img, block / COLS * bh + y) + 4 * ((size_t)(block % COLS) * bw + x);
 }
 
 static void put(float *p, V3 c)
@@ -230,11 +235,12 @@ static void prefilter_rows(void *user, int y0, int y1)
     PrefilterJob *j = user;
     const Mips *m = &j->mips;
     int bw = j->bw, bh = j->bh;
-    for (int y = y0; y < y1; y++) {
-        int block = y / bh, row = y % bh;
+    for (int yy = y0; yy < y1; yy++) {
+        int brow = yy / bh, row = yy % bh;
         double v = (row + 0.5) / bh;
-        for (int x = 0; x < bw; x++) {
-            float *o = out_px(j->out, block, bh, x, row);
+        for (int xx = 0; xx < COLS * bw; xx++) {
+            int block = brow * COLS + xx / bw, x = xx % bw;
+            float *o = out_px(j->out, block, bw, bh, x, row);
             double u = (x + 0.5) / bw;
             V3 n = dir_of(u, v);
             if (block == 0) {
@@ -308,11 +314,11 @@ static float clean(float x)
 static int prefilter_check(const WgNodeContext *ctx, WgError *err)
 {
     int w = ctx->width, h = ctx->height;
-    if (w < 8 || w % 2 || h != BLOCKS * (w / 2))
+    if (w < 16 || w % 4 || h != w)
         return wg_error_set(err, WG_ERR_RANGE, NULL,
-                            "env_prefilter needs an even width >= 8 and a height of %d x width/2 "
-                            "(e.g. size=\"256x1024\"), not %dx%d",
-                            BLOCKS, w, h);
+                            "env_prefilter needs a square size, a multiple of 4 and at least 16 "
+                            "(e.g. size=\"512\"), not %dx%d",
+                            w, h);
     return WG_OK;
 }
 
@@ -325,7 +331,7 @@ static size_t mips_floats(int bw, int bh)
 
 static size_t prefilter_scratch(const WgNodeContext *ctx)
 {
-    return sizeof(float) * mips_floats(ctx->width, ctx->height / BLOCKS);
+    return sizeof(float) * mips_floats(ctx->width / COLS, ctx->height / ROWS);
 }
 
 static int prefilter_eval(WgNodeContext *ctx, WgError *err)
@@ -334,12 +340,12 @@ static int prefilter_eval(WgNodeContext *ctx, WgError *err)
     if (st) return st;
     const WgImage *env = ctx->inputs[0];
     PrefilterJob j = {
-        .env = env, .out = ctx->outputs[0], .bw = ctx->width, .bh = ctx->height / BLOCKS};
+        .env = env, .out = ctx->outputs[0], .bw = ctx->width / COLS, .bh = ctx->height / ROWS};
     size_t bytes = prefilter_scratch(ctx);
     float *buf = wg_scratch_alloc(ctx, bytes);
     if (!buf) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for the mip chain");
-    /* level 0: the environment (at the node's size, BLOCKS times as tall as a block) averaged
-     * over each block-sized texel */
+    /* level 0: the environment (at the node's size, twice a block's width and four times its
+     * height) averaged      * over each block-sized texel */
     Mips *m = &j.mips;
     m->levels = 0;
     float *p = buf;
@@ -351,12 +357,13 @@ static int prefilter_eval(WgNodeContext *ctx, WgError *err)
     for (int y = 0; y < j.bh; y++)
         for (int x = 0; x < j.bw; x++) {
             double s[3] = {0, 0, 0};
-            for (int k = 0; k < BLOCKS; k++) {
-                const float *e = wg_image_row(env, y * BLOCKS + k) + 4 * (size_t)x;
-                s[0] += clean(e[0]), s[1] += clean(e[1]), s[2] += clean(e[2]);
-            }
+            for (int k = 0; k < ROWS; k++)
+                for (int i = 0; i < COLS; i++) {
+                    const float *e = wg_image_row(env, y * ROWS + k) + 4 * ((size_t)x * COLS + i);
+                    s[0] += clean(e[0]), s[1] += clean(e[1]), s[2] += clean(e[2]);
+                }
             float *o = m->data[0] + 3 * ((size_t)y * j.bw + x);
-            for (int c = 0; c < 3; c++) o[c] = (float)(s[c] / BLOCKS);
+            for (int c = 0; c < 3; c++) o[c] = (float)(s[c] / (ROWS * COLS));
         }
     for (int l = 1; l < m->levels; l++) {
         int w = m->w[l], h = m->h[l], pw = m->w[l - 1];
@@ -409,11 +416,11 @@ const WgNodeType wg_node_env_prefilter = {
     .summary = "Prefiltered lighting atlas (specular levels, irradiance, BRDF table) for preview",
     .category = "render",
     .doc = "Input: an equirectangular environment (z up, the zenith at the top row), linear HDR. "
-           "Output: 8 blocks stacked vertically, each an equirectangular map of the node's width "
-           "and an eighth of its height: GGX-prefiltered radiance for roughness 0, 0.2, ..., 1, "
+           "Output: 8 blocks, 2 across and 4 down, each an equirectangular map of half the width "
+           "and a quarter of the height: GGX-prefiltered radiance for roughness 0, 0.2, ..., 1, "
            "the diffuse irradiance over pi, and the split-sum BRDF table (R = scale A, G = bias "
-           "B of F0) in a square at the left of the last block. Size: an even width >= 8 and a "
-           "height of 4 x width, e.g. size=\"256x1024\".",
+           "B of F0) in a square at the left of the last block. Size: a "
+           "square size, a multiple of 4 and at least 16, e.g. size=\"512\".",
     .params = prefilter_params,
     .params_size = sizeof(PrefilterParams),
     .inputs = prefilter_in,
@@ -566,20 +573,26 @@ static V3 tex_color(const WgImage *img, float x, float y, V3 def)
     return v3(o[0], o[1], o[2]);
 }
 
-/* The atlas in normalised coordinates: block b, u wrapping, v clamped inside the block. */
+/* The atlas in normalised coordinates: block b, u wrapping, v clamped inside the block. The
+ * atlas may arrive resampled to any size: blocks are then a fractional number of pixels, read
+ * from the block's first whole pixel. */
 static V3 atlas(const WgImage *a, int block, float u, float v)
 {
     int w = a->width, h = a->height;
-    float bh = (float)h / BLOCKS;
-    float fx = u * w - 0.5f;
-    fx -= floorf(fx / w) * w;
-    float lo = block * bh, hi = (block + 1) * bh - 1;
-    float fy = clampf(block * bh + v * bh - 0.5f, lo, hi > lo ? hi : lo);
+    float bw = (float)w / COLS, bh = (float)h / ROWS;
+    int nbw = bw >= 1 ? (int)bw : 1, nbh = bh >= 1 ? (int)bh : 1;
+    int ox = (int)lroundf(block % COLS * bw), oy = (int)lroundf(block / COLS * bh);
+    if (ox + nbw > w) ox = w - nbw;
+    if (oy + nbh > h) oy = h - nbh;
+    float fx = u * nbw - 0.5f;
+    fx -= floorf(fx / nbw) * nbw;
+    float fy = clampf(v * nbh - 0.5f, 0, (float)(nbh - 1));
     int x0 = (int)fx, y0 = (int)fy;
-    if (x0 >= w) x0 = 0;
+    if (x0 >= nbw) x0 = 0;
     float ax = fx - x0, ay = fy - y0;
-    int x1 = x0 + 1 == w ? 0 : x0 + 1, y1 = y0 + 1 < h ? y0 + 1 : y0;
-    const float *r0 = wg_image_row(a, y0), *r1 = wg_image_row(a, y1);
+    int x1 = x0 + 1 == nbw ? 0 : x0 + 1, y1 = y0 + 1 < nbh ? y0 + 1 : y0;
+    const float *r0 = wg_image_row(a, oy + y0), *r1 = wg_image_row(a, oy + y1);
+    x0 += ox, x1 += ox;
     float o[3];
     for (int k = 0; k < 3; k++)
         o[k] = (r0[4 * x0 + k] * (1 - ax) + r0[4 * x1 + k] * ax) * (1 - ay) +
@@ -612,7 +625,7 @@ static void brdf_lut(const PreviewJob *j, float nv, float rough, float *A, float
     /* the table fills the left half of its block: u = n·v / 2, v = roughness, in normalised
      * coordinates (the atlas may reach the preview resampled) */
     const WgImage *a = j->in[IN_ENV];
-    float su = 0.5f / (a->width / 2.0f), sv = 0.5f / ((float)a->height / BLOCKS);
+    float su = 0.5f / ((float)a->width / COLS / 2), sv = 0.5f / ((float)a->height / ROWS);
     float u = clampf(nv, su, 1 - su) * 0.5f;
     float v = clampf(rough, sv, 1 - sv);
     V3 c = atlas(a, LUT_BLOCK, u, v);

@@ -18,13 +18,14 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-/* The atlas has 8 blocks of 32 x 16. The engine resamples a node's inputs to its size, so the
- * previews here are rendered at the atlas's own size, where it arrives untouched. */
-enum { AW = 32, AH = 128 };
+/* The atlas has 8 blocks of 32 x 16, 2 across and 4 down. The engine resamples a node's inputs to
+ * its size, so the previews here are rendered at the atlas's own size, where it arrives untouched.
+ */
+enum { AW = 64, AH = 64 };
 
 static double env_sky(int x, int y, int k)
 {
-    double u = (x + 0.5) / AW, v = (y + 0.5) / AH;
+    double u = (x + 0.5) / AW, v = (y + 0.5) / AH; /* the environment spans the image */
     if (k == 3) return 1;
     if (k == 0) return 0.2 + 0.8 * v;
     if (k == 1) return 0.5 + 0.3 * cos(2 * M_PI * u);
@@ -294,10 +295,10 @@ static void test_refraction_raises_floor(void **state)
     double plain = stripe_row(NULL, 1.0), water = stripe_row(NULL, 1.33);
     /* Where the stripe should be seen: through the surface hs / tan(el) before it unrefracted,
      * hs · tan θt with sin θt = cos(el) / 1.33 refracted; a length along the tile shows as
-     * sin(el) of it on the image plane, whose half height is 0.5 / zoom = 0.25 (64 rows). */
+     * sin(el) of it on the image plane, whose half height is 0.5 / zoom = 0.25 (AH / 2 rows). */
     double el = 40 * M_PI / 180, hs = 0.3, st = cos(el) / 1.33;
     double off_plain = hs / tan(el), off_water = hs * st / sqrt(1 - st * st);
-    double rows = (off_plain - off_water) * sin(el) * 64 / 0.25;
+    double rows = (off_plain - off_water) * sin(el) * (AH / 2) / 0.25;
     print_message("stripe row: %g unrefracted, %g refracted, expected %g rows apart\n", plain,
                   water, rows);
     if (!(water < plain - 3) || fabs((plain - water) - rows) > 2)
@@ -381,9 +382,9 @@ static void test_atlas_size_error(void **state)
     const char *names[] = {"environment"};
     const WgImage *images[] = {env};
     WgError err;
-    int rc = wgt_node_error("env_prefilter", "", 32, 32, 1, names, images, &err);
+    int rc = wgt_node_error("env_prefilter", "", 30, 30, 1, names, images, &err);
     assert_int_equal(rc, WG_ERR_RANGE);
-    wgt_assert_error(&err, WG_ERR_RANGE, 0, "env_prefilter|256x1024|32x32");
+    wgt_assert_error(&err, WG_ERR_RANGE, 0, "env_prefilter|square|30x30");
     wg_image_unref(env);
 }
 
