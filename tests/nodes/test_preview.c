@@ -5,8 +5,8 @@
  * Fresnel reflectance rising to nearly 1 at grazing view, energy never above the uniform
  * environment for random maps with and without water, water_mask 0 giving the dry render bit
  * for bit, refraction making a submerged stripe look less deep than an unrefracted view does,
- * bit-identical results for 1, 2 and 3 threads, NaN-free output on non-finite and huge inputs,
- * and the atlas size check. */
+ * bit-identical results for 1, 2 and 3 threads, the 2 x 2 repeat showing four equal quarters,
+ * NaN-free output on non-finite and huge inputs, and the atlas size check. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -331,6 +331,36 @@ static void test_threads(void **state)
     wg_image_unref(env);
 }
 
+/* Seen from straight above with a narrow field of view in a uniform environment, `repeat` shows
+ * the tile 2 x 2: each quarter of the picture is the same (the maps wrap), up to the view
+ * direction's small change across the picture. */
+static void test_repeat_tiles(void **state)
+{
+    (void)state;
+    WgImage *env = const_image(AW, AH, 4, 0.5f), *atlas = prefilter(env, 2);
+    WgImage *base = wgt_image_fn(16, 16, 4, noise_fn);
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", base);
+    WgImage *out =
+        preview(LINEAR "elevation=\"90\" azimuth=\"0\" fov=\"1\" repeat=\"true\"", AW, AH, &in, 2);
+    double worst = 0;
+    for (int y = 0; y < AH / 2; y++)
+        for (int x = 0; x < AW / 2; x++)
+            for (int k = 0; k < 3; k++) {
+                double a = wgt_px(out, x, y, k), b = wgt_px(out, x + AW / 2, y, k);
+                double c = wgt_px(out, x, y + AH / 2, k);
+                worst = fmax(worst, fmax(fabs(a - b), fabs(a - c)));
+            }
+    if (worst > 1e-4) fail_msg("quarters differ by %g", worst);
+    /* and the picture is not flat: the quarters agree because the tile repeats */
+    assert_true(wgt_max_abs_diff(out, atlas) > 0);
+    wg_image_unref(out);
+    wg_image_unref(base);
+    wg_image_unref(atlas);
+    wg_image_unref(env);
+}
+
 static double extreme_fn(int x, int y, int k)
 {
     static const double v[] = {NAN, INFINITY, -INFINITY, 1e30, -1e30, 0, 1, 3e38, -5, 0.5};
@@ -394,8 +424,8 @@ int main(void)
         cmocka_unit_test(test_furnace),          cmocka_unit_test(test_mirror),
         cmocka_unit_test(test_fresnel_grazing),  cmocka_unit_test(test_energy),
         cmocka_unit_test(test_mask_zero_is_dry), cmocka_unit_test(test_refraction_raises_floor),
-        cmocka_unit_test(test_threads),          cmocka_unit_test(test_extreme_inputs),
-        cmocka_unit_test(test_atlas_size_error),
+        cmocka_unit_test(test_threads),          cmocka_unit_test(test_repeat_tiles),
+        cmocka_unit_test(test_extreme_inputs),   cmocka_unit_test(test_atlas_size_error),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
