@@ -141,6 +141,7 @@ int main(int argc, char **argv)
     double cam[3] = {0.5 + back[0] * dist, 0.5 + back[1] * dist, back[2] * dist};
 
     double sum_err = 0, sum_ref = 0, max_rel = 0, sum_rel = 0, band_err[4] = {0}, band_ref[4] = {0};
+    double metal_err[2] = {0}, metal_ref[2] = {0};
     int count = 0;
     for (int py = step / 2; py < n; py += step)
         for (int px = step / 2; px < n; px += step) {
@@ -196,6 +197,7 @@ int main(int argc, char **argv)
             sum_err += got_err, sum_ref += ref_sum;
             int band = r < 0.25 ? 0 : r < 0.5 ? 1 : r < 0.75 ? 2 : 3;
             band_err[band] += got_err, band_ref[band] += ref_sum;
+            metal_err[m >= 0.5] += got_err, metal_ref[m >= 0.5] += ref_sum;
             count++;
         }
     printf("preview vs Monte-Carlo reference (%d samples per pixel), %dx%d, %d tile pixels "
@@ -206,6 +208,8 @@ int main(int argc, char **argv)
     for (int b = 0; b < 4; b++)
         printf("    roughness %.2f-%.2f: %.4f\n", b * 0.25, (b + 1) * 0.25,
                band_err[b] / fmax(band_ref[b], 1e-9));
+    printf("    metallic < 0.5: %.4f, >= 0.5: %.4f\n", metal_err[0] / fmax(metal_ref[0], 1e-9),
+           metal_err[1] / fmax(metal_ref[1], 1e-9));
     wg_result_free(res);
     wg_engine_free(e);
     wg_graph_free(g);
