@@ -30,6 +30,8 @@ extern const WgNodeType wg_node_warp, wg_node_directional_warp, wg_node_transfor
 /* neighbourhood filters and normal-map tools */
 extern const WgNodeType wg_node_sharpen, wg_node_emboss, wg_node_edge_detect,
     wg_node_directional_blur, wg_node_normal_blend, wg_node_normal_normalize;
+/* material preview */
+extern const WgNodeType wg_node_env_prefilter, wg_node_preview;
 
 const WgNodeType *const wg_node_types[] = {
     /* sources */
@@ -86,6 +88,9 @@ const WgNodeType *const wg_node_types[] = {
     &wg_node_directional_blur,
     &wg_node_normal_blend,
     &wg_node_normal_normalize,
+    /* material preview */
+    &wg_node_env_prefilter,
+    &wg_node_preview,
     NULL,
 };
 

@@ -1,0 +1,193 @@
+// SPDX-License-Identifier: MIT
+// Two-layer wet shading for real-time engines: the model of the `preview` node (nodes/preview.c,
+// docs/preview.md) as a GLSL 3.30 fragment shader. A water layer (its own height, normal,
+// roughness and F0) lies over a metallic/roughness PBR material; the water reflects the
+// environment, the view ray is refracted into it before the parallax search of the material
+// below, which receives and returns light scaled by 1 − F and is seen through Beer–Lambert
+// absorption. Where water_mask is 0 the result is the one-layer shading of the material.
+//
+// Material maps (GL_REPEAT, GL_LINEAR; uv in tiles, +v towards the top of the image):
+//   basecolor (sRGB texture, so it samples linear), normal_map (OpenGL, green up, linear),
+//   roughness, height (0..1, 1 is the tile plane), ao, metallic: the maps of wet_material
+//   (`basecolor`, `ao`, `metallic`), with `under_height` as `height` and the material's own
+//   normal and roughness under the water.
+// Layer maps (wet_material's outputs of the same names): water_height (0..1), water_normal
+//   (OpenGL), water_roughness, water_specular (F0, linear), water_mask (0..1).
+// Lighting: prefiltered (an equirectangular map with a mip chain, level = roughness ×
+//   prefiltered_levels, filtered with the GGX lobe per level: env_prefilter's blocks 0-5),
+//   irradiance (equirectangular, irradiance / π), brdf_lut (split-sum table: u = n·v,
+//   v = roughness, r = A, g = B). Directions are in tangent space, z up; the equirectangular
+//   convention is env_prefilter's: u = 0.5 − φ / 2π (φ from +x towards +y), v = θ / π from the
+//   zenith (rows stored top down, so t = 1 − v when the texture origin is at the bottom).
+// Inputs from the vertex shader: uv, and view_ts, the direction from the surface towards the
+// eye in tangent space (unnormalised). The result is linear radiance × 2^exposure, before any
+// tone mapping (preview applies Narkowicz's ACES fit and sRGB encoding after this).
+#version 330 core
+
+uniform sampler2D basecolor;
+uniform sampler2D normal_map;
+uniform sampler2D roughness;
+uniform sampler2D height;
+uniform sampler2D ao;
+uniform sampler2D metallic;
+uniform sampler2D water_height;
+uniform sampler2D water_normal;
+uniform sampler2D water_roughness;
+uniform sampler2D water_specular;
+uniform sampler2D water_mask;
+uniform sampler2D prefiltered;
+uniform sampler2D irradiance;
+uniform sampler2D brdf_lut;
+
+uniform float prefiltered_levels = 5.0;
+uniform float height_scale = 0.04; // tile widths between height 1 and height 0
+uniform int pom_steps = 48;
+uniform float env_rotation = 0.0; // radians
+uniform float exposure = 0.0;     // stops
+uniform bool sun = false;
+uniform vec3 sun_dir = vec3(0.0, 0.57, 0.82); // towards the sun, tangent space
+uniform vec3 sun_radiance = vec3(3.0);        // irradiance on a surface facing the sun
+uniform float water_ior = 1.33;
+uniform vec3 water_tint = vec3(0.75, 0.9, 0.88); // transmittance over absorption_depth
+uniform float absorption_depth = 1.0;           // height units
+
+in vec2 uv;
+in vec3 view_ts;
+out vec4 frag_color;
+
+const float PI = 3.141592653589793;
+
+vec2 equirect(vec3 d)
+{
+    float phi = atan(d.y, d.x) + env_rotation;
+    float u = fract(0.5 - phi / (2.0 * PI));
+    float v = acos(clamp(d.z, -1.0, 1.0)) / PI;
+    return vec2(u, 1.0 - v);
+}
+
+vec3 env_spec(vec3 d, float r) { return textureLod(prefiltered, equirect(d), r * prefiltered_levels).rgb; }
+vec3 env_irr(vec3 n) { return texture(irradiance, equirect(n)).rgb; }
+vec2 lut(float nv, float r) { return texture(brdf_lut, vec2(nv, r)).rg; }
+
+float schlick(float f0, float c)
+{
+    float m = clamp(1.0 - c, 0.0, 1.0);
+    return f0 + (1.0 - f0) * m * m * m * m * m;
+}
+vec3 schlick3(vec3 f0, float c)
+{
+    float m = clamp(1.0 - c, 0.0, 1.0);
+    return f0 + (1.0 - f0) * (m * m * m * m * m);
+}
+
+float vis_smith(float nv, float nl, float a)
+{
+    float a2 = a * a;
+    float gv = nl * sqrt(nv * nv * (1.0 - a2) + a2);
+    float gl = nv * sqrt(nl * nl * (1.0 - a2) + a2);
+    return 0.5 / (gv + gl);
+}
+
+float ggx(float nh, float a)
+{
+    float a2 = a * a, d = nh * nh * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+vec3 decode_normal(vec3 c)
+{
+    vec3 n = normalize(c * 2.0 - 1.0);
+    return n.z < 1e-3 ? normalize(vec3(n.xy, 1e-3)) : n;
+}
+
+// Parallax occlusion mapping: the first point where p + t d (d.z < 0) meets the surface
+// z = height_scale (h − 1), searched from z_top down to z_bot (tile units, uv = p.xy).
+vec3 march(sampler2D hmap, vec3 p, vec3 d, float z_top, float z_bot)
+{
+    if (height_scale <= 0.0) return p - d * (p.z / d.z);
+    float t0 = p.z > z_top ? (z_top - p.z) / d.z : 0.0;
+    float t1 = (z_bot - p.z) / d.z;
+    if (t1 <= t0) return p + d * t0;
+    float dt = (t1 - t0) / float(pom_steps);
+    float prev_t = t0, prev_gap = 0.0;
+    for (int i = 0; i <= pom_steps; i++) {
+        float t = t0 + dt * float(i);
+        vec3 q = p + d * t;
+        float gap = q.z - height_scale * (texture(hmap, q.xy).r - 1.0);
+        if (gap <= 0.0) {
+            if (i == 0) return q;
+            return p + d * (prev_t + dt * prev_gap / (prev_gap - gap));
+        }
+        prev_t = t;
+        prev_gap = gap;
+    }
+    return p + d * t1;
+}
+
+// Radiance leaving the material at uv towards v; amb scales the ambient light reaching it,
+// sun_l / sun_rad the sun's direction and irradiance there.
+vec3 shade(vec2 st, vec3 v, vec3 amb, vec3 sun_l, vec3 sun_rad)
+{
+    vec3 base = clamp(texture(basecolor, st).rgb, 0.0, 1.0);
+    vec3 n = decode_normal(texture(normal_map, st).rgb);
+    float r = clamp(texture(roughness, st).r, 0.0, 1.0);
+    float metal = clamp(texture(metallic, st).r, 0.0, 1.0);
+    float occ = clamp(texture(ao, st).r, 0.0, 1.0);
+    float nv = clamp(dot(n, v), 1e-4, 1.0);
+    vec3 f0 = mix(vec3(0.04), base, metal);
+    vec3 dc = base * (1.0 - metal);
+    vec2 ab = lut(nv, r);
+    vec3 e = f0 * ab.x + ab.y;
+    vec3 color = (env_spec(reflect(-v, n), r) * e + dc * env_irr(n) * (1.0 - e)) * occ * amb;
+    float nl = dot(n, sun_l);
+    if (sun && nl > 0.0) {
+        vec3 h = normalize(v + sun_l);
+        float a = max(r * r, 2e-3);
+        vec3 f = schlick3(f0, clamp(dot(v, h), 0.0, 1.0));
+        vec3 spec = f * ggx(clamp(dot(n, h), 0.0, 1.0), a) * vis_smith(nv, nl, a);
+        color += (spec + dc * (1.0 - f) / PI) * sun_rad * nl;
+    }
+    return color;
+}
+
+void main()
+{
+    vec3 v = normalize(view_ts);
+    vec3 d = -v;
+    vec3 p = vec3(uv, 0.0);
+    // the dry material (one layer)
+    vec3 pd = march(height, p, d, 0.0, -height_scale);
+    vec3 color = shade(pd.xy, v, vec3(1.0), sun_dir, sun_radiance);
+
+    vec3 pw = march(water_height, p, d, 0.0, -height_scale);
+    float m = clamp(texture(water_mask, pw.xy).r, 0.0, 1.0);
+    if (m > 0.0) {
+        vec3 nw = decode_normal(texture(water_normal, pw.xy).rgb);
+        float rw = clamp(texture(water_roughness, pw.xy).r, 0.0, 1.0);
+        float f0 = clamp(texture(water_specular, pw.xy).r, 0.0, 1.0);
+        float nv = clamp(dot(nw, v), 1e-4, 1.0);
+        vec2 ab = lut(nv, rw);
+        float e = f0 * ab.x + ab.y; // the lobe's albedo: Fresnel's F(n·v) when smooth
+        vec3 top = env_spec(reflect(d, nw), rw) * e;
+        vec3 sun_l = sun_dir, sun_under = vec3(0.0);
+        float nl = dot(nw, sun_dir);
+        if (sun && nl > 0.0) {
+            vec3 h = normalize(v + sun_dir);
+            float a = max(rw * rw, 2e-3);
+            top += sun_radiance * ggx(clamp(dot(nw, h), 0.0, 1.0), a) * vis_smith(nv, nl, a)
+                   * schlick(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
+            sun_l = -refract(-sun_dir, nw, 1.0 / water_ior);
+            sun_under = sun_radiance * (1.0 - schlick(f0, nl));
+        }
+        vec3 t = refract(d, nw, 1.0 / water_ior);
+        if (t.z >= 0.0) t = d;
+        vec3 pu = march(height, pw, t, pw.z, -height_scale);
+        float f_avg = f0 + (1.0 - f0) / 21.0;
+        vec3 under = shade(pu.xy, -t, vec3(1.0 - f_avg), sun_l, sun_under);
+        float path = height_scale > 0.0 ? (length(pw - pu) + max(pw.z - pu.z, 0.0)) / height_scale : 0.0;
+        vec3 tr = pow(clamp(water_tint, 0.0, 1.0), vec3(path / absorption_depth));
+        vec3 wet = top + under * tr * (1.0 - e);
+        color = mix(color, wet, m);
+    }
+    frag_color = vec4(color * exp2(exposure), 1.0);
+}

@@ -1,0 +1,431 @@
+/* SPDX-License-Identifier: MIT */
+/* `env_prefilter` and `preview` at small sizes: the white furnace (a white dielectric of any
+ * roughness in a uniform white environment returns white within 2e-3), a perfect mirror
+ * (metallic 1, roughness 0, base colour 1) returns the environment in the reflected direction,
+ * Fresnel reflectance rising to nearly 1 at grazing view, energy never above the uniform
+ * environment for random maps with and without water, water_mask 0 giving the dry render bit
+ * for bit, refraction making a submerged stripe look less deep than an unrefracted view does,
+ * bit-identical results for 1, 2 and 3 threads, the 2 x 2 repeat showing four equal quarters,
+ * NaN-free output on non-finite and huge inputs, and the atlas size check. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* The atlas has 8 blocks of 32 x 16, 2 across and 4 down. The engine resamples a node's inputs to
+ * its size, so the previews here are rendered at the atlas's own size, where it arrives untouched.
+ */
+enum { AW = 64, AH = 64 };
+
+static double env_sky(int x, int y, int k)
+{
+    double u = (x + 0.5) / AW, v = (y + 0.5) / AH; /* the environment spans the image */
+    if (k == 3) return 1;
+    if (k == 0) return 0.2 + 0.8 * v;
+    if (k == 1) return 0.5 + 0.3 * cos(2 * M_PI * u);
+    return 0.5;
+}
+
+static WgImage *prefilter(const WgImage *env, int threads)
+{
+    const char *names[] = {"environment"};
+    const WgImage *images[] = {env};
+    return wgt_node("env_prefilter", "", AW, AH, 1, names, images, 0, threads);
+}
+
+static WgImage *const_image(int w, int h, int ch, float v)
+{
+    WgImage *img = wgt_image(w, h, ch, NULL);
+    for (int y = 0; y < h; y++) {
+        float *r = wg_image_row(img, y);
+        for (int x = 0; x < w * ch; x++) r[x] = (ch == 4 && x % 4 == 3) ? 1 : v;
+    }
+    return img;
+}
+
+typedef struct {
+    const char *names[12];
+    const WgImage *images[12];
+    int n;
+} Inputs;
+
+static void in_add(Inputs *in, const char *name, const WgImage *img)
+{
+    in->names[in->n] = name, in->images[in->n] = img, in->n++;
+}
+
+static WgImage *preview(const char *attrs, int w, int h, const Inputs *in, int threads)
+{
+    return wgt_node("preview", attrs, w, h, in->n, (const char **)in->names,
+                    (const WgImage **)in->images, 0, threads);
+}
+
+#define LINEAR "tonemap=\"none\" encoding=\"linear\" "
+
+static void test_furnace(void **state)
+{
+    (void)state;
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    WgImage *base = const_image(8, 8, 4, 1);
+    static const float rough[] = {0, 0.1f, 0.3f, 0.5f, 0.8f, 1};
+    for (int r = 0; r < 6; r++) {
+        WgImage *rm = const_image(8, 8, 1, rough[r]);
+        Inputs in = {0};
+        in_add(&in, "environment", atlas);
+        in_add(&in, "basecolor", base);
+        in_add(&in, "roughness", rm);
+        for (int el = 10; el <= 90; el += 40) {
+            char attrs[256];
+            snprintf(attrs, sizeof attrs, LINEAR "elevation=\"%d\"", el);
+            WgImage *out = preview(attrs, AW, AH, &in, 2);
+            for (int y = 0; y < AH; y++)
+                for (int x = 0; x < AW; x++)
+                    for (int k = 0; k < 3; k++)
+                        if (fabs(wgt_px(out, x, y, k) - 1) > 2e-3)
+                            fail_msg("roughness %g elevation %d (%d,%d): %g, expected 1", rough[r],
+                                     el, x, y, wgt_px(out, x, y, k));
+            wg_image_unref(out);
+        }
+        wg_image_unref(rm);
+    }
+    wg_image_unref(base);
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
+static void test_mirror(void **state)
+{
+    (void)state;
+    WgImage *env = wgt_image_fn(AW, AH, 4, env_sky), *atlas = prefilter(env, 2);
+    WgImage *base = const_image(8, 8, 4, 1), *zero = const_image(8, 8, 1, 0);
+    WgImage *one = const_image(8, 8, 1, 1);
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", base);
+    in_add(&in, "roughness", zero);
+    in_add(&in, "metallic", one);
+    for (int el = 20; el <= 80; el += 20) {
+        char attrs[256];
+        snprintf(attrs, sizeof attrs, LINEAR "elevation=\"%d\" azimuth=\"0\" fov=\"1\"", el);
+        WgImage *out = preview(attrs, AW, AH, &in, 2);
+        /* the centre ray looks down at elevation el: its reflection goes up at el, v = θ/π,
+         * and azimuth +y (u = 0.25) */
+        double v = (90.0 - el) / 180, want_r = 0.2 + 0.8 * v, want_g = 0.5;
+        double got_r = wgt_px(out, AW / 2, AH / 2, 0), got_g = wgt_px(out, AW / 2, AH / 2, 1);
+        if (fabs(got_r - want_r) > 0.02 || fabs(got_g - want_g) > 0.02)
+            fail_msg("elevation %d: (%g, %g), expected (%g, %g)", el, got_r, got_g, want_r, want_g);
+        wg_image_unref(out);
+    }
+    wg_image_unref(one);
+    wg_image_unref(zero);
+    wg_image_unref(base);
+    wg_image_unref(atlas);
+    wg_image_unref(env);
+}
+
+static void test_fresnel_grazing(void **state)
+{
+    (void)state;
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    WgImage *black = const_image(8, 8, 4, 0), *zero = const_image(8, 8, 1, 0);
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", black);
+    in_add(&in, "roughness", zero);
+    static const int els[] = {90, 60, 30, 10, 3, 1};
+    double prev = 0;
+    for (int i = 0; i < 6; i++) {
+        char attrs[256];
+        snprintf(attrs, sizeof attrs, LINEAR "elevation=\"%d\" fov=\"1\" zoom=\"20\"", els[i]);
+        WgImage *out = preview(attrs, AW, AH, &in, 1);
+        double f = wgt_px(out, AW / 2, AH / 2, 0);
+        if (i == 0 && fabs(f - 0.04) > 0.005) fail_msg("normal incidence: %g, expected 0.04", f);
+        if (i > 0 && !(f > prev)) fail_msg("elevation %d: %g, not above %g", els[i], f, prev);
+        if (i == 5 && !(f > 0.8)) fail_msg("grazing: %g, expected > 0.8", f);
+        prev = f;
+        wg_image_unref(out);
+    }
+    wg_image_unref(zero);
+    wg_image_unref(black);
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
+static double noise_fn(int x, int y, int k)
+{
+    return (wg_hash3((uint32_t)x, (uint32_t)y, (uint32_t)k) & 0xffff) / 65535.0;
+}
+
+/* Random material and water maps, with the water where `mask` (0 or the random mask). */
+static void random_inputs(Inputs *in, WgImage **keep, const WgImage *atlas, bool water,
+                          bool mask_zero)
+{
+    int n = 0;
+    in_add(in, "environment", atlas);
+    in_add(in, "basecolor", keep[n++] = wgt_image_fn(16, 16, 4, noise_fn));
+    in_add(in, "normal", keep[n++] = wgt_image_fn(16, 16, 4, noise_fn));
+    in_add(in, "roughness", keep[n++] = wgt_image_fn(16, 16, 1, noise_fn));
+    in_add(in, "height", keep[n++] = wgt_image_fn(16, 16, 1, noise_fn));
+    in_add(in, "ao", keep[n++] = wgt_image_fn(16, 16, 1, noise_fn));
+    in_add(in, "metallic", keep[n++] = wgt_image_fn(16, 16, 1, noise_fn));
+    if (water) {
+        in_add(in, "water_height", keep[n++] = const_image(16, 16, 1, 0.7f));
+        in_add(in, "water_normal", keep[n++] = wgt_image_fn(16, 16, 4, noise_fn));
+        in_add(in, "water_roughness", keep[n++] = wgt_image_fn(16, 16, 1, noise_fn));
+        in_add(in, "water_specular", keep[n++] = const_image(16, 16, 1, 0.02f));
+        in_add(in, "water_mask",
+               keep[n++] =
+                   mask_zero ? const_image(16, 16, 1, 0) : wgt_image_fn(16, 16, 1, noise_fn));
+    }
+    keep[n] = NULL;
+}
+
+static void unref_all(WgImage **keep)
+{
+    for (int i = 0; keep[i]; i++) wg_image_unref(keep[i]);
+}
+
+static void test_energy(void **state)
+{
+    (void)state;
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    for (int water = 0; water < 2; water++) {
+        WgImage *keep[16];
+        Inputs in = {0};
+        random_inputs(&in, keep, atlas, water, false);
+        WgImage *out = preview(LINEAR "elevation=\"35\" height_scale=\"0.1\"", AW, AH, &in, 2);
+        for (int y = 0; y < AH; y++)
+            for (int x = 0; x < AW; x++)
+                for (int k = 0; k < 3; k++)
+                    if (!(wgt_px(out, x, y, k) <= 1 + 1e-4 && wgt_px(out, x, y, k) >= 0))
+                        fail_msg("water %d (%d,%d): %g exceeds the environment's 1", water, x, y,
+                                 wgt_px(out, x, y, k));
+        wg_image_unref(out);
+        unref_all(keep);
+    }
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
+static void test_mask_zero_is_dry(void **state)
+{
+    (void)state;
+    WgImage *env = wgt_image_fn(AW, AH, 4, env_sky), *atlas = prefilter(env, 2);
+    const char *attrs = "elevation=\"40\" height_scale=\"0.08\" sun=\"true\" repeat=\"true\"";
+    WgImage *k1[16], *k2[16];
+    Inputs dry = {0}, wet = {0};
+    random_inputs(&dry, k1, atlas, false, false);
+    random_inputs(&wet, k2, atlas, true, true);
+    WgImage *a = preview(attrs, AW, AH, &dry, 2), *b = preview(attrs, AW, AH, &wet, 2);
+    wgt_assert_identical(a, b);
+    /* and the water does change the picture where its mask is not 0 */
+    WgImage *k3[16];
+    Inputs wet2 = {0};
+    random_inputs(&wet2, k3, atlas, true, false);
+    WgImage *c = preview(attrs, AW, AH, &wet2, 2);
+    assert_true(wgt_max_abs_diff(a, c) > 0.01);
+    wg_image_unref(a);
+    wg_image_unref(b);
+    wg_image_unref(c);
+    unref_all(k1);
+    unref_all(k2);
+    unref_all(k3);
+    wg_image_unref(atlas);
+    wg_image_unref(env);
+}
+
+/* A bright stripe across the floor of a deep, clear pool: the row where it appears. */
+static double stripe_row(const WgImage *atlas, double ior)
+{
+    enum { T = 64 };
+    WgImage *base = wgt_image(T, T, 4, NULL);
+    for (int y = 0; y < T; y++)
+        for (int x = 0; x < T; x++) {
+            float *p = wg_image_row(base, y) + 4 * x;
+            float v = (y >= 16 && y < 24) ? 1.0f : 0.05f;
+            p[0] = p[1] = p[2] = v, p[3] = 1;
+        }
+    WgImage *floor0 = const_image(T, T, 1, 0), *surface = const_image(T, T, 1, 1);
+    WgImage *mask = const_image(T, T, 1, 1), *white = const_image(AW, AH, 4, 1);
+    WgImage *a = prefilter(white, 1);
+    (void)atlas;
+    Inputs in = {0};
+    in_add(&in, "environment", a);
+    in_add(&in, "basecolor", base);
+    in_add(&in, "height", floor0);
+    in_add(&in, "water_height", surface);
+    in_add(&in, "water_mask", mask);
+    char attrs[256];
+    snprintf(attrs, sizeof attrs,
+             LINEAR "elevation=\"40\" azimuth=\"0\" fov=\"1\" zoom=\"2\" height_scale=\"0.3\" "
+                    "water_ior=\"%g\" water_tint=\"1 1 1\"",
+             ior);
+    int H = AH;
+    WgImage *out = preview(attrs, AW, AH, &in, 2);
+    double sw = 0, sy = 0;
+    for (int y = 0; y < H; y++) {
+        double v = wgt_px(out, AW / 2, y, 0);
+        if (v > 0.3) sw += v, sy += v * y;
+    }
+    wg_image_unref(out);
+    wg_image_unref(a);
+    wg_image_unref(white);
+    wg_image_unref(mask);
+    wg_image_unref(surface);
+    wg_image_unref(floor0);
+    wg_image_unref(base);
+    assert_true(sw > 0);
+    return sy / sw;
+}
+
+static void test_refraction_raises_floor(void **state)
+{
+    (void)state;
+    /* The camera looks along +y from below the tile. Unrefracted, the stripe on the floor
+     * 0.3 tile widths deep is seen through the surface 0.3/tan(40°) before it; refracted, the
+     * ray bends towards the vertical and meets the floor sooner, so the stripe is seen through
+     * a surface point closer to it (a higher row of the picture): it looks shallower, raised
+     * towards the viewer, by about the depth ratio tan θt / tan θi. */
+    double plain = stripe_row(NULL, 1.0), water = stripe_row(NULL, 1.33);
+    /* Where the stripe should be seen: through the surface hs / tan(el) before it unrefracted,
+     * hs · tan θt with sin θt = cos(el) / 1.33 refracted; a length along the tile shows as
+     * sin(el) of it on the image plane, whose half height is 0.5 / zoom = 0.25 (AH / 2 rows). */
+    double el = 40 * M_PI / 180, hs = 0.3, st = cos(el) / 1.33;
+    double off_plain = hs / tan(el), off_water = hs * st / sqrt(1 - st * st);
+    double rows = (off_plain - off_water) * sin(el) * (AH / 2) / 0.25;
+    print_message("stripe row: %g unrefracted, %g refracted, expected %g rows apart\n", plain,
+                  water, rows);
+    if (!(water < plain - 3) || fabs((plain - water) - rows) > 2)
+        fail_msg("stripe at row %g refracted, %g unrefracted: expected %g rows higher", water,
+                 plain, rows);
+}
+
+static void test_threads(void **state)
+{
+    (void)state;
+    WgImage *env = wgt_image_fn(AW, AH, 4, env_sky);
+    WgImage *a1 = prefilter(env, 1), *a2 = prefilter(env, 2), *a3 = prefilter(env, 3);
+    wgt_assert_identical(a1, a2);
+    wgt_assert_identical(a1, a3);
+    WgImage *keep[16];
+    Inputs in = {0};
+    random_inputs(&in, keep, a1, true, false);
+    const char *attrs = "elevation=\"30\" height_scale=\"0.1\" sun=\"true\"";
+    WgImage *o1 = preview(attrs, AW, AH, &in, 1), *o2 = preview(attrs, AW, AH, &in, 2);
+    WgImage *o3 = preview(attrs, AW, AH, &in, 3);
+    wgt_assert_identical(o1, o2);
+    wgt_assert_identical(o1, o3);
+    wg_image_unref(o1);
+    wg_image_unref(o2);
+    wg_image_unref(o3);
+    unref_all(keep);
+    wg_image_unref(a1);
+    wg_image_unref(a2);
+    wg_image_unref(a3);
+    wg_image_unref(env);
+}
+
+/* Seen from straight above with a narrow field of view in a uniform environment, `repeat` shows
+ * the tile 2 x 2: each quarter of the picture is the same (the maps wrap), up to the view
+ * direction's small change across the picture. */
+static void test_repeat_tiles(void **state)
+{
+    (void)state;
+    WgImage *env = const_image(AW, AH, 4, 0.5f), *atlas = prefilter(env, 2);
+    WgImage *base = wgt_image_fn(16, 16, 4, noise_fn);
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", base);
+    WgImage *out =
+        preview(LINEAR "elevation=\"90\" azimuth=\"0\" fov=\"1\" repeat=\"true\"", AW, AH, &in, 2);
+    double worst = 0;
+    for (int y = 0; y < AH / 2; y++)
+        for (int x = 0; x < AW / 2; x++)
+            for (int k = 0; k < 3; k++) {
+                double a = wgt_px(out, x, y, k), b = wgt_px(out, x + AW / 2, y, k);
+                double c = wgt_px(out, x, y + AH / 2, k);
+                worst = fmax(worst, fmax(fabs(a - b), fabs(a - c)));
+            }
+    if (worst > 1e-4) fail_msg("quarters differ by %g", worst);
+    /* and the picture is not flat: the quarters agree because the tile repeats */
+    assert_true(wgt_max_abs_diff(out, atlas) > 0);
+    wg_image_unref(out);
+    wg_image_unref(base);
+    wg_image_unref(atlas);
+    wg_image_unref(env);
+}
+
+static double extreme_fn(int x, int y, int k)
+{
+    static const double v[] = {NAN, INFINITY, -INFINITY, 1e30, -1e30, 0, 1, 3e38, -5, 0.5};
+    return v[(x * 3 + y * 7 + k) % 10];
+}
+
+static void test_extreme_inputs(void **state)
+{
+    (void)state;
+    WgImage *env = wgt_image_fn(AW, AH, 4, extreme_fn), *atlas = prefilter(env, 2);
+    for (int y = 0; y < AH; y++)
+        for (int x = 0; x < AW; x++)
+            for (int k = 0; k < 4; k++)
+                if (!isfinite(wgt_px(atlas, x, y, k))) fail_msg("atlas (%d,%d) not finite", x, y);
+    static const char *names[] = {"environment",     "basecolor",      "normal",
+                                  "roughness",       "height",         "ao",
+                                  "metallic",        "water_height",   "water_normal",
+                                  "water_roughness", "water_specular", "water_mask"};
+    WgImage *maps[12];
+    Inputs in = {0};
+    for (int i = 0; i < 12; i++) {
+        bool color = i == 1 || i == 2 || i == 8;
+        maps[i] = i == 0 ? NULL : wgt_image_fn(9, 9, color ? 4 : 1, extreme_fn);
+        in_add(&in, names[i], i == 0 ? atlas : maps[i]);
+    }
+    static const char *attrs[] = {
+        "sun=\"true\" sun_intensity=\"1000000\" exposure=\"20\" height_scale=\"1\"",
+        "sun=\"true\" elevation=\"1\" height_scale=\"0\" encoding=\"srgb\"",
+        LINEAR "repeat=\"true\" pom_steps=\"1\" exposure=\"-20\"",
+    };
+    for (int a = 0; a < 3; a++) {
+        WgImage *out = preview(attrs[a], AW, AH, &in, 2);
+        for (int y = 0; y < AH; y++)
+            for (int x = 0; x < AW; x++)
+                for (int k = 0; k < 4; k++)
+                    if (!isfinite(wgt_px(out, x, y, k)))
+                        fail_msg("%s: (%d,%d) is %g", attrs[a], x, y, wgt_px(out, x, y, k));
+        wg_image_unref(out);
+    }
+    for (int i = 1; i < 12; i++) wg_image_unref(maps[i]);
+    wg_image_unref(atlas);
+    wg_image_unref(env);
+}
+
+static void test_atlas_size_error(void **state)
+{
+    (void)state;
+    WgImage *env = const_image(8, 8, 4, 1);
+    const char *names[] = {"environment"};
+    const WgImage *images[] = {env};
+    WgError err;
+    int rc = wgt_node_error("env_prefilter", "", 30, 30, 1, names, images, &err);
+    assert_int_equal(rc, WG_ERR_RANGE);
+    wgt_assert_error(&err, WG_ERR_RANGE, 0, "env_prefilter|square|30x30");
+    wg_image_unref(env);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_furnace),          cmocka_unit_test(test_mirror),
+        cmocka_unit_test(test_fresnel_grazing),  cmocka_unit_test(test_energy),
+        cmocka_unit_test(test_mask_zero_is_dry), cmocka_unit_test(test_refraction_raises_floor),
+        cmocka_unit_test(test_threads),          cmocka_unit_test(test_repeat_tiles),
+        cmocka_unit_test(test_extreme_inputs),   cmocka_unit_test(test_atlas_size_error),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
