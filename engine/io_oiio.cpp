@@ -336,6 +336,9 @@ static int oiio_finish(WgOiioOut *o, int ok, char *msg, size_t msg_size)
 
 extern "C" __attribute__((visibility("default"))) const WgOiioModule *wg_oiio_module_get(void)
 {
+    /* no OpenImageIO worker pool: the engine parallelises over images and rows itself, and a
+     * pool of threads left running at exit upsets LeakSanitizer's tracer */
+    OIIO::attribute("threads", 1);
     static const WgOiioModule table = {
         WG_OIIO_MODULE_ABI, sizeof(WgOiioModule), oiio_probe,      oiio_open,   oiio_read_rows,
         oiio_close,         oiio_create,          oiio_write_rows, oiio_finish,
