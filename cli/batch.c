@@ -97,7 +97,8 @@ static void json_row(const Options *o, const WgGraph *g, int index, const BatchR
         if (i) printf(", ");
         cli_json_string(stdout, p);
     }
-    printf("], \"ms\": %.3f, \"error\": ", ms);
+    printf("], \"computed\": %d, \"ms\": %.3f, \"error\": ",
+           res ? wg_result_evaluated_count(res) : 0, ms);
     if (error)
         cli_json_string(stdout, error);
     else

@@ -429,13 +429,19 @@ static int jscalar(Json *j, char **out)
         return jerr(j, "a string, a number, true or false was expected here");
     if (*p == '.') {
         p++;
-        if (*p < '0' || *p > '9') return jerr(j, "a digit must follow the decimal point");
+        if (*p < '0' || *p > '9') {
+            j->s = p;
+            return jerr(j, "a digit must follow the decimal point");
+        }
         while (*p >= '0' && *p <= '9') p++;
     }
     if (*p == 'e' || *p == 'E') {
         p++;
         if (*p == '+' || *p == '-') p++;
-        if (*p < '0' || *p > '9') return jerr(j, "a digit must follow the exponent");
+        if (*p < '0' || *p > '9') {
+            j->s = p;
+            return jerr(j, "a digit must follow the exponent");
+        }
         while (*p >= '0' && *p <= '9') p++;
     }
     j->s = p;
