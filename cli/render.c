@@ -126,22 +126,24 @@ static bool parse_shard(const char *text, Options *o)
     return true;
 }
 
-static int parse_args(int argc, char **argv, Options *o)
+int parse_args(int argc, char **argv, Options *o)
 {
+    if (!o->cmd) o->cmd = "render";
+    if (!o->help) o->help = help;
     o->sets = calloc((size_t)argc, sizeof(char *));
     o->inputs = calloc((size_t)argc, sizeof(char *));
     o->outputs = calloc((size_t)argc, sizeof(char *));
     o->format = -1;
-    if (!o->sets || !o->inputs || !o->outputs) return cli_usage_error("render", "out of memory");
+    if (!o->sets || !o->inputs || !o->outputs) return cli_usage_error(o->cmd, "out of memory");
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *val = NULL;
         bool missing = false;
 #define TAKE(opt) take(argc, argv, &i, opt, &val, &missing)
 #define NEED                                                                                       \
-    if (missing) return cli_usage_error("render", "%s needs a value", a)
+    if (missing) return cli_usage_error(o->cmd, "%s needs a value", a)
         if (cli_is_help(a)) {
-            fputs(help, stdout);
+            fputs(o->help, stdout);
             return 1;
         } else if (TAKE("-o") || TAKE("--out")) {
             NEED;
@@ -149,12 +151,12 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--set")) {
             NEED;
             if (!strchr(val, '='))
-                return cli_usage_error("render", "--set wants NAME=VALUE, not '%s'", val);
+                return cli_usage_error(o->cmd, "--set wants NAME=VALUE, not '%s'", val);
             o->sets[o->n_sets++] = val;
         } else if (TAKE("--input")) {
             NEED;
             if (!strchr(val, '='))
-                return cli_usage_error("render", "--input wants NAME=PATH, not '%s'", val);
+                return cli_usage_error(o->cmd, "--input wants NAME=PATH, not '%s'", val);
             o->inputs[o->n_inputs++] = val;
         } else if (TAKE("--output")) {
             NEED;
@@ -162,13 +164,13 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--size")) {
             NEED;
             if (!wg_parse_size(val, &o->width, &o->height))
-                return cli_usage_error("render", "bad --size '%s' (N or WxH, sides 1..%d)", val,
+                return cli_usage_error(o->cmd, "bad --size '%s' (N or WxH, sides 1..%d)", val,
                                        WG_MAX_SIDE);
         } else if (TAKE("--seed")) {
             NEED;
             uint64_t seed;
             if (!wg_parse_whole(val, &seed))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "bad --seed '%s' (a whole number from 0 to %" PRIu64
                                        ", decimal digits only)",
                                        val, UINT64_MAX);
@@ -184,21 +186,21 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--frames")) {
             NEED;
             if (!parse_frames(val, o))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "bad --frames '%s' (A:B, whole numbers 0 <= A <= B <= %d, "
                                        "at most %d frames)",
                                        val, MAX_FRAME, MAX_FRAMES);
         } else if (TAKE("--fps")) {
             NEED;
             if (!wg_parse_number(val, &o->fps) || !(o->fps > 0) || o->fps > 1000)
-                return cli_usage_error("render", "bad --fps '%s' (a decimal number, 0 < F <= 1000)",
+                return cli_usage_error(o->cmd, "bad --fps '%s' (a decimal number, 0 < F <= 1000)",
                                        val);
             o->has_fps = true;
         } else if (TAKE("--contact-sheet")) {
             NEED;
             size_t n = strlen(val);
             if (n < 5 || strcasecmp(val + n - 4, ".png"))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "--contact-sheet writes a PNG: '%s' must end in .png", val);
             o->contact_sheet = val;
         } else if (TAKE("--batch")) {
@@ -207,7 +209,7 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--shard")) {
             NEED;
             if (!parse_shard(val, o))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "bad --shard '%s' (I/N, whole numbers with 0 <= I < N <= "
                                        "%d)",
                                        val, MAX_SHARDS);
@@ -226,8 +228,7 @@ static int parse_args(int argc, char **argv, Options *o)
             NEED;
             uint64_t n;
             if (!wg_parse_whole(val, &n) || n < 1 || n > 256)
-                return cli_usage_error("render", "bad --threads '%s' (a whole number, 1..256)",
-                                       val);
+                return cli_usage_error(o->cmd, "bad --threads '%s' (a whole number, 1..256)", val);
             o->threads = (int)n;
         } else if (TAKE("--cache")) {
             NEED;
@@ -245,32 +246,31 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (!strcmp(a, "--stats=json")) {
             o->stats = o->stats_json = true;
         } else if (!strncmp(a, "--stats=", 8)) {
-            return cli_usage_error("render", "--stats takes no value or =json, not '%s'", a + 8);
+            return cli_usage_error(o->cmd, "--stats takes no value or =json, not '%s'", a + 8);
         } else if (!strcmp(a, "--no-fuse")) {
             o->no_fuse = true;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             o->quiet = true;
         } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error("render", "unknown option '%s'", a);
+            return cli_usage_error(o->cmd, "unknown option '%s'", a);
         } else if (!o->file) {
             o->file = a;
         } else {
-            return cli_usage_error("render", "one graph file at a time ('%s' and '%s')", o->file,
-                                   a);
+            return cli_usage_error(o->cmd, "one graph file at a time ('%s' and '%s')", o->file, a);
         }
 #undef TAKE
 #undef NEED
     }
-    if (!o->file) return cli_usage_error("render", "no graph file given");
+    if (!o->file) return cli_usage_error(o->cmd, "no graph file given");
     if (!o->has_frames && (o->has_fps || o->contact_sheet))
-        return cli_usage_error("render", "%s needs --frames",
+        return cli_usage_error(o->cmd, "%s needs --frames",
                                o->has_fps ? "--fps" : "--contact-sheet");
     if (!o->has_fps) o->fps = 24;
     if (!o->batch && (o->has_shard || o->batch_json))
-        return cli_usage_error("render", "%s needs --batch",
+        return cli_usage_error(o->cmd, "%s needs --batch",
                                o->has_shard ? "--shard" : "--batch-json");
     if (o->batch && (o->has_frames || o->layered || o->stats))
-        return cli_usage_error("render",
+        return cli_usage_error(o->cmd,
                                "--batch renders one image set per row: it does not "
                                "combine with %s",
                                o->has_frames ? "--frames"

@@ -12,6 +12,7 @@
 enum { MAX_FRAME = 9999999, MAX_FRAMES = 100000, MAX_SHARDS = 1000000 };
 
 typedef struct {
+    const char *cmd, *help; /* the subcommand and its --help text (default: render's) */
     const char *file, *out_dir, *layered, *cache, *contact_sheet, *batch;
     const char **sets, **inputs, **outputs;
     int n_sets, n_inputs, n_outputs;
@@ -25,6 +26,9 @@ typedef struct {
     size_t budget;
 } Options;
 
+/* Parse render's options into o (o->cmd and o->help may be set first); returns 0, 1 after
+ * printing the help, or EXIT_USAGE after printing a usage error. */
+int parse_args(int argc, char **argv, Options *o);
 /* A request for g with the command line's --set, --input, --output, --size, --seed and
  * --time; the caller owns *out (also on failure, when it is not NULL). */
 int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *err);
