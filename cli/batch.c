@@ -47,7 +47,7 @@ static int check_names(const char *list, const BatchList *l, const WgGraph *g, W
             const char *near = wg_suggest(f->name, names, n);
             char hint[300] = "";
             if (near) snprintf(hint, sizeof hint, "; did you mean '%s'?", near);
-            rc = wg_error_set_at(err, WG_ERR_USAGE, list, f->line, 0,
+            rc = wg_error_set_at(err, WG_ERR_USAGE, list, f->name_line, f->name_column,
                                  "the graph %s has no %s '%s'%s", wg_graph_name(g),
                                  input ? "image input" : "parameter", f->name, hint);
         }

@@ -57,7 +57,7 @@ static int add_row(BatchList *l, int line)
 
 /* Add a field to the last row, taking ownership of name and value (freed on failure). */
 static int add_field(Reader *rd, BatchList *l, int kind, char *name, char *value, int line,
-                     int column)
+                     int column, int name_line, int name_column)
 {
     BatchRow *r = &l->rows[l->n_rows - 1];
     if (kind == BATCH_INPUT && value) {
@@ -73,7 +73,8 @@ static int add_field(Reader *rd, BatchList *l, int kind, char *name, char *value
         return nomem(rd);
     }
     r->fields = f;
-    r->fields[r->n_fields++] = (BatchField){kind, name, value, line, column};
+    r->fields[r->n_fields++] =
+        (BatchField){kind, name, value, line, column, name_line, name_column};
     return WG_OK;
 }
 
@@ -156,7 +157,7 @@ static int csv_record(Reader *rd, const char **p, const char *end, int *line, Re
             }
             while (s < end && (*s == ' ' || *s == '\t')) s++;
             if (s < end && *s != ',' && *s != '\n' &&
-                !(*s == '\r' && s + 1 < end && s[1] == '\n')) {
+                !(*s == '\r' && (s + 1 == end || s[1] == '\n'))) {
                 free(buf);
                 return wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, *line,
                                        (int)(s - line_start) + 1,
@@ -166,7 +167,7 @@ static int csv_record(Reader *rd, const char **p, const char *end, int *line, Re
             }
         } else {
             while (s < end && *s != ',' && *s != '\n' &&
-                   !(*s == '\r' && s + 1 < end && s[1] == '\n')) {
+                   !(*s == '\r' && (s + 1 == end || s[1] == '\n'))) {
                 if (*s == '"' || *s == '\0') {
                     free(buf);
                     return wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, *line,
@@ -211,6 +212,7 @@ static bool record_is_empty(const Record *r)
 typedef struct {
     int kind; /* BATCH_INPUT, BATCH_SET or -1 for out */
     const char *name;
+    int line, column; /* of the header's cell */
 } Column;
 
 static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
@@ -237,11 +239,11 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
         const Cell *c = &header.cells[i];
         const char *t = c->text;
         if (!strncmp(t, "input:", 6) && t[6])
-            cols[i] = (Column){BATCH_INPUT, t + 6};
+            cols[i] = (Column){BATCH_INPUT, t + 6, c->line, c->column};
         else if (!strncmp(t, "set:", 4) && t[4])
-            cols[i] = (Column){BATCH_SET, t + 4};
+            cols[i] = (Column){BATCH_SET, t + 4, c->line, c->column};
         else if (!strcmp(t, "out") && !has_out)
-            cols[i] = (Column){-1, NULL}, has_out = true;
+            cols[i] = (Column){-1, NULL, c->line, c->column}, has_out = true;
         else {
             rc = wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, c->line, c->column,
                                  !strcmp(t, "out") ? "the column 'out' appears twice"
@@ -281,7 +283,8 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
                 }
                 continue;
             }
-            rc = add_field(rd, l, cols[i].kind, strdup(cols[i].name), c->text, c->line, c->column);
+            rc = add_field(rd, l, cols[i].kind, strdup(cols[i].name), c->text, c->line, c->column,
+                           cols[i].line, cols[i].column);
             c->text = NULL; /* the row took it */
             if (rc) goto out;
         }
@@ -462,6 +465,7 @@ static int jmembers(Json *j, BatchList *l, int kind)
     for (;;) {
         char *name = NULL, *value = NULL;
         jws(j);
+        int name_column = (int)(j->s - j->start) + 1;
         int rc = jstring(j, &name);
         if (rc) return rc;
         jws(j);
@@ -490,7 +494,8 @@ static int jmembers(Json *j, BatchList *l, int kind)
                 free(value);
                 return jerr(j, "this name appears twice in the object");
             }
-        if ((rc = add_field(j->rd, l, kind, name, value, j->line, column))) return rc;
+        if ((rc = add_field(j->rd, l, kind, name, value, j->line, column, j->line, name_column)))
+            return rc;
         jws(j);
         if (*j->s == ',') {
             j->s++;

@@ -12,7 +12,8 @@ enum { BATCH_INPUT, BATCH_SET };
 typedef struct {
     int kind; /* BATCH_INPUT or BATCH_SET */
     char *name, *value;
-    int line, column; /* where the value starts in the LIST */
+    int line, column;           /* where the value starts in the LIST */
+    int name_line, name_column; /* where the name is: the CSV header's cell or the JSON key */
 } BatchField;
 
 typedef struct {

@@ -170,11 +170,13 @@ static void test_csv_quoting(void **state)
                       "\"0.4\",\"q, \"\"one\"\"\"\r\n"
                       "  \"=0.2 + 0.1\" , \"q\ntwo\"\r\n"
                       "\n"
-                      ",q3\n");
+                      ",q3\r\n"
+                   "0.5,q4\r");
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch q.csv --set level=0.6"), 0);
     assert_row_equals_single("q, \"one\"", NULL, "0.4");
     assert_row_equals_single("q\ntwo", NULL, "0.3");
     assert_row_equals_single("q3", NULL, "0.6");
+    assert_row_equals_single("q4", NULL, "0.5"); /* a CR at the very end ends the line */
 }
 
 /* A bad value and a missing file fail their rows, named with the LIST's line; the other rows
@@ -305,7 +307,7 @@ static void test_usage_errors(void **state)
         {"u5.csv", "set:level,out\n0.1,u5,extra\n",
          "u5.csv:2: the row has 3 fields, the header has 2"},
         {"u6.csv", "set:levl,out\n0.1,u6\n",
-         "u6.csv:2: the graph g has no parameter 'levl'; did you mean 'level'?"},
+         "u6.csv:1:1: the graph g has no parameter 'levl'; did you mean 'level'?"},
         {"u7.csv", "", "u7.csv:1: the file is empty"},
         {"u8.jsonl", "{\"out\": \"u8\"}\n{\"set\": {\"level\": 0.1,}}\n",
          "u8.jsonl:2:23: a string in double quotes"},
@@ -314,7 +316,7 @@ static void test_usage_errors(void **state)
          "u10.jsonl:1:20: an input's value is a file path"},
         {"u11.jsonl", "{\"out\": \"u11\"} x\n", "u11.jsonl:1:16: unexpected text after"},
         {"u12.jsonl", "{\"inputs\": {\"text\": \"in1/gen_img.png\"}}\n",
-         "the graph g has no image input 'text'"},
+         "u12.jsonl:1:13: the graph g has no image input 'text'"},
         {"u13.jsonl", "{\"set\": {\"level\": 1e}}\n",
          "u13.jsonl:1:21: a digit must follow the exponent"},
     };
