@@ -141,6 +141,7 @@ int render_batch(const Options *o, const WgGraph *g)
         wg_error_clear(&err);
         int rc = row_request(&ro, g, o->batch, row, &r, &err);
         if (!rc) rc = wg_render(e, r, &res, &err);
+        if (progress) fprintf(stderr, "\r%*s\r", 60, ""); /* the paths go to the same terminal */
         if (!rc) rc = write_outputs(&ro, g, res, -1, &err);
         double ms = now_ms() - t0;
         char text[sizeof err.message + 4096] = "";

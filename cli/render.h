@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
-/* `wetgraph render`'s options and the pieces its frame-sequence mode (cli/frames.c) shares with
- * the single render (cli/render.c). */
+/* `wetgraph render`'s options and the pieces its frame-sequence mode (cli/frames.c), its batch
+ * mode (cli/batch.c) and `wetgraph watch` (cli/watch.c) share with the single render
+ * (cli/render.c). */
 #ifndef WETGRAPH_CLI_RENDER_H
 #define WETGRAPH_CLI_RENDER_H
 
