@@ -171,7 +171,7 @@ static void test_csv_quoting(void **state)
                       "  \"=0.2 + 0.1\" , \"q\ntwo\"\r\n"
                       "\n"
                       ",q3\r\n"
-                   "0.5,q4\r");
+                      "0.5,q4\r");
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch q.csv --set level=0.6"), 0);
     assert_row_equals_single("q, \"one\"", NULL, "0.4");
     assert_row_equals_single("q\ntwo", NULL, "0.3");
@@ -347,6 +347,28 @@ static void test_usage_errors(void **state)
     assert_true(contains("err", "does not combine with --layered"));
 }
 
+/* The render options apply to every row: --output, --format, --size. */
+static void test_options_apply_to_rows(void **state)
+{
+    (void)state;
+    put_file("o.csv", "set:level,out\n0.1,p0\n0.2,p1\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch o.csv --output b --format exr32 "
+                        "--size 16x8 -q"),
+                     0);
+    for (int i = 0; i < 2; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "p%d/g_b.exr", i);
+        WgImage *img = NULL;
+        WgError err = {0};
+        if (wg_image_read(path(name), 1, WG_LINEAR, &img, &err)) fail_msg("%s", err.message);
+        assert_int_equal(img->width, 16);
+        assert_int_equal(img->height, 8);
+        wg_image_unref(img);
+        snprintf(name, sizeof name, "p%d/g_a.exr", i);
+        assert_false(exists(path(name)));
+    }
+}
+
 /* An empty shard (more shards than rows) renders nothing and succeeds. */
 static void test_empty_shard(void **state)
 {
@@ -370,6 +392,7 @@ int main(void)
         cmocka_unit_test(test_shared_nodes_computed_once),
         cmocka_unit_test(test_concurrent_shards),
         cmocka_unit_test(test_usage_errors),
+        cmocka_unit_test(test_options_apply_to_rows),
         cmocka_unit_test(test_empty_shard),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
