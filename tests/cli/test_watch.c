@@ -211,6 +211,19 @@ static void test_watch_session(void **state)
     assert_int_equal(count_in("err", "watch: stopped"), 1);
 }
 
+/* A failed assertion leaves the watcher running: stop it. */
+static int stop_watcher(void **state)
+{
+    (void)state;
+    int st;
+    if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
+        kill(watcher, SIGKILL);
+        waitpid(watcher, &st, 0);
+    }
+    watcher = 0;
+    return 0;
+}
+
 /* Options render refuses, and the ones watch does not take. */
 static void test_watch_usage(void **state)
 {
@@ -231,7 +244,7 @@ static void test_watch_usage(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_watch_session),
+        cmocka_unit_test_teardown(test_watch_session, stop_watcher),
         cmocka_unit_test(test_watch_usage),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
