@@ -14,6 +14,7 @@ int cmd_check(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_nodes(int argc, char **argv);
 int cmd_dot(int argc, char **argv);
+int cmd_watch(int argc, char **argv);
 
 /* Exit code for an error: 1 for I/O, evaluation, memory and budget failures, 2 for usage and
  * graph errors (parse, type, range, cycle). */

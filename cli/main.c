@@ -11,6 +11,8 @@ static const char usage[] =
     "\n"
     "commands:\n"
     "  render FILE [options]   evaluate a graph and write its outputs\n"
+    "  watch FILE [options]    render, then render again whenever the graph, a subgraph or\n"
+    "                          an input image changes\n"
     "  check FILE...           validate graph files without evaluating them\n"
     "  info FILE [--json]      list a graph's parameters, inputs and outputs\n"
     "  nodes [TYPE] [--markdown]  the built-in node catalogue\n"
@@ -37,15 +39,12 @@ int main(int argc, char **argv)
     static const struct {
         const char *name;
         int (*fn)(int, char **);
-    } cmds[] = {{"render", cmd_render},
-                {"check", cmd_check},
-                {"info", cmd_info},
-                {"nodes", cmd_nodes},
-                {"dot", cmd_dot}};
+    } cmds[] = {{"render", cmd_render}, {"check", cmd_check}, {"info", cmd_info},
+                {"nodes", cmd_nodes},   {"dot", cmd_dot},     {"watch", cmd_watch}};
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
         if (!strcmp(cmd, cmds[i].name)) return cmds[i].fn(argc - 1, argv + 1);
-    const char *names[] = {"render", "check", "info", "nodes", "dot"};
-    const char *s = wg_suggest(cmd, names, 5);
+    const char *names[] = {"render", "check", "info", "nodes", "dot", "watch"};
+    const char *s = wg_suggest(cmd, names, 6);
     fprintf(stderr, "wetgraph: unknown command '%s'%s%s%s\n(see 'wetgraph --help')\n", cmd,
             s ? "; did you mean '" : "", s ? s : "", s ? "'?" : "");
     return EXIT_USAGE;

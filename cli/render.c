@@ -32,6 +32,12 @@ static const char help[] =
     "  --fps F                frames per second for --frames (default 24)\n"
     "  --contact-sheet F.png  with --frames: also write a grid of all frames of the first\n"
     "                         output (pick it with --output) to F.png\n"
+    "  --batch LIST           render every row of LIST (.csv with columns input:NAME,\n"
+    "                         set:NAME, out; or .jsonl) through one engine: nodes equal\n"
+    "                         across rows are computed once; a failed row does not stop\n"
+    "                         the others\n"
+    "  --shard I/N            with --batch: only rows I, I+N, I+2N, ... (rows from 0)\n"
+    "  --batch-json           with --batch: one JSON line per row on stdout\n"
     "  --format FMT           png | png16 | tif16 | exr | exr32 for every output\n"
     "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
     "                         (add -o to get both)\n"
@@ -103,22 +109,41 @@ static bool parse_frames(const char *text, Options *o)
     return true;
 }
 
-static int parse_args(int argc, char **argv, Options *o)
+/* "I/N" with 0 <= I < N <= MAX_SHARDS */
+static bool parse_shard(const char *text, Options *o)
 {
+    const char *slash = strchr(text, '/');
+    if (!slash) return false;
+    char first[32];
+    uint64_t i, n;
+    if ((size_t)(slash - text) >= sizeof first) return false;
+    snprintf(first, sizeof first, "%.*s", (int)(slash - text), text);
+    if (!wg_parse_whole(first, &i) || !wg_parse_whole(slash + 1, &n)) return false;
+    if (n < 1 || n > MAX_SHARDS || i >= n) return false;
+    o->shard_index = (int)i;
+    o->shard_count = (int)n;
+    o->has_shard = true;
+    return true;
+}
+
+int parse_args(int argc, char **argv, Options *o)
+{
+    if (!o->cmd) o->cmd = "render";
+    if (!o->help) o->help = help;
     o->sets = calloc((size_t)argc, sizeof(char *));
     o->inputs = calloc((size_t)argc, sizeof(char *));
     o->outputs = calloc((size_t)argc, sizeof(char *));
     o->format = -1;
-    if (!o->sets || !o->inputs || !o->outputs) return cli_usage_error("render", "out of memory");
+    if (!o->sets || !o->inputs || !o->outputs) return cli_usage_error(o->cmd, "out of memory");
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *val = NULL;
         bool missing = false;
 #define TAKE(opt) take(argc, argv, &i, opt, &val, &missing)
 #define NEED                                                                                       \
-    if (missing) return cli_usage_error("render", "%s needs a value", a)
+    if (missing) return cli_usage_error(o->cmd, "%s needs a value", a)
         if (cli_is_help(a)) {
-            fputs(help, stdout);
+            fputs(o->help, stdout);
             return 1;
         } else if (TAKE("-o") || TAKE("--out")) {
             NEED;
@@ -126,12 +151,12 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--set")) {
             NEED;
             if (!strchr(val, '='))
-                return cli_usage_error("render", "--set wants NAME=VALUE, not '%s'", val);
+                return cli_usage_error(o->cmd, "--set wants NAME=VALUE, not '%s'", val);
             o->sets[o->n_sets++] = val;
         } else if (TAKE("--input")) {
             NEED;
             if (!strchr(val, '='))
-                return cli_usage_error("render", "--input wants NAME=PATH, not '%s'", val);
+                return cli_usage_error(o->cmd, "--input wants NAME=PATH, not '%s'", val);
             o->inputs[o->n_inputs++] = val;
         } else if (TAKE("--output")) {
             NEED;
@@ -139,13 +164,13 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--size")) {
             NEED;
             if (!wg_parse_size(val, &o->width, &o->height))
-                return cli_usage_error("render", "bad --size '%s' (N or WxH, sides 1..%d)", val,
+                return cli_usage_error(o->cmd, "bad --size '%s' (N or WxH, sides 1..%d)", val,
                                        WG_MAX_SIDE);
         } else if (TAKE("--seed")) {
             NEED;
             uint64_t seed;
             if (!wg_parse_whole(val, &seed))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "bad --seed '%s' (a whole number from 0 to %" PRIu64
                                        ", decimal digits only)",
                                        val, UINT64_MAX);
@@ -161,23 +186,35 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--frames")) {
             NEED;
             if (!parse_frames(val, o))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "bad --frames '%s' (A:B, whole numbers 0 <= A <= B <= %d, "
                                        "at most %d frames)",
                                        val, MAX_FRAME, MAX_FRAMES);
         } else if (TAKE("--fps")) {
             NEED;
             if (!wg_parse_number(val, &o->fps) || !(o->fps > 0) || o->fps > 1000)
-                return cli_usage_error("render", "bad --fps '%s' (a decimal number, 0 < F <= 1000)",
+                return cli_usage_error(o->cmd, "bad --fps '%s' (a decimal number, 0 < F <= 1000)",
                                        val);
             o->has_fps = true;
         } else if (TAKE("--contact-sheet")) {
             NEED;
             size_t n = strlen(val);
             if (n < 5 || strcasecmp(val + n - 4, ".png"))
-                return cli_usage_error("render",
+                return cli_usage_error(o->cmd,
                                        "--contact-sheet writes a PNG: '%s' must end in .png", val);
             o->contact_sheet = val;
+        } else if (TAKE("--batch")) {
+            NEED;
+            o->batch = val;
+        } else if (TAKE("--shard")) {
+            NEED;
+            if (!parse_shard(val, o))
+                return cli_usage_error(o->cmd,
+                                       "bad --shard '%s' (I/N, whole numbers with 0 <= I < N <= "
+                                       "%d)",
+                                       val, MAX_SHARDS);
+        } else if (!strcmp(a, "--batch-json")) {
+            o->batch_json = true;
         } else if (TAKE("--format")) {
             NEED;
             o->format = wg_format_parse(val);
@@ -191,8 +228,7 @@ static int parse_args(int argc, char **argv, Options *o)
             NEED;
             uint64_t n;
             if (!wg_parse_whole(val, &n) || n < 1 || n > 256)
-                return cli_usage_error("render", "bad --threads '%s' (a whole number, 1..256)",
-                                       val);
+                return cli_usage_error(o->cmd, "bad --threads '%s' (a whole number, 1..256)", val);
             o->threads = (int)n;
         } else if (TAKE("--cache")) {
             NEED;
@@ -210,27 +246,36 @@ static int parse_args(int argc, char **argv, Options *o)
         } else if (!strcmp(a, "--stats=json")) {
             o->stats = o->stats_json = true;
         } else if (!strncmp(a, "--stats=", 8)) {
-            return cli_usage_error("render", "--stats takes no value or =json, not '%s'", a + 8);
+            return cli_usage_error(o->cmd, "--stats takes no value or =json, not '%s'", a + 8);
         } else if (!strcmp(a, "--no-fuse")) {
             o->no_fuse = true;
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             o->quiet = true;
         } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error("render", "unknown option '%s'", a);
+            return cli_usage_error(o->cmd, "unknown option '%s'", a);
         } else if (!o->file) {
             o->file = a;
         } else {
-            return cli_usage_error("render", "one graph file at a time ('%s' and '%s')", o->file,
-                                   a);
+            return cli_usage_error(o->cmd, "one graph file at a time ('%s' and '%s')", o->file, a);
         }
 #undef TAKE
 #undef NEED
     }
-    if (!o->file) return cli_usage_error("render", "no graph file given");
+    if (!o->file) return cli_usage_error(o->cmd, "no graph file given");
     if (!o->has_frames && (o->has_fps || o->contact_sheet))
-        return cli_usage_error("render", "%s needs --frames",
+        return cli_usage_error(o->cmd, "%s needs --frames",
                                o->has_fps ? "--fps" : "--contact-sheet");
     if (!o->has_fps) o->fps = 24;
+    if (!o->batch && (o->has_shard || o->batch_json))
+        return cli_usage_error(o->cmd, "%s needs --batch",
+                               o->has_shard ? "--shard" : "--batch-json");
+    if (o->batch && (o->has_frames || o->layered || o->stats))
+        return cli_usage_error(o->cmd,
+                               "--batch renders one image set per row: it does not "
+                               "combine with %s",
+                               o->has_frames ? "--frames"
+                               : o->layered  ? "--layered"
+                                             : "--stats");
     return 0;
 }
 
@@ -363,6 +408,19 @@ static const char *layered_name(const Options *o, int frame)
     return buf;
 }
 
+void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
+                 char *buf, size_t size)
+{
+    const char *dir = o->out_dir ? o->out_dir : ".";
+    WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+    if (frame >= 0)
+        snprintf(buf, size, "%s/%s_%s_%04d.%s", dir, wg_graph_name(g),
+                 wg_result_output_name(res, i), frame, wg_format_extension(f));
+    else
+        snprintf(buf, size, "%s/%s_%s.%s", dir, wg_graph_name(g), wg_result_output_name(res, i),
+                 wg_format_extension(f));
+}
+
 /* Every file is first written whole to a temporary beside its target; only when all of them
  * are complete are they renamed into place, one after the other. Temporaries that killed
  * renders left in the target folders are removed first. */
@@ -384,8 +442,8 @@ int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int f
         folder_of(o->layered, folder, sizeof folder);
         frame_path(o->layered, frame, layered, sizeof layered);
         if (mkdir_p(folder))
-            rc = wg_error_set_at(err, WG_ERR_IO, folder, 0, 0,
-                                 "cannot create the folder of %s: %s", layered, strerror(errno));
+            rc = wg_error_set_at(err, WG_ERR_IO, folder, 0, 0, "cannot create the folder of %s: %s",
+                                 layered, strerror(errno));
         wg_remove_stale_temporaries(folder);
         const char **names = calloc((size_t)n + 1, sizeof *names);
         const WgImage **images = calloc((size_t)n + 1, sizeof *images);
@@ -411,12 +469,7 @@ int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int f
     }
     for (int i = 0; !rc && separate && i < n; i++) {
         WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
-        if (frame >= 0)
-            snprintf(paths[i], sizeof paths[i], "%s/%s_%s_%04d.%s", dir, wg_graph_name(g),
-                     wg_result_output_name(res, i), frame, wg_format_extension(f));
-        else
-            snprintf(paths[i], sizeof paths[i], "%s/%s_%s.%s", dir, wg_graph_name(g),
-                     wg_result_output_name(res, i), wg_format_extension(f));
+        output_path(o, g, res, i, frame, paths[i], sizeof paths[i]);
         rc = wg_write_set_image(set, paths[i], wg_result_output_image(res, i), f,
                                 wg_result_output_colorspace(res, i), err);
     }
@@ -428,6 +481,34 @@ int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int f
     }
     free(paths);
     return rc;
+}
+
+int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *err)
+{
+    WgRequest *r = *out = wg_request_new(g);
+    if (!r) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; i < o->n_sets; i++) {
+        char name[256];
+        const char *eq = strchr(o->sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - o->sets[i]), o->sets[i]);
+        if (wg_request_set(r, name, eq + 1, err)) {
+            char msg[1200];
+            snprintf(msg, sizeof msg, "--set %s: %s", o->sets[i], err->message);
+            return wg_error_set(err, err->code, NULL, "%s", msg);
+        }
+    }
+    for (int i = 0; i < o->n_inputs; i++) {
+        char name[256];
+        const char *eq = strchr(o->inputs[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - o->inputs[i]), o->inputs[i]);
+        if (wg_request_set_input_file(r, name, eq + 1, err)) return err->code;
+    }
+    for (int i = 0; i < o->n_outputs; i++)
+        if (wg_request_add_output(r, o->outputs[i], err)) return err->code;
+    if (o->width) wg_request_set_size(r, o->width, o->height);
+    if (o->has_seed) wg_request_set_seed(r, o->seed);
+    if (o->has_time) wg_request_set_time(r, o->time);
+    return WG_OK;
 }
 
 int cmd_render(int argc, char **argv)
@@ -445,32 +526,11 @@ int cmd_render(int argc, char **argv)
     }
     status = EXIT_USAGE;
     if (wg_graph_load(o.file, &g, &err)) goto fail;
-    if (!(r = wg_request_new(g))) {
-        wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
-        goto fail;
+    if (o.batch) {
+        status = render_batch(&o, g);
+        goto out;
     }
-    for (int i = 0; i < o.n_sets; i++) {
-        char name[256];
-        const char *eq = strchr(o.sets[i], '=');
-        snprintf(name, sizeof name, "%.*s", (int)(eq - o.sets[i]), o.sets[i]);
-        if (wg_request_set(r, name, eq + 1, &err)) {
-            char msg[1200];
-            snprintf(msg, sizeof msg, "--set %s: %s", o.sets[i], err.message);
-            wg_error_set(&err, err.code, NULL, "%s", msg);
-            goto fail;
-        }
-    }
-    for (int i = 0; i < o.n_inputs; i++) {
-        char name[256];
-        const char *eq = strchr(o.inputs[i], '=');
-        snprintf(name, sizeof name, "%.*s", (int)(eq - o.inputs[i]), o.inputs[i]);
-        if (wg_request_set_input_file(r, name, eq + 1, &err)) goto fail;
-    }
-    for (int i = 0; i < o.n_outputs; i++)
-        if (wg_request_add_output(r, o.outputs[i], &err)) goto fail;
-    if (o.width) wg_request_set_size(r, o.width, o.height);
-    if (o.has_seed) wg_request_set_seed(r, o.seed);
-    if (o.has_time) wg_request_set_time(r, o.time);
+    if (build_request(&o, g, &r, &err)) goto fail;
     if (!o.quiet && isatty(2)) wg_request_set_progress(r, progress, NULL);
     if (wg_request_check(r, &err)) goto fail;
 

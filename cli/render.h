@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
-/* `wetgraph render`'s options and the pieces its frame-sequence mode (cli/frames.c) shares with
- * the single render (cli/render.c). */
+/* `wetgraph render`'s options and the pieces its frame-sequence mode (cli/frames.c), its batch
+ * mode (cli/batch.c) and `wetgraph watch` (cli/watch.c) share with the single render
+ * (cli/render.c). */
 #ifndef WETGRAPH_CLI_RENDER_H
 #define WETGRAPH_CLI_RENDER_H
 
@@ -9,20 +10,32 @@
 #include <stddef.h>
 #include <stdint.h>
 
-enum { MAX_FRAME = 9999999, MAX_FRAMES = 100000 };
+enum { MAX_FRAME = 9999999, MAX_FRAMES = 100000, MAX_SHARDS = 1000000 };
 
 typedef struct {
-    const char *file, *out_dir, *layered, *cache, *contact_sheet;
+    const char *cmd, *help; /* the subcommand and its --help text (default: render's) */
+    const char *file, *out_dir, *layered, *cache, *contact_sheet, *batch;
     const char **sets, **inputs, **outputs;
     int n_sets, n_inputs, n_outputs;
     int width, height, threads, format;
     bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json, no_fuse;
+    bool has_shard, batch_json;
+    int shard_index, shard_count;
     uint64_t seed;
     double time, fps;
     int frame_first, frame_last;
     size_t budget;
 } Options;
 
+/* Parse render's options into o (o->cmd and o->help may be set first); returns 0, 1 after
+ * printing the help, or EXIT_USAGE after printing a usage error. */
+int parse_args(int argc, char **argv, Options *o);
+/* A request for g with the command line's --set, --input, --output, --size, --seed and
+ * --time; the caller owns *out (also on failure, when it is not NULL). */
+int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *err);
+/* The path output i of res is written to (frame >= 0: with "_<frame>"). */
+void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
+                 char *buf, size_t size);
 /* Write every output of res (frame >= 0: with "_<frame>" in the names), all or none. */
 int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err);
 /* The per-node table (stderr) or JSON (stdout) of one render. */
@@ -31,5 +44,9 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json);
 void frame_path(const char *path, int frame, char *buf, size_t size);
 /* Frames o->frame_first..o->frame_last of request r with engine e (cli/frames.c). */
 int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e, WgError *err);
+
+/* `render --batch LIST` (cli/batch.c): every row of LIST through one engine; returns the exit
+ * status. */
+int render_batch(const Options *o, const WgGraph *g);
 
 #endif

@@ -1,0 +1,183 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph render FILE --batch LIST`: one engine renders the graph once per row of LIST (its
+ * input images, parameter values and output folder; cli/batch_list.c reads it), so its memory
+ * cache hands every row the results of the nodes whose inputs and parameters are equal to an
+ * earlier row's and only what differs is recomputed. The whole LIST is read and its names
+ * checked against the graph before anything is rendered (a mistake there is a usage error);
+ * then a row that fails is reported with its LIST line and the others go on, and the exit
+ * status is 1 if any failed. Each row's files are written all or none, as a single render's.
+ * --shard I/N keeps rows I, I+N, I+2N, ... so that several processes or machines share one
+ * LIST; --batch-json prints one JSON line per row on stdout. */
+#include "batch_list.h"
+#include "render.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+static double now_ms(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
+}
+
+/* Every name in the LIST is a parameter or an image input of the graph. */
+static int check_names(const char *list, const BatchList *l, const WgGraph *g, WgError *err)
+{
+    int np = wg_graph_param_count(g), ni = wg_graph_input_count(g);
+    const char **params = calloc((size_t)np + 1, sizeof *params);
+    const char **inputs = calloc((size_t)ni + 1, sizeof *inputs);
+    int rc = WG_OK;
+    if (!params || !inputs) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; !rc && i < np; i++) params[i] = wg_graph_param_info(g, i)->name;
+    for (int i = 0; !rc && i < ni; i++) inputs[i] = wg_graph_input_info(g, i)->name;
+    for (int r = 0; !rc && r < l->n_rows; r++) {
+        const BatchRow *row = &l->rows[r];
+        for (int k = 0; !rc && k < row->n_fields; k++) {
+            const BatchField *f = &row->fields[k];
+            bool input = f->kind == BATCH_INPUT;
+            const char *const *names = input ? inputs : params;
+            int n = input ? ni : np, found = 0;
+            for (int i = 0; i < n && !found; i++) found = !strcmp(names[i], f->name);
+            if (found) continue;
+            const char *near = wg_suggest(f->name, names, n);
+            char hint[300] = "";
+            if (near) snprintf(hint, sizeof hint, "; did you mean '%s'?", near);
+            rc = wg_error_set_at(err, WG_ERR_USAGE, list, f->name_line, f->name_column,
+                                 "the graph %s has no %s '%s'%s", wg_graph_name(g),
+                                 input ? "image input" : "parameter", f->name, hint);
+        }
+    }
+    free(params);
+    free(inputs);
+    return rc;
+}
+
+/* The request of one row: the command line's values, then the row's. */
+static int row_request(const Options *o, const WgGraph *g, const char *list, const BatchRow *row,
+                       WgRequest **r, WgError *err)
+{
+    if (build_request(o, g, r, err)) return err->code;
+    for (int k = 0; k < row->n_fields; k++) {
+        const BatchField *f = &row->fields[k];
+        int rc;
+        if (f->kind == BATCH_SET) {
+            rc = wg_request_set(*r, f->name, f->value, err);
+        } else {
+            struct stat st;
+            if (stat(f->value, &st) != 0)
+                return wg_error_set_at(err, WG_ERR_IO, list, f->line, f->column,
+                                       "input '%s': cannot open %s: %s", f->name, f->value,
+                                       strerror(errno));
+            rc = wg_request_set_input_file(*r, f->name, f->value, err);
+        }
+        if (rc) {
+            char msg[sizeof err->message + 300];
+            snprintf(msg, sizeof msg, "%s '%s': %s", f->kind == BATCH_SET ? "set" : "input",
+                     f->name, err->message);
+            wg_error_clear(err);
+            return wg_error_set_at(err, rc, list, f->line, f->column, "%s", msg);
+        }
+    }
+    return wg_request_check(*r, err);
+}
+
+static void json_row(const Options *o, const WgGraph *g, int index, const BatchRow *row,
+                     const WgResult *res, double ms, const char *error)
+{
+    printf("{\"row\": %d, \"line\": %d, \"status\": \"%s\", \"outputs\": [", index, row->line,
+           error ? "failed" : "ok");
+    for (int i = 0; !error && res && i < wg_result_output_count(res); i++) {
+        char p[4096];
+        output_path(o, g, res, i, -1, p, sizeof p);
+        if (i) printf(", ");
+        cli_json_string(stdout, p);
+    }
+    printf("], \"computed\": %d, \"ms\": %.3f, \"error\": ",
+           res ? wg_result_evaluated_count(res) : 0, ms);
+    if (error)
+        cli_json_string(stdout, error);
+    else
+        printf("null");
+    printf("}\n");
+    fflush(stdout);
+}
+
+int render_batch(const Options *o, const WgGraph *g)
+{
+    BatchList list;
+    WgError err = {0};
+    WgEngine *e = NULL;
+    if (batch_list_load(o->batch, &list, &err) || check_names(o->batch, &list, g, &err)) {
+        cli_report(&err);
+        batch_list_free(&list);
+        return cli_exit_for(err.code);
+    }
+    /* results stay in memory between rows: that is what makes the batch cheaper than one
+     * process per row */
+    WgEngineOptions eo = {o->threads, o->budget, o->cache, false, o->no_fuse};
+    if (wg_engine_new(&eo, &e, &err)) {
+        cli_report(&err);
+        batch_list_free(&list);
+        return EXIT_FAILED;
+    }
+    int step = o->has_shard ? o->shard_count : 1, first = o->has_shard ? o->shard_index : 0;
+    int mine = list.n_rows > first ? (list.n_rows - first + step - 1) / step : 0;
+    int done = 0, failed = 0;
+    bool progress = !o->quiet && isatty(2);
+    double start = now_ms();
+    for (int i = first; i < list.n_rows; i += step) {
+        const BatchRow *row = &list.rows[i];
+        Options ro = *o;
+        ro.quiet = o->quiet || o->batch_json; /* stdout holds only the JSON lines */
+        if (row->out) ro.out_dir = row->out;
+        WgRequest *r = NULL;
+        WgResult *res = NULL;
+        double t0 = now_ms();
+        wg_error_clear(&err);
+        int rc = row_request(&ro, g, o->batch, row, &r, &err);
+        if (!rc) rc = wg_render(e, r, &res, &err);
+        if (progress) fprintf(stderr, "\r%*s\r", 60, ""); /* the paths go to the same terminal */
+        if (!rc) rc = write_outputs(&ro, g, res, -1, &err);
+        double ms = now_ms() - t0;
+        char text[sizeof err.message + 4096] = "";
+        if (rc) {
+            /* the LIST's line (and column) first, then what went wrong where */
+            failed++;
+            if (!strcmp(err.file, o->batch)) {
+                snprintf(text, sizeof text, "%s:%d:%d: row %d: %s", o->batch, err.line, err.column,
+                         i, err.message);
+            } else {
+                char where[4096];
+                wg_error_format(&err, where, sizeof where);
+                snprintf(text, sizeof text, "%s:%d: row %d: %s", o->batch, row->line, i, where);
+            }
+            if (progress) fprintf(stderr, "\r%*s\r", 60, "");
+            fprintf(stderr, "wetgraph: error: %s\n", text);
+        }
+        if (o->batch_json) json_row(&ro, g, i, row, res, ms, rc ? text : NULL);
+        done++;
+        if (progress) {
+            fprintf(stderr, "\r[%d/%d] rows, %d failed", done, mine, failed);
+            fflush(stderr);
+        }
+        wg_result_free(res);
+        wg_request_free(r);
+    }
+    if (progress) fprintf(stderr, "\r%*s\r", 60, "");
+    if (!o->quiet) {
+        fprintf(stderr, "batch: %d row%s", done, done == 1 ? "" : "s");
+        if (o->has_shard)
+            fprintf(stderr, " (shard %d/%d of %d rows)", o->shard_index, o->shard_count,
+                    list.n_rows);
+        fprintf(stderr, ", %d rendered, %d failed, %.1f s\n", done - failed, failed,
+                (now_ms() - start) / 1e3);
+    }
+    wg_engine_free(e);
+    batch_list_free(&list);
+    return failed ? EXIT_FAILED : EXIT_OK;
+}

@@ -1,0 +1,37 @@
+/* SPDX-License-Identifier: MIT */
+/* The LIST file of `wetgraph render --batch`: rows of input images, parameter values and an
+ * output folder, read from CSV (header `input:NAME`, `set:NAME`, `out`) or JSON lines
+ * ({"inputs": {...}, "set": {...}, "out": "..."}), chosen by the extension (cli/batch_list.c). */
+#ifndef WETGRAPH_CLI_BATCH_LIST_H
+#define WETGRAPH_CLI_BATCH_LIST_H
+
+#include "cli.h"
+
+enum { BATCH_INPUT, BATCH_SET };
+
+typedef struct {
+    int kind; /* BATCH_INPUT or BATCH_SET */
+    char *name, *value;
+    int line, column;           /* where the value starts in the LIST */
+    int name_line, name_column; /* where the name is: the CSV header's cell or the JSON key */
+} BatchField;
+
+typedef struct {
+    int line; /* where the row starts in the LIST (1-based) */
+    BatchField *fields;
+    int n_fields;
+    char *out; /* NULL when the row names no folder */
+} BatchRow;
+
+typedef struct {
+    BatchRow *rows;
+    int n_rows;
+} BatchList;
+
+/* Read a LIST. Input paths and `out` that are relative are resolved against the LIST's folder;
+ * an empty CSV cell leaves that input or parameter as the command line or graph has it. A
+ * malformed file is a WG_ERR_PARSE with the LIST's name, line and column. */
+int batch_list_load(const char *path, BatchList *out, WgError *err);
+void batch_list_free(BatchList *l);
+
+#endif

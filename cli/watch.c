@@ -1,0 +1,350 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph watch FILE [render options]`: render, then wait for the graph file, the subgraph
+ * files it uses (found through each subgraph node's resolved path, recursively) or an --input
+ * image to change, and render again, in one process with one engine: its memory cache hands
+ * the new render every node whose parameters and inputs did not change, so only what the edit
+ * touched is recomputed. inotify watches the folders holding those files (editors often save
+ * by writing a new file and renaming it over the old one, which a watch on the file itself
+ * would lose) and events are matched by name. A burst of events (an editor's save) is
+ * gathered until 50 ms pass without one (at most 1 s), then the render runs once. A graph that
+ * does not load or check, or a render that fails, prints the error (file:line) and leaves the
+ * last good outputs as they are (outputs are written all or none); the next change is tried
+ * again. SIGINT and SIGTERM end the session cleanly (exit 0): they are blocked in every thread
+ * and read from a signalfd next to the inotify descriptor. */
+#include "render.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/inotify.h>
+#include <sys/stat.h>
+#include <sys/signalfd.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { QUIET_MS = 50, BURST_MAX_MS = 1000, MAX_DEPTH = 64 };
+
+static const char help[] =
+    "usage: wetgraph watch FILE [render options]\n"
+    "\n"
+    "Render FILE as `wetgraph render` does, then render again each time FILE, a subgraph\n"
+    "file it uses or an --input image changes, in the same process: nodes the change does\n"
+    "not touch come from the memory cache. Prints the nodes that ran and their time. A graph\n"
+    "error while editing is printed and the last good outputs are kept. Ctrl-C stops.\n"
+    "\n"
+    "Options: as `wetgraph render` (see 'wetgraph render --help'), except --frames, --fps,\n"
+    "--contact-sheet, --batch, --shard and --batch-json.\n";
+
+/* A watched file: the folder it is in, its name there, and what stat said when it was read
+ * (to notice a change made while the render ran, before the folders were watched again). */
+typedef struct {
+    char *dir, *name, *path;
+    struct stat st;
+    bool exists;
+} File;
+
+typedef struct {
+    File *f;
+    int n, cap;
+} FileSet;
+
+static void files_clear(FileSet *s)
+{
+    for (int i = 0; i < s->n; i++) {
+        free(s->f[i].dir);
+        free(s->f[i].name);
+        free(s->f[i].path);
+    }
+    s->n = 0;
+}
+
+static void files_free(FileSet *s)
+{
+    files_clear(s);
+    free(s->f);
+    *s = (FileSet){0};
+}
+
+static bool files_has(const FileSet *s, const char *dir, const char *name)
+{
+    for (int i = 0; i < s->n; i++)
+        if (!strcmp(s->f[i].dir, dir) && !strcmp(s->f[i].name, name)) return true;
+    return false;
+}
+
+static bool same_stat(const struct stat *a, const struct stat *b)
+{
+    return a->st_ino == b->st_ino && a->st_dev == b->st_dev && a->st_size == b->st_size &&
+           a->st_mtim.tv_sec == b->st_mtim.tv_sec && a->st_mtim.tv_nsec == b->st_mtim.tv_nsec;
+}
+
+/* Has a file changed since it was read? */
+static bool files_changed(const FileSet *s)
+{
+    for (int i = 0; i < s->n; i++) {
+        struct stat st;
+        bool exists = stat(s->f[i].path, &st) == 0;
+        if (exists != s->f[i].exists || (exists && !same_stat(&st, &s->f[i].st))) return true;
+    }
+    return false;
+}
+
+/* Add path; before: its stat from before it was read, or NULL to take it now. */
+static int files_add(FileSet *s, const char *path, const struct stat *before)
+{
+    const char *slash = strrchr(path, '/');
+    char dir[PATH_MAX];
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else if (slash == path)
+        snprintf(dir, sizeof dir, "/");
+    else
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    const char *name = slash ? slash + 1 : path;
+    if (files_has(s, dir, name)) return WG_OK;
+    if (s->n == s->cap) {
+        int cap = s->cap ? 2 * s->cap : 16;
+        File *f = realloc(s->f, sizeof *f * (size_t)cap);
+        if (!f) return WG_ERR_NOMEM;
+        s->f = f;
+        s->cap = cap;
+    }
+    File *f = &s->f[s->n];
+    *f = (File){strdup(dir), strdup(name), strdup(path), {0}, false};
+    if (!f->dir || !f->name || !f->path) {
+        free(f->dir);
+        free(f->name);
+        free(f->path);
+        return WG_ERR_NOMEM;
+    }
+    if (before) {
+        f->st = *before;
+        f->exists = before->st_nlink > 0;
+    } else {
+        f->exists = stat(path, &f->st) == 0;
+    }
+    s->n++;
+    return WG_OK;
+}
+
+/* The subgraph files g uses, and theirs, into s. A subgraph that does not load on its own is
+ * still watched; what it uses is not (its error is the main graph's). */
+static int add_subgraphs(FileSet *s, const WgGraph *g, int depth)
+{
+    for (int i = 0; i < wg_graph_node_count(g); i++) {
+        const WgGraphNodeInfo *n = wg_graph_node_info(g, i);
+        if (!n->is_subgraph || !n->subgraph_path) continue;
+        const char *slash = strrchr(n->subgraph_path, '/');
+        char dir[PATH_MAX];
+        snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - n->subgraph_path) : 1,
+                 slash ? n->subgraph_path : ".");
+        if (files_has(s, dir, slash ? slash + 1 : n->subgraph_path)) continue;
+        if (files_add(s, n->subgraph_path, NULL)) return WG_ERR_NOMEM;
+        WgGraph *sub = NULL;
+        WgError err = {0};
+        if (depth < MAX_DEPTH && !wg_graph_load(n->subgraph_path, &sub, &err)) {
+            int rc = add_subgraphs(s, sub, depth + 1);
+            wg_graph_free(sub);
+            if (rc) return rc;
+        }
+    }
+    return WG_OK;
+}
+
+static double now_ms(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
+}
+
+/* The nodes that ran (not taken from a cache) and their time, on stderr. */
+static void print_ran(const WgResult *res, double ms)
+{
+    int n = wg_result_stat_count(res), ran = wg_result_evaluated_count(res);
+    fprintf(stderr, "watch: rendered in %.1f ms: %d of %d nodes computed\n", ms, ran, n);
+    for (int i = 0; i < n; i++) {
+        const WgNodeStat *s = wg_result_stat(res, i);
+        if (s->cache == WG_COMPUTED)
+            fprintf(stderr, "  %-32s %-12s %10.2f ms\n", s->id, s->type, s->ms);
+    }
+}
+
+/* Load, check, render and write once. On success files holds what to watch next; when the
+ * graph does not load, files keeps what it held (and the graph file itself). */
+static void render_once(const Options *o, WgEngine *e, FileSet *files)
+{
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgResult *res = NULL;
+    WgError err = {0};
+    double t0 = now_ms();
+    /* the graph file and the inputs as they are before they are read */
+    struct stat *before = calloc((size_t)o->n_inputs + 1, sizeof *before);
+    if (!before) {
+        wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto fail;
+    }
+    for (int i = 0; i <= o->n_inputs; i++)
+        if (stat(i ? strchr(o->inputs[i - 1], '=') + 1 : o->file, &before[i]))
+            memset(&before[i], 0, sizeof before[i]); /* st_nlink 0: not there */
+    int rc = wg_graph_load(o->file, &g, &err);
+    if (rc) {
+        /* keep watching what the last good graph used, and at least the graph file */
+        for (int i = 0; i < files->n; i++)
+            files->f[i].exists = stat(files->f[i].path, &files->f[i].st) == 0;
+        bool nomem = files_add(files, o->file, &before[0]);
+        for (int i = 0; i < o->n_inputs; i++)
+            nomem |= files_add(files, strchr(o->inputs[i], '=') + 1, &before[i + 1]);
+        if (nomem) wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto fail;
+    }
+    files_clear(files);
+    rc = files_add(files, o->file, &before[0]);
+    for (int i = 0; !rc && i < o->n_inputs; i++)
+        rc = files_add(files, strchr(o->inputs[i], '=') + 1, &before[i + 1]);
+    if (!rc) rc = add_subgraphs(files, g, 0);
+    if (rc) {
+        wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto fail;
+    }
+    if (build_request(o, g, &r, &err) || wg_request_check(r, &err) || wg_render(e, r, &res, &err) ||
+        write_outputs(o, g, res, -1, &err))
+        goto fail;
+    if (!o->quiet) {
+        if (o->stats)
+            print_stats(e, res, o->stats_json);
+        else
+            print_ran(res, now_ms() - t0);
+    }
+    goto out;
+fail:
+    cli_report(&err);
+    if (!o->quiet) fprintf(stderr, "watch: the last good outputs are kept; waiting for a change\n");
+out:
+    free(before);
+    fflush(stdout);
+    fflush(stderr);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* An inotify descriptor watching the folders of files; wds[i] is file i's folder's watch. */
+static int watch_files(const FileSet *files, int *wds)
+{
+    int fd = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+    if (fd < 0) return -1;
+    for (int i = 0; i < files->n; i++) {
+        wds[i] = inotify_add_watch(fd, files->f[i].dir,
+                                   IN_CLOSE_WRITE | IN_MOVED_TO | IN_MOVED_FROM | IN_CREATE |
+                                       IN_DELETE | IN_ATTRIB);
+        if (wds[i] < 0)
+            fprintf(stderr, "wetgraph: warning: %s: cannot watch the folder: %s\n", files->f[i].dir,
+                    strerror(errno));
+    }
+    return fd;
+}
+
+/* Read the pending events; true if one names a watched file. */
+static bool read_events(int fd, const FileSet *files, const int *wds)
+{
+    char buf[16384] __attribute__((aligned(__alignof__(struct inotify_event))));
+    bool hit = false;
+    ssize_t len;
+    while ((len = read(fd, buf, sizeof buf)) > 0) {
+        for (char *p = buf; p < buf + len;) {
+            const struct inotify_event *ev = (const struct inotify_event *)p;
+            for (int i = 0; ev->len && i < files->n && !hit; i++)
+                hit = wds[i] == ev->wd && !strcmp(files->f[i].name, ev->name);
+            p += sizeof *ev + ev->len;
+        }
+    }
+    return hit;
+}
+
+int cmd_watch(int argc, char **argv)
+{
+    Options o = {.cmd = "watch", .help = help};
+    int status = parse_args(argc, argv, &o);
+    if (status) {
+        status = status == 1 ? EXIT_OK : status;
+        goto out;
+    }
+    if (o.has_frames || o.batch) {
+        status = cli_usage_error("watch", "watch renders one image set: it does not take %s",
+                                 o.has_frames ? "--frames" : "--batch");
+        goto out;
+    }
+    /* blocked before the engine starts its threads, so that every thread inherits the mask
+     * and the signals reach only the signalfd */
+    sigset_t mask;
+    sigemptyset(&mask);
+    sigaddset(&mask, SIGINT);
+    sigaddset(&mask, SIGTERM);
+    sigprocmask(SIG_BLOCK, &mask, NULL);
+    int sfd = signalfd(-1, &mask, SFD_CLOEXEC);
+    WgEngine *e = NULL;
+    WgError err = {0};
+    WgEngineOptions eo = {o.threads, o.budget, o.cache, false, o.no_fuse};
+    if (sfd < 0 || wg_engine_new(&eo, &e, &err)) {
+        if (sfd < 0)
+            wg_error_set(&err, WG_ERR_IO, NULL, "cannot receive signals: %s", strerror(errno));
+        cli_report(&err);
+        if (sfd >= 0) close(sfd);
+        status = EXIT_FAILED;
+        goto out;
+    }
+    FileSet files = {0};
+    int *wds = NULL;
+    for (bool stop = false; !stop;) {
+        render_once(&o, e, &files);
+        int *grown = realloc(wds, sizeof *wds * (size_t)(files.n + 1));
+        if (!grown) {
+            fprintf(stderr, "wetgraph: error: out of memory\n");
+            status = EXIT_FAILED;
+            break;
+        }
+        wds = grown;
+        int ifd = watch_files(&files, wds);
+        if (ifd < 0) {
+            fprintf(stderr, "wetgraph: error: cannot watch files: %s\n", strerror(errno));
+            status = EXIT_FAILED;
+            break;
+        }
+        if (!o.quiet) {
+            fprintf(stderr, "watch: waiting for changes to %d file%s (Ctrl-C to stop)\n", files.n,
+                    files.n == 1 ? "" : "s");
+            fflush(stderr);
+        }
+        /* a change made while the render ran */
+        double burst = files_changed(&files) ? now_ms() : -1; /* first event of a burst */
+        for (;;) {
+            struct pollfd p[2] = {{ifd, POLLIN, 0}, {sfd, POLLIN, 0}};
+            int wait = burst < 0 ? -1 : QUIET_MS;
+            if (burst >= 0 && now_ms() - burst > BURST_MAX_MS) break;
+            int n = poll(p, 2, wait);
+            if (n < 0 && errno == EINTR) continue;
+            if (p[1].revents) {
+                stop = true;
+                break;
+            }
+            if (n == 0) break; /* quiet for QUIET_MS after a change */
+            if (read_events(ifd, &files, wds) && burst < 0) burst = now_ms();
+        }
+        close(ifd);
+    }
+    if (!o.quiet) fprintf(stderr, "watch: stopped\n");
+    files_free(&files);
+    free(wds);
+    wg_engine_free(e);
+    close(sfd);
+out:
+    free(o.sets);
+    free(o.inputs);
+    free(o.outputs);
+    return status;
+}

@@ -1,0 +1,399 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph render --batch`: CSV and JSON-lines lists give the same files as single renders
+ * with the same --input and --set; CSV quoting (commas, doubled quotes, CRLF, empty lines);
+ * a failing row is reported with its LIST line and does not stop the others (exit 1); three
+ * --shard processes running at the same time into one --cache folder write the same files as
+ * one unsharded batch, byte for byte; nodes equal across rows are computed once; malformed
+ * lists and bad options are usage errors naming the file and line. Runs WETGRAPH_BIN. */
+#include "wgtest.h"
+
+#include <dirent.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+static const char gen[] = "<wetgraph version=\"1\" size=\"48x32\">\n"
+                          "  <node id=\"n\" type=\"noise\" scale=\"3\"/>\n"
+                          "  <output name=\"img\" from=\"n\" format=\"png16\"/>\n"
+                          "</wetgraph>\n";
+
+static const char graph[] =
+    "<wetgraph version=\"1\" size=\"48x32\">\n"
+    "  <param name=\"level\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <input name=\"tex\" type=\"gray\" default=\"0.25\"/>\n"
+    "  <node id=\"soft\" type=\"blur\" sigma=\"3\"><in name=\"source\" from=\"$tex\"/></node>\n"
+    "  <node id=\"lvl\" type=\"uniform\" value=\"=level\"/>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"multiply\">\n"
+    "    <in name=\"foreground\" from=\"soft\"/><in name=\"background\" from=\"lvl\"/>\n"
+    "  </node>\n"
+    "  <output name=\"a\" from=\"mix\" format=\"exr32\"/>\n"
+    "  <output name=\"b\" from=\"soft\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
+static char dir[1024];
+
+static const char *path(const char *name)
+{
+    static char buf[8][1200];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
+/* Run a shell command in dir; returns the exit status, stdout and stderr in files out / err.
+ * "WG" in the command is the wetgraph binary (exported as $WG). */
+static int sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static int sh(const char *fmt, ...)
+{
+    char args[4096], cmd[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(args, sizeof args, fmt, ap);
+    va_end(ap);
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    snprintf(cmd, sizeof cmd, "cd '%s' && WG='%s' && { %s ; } >out 2>err </dev/null", dir, bin,
+             args);
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static bool exists(const char *p)
+{
+    struct stat st;
+    return stat(p, &st) == 0;
+}
+
+static void put_file(const char *name, const char *text)
+{
+    wgt_write_file(path(name), text);
+}
+
+static bool contains(const char *name, const char *needle)
+{
+    char *text = wgt_read_file(path(name), NULL);
+    bool found = strstr(text, needle) != NULL;
+    if (!found) fprintf(stderr, "'%s' not in %s:\n%s\n", needle, name, text);
+    free(text);
+    return found;
+}
+
+/* Two files hold the same bytes. */
+static void assert_same_file(const char *a, const char *b)
+{
+    size_t na, nb;
+    char *x = wgt_read_file(path(a), &na), *y = wgt_read_file(path(b), &nb);
+    if (na != nb || memcmp(x, y, na)) fail_msg("%s and %s differ", a, b);
+    free(x);
+    free(y);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s/batch", wgt_tmpdir());
+    mkdir(dir, 0777);
+    put_file("gen.wetgraph", gen);
+    put_file("g.wetgraph", graph);
+    for (int s = 1; s <= 3; s++) {
+        char cmd[128];
+        snprintf(cmd, sizeof cmd, "\"$WG\" render gen.wetgraph --seed %d -o in%d -q", s, s);
+        if (sh("%s", cmd)) return -1;
+    }
+    return 0;
+}
+
+/* Each row's files (in folder out) equal a single render with the same --input and --set. */
+static void assert_row_equals_single(const char *out, const char *input, const char *level)
+{
+    static int count;
+    char cmd[512], single[64], a[256], b[256];
+    snprintf(single, sizeof single, "single%d", count++);
+    snprintf(cmd, sizeof cmd, "\"$WG\" render g.wetgraph -q -o %s %s%s --set level=%s", single,
+             input ? "--input tex=" : "", input ? input : "", level);
+    assert_int_equal(sh("%s", cmd), 0);
+    for (int k = 0; k < 2; k++) {
+        snprintf(a, sizeof a, "%s/g_%s", out, k ? "b.png" : "a.exr");
+        snprintf(b, sizeof b, "%s/g_%s", single, k ? "b.png" : "a.exr");
+        assert_same_file(a, b);
+    }
+}
+
+static void test_csv_rows_equal_single_renders(void **state)
+{
+    (void)state;
+    put_file("list.csv", "input:tex,set:level,out\n"
+                         "in1/gen_img.png,0.2,c1\n"
+                         "in2/gen_img.png,0.7,c2\n"
+                         "in1/gen_img.png,0.9,c3\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch list.csv"), 0);
+    assert_true(contains("out", "c3/g_a.exr"));
+    assert_true(contains("err", "3 rendered, 0 failed"));
+    assert_row_equals_single("c1", "in1/gen_img.png", "0.2");
+    assert_row_equals_single("c2", "in2/gen_img.png", "0.7");
+    assert_row_equals_single("c3", "in1/gen_img.png", "0.9");
+}
+
+/* JSON lines; relative paths are relative to the LIST's folder, not the current one; an
+ * input left out keeps the graph's default; numbers, strings and booleans as values. */
+static void test_jsonl_rows(void **state)
+{
+    (void)state;
+    mkdir(path("lists"), 0777);
+    put_file("lists/l.jsonl",
+             "{\"inputs\": {\"tex\": \"../in3/gen_img.png\"}, \"set\": {\"level\": 0.25}, \"out\": "
+             "\"../j1\"}\n"
+             "\n"
+             "  {\"out\": \"../j2\", \"set\": {\"level\": \"0.5\"}}\r\n"
+             "{\"set\": {\"level\": \"=0.1 * 3\"}, \"inputs\": {\"tex\": \"../in2/gen_img.png\"}, "
+             "\"out\": \"../j\\u0033\"}\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch lists/l.jsonl --batch-json"), 0);
+    assert_true(contains("out", "{\"row\": 0, \"line\": 1, \"status\": \"ok\", \"outputs\": "
+                                "[\"lists/../j1/g_a.exr\", \"lists/../j1/g_b.png\"]"));
+    assert_true(contains("out", "{\"row\": 2, \"line\": 4, \"status\": \"ok\""));
+    assert_row_equals_single("j1", "in3/gen_img.png", "0.25");
+    assert_row_equals_single("j2", NULL, "0.5");
+    assert_row_equals_single("j3", "in2/gen_img.png", "0.3");
+}
+
+/* Quoted fields with commas, doubled quotes and line breaks; CRLF; empty lines; spaces around
+ * unquoted fields; a UTF-8 byte order mark; empty cells leave the value as it was. */
+static void test_csv_quoting(void **state)
+{
+    (void)state;
+    put_file("q.csv", "\xef\xbb\xbfset:level , out\r\n"
+                      "\r\n"
+                      "\"0.4\",\"q, \"\"one\"\"\"\r\n"
+                      "  \"=0.2 + 0.1\" , \"q\ntwo\"\r\n"
+                      "\n"
+                      ",q3\r\n"
+                      "0.5,q4\r");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch q.csv --set level=0.6"), 0);
+    assert_row_equals_single("q, \"one\"", NULL, "0.4");
+    assert_row_equals_single("q\ntwo", NULL, "0.3");
+    assert_row_equals_single("q3", NULL, "0.6");
+    assert_row_equals_single("q4", NULL, "0.5"); /* a CR at the very end ends the line */
+}
+
+/* A bad value and a missing file fail their rows, named with the LIST's line; the other rows
+ * are written; exit 1; a failed row writes nothing. */
+static void test_failing_rows(void **state)
+{
+    (void)state;
+    put_file("f.csv", "input:tex,set:level,out\n"
+                      "in1/gen_img.png,0.3,f1\n"
+                      "in1/gen_img.png,2,f2\n"
+                      "missing.png,0.3,f3\n"
+                      "in2/gen_img.png,0.3,f4\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch f.csv --batch-json"), 1);
+    assert_true(exists(path("f1/g_a.exr")));
+    assert_true(exists(path("f4/g_a.exr")));
+    assert_false(exists(path("f2")));
+    assert_false(exists(path("f3")));
+    assert_true(contains("err", "f.csv:3:17: row 1: set 'level'"));
+    assert_true(contains("err", "f.csv:4:1: row 2: input 'tex': cannot open"));
+    assert_true(contains("err", "missing.png"));
+    assert_true(contains("err", "2 rendered, 2 failed"));
+    assert_true(
+        contains("out", "{\"row\": 1, \"line\": 3, \"status\": \"failed\", \"outputs\": []"));
+    assert_true(contains("out", "{\"row\": 3, \"line\": 5, \"status\": \"ok\""));
+}
+
+/* The rows after the first compute only what differs: same input, other level: only the
+ * level and the blend; the same row again: nothing. */
+static void test_shared_nodes_computed_once(void **state)
+{
+    (void)state;
+    put_file("s.csv", "input:tex,set:level,out\n"
+                      "in1/gen_img.png,0.3,s1\n"
+                      "in1/gen_img.png,0.4,s2\n"
+                      "in1/gen_img.png,0.4,s3\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch s.csv --batch-json"), 0);
+    assert_true(contains("out", "\"row\": 1, \"line\": 3, \"status\": \"ok\", \"outputs\": "
+                                "[\"s2/g_a.exr\", \"s2/g_b.png\"], \"computed\": 2,"));
+    assert_true(contains("out", "[\"s3/g_a.exr\", \"s3/g_b.png\"], \"computed\": 0,"));
+}
+
+static void list_files(const char *root, const char *sub, char *acc, size_t size)
+{
+    char full[2048];
+    snprintf(full, sizeof full, "%s/%s", root, sub);
+    DIR *d = opendir(full);
+    assert_non_null(d);
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        if (e->d_name[0] == '.') fail_msg("unexpected file %s/%s", full, e->d_name);
+        char rel[1024];
+        snprintf(rel, sizeof rel, "%s%s%s", sub, sub[0] ? "/" : "", e->d_name);
+        snprintf(full, sizeof full, "%s/%s", root, rel);
+        struct stat st;
+        assert_int_equal(stat(full, &st), 0);
+        if (S_ISDIR(st.st_mode))
+            list_files(root, rel, acc, size);
+        else
+            snprintf(acc + strlen(acc), size - strlen(acc), "%s\n", rel);
+    }
+    closedir(d);
+}
+
+/* Three shards at once into one cache folder write, together, exactly the files of one
+ * unsharded batch; no temporaries are left in the cache, and a batch reading that cache gives
+ * the same files again. Every input image is in rows of two shards, so two processes write the
+ * cache entries of its blur at the same time. */
+static void test_concurrent_shards(void **state)
+{
+    (void)state;
+    char list[4096] = "input:tex,set:level,out\n";
+    for (int i = 0; i < 12; i++)
+        snprintf(list + strlen(list), sizeof list - strlen(list),
+                 "../in%d/gen_img.png,0.%d,r%02d\n", 1 + (i / 2) % 3, 1 + i % 7, i);
+    mkdir(path("one"), 0777);
+    mkdir(path("shards"), 0777);
+    mkdir(path("again"), 0777);
+    put_file("one/l.csv", list);
+    put_file("shards/l.csv", list);
+    put_file("again/l.csv", list);
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch one/l.csv -q"), 0);
+    assert_int_equal(sh("for i in 0 1 2; do (\"$WG\" render g.wetgraph --batch shards/l.csv "
+                        "--shard $i/3 --cache cache --threads 1 -q; echo $? > rc$i) & done; wait"),
+                     0);
+    for (int i = 0; i < 3; i++) {
+        char name[8];
+        snprintf(name, sizeof name, "rc%d", i);
+        assert_true(contains(name, "0\n"));
+    }
+    char a[8192] = "", b[8192] = "";
+    list_files(path("one"), "", a, sizeof a);
+    list_files(path("shards"), "", b, sizeof b);
+    assert_string_equal(a, b);
+    assert_true(strstr(a, "r11/g_b.png") != NULL);
+    for (int i = 0; i < 12; i++)
+        for (int k = 0; k < 2; k++) {
+            char x[64], y[64];
+            snprintf(x, sizeof x, "one/r%02d/g_%s", i, k ? "b.png" : "a.exr");
+            snprintf(y, sizeof y, "shards/r%02d/g_%s", i, k ? "b.png" : "a.exr");
+            assert_same_file(x, y);
+        }
+    char entries[65536] = "";
+    list_files(path("cache"), "", entries, sizeof entries); /* fails on a leftover temporary */
+    assert_true(strstr(entries, ".wgc") != NULL);
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch again/l.csv --cache cache -q"), 0);
+    for (int i = 0; i < 12; i++) {
+        char x[64], y[64];
+        snprintf(x, sizeof x, "one/r%02d/g_a.exr", i);
+        snprintf(y, sizeof y, "again/r%02d/g_a.exr", i);
+        assert_same_file(x, y);
+    }
+}
+
+/* Malformed lists, unknown names and bad options: exit 2 with the LIST's name and line, and
+ * nothing rendered. */
+static void test_usage_errors(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name, *text, *needle;
+    } bad[] = {
+        {"u1.csv", "set:level,out\n0.1,u1\n0.2,\"u2\n",
+         "u1.csv:3:5: the quoted field is not closed"},
+        {"u2.csv", "set:level,out\n0.1,u\"2\n", "u2.csv:2:6: a \" inside an unquoted field"},
+        {"u3.csv", "set:level,out\n0.1,\"u3\"x\n", "u3.csv:2:9: unexpected 'x' after a quoted"},
+        {"u4.csv", "set:level,colour\n0.1,u4\n", "u4.csv:1:11: unknown column 'colour'"},
+        {"u5.csv", "set:level,out\n0.1,u5,extra\n",
+         "u5.csv:2: the row has 3 fields, the header has 2"},
+        {"u6.csv", "set:levl,out\n0.1,u6\n",
+         "u6.csv:1:1: the graph g has no parameter 'levl'; did you mean 'level'?"},
+        {"u7.csv", "", "u7.csv:1: the file is empty"},
+        {"u8.jsonl", "{\"out\": \"u8\"}\n{\"set\": {\"level\": 0.1,}}\n",
+         "u8.jsonl:2:23: a string in double quotes"},
+        {"u9.jsonl", "{\"output\": \"u9\"}\n", "u9.jsonl:1:2: unknown key"},
+        {"u10.jsonl", "{\"inputs\": {\"tex\": 3}}\n",
+         "u10.jsonl:1:20: an input's value is a file path"},
+        {"u11.jsonl", "{\"out\": \"u11\"} x\n", "u11.jsonl:1:16: unexpected text after"},
+        {"u12.jsonl", "{\"inputs\": {\"text\": \"in1/gen_img.png\"}}\n",
+         "u12.jsonl:1:13: the graph g has no image input 'text'"},
+        {"u13.jsonl", "{\"set\": {\"level\": 1e}}\n",
+         "u13.jsonl:1:21: a digit must follow the exponent"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        put_file(bad[i].name, bad[i].text);
+        assert_int_equal(sh("\"$WG\" render g.wetgraph --batch %s", bad[i].name), 2);
+        assert_true(contains("err", bad[i].needle));
+    }
+    assert_false(exists(path("u1")));
+    assert_false(exists(path("u8")));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch list.txt"), 2);
+    assert_true(contains("err", "list.txt: a batch list is a .csv or a .jsonl file"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch nothere.csv"), 1);
+    assert_true(contains("err", "nothere.csv: cannot open the batch list: No such file"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --shard 0/2"), 2);
+    assert_true(contains("err", "--shard needs --batch"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch-json"), 2);
+    assert_true(contains("err", "--batch-json needs --batch"));
+    static const char *const shards[] = {"2/2", "0/0", "1", "a/3", "-1/3", "0/1000001"};
+    for (size_t i = 0; i < sizeof shards / sizeof shards[0]; i++) {
+        assert_int_equal(sh("\"$WG\" render g.wetgraph --batch list.csv --shard '%s'", shards[i]),
+                         2);
+        assert_true(contains("err", "bad --shard"));
+    }
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch list.csv --frames 0:2"), 2);
+    assert_true(contains("err", "does not combine with --frames"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch list.csv --layered x.exr"), 2);
+    assert_true(contains("err", "does not combine with --layered"));
+}
+
+/* The render options apply to every row: --output, --format, --size. */
+static void test_options_apply_to_rows(void **state)
+{
+    (void)state;
+    put_file("o.csv", "set:level,out\n0.1,p0\n0.2,p1\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch o.csv --output b --format exr32 "
+                        "--size 16x8 -q"),
+                     0);
+    for (int i = 0; i < 2; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "p%d/g_b.exr", i);
+        WgImage *img = NULL;
+        WgError err = {0};
+        if (wg_image_read(path(name), 1, WG_LINEAR, &img, &err)) fail_msg("%s", err.message);
+        assert_int_equal(img->width, 16);
+        assert_int_equal(img->height, 8);
+        wg_image_unref(img);
+        snprintf(name, sizeof name, "p%d/g_a.exr", i);
+        assert_false(exists(path(name)));
+    }
+}
+
+/* An empty shard (more shards than rows) renders nothing and succeeds. */
+static void test_empty_shard(void **state)
+{
+    (void)state;
+    put_file("two.csv", "set:level,out\n0.1,e0\n0.2,e1\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 4/5"), 0);
+    assert_true(contains("err", "batch: 0 rows (shard 4/5 of 2 rows)"));
+    assert_false(exists(path("e0")));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 1/5"), 0);
+    assert_false(exists(path("e0")));
+    assert_true(exists(path("e1/g_a.exr")));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_csv_rows_equal_single_renders),
+        cmocka_unit_test(test_jsonl_rows),
+        cmocka_unit_test(test_csv_quoting),
+        cmocka_unit_test(test_failing_rows),
+        cmocka_unit_test(test_shared_nodes_computed_once),
+        cmocka_unit_test(test_concurrent_shards),
+        cmocka_unit_test(test_usage_errors),
+        cmocka_unit_test(test_options_apply_to_rows),
+        cmocka_unit_test(test_empty_shard),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}

@@ -1,0 +1,251 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph watch`: started in the background on a graph in a temporary folder, it renders;
+ * a valid edit of the graph (saved as editors do, a new file renamed over the old one) gives
+ * new outputs with the new value; an edit of a subgraph file too; a broken edit prints the
+ * error with file and line and leaves the outputs as they were; the fix renders again; the
+ * resident memory does not grow over 30 edits; SIGINT ends it with exit 0. Each wait has a
+ * harness limit (no timing assertions). Runs WETGRAPH_BIN. */
+#include "wgtest.h"
+
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { LIMIT_MS = 30000 };
+
+static const char sub[] = "<wetgraph version=\"1\" size=\"16\">\n"
+                          "  <node id=\"u\" type=\"uniform\" value=\"%s\"/>\n"
+                          "  <output name=\"out\" from=\"u\"/>\n"
+                          "</wetgraph>\n";
+
+/* A 256x256 graph: a blur keeps images of a size that a leak per edit would show in VmRSS. */
+static const char graph[] =
+    "<wetgraph version=\"1\" size=\"256\">\n"
+    "  <param name=\"level\" type=\"float\" default=\"%s\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+    "  <node id=\"soft\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"add\">\n"
+    "    <in name=\"foreground\" from=\"soft\"/><in name=\"background\" from=\"u\"/>\n"
+    "  </node>\n"
+    "  <node id=\"s\" type=\"sub\"/>\n"
+    "  <output name=\"a\" from=\"u\" format=\"exr32\"/>\n"
+    "  <output name=\"b\" from=\"s.out\" format=\"exr32\"/>\n"
+    "  <output name=\"c\" from=\"mix\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+
+static char dir[1024];
+static pid_t watcher;
+
+static const char *path(const char *name)
+{
+    static char buf[8][1200];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
+/* Save as an editor does: write a new file, rename it over the old one. */
+static void save(const char *name, const char *fmt, const char *value)
+{
+    char tmp[64], text[2048];
+    snprintf(tmp, sizeof tmp, ".%s.swp", name);
+    snprintf(text, sizeof text, fmt, value);
+    wgt_write_file(path(tmp), text);
+    assert_int_equal(rename(path(tmp), path(name)), 0);
+}
+
+static int count_in(const char *file, const char *needle)
+{
+    FILE *f = fopen(path(file), "rb");
+    if (!f) return 0;
+    static char text[1 << 20];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    int count = 0;
+    for (const char *p = strstr(text, needle); p; p = strstr(p + 1, needle)) count++;
+    return count;
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec t = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&t, NULL);
+}
+
+/* Wait until the log holds `count` lines with needle; fails after LIMIT_MS (a hang). */
+static void wait_for(const char *needle, int count)
+{
+    for (int waited = 0; count_in("err", needle) < count; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("watch did not print '%s' %d times", needle, count);
+        int st;
+        if (waitpid(watcher, &st, WNOHANG) == watcher) fail_msg("watch ended early");
+        sleep_ms(5);
+    }
+}
+
+static float value_of(const char *name)
+{
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path(name), 1, WG_LINEAR, &img, &err)) fail_msg("%s: %s", name, err.message);
+    float v = wgt_px(img, 3, 5, 0);
+    wg_image_unref(img);
+    return v;
+}
+
+static long rss_kb(void)
+{
+    char p[64], line[256];
+    snprintf(p, sizeof p, "/proc/%d/status", (int)watcher);
+    FILE *f = fopen(p, "r");
+    assert_non_null(f);
+    long kb = -1;
+    while (fgets(line, sizeof line, f))
+        if (!strncmp(line, "VmRSS:", 6)) kb = atol(line + 6);
+    fclose(f);
+    return kb;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s/watch", wgt_tmpdir());
+    mkdir(dir, 0777);
+    return 0;
+}
+
+static void test_watch_session(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    save("sub.wetgraph", sub, "0.125");
+    save("w.wetgraph", graph, "0.25");
+    watcher = fork();
+    assert_true(watcher >= 0);
+    if (watcher == 0) {
+        if (chdir(dir) || !freopen("out", "w", stdout) || !freopen("err", "w", stderr)) _exit(99);
+        /* under AddressSanitizer, freed memory is held in a quarantine that would look like
+         * growth; without it the resident memory means what it does in a normal build */
+        const char *asan = getenv("ASAN_OPTIONS");
+        if (asan) {
+            char opts[1024];
+            snprintf(opts, sizeof opts, "%s:quarantine_size_mb=0:thread_local_quarantine_size_kb=0",
+                     asan);
+            setenv("ASAN_OPTIONS", opts, 1);
+        }
+        execl(bin, bin, "watch", "w.wetgraph", "-o", "o", "--threads", "2", (char *)NULL);
+        _exit(98);
+    }
+    wait_for("watch: waiting", 1);
+    assert_int_equal(count_in("err", "watch: rendered"), 1);
+    assert_true(value_of("o/w_a.exr") == 0.25f);
+    assert_true(value_of("o/w_b.exr") == 0.125f);
+
+    /* a valid edit: only what depends on it runs again */
+    save("w.wetgraph", graph, "0.5");
+    wait_for("watch: waiting", 2);
+    assert_int_equal(count_in("err", "watch: rendered"), 2);
+    assert_true(value_of("o/w_a.exr") == 0.5f);
+    assert_int_equal(count_in("err", "blur"), 1);
+
+    /* a subgraph's edit */
+    save("sub.wetgraph", sub, "0.375");
+    wait_for("watch: waiting", 3);
+    assert_true(value_of("o/w_b.exr") == 0.375f);
+
+    /* a broken edit: the error with file and line, the outputs kept */
+    size_t before_size;
+    char *before = wgt_read_file(path("o/w_a.exr"), &before_size);
+    save("w.wetgraph", "<wetgraph version=\"1\" size=\"256\">\n  <param name=\"level\" %s\n",
+         "type=\"float\" default=\"0.6\"/>\n  <node id=\"u\" type=\"uniform\" value=\"=lvl\"/>\n");
+    wait_for("watch: waiting", 4);
+    assert_int_equal(count_in("err", "watch: rendered"), 3);
+    assert_int_equal(count_in("err", "wetgraph: error: w.wetgraph:"), 1);
+    assert_int_equal(count_in("err", "the last good outputs are kept"), 1);
+    size_t after_size;
+    char *after = wgt_read_file(path("o/w_a.exr"), &after_size);
+    assert_true(before_size == after_size && !memcmp(before, after, after_size));
+    free(before);
+    free(after);
+
+    /* the fix resumes */
+    save("w.wetgraph", graph, "0.75");
+    wait_for("watch: waiting", 5);
+    assert_int_equal(count_in("err", "watch: rendered"), 4);
+    assert_true(value_of("o/w_a.exr") == 0.75f);
+
+    /* 30 edits: the resident memory stays where it was after the first few */
+    long first = 0;
+    for (int i = 0; i < 30; i++) {
+        save("w.wetgraph", graph, i % 2 ? "0.3" : "0.4");
+        wait_for("watch: waiting", 6 + i);
+        if (i == 4) first = rss_kb();
+    }
+    long last = rss_kb();
+    print_message("VmRSS after 5 edits %ld kB, after 30 edits %ld kB\n", first, last);
+    assert_true(last - first < 2048);
+    assert_true(value_of("o/w_a.exr") == 0.3f);
+
+    /* Ctrl-C ends the session cleanly */
+    assert_int_equal(kill(watcher, SIGINT), 0);
+    int st = 0;
+    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
+        if (waited > LIMIT_MS) {
+            kill(watcher, SIGKILL);
+            fail_msg("watch did not stop on SIGINT");
+        }
+        sleep_ms(5);
+    }
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+    assert_int_equal(count_in("err", "watch: stopped"), 1);
+}
+
+/* A failed assertion leaves the watcher running: stop it. */
+static int stop_watcher(void **state)
+{
+    (void)state;
+    int st;
+    if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
+        kill(watcher, SIGKILL);
+        waitpid(watcher, &st, 0);
+    }
+    watcher = 0;
+    return 0;
+}
+
+/* Options render refuses, and the ones watch does not take. */
+static void test_watch_usage(void **state)
+{
+    (void)state;
+    char cmd[2048];
+    const char *bin = getenv("WETGRAPH_BIN");
+    snprintf(cmd, sizeof cmd, "cd '%s' && '%s' watch w.wetgraph --frames 0:3 2>err2 >/dev/null",
+             dir, bin);
+    int st = system(cmd);
+    assert_int_equal(WEXITSTATUS(st), 2);
+    snprintf(cmd, sizeof cmd, "cd '%s' && '%s' watch --threads 0 w.wetgraph 2>err2 >/dev/null", dir,
+             bin);
+    st = system(cmd);
+    assert_int_equal(WEXITSTATUS(st), 2);
+    assert_true(count_in("err2", "wetgraph watch: bad --threads") == 1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_watch_session, stop_watcher),
+        cmocka_unit_test(test_watch_usage),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
