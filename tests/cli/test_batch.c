@@ -44,28 +44,17 @@ static const char *path(const char *name)
     return p;
 }
 
-/* Run a shell command in dir; returns the exit status, stdout and stderr in files out / err.
- * "WG" in the command is the wetgraph binary (exported as $WG). */
+/* Run a shell command in dir ("$WG" is the wetgraph binary); returns the exit status, stdout
+ * and stderr in files out / err. */
 static int sh(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static int sh(const char *fmt, ...)
 {
-    char args[4096], cmd[8192];
+    char command[4096];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(args, sizeof args, fmt, ap);
+    vsnprintf(command, sizeof command, fmt, ap);
     va_end(ap);
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
-    snprintf(cmd, sizeof cmd, "cd '%s' && WG='%s' && { %s ; } >out 2>err </dev/null", dir, bin,
-             args);
-    int st = system(cmd);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-static bool exists(const char *p)
-{
-    struct stat st;
-    return stat(p, &st) == 0;
+    return wgt_shell(dir, "%s", command);
 }
 
 static void put_file(const char *name, const char *text)
@@ -190,10 +179,10 @@ static void test_failing_rows(void **state)
                       "missing.png,0.3,f3\n"
                       "in2/gen_img.png,0.3,f4\n");
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch f.csv --batch-json"), 1);
-    assert_true(exists(path("f1/g_a.exr")));
-    assert_true(exists(path("f4/g_a.exr")));
-    assert_false(exists(path("f2")));
-    assert_false(exists(path("f3")));
+    assert_true(wgt_exists(path("f1/g_a.exr")));
+    assert_true(wgt_exists(path("f4/g_a.exr")));
+    assert_false(wgt_exists(path("f2")));
+    assert_false(wgt_exists(path("f3")));
     assert_true(contains("err", "f.csv:3:17: row 1: set 'level'"));
     assert_true(contains("err", "f.csv:4:1: row 2: input 'tex': cannot open"));
     assert_true(contains("err", "missing.png"));
@@ -325,8 +314,8 @@ static void test_usage_errors(void **state)
         assert_int_equal(sh("\"$WG\" render g.wetgraph --batch %s", bad[i].name), 2);
         assert_true(contains("err", bad[i].needle));
     }
-    assert_false(exists(path("u1")));
-    assert_false(exists(path("u8")));
+    assert_false(wgt_exists(path("u1")));
+    assert_false(wgt_exists(path("u8")));
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch list.txt"), 2);
     assert_true(contains("err", "list.txt: a batch list is a .csv or a .jsonl file"));
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch nothere.csv"), 1);
@@ -365,7 +354,7 @@ static void test_options_apply_to_rows(void **state)
         assert_int_equal(img->height, 8);
         wg_image_unref(img);
         snprintf(name, sizeof name, "p%d/g_a.exr", i);
-        assert_false(exists(path(name)));
+        assert_false(wgt_exists(path(name)));
     }
 }
 
@@ -376,10 +365,10 @@ static void test_empty_shard(void **state)
     put_file("two.csv", "set:level,out\n0.1,e0\n0.2,e1\n");
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 4/5"), 0);
     assert_true(contains("err", "batch: 0 rows (shard 4/5 of 2 rows)"));
-    assert_false(exists(path("e0")));
+    assert_false(wgt_exists(path("e0")));
     assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 1/5"), 0);
-    assert_false(exists(path("e0")));
-    assert_true(exists(path("e1/g_a.exr")));
+    assert_false(wgt_exists(path("e0")));
+    assert_true(wgt_exists(path("e1/g_a.exr")));
 }
 
 int main(void)

@@ -41,22 +41,12 @@ static const char *path(const char *name)
 static int run(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static int run(const char *fmt, ...)
 {
-    char args[2048], cmd[4096];
+    char args[2048];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(args, sizeof args, fmt, ap);
     va_end(ap);
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
-    snprintf(cmd, sizeof cmd, "cd '%s' && '%s' %s >out 2>err </dev/null", dir, bin, args);
-    int st = system(cmd);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-static bool exists(const char *p)
-{
-    struct stat st;
-    return stat(p, &st) == 0;
+    return wgt_shell(dir, "\"$WG\" %s", args);
 }
 
 static WgImage *load(const char *p, int channels)
@@ -87,9 +77,9 @@ static void test_frames_match_single_renders(void **state)
     for (int k = 0; k <= 3; k++) {
         char name[64];
         snprintf(name, sizeof name, "seq/anim_foam_%04d.exr", k);
-        assert_true(exists(path(name)));
+        assert_true(wgt_exists(path(name)));
         snprintf(name, sizeof name, "seq/anim_dist_%04d.exr", k);
-        assert_true(exists(path(name)));
+        assert_true(wgt_exists(path(name)));
         char one[64];
         snprintf(one, sizeof one, "one%d", k);
         assert_int_equal(run("render anim.wetgraph --time %g -o %s -q", k / 2.0, one), 0);
@@ -101,8 +91,8 @@ static void test_frames_match_single_renders(void **state)
         wg_image_unref(x);
         wg_image_unref(y);
     }
-    assert_false(exists(path("seq/anim_foam_0004.exr")));
-    assert_false(exists(path("seq/anim_foam.exr")));
+    assert_false(wgt_exists(path("seq/anim_foam_0004.exr")));
+    assert_false(wgt_exists(path("seq/anim_foam.exr")));
     /* the animation moves: frame 1 differs from frame 0 */
     WgImage *f0 = load(path("seq/anim_foam_0000.exr"), 1),
             *f1 = load(path("seq/anim_foam_0001.exr"), 1);
@@ -127,7 +117,7 @@ static void test_time_offset_and_numbering(void **state)
     wg_image_unref(x);
     wg_image_unref(y);
     assert_int_equal(run("render anim.wetgraph --frames 12345:12345 --output dist -o big -q"), 0);
-    assert_true(exists(path("big/anim_dist_12345.exr")));
+    assert_true(wgt_exists(path("big/anim_dist_12345.exr")));
 }
 
 /* The distance transform of the shore does not depend on $time: computed once, then reused. */
@@ -180,9 +170,9 @@ static void test_layered_frames(void **state)
 {
     (void)state;
     assert_int_equal(run("render anim.wetgraph --frames 0:1 --layered lay/all.exr -q"), 0);
-    assert_true(exists(path("lay/all_0000.exr")));
-    assert_true(exists(path("lay/all_0001.exr")));
-    assert_false(exists(path("lay/all.exr")));
+    assert_true(wgt_exists(path("lay/all_0000.exr")));
+    assert_true(wgt_exists(path("lay/all_0001.exr")));
+    assert_false(wgt_exists(path("lay/all.exr")));
 }
 
 static void test_usage_errors(void **state)
@@ -209,7 +199,7 @@ static void test_usage_errors(void **state)
             fail_msg("'%s': exit %d, stderr:\n%s", cases[i].args, st, err ? err : "");
         free(err);
     }
-    assert_false(exists(path("bad")));
+    assert_false(wgt_exists(path("bad")));
 }
 
 int main(void)

@@ -3,11 +3,13 @@
 #include "wgtest.h"
 
 #include <ftw.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 static char tmp_dir[512];
@@ -310,4 +312,25 @@ void wgt_assert_error(const WgError *err, int code, int line, const char *needle
     char *save = NULL;
     for (char *p = strtok_r(parts, "|", &save); p; p = strtok_r(NULL, "|", &save))
         if (!strstr(buf, p)) fail_msg("expected '%s' in: %s", p, buf);
+}
+
+int wgt_shell(const char *dir, const char *fmt, ...)
+{
+    char command[4096], line[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(command, sizeof command, fmt, ap);
+    va_end(ap);
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    snprintf(line, sizeof line, "cd '%s' && WG='%s' && { %s ; } >out 2>err </dev/null", dir, bin,
+             command);
+    int st = system(line);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+bool wgt_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
 }

@@ -20,6 +20,12 @@ const char *wgt_tmpdir(void);
 const char *wgt_path(const char *name);
 /* Write text to a file (e.g. a .wetgraph under wgt_tmpdir()). */
 void wgt_write_file(const char *path, const char *text);
+/* Run a shell command in `dir` with $WG set to the wetgraph binary (WETGRAPH_BIN), stdin from
+ * /dev/null, stdout and stderr into dir/out and dir/err. Returns its exit status (-1 if it did
+ * not exit). */
+int wgt_shell(const char *dir, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Does the path exist? */
+bool wgt_exists(const char *path);
 
 /* Image from values (row-major, `channels` per pixel; channels 1 or 4). values may be NULL
  * (zeros). Caller unrefs. */
