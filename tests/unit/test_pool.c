@@ -149,17 +149,20 @@ static void reuse_run(const WgGraph *g, const WgResult *ref, bool memory_cache, 
     wg_engine_memory_stats(e, &s1);
     assert_true(s1.pool_hits > 0); /* intermediates freed during the render were reused */
     assert_true(s1.pool_bytes > 0);
-    /* a second render of the same request: every buffer from the pool. With one thread the
-     * nodes run in the same order both times; with more, the order of frees and allocations
-     * may differ, so one more buffer of a size class can be live at once */
+    /* a second render of the same request: every buffer from the pool when one thread runs the
+     * nodes in the same order both times; with more threads the order of frees and allocations
+     * follows the machine's load, so more buffers of a class can be live at once than in the
+     * first render: there, at least three in four still come from the pool */
     wg_engine_clear_cache(e);
     WgResult *second = render_on(e, g);
     wg_engine_memory_stats(e, &s2);
     wg__mempool_set_poison(false);
     assert_results_identical(ref, second);
-    if (s2.pool_misses > s1.pool_misses + (threads > 1 ? 2 : 0))
-        fail_msg("the second render took %llu new buffers",
-                 (unsigned long long)(s2.pool_misses - s1.pool_misses));
+    uint64_t fresh = s2.pool_misses - s1.pool_misses;
+    uint64_t asked = fresh + (s2.pool_hits - s1.pool_hits);
+    if (threads == 1 ? fresh != 0 : fresh * 4 > asked)
+        fail_msg("%d threads: the second render took %llu new buffers of %llu", threads,
+                 (unsigned long long)fresh, (unsigned long long)asked);
     assert_true(s2.pool_hits > s1.pool_hits);
     wg_result_free(second);
     wg_engine_free(e);
