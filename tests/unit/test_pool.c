@@ -149,10 +149,10 @@ static void reuse_run(const WgGraph *g, const WgResult *ref, bool memory_cache, 
     wg_engine_memory_stats(e, &s1);
     assert_true(s1.pool_hits > 0); /* intermediates freed during the render were reused */
     assert_true(s1.pool_bytes > 0);
-    /* a second render of the same request: every buffer from the pool when one thread runs the
-     * nodes in the same order both times; with more threads the order of frees and allocations
-     * follows the machine's load, so more buffers of a class can be live at once than in the
-     * first render: there, at least three in four still come from the pool */
+    /* a second render of the same request takes its buffers from the pool. The order of frees
+     * and allocations can follow the machine's load (worker threads, the budget's waits), so
+     * more buffers of a class can be live at once than in the first render: at least three in
+     * four come from the pool */
     wg_engine_clear_cache(e);
     WgResult *second = render_on(e, g);
     wg_engine_memory_stats(e, &s2);
@@ -160,7 +160,7 @@ static void reuse_run(const WgGraph *g, const WgResult *ref, bool memory_cache, 
     assert_results_identical(ref, second);
     uint64_t fresh = s2.pool_misses - s1.pool_misses;
     uint64_t asked = fresh + (s2.pool_hits - s1.pool_hits);
-    if (threads == 1 ? fresh != 0 : fresh * 4 > asked)
+    if (fresh * 4 > asked)
         fail_msg("%d threads: the second render took %llu new buffers of %llu", threads,
                  (unsigned long long)fresh, (unsigned long long)asked);
     assert_true(s2.pool_hits > s1.pool_hits);
