@@ -1,0 +1,88 @@
+/* SPDX-License-Identifier: MIT */
+/* The one page `wetgraph watch --serve` serves (cli/serve.c): it reads /api/state, builds a
+ * control for each <param> from its declaration (a slider for a float or int with a min and a
+ * max, a number box otherwise, a checkbox for a bool, a menu for an enum, a colour picker for
+ * a colour, a text box for a string), shows every output's PNG preview scaled to fit, the
+ * per-node times of the last render, the last error and the `wetgraph render` command line that
+ * reproduces the current state. A change is sent to /api/set; /events announces each finished
+ * render, and the page then reloads the state and the images. Settings in the page address
+ * (?set=name=value, repeatable) are applied once on load. */
+#ifndef WETGRAPH_CLI_SERVE_PAGE_H
+#define WETGRAPH_CLI_SERVE_PAGE_H
+
+static const char serve_page[] =
+    "<!DOCTYPE html>\n"
+    "<html><head><meta charset=\"utf-8\"><title>wetgraph watch</title>\n"
+    "<style>\n"
+    "body{font:14px sans-serif;margin:0;display:flex;background:#202124;color:#ddd}\n"
+    "#side{width:330px;padding:10px;background:#2b2c30;min-height:100vh;box-sizing:border-box}\n"
+    "#main{flex:1;padding:10px;display:flex;flex-wrap:wrap;gap:10px;align-content:flex-start}\n"
+    "figure{margin:0;width:calc(50% - 5px);background:#111}\n"
+    "figure img{width:100%;height:auto;max-height:70vh;object-fit:contain;display:block;"
+    "image-rendering:pixelated}\n"
+    "figcaption{padding:3px 6px}\n"
+    ".p{margin:6px 0}.p label{display:block}.p input[type=range]{width:220px}\n"
+    "#err{color:#f88;white-space:pre-wrap}#cmd{width:100%;height:70px;font:12px monospace}\n"
+    "table{font:12px monospace;border-collapse:collapse}td{padding:0 6px}\n"
+    "</style></head><body>\n"
+    "<div id=\"side\"><h3 id=\"title\">wetgraph</h3><div id=\"params\"></div>\n"
+    "<div id=\"err\"></div><h4>Save as --set</h4><textarea id=\"cmd\" readonly></textarea>\n"
+    "<h4>Node times (last render)</h4><table id=\"times\"></table></div>\n"
+    "<div id=\"main\"></div>\n"
+    "<script>\n"
+    "'use strict';\n"
+    "let built=false,version=-1,state=null;\n"
+    "function q(s){return s.includes(' ')||s.includes('\"')||s===''?\"'\"+s.replace(/'/g,\"'\\\\''\")+\"'\":s}\n"
+    "function send(name,value){fetch('/api/set?'+encodeURIComponent(name)+'='+"
+    "encodeURIComponent(value),{method:'POST'})}\n"
+    "function toHex(v){if(/^#[0-9a-fA-F]{6}$/.test(v))return v;"
+    "if(/^#[0-9a-fA-F]{3}$/.test(v))return '#'+v[1]+v[1]+v[2]+v[2]+v[3]+v[3];"
+    "if(/^#[0-9a-fA-F]{8}$/.test(v))return v.slice(0,7);"
+    "let n=v.trim().split(/\\s+/).map(Number);if(n.length===1)n=[n[0],n[0],n[0]];"
+    "return '#'+n.slice(0,3).map(x=>{x=Math.min(1,Math.max(0,x||0));"
+    "x=x<=0.0031308?12.92*x:1.055*Math.pow(x,1/2.4)-0.055;"
+    "return Math.round(x*255).toString(16).padStart(2,'0')}).join('')}\n"
+    "function control(p){\n"
+    " const d=document.createElement('div');d.className='p';\n"
+    " const l=document.createElement('label');l.textContent=(p.label||p.name)+' ('+p.name+')';d.appendChild(l);\n"
+    " let i;const out=document.createElement('span');\n"
+    " if(p.type==='bool'){i=document.createElement('input');i.type='checkbox';"
+    "i.checked=p.value==='true'||p.value==='1';i.onchange=()=>send(p.name,i.checked?'true':'false')}\n"
+    " else if(p.type==='enum'){i=document.createElement('select');for(const v of p.values){"
+    "const o=document.createElement('option');o.value=o.textContent=v;i.appendChild(o)}"
+    "i.value=p.value;i.onchange=()=>send(p.name,i.value)}\n"
+    " else if(p.type==='color'){i=document.createElement('input');i.type='color';"
+    "i.value=toHex(p.value);i.oninput=()=>send(p.name,i.value)}\n"
+    " else if((p.type==='float'||p.type==='int')&&p.min!==undefined&&p.max!==undefined){\n"
+    "  i=document.createElement('input');i.type='range';i.min=p.min;i.max=p.max;"
+    "i.step=p.type==='int'?1:(p.max-p.min)/1000;i.value=p.value;out.textContent=' '+p.value;\n"
+    "  i.oninput=()=>{out.textContent=' '+i.value;send(p.name,i.value)}}\n"
+    " else{i=document.createElement('input');i.type=p.type==='string'?'text':'number';"
+    "if(p.type==='int')i.step=1;else if(p.type==='float')i.step='any';"
+    "i.value=p.value;i.onchange=()=>send(p.name,i.value)}\n"
+    " i.id='param-'+p.name;i.dataset.name=p.name;d.appendChild(i);d.appendChild(out);return d}\n"
+    "function show(s){\n"
+    " state=s;document.getElementById('title').textContent=s.file;\n"
+    " if(!built&&s.params){const ps=document.getElementById('params');for(const p of s.params)"
+    "ps.appendChild(control(p));built=true}\n"
+    " document.getElementById('err').textContent=s.error?'error: '+s.error:'';\n"
+    " document.getElementById('cmd').value='wetgraph render '+q(s.file)+"
+    "s.sets.map(x=>' --set '+q(x)).join('');\n"
+    " const t=document.getElementById('times');t.innerHTML='';\n"
+    " for(const n of s.times){const r=t.insertRow();r.insertCell().textContent=n.id;"
+    "r.insertCell().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' ms':'cached'}\n"
+    " const m=document.getElementById('main');\n"
+    " for(const o of s.outputs){let f=document.getElementById('out-'+o.name);\n"
+    "  if(!f){f=document.createElement('figure');f.id='out-'+o.name;const im=document.createElement('img');"
+    "im.alt=o.name;f.appendChild(im);const c=document.createElement('figcaption');c.textContent=o.name;"
+    "f.appendChild(c);m.appendChild(f)}\n"
+    "  if(o.version!==version)f.firstChild.src='/out/'+encodeURIComponent(o.name)+'.png?v='+o.version}\n"
+    " version=s.version}\n"
+    "function refresh(){return fetch('/api/state').then(r=>r.json()).then(show)}\n"
+    "const pending=new URLSearchParams(location.search).getAll('set');\n"
+    "refresh().then(()=>{for(const kv of pending){const k=kv.indexOf('=');"
+    "if(k>0)send(kv.slice(0,k),kv.slice(k+1))}});\n"
+    "new EventSource('/events').addEventListener('render',refresh);\n"
+    "</script></body></html>\n";
+
+#endif
