@@ -595,9 +595,10 @@ int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *
         serve_free(s);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "--serve: cannot create the server");
     }
-    s->d = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION |
-                                MHD_USE_ERROR_LOG,
-                            0, NULL, NULL, handle, s, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
+    /* no MHD_USE_ERROR_LOG: its messages would duplicate the error below (and call the port
+     * given with MHD_OPTION_SOCK_ADDR 0) */
+    s->d = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION, 0,
+                            NULL, NULL, handle, s, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
                             MHD_OPTION_CONNECTION_LIMIT, 64u, MHD_OPTION_END);
     if (!s->d) {
         int e = errno;
