@@ -6,7 +6,8 @@
  * per-node times of the last render, the last error and the `wetgraph render` command line that
  * reproduces the current state. A change is sent to /api/set; /events announces each finished
  * render, and the page then reloads the state and the images. Settings in the page address
- * (?set=name=value, repeatable) are applied once on load. */
+ * (?set=name=value, repeatable) are applied once on load; ?events=0 leaves /events closed (a
+ * still page for headless browsers, whose virtual clock waits for open connections). */
 #ifndef WETGRAPH_CLI_SERVE_PAGE_H
 #define WETGRAPH_CLI_SERVE_PAGE_H
 
@@ -32,7 +33,8 @@ static const char serve_page[] =
     "<script>\n"
     "'use strict';\n"
     "let built=false,version=-1,state=null;\n"
-    "function q(s){return s.includes(' ')||s.includes('\"')||s===''?\"'\"+s.replace(/'/g,\"'\\\\''\")+\"'\":s}\n"
+    "function q(s){return s.includes(' "
+    "')||s.includes('\"')||s===''?\"'\"+s.replace(/'/g,\"'\\\\''\")+\"'\":s}\n"
     "function send(name,value){fetch('/api/set?'+encodeURIComponent(name)+'='+"
     "encodeURIComponent(value),{method:'POST'})}\n"
     "function toHex(v){if(/^#[0-9a-fA-F]{6}$/.test(v))return v;"
@@ -44,10 +46,12 @@ static const char serve_page[] =
     "return Math.round(x*255).toString(16).padStart(2,'0')}).join('')}\n"
     "function control(p){\n"
     " const d=document.createElement('div');d.className='p';\n"
-    " const l=document.createElement('label');l.textContent=(p.label||p.name)+' ('+p.name+')';d.appendChild(l);\n"
+    " const l=document.createElement('label');l.textContent=p.label?p.label+' "
+    "('+p.name+')':p.name;d.appendChild(l);\n"
     " let i;const out=document.createElement('span');\n"
     " if(p.type==='bool'){i=document.createElement('input');i.type='checkbox';"
-    "i.checked=p.value==='true'||p.value==='1';i.onchange=()=>send(p.name,i.checked?'true':'false')}\n"
+    "i.checked=p.value==='true'||p.value==='1';i.onchange=()=>send(p.name,i.checked?'true':'false')"
+    "}\n"
     " else if(p.type==='enum'){i=document.createElement('select');for(const v of p.values){"
     "const o=document.createElement('option');o.value=o.textContent=v;i.appendChild(o)}"
     "i.value=p.value;i.onchange=()=>send(p.name,i.value)}\n"
@@ -63,6 +67,11 @@ static const char serve_page[] =
     " i.id='param-'+p.name;i.dataset.name=p.name;d.appendChild(i);d.appendChild(out);return d}\n"
     "function show(s){\n"
     " state=s;document.getElementById('title').textContent=s.file;\n"
+    " for(const p of s.params){const i=document.getElementById('param-'+p.name);"
+    "if(!i||i===document.activeElement)continue;"
+    "if(i.type==='checkbox')i.checked=p.value==='true'||p.value==='1';"
+    "else if(i.type==='color')i.value=toHex(p.value);else i.value=p.value;"
+    "if(i.type==='range')i.nextSibling.textContent=' '+p.value}\n"
     " if(!built&&s.params){const ps=document.getElementById('params');for(const p of s.params)"
     "ps.appendChild(control(p));built=true}\n"
     " document.getElementById('err').textContent=s.error?'error: '+s.error:'';\n"
@@ -70,18 +79,24 @@ static const char serve_page[] =
     "s.sets.map(x=>' --set '+q(x)).join('');\n"
     " const t=document.getElementById('times');t.innerHTML='';\n"
     " for(const n of s.times){const r=t.insertRow();r.insertCell().textContent=n.id;"
-    "r.insertCell().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' ms':'cached'}\n"
+    "r.insertCell().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' "
+    "ms':'cached'}\n"
     " const m=document.getElementById('main');\n"
     " for(const o of s.outputs){let f=document.getElementById('out-'+o.name);\n"
-    "  if(!f){f=document.createElement('figure');f.id='out-'+o.name;const im=document.createElement('img');"
-    "im.alt=o.name;f.appendChild(im);const c=document.createElement('figcaption');c.textContent=o.name;"
+    "  if(!f){f=document.createElement('figure');f.id='out-'+o.name;const "
+    "im=document.createElement('img');"
+    "im.alt=o.name;im.onload=()=>{f.dataset.loaded=im.src};f.appendChild(im);const "
+    "c=document.createElement('figcaption');c.textContent=o.name;"
     "f.appendChild(c);m.appendChild(f)}\n"
-    "  if(o.version!==version)f.firstChild.src='/out/'+encodeURIComponent(o.name)+'.png?v='+o.version}\n"
+    "  "
+    "if(o.version!==version)f.firstChild.src='/out/"
+    "'+encodeURIComponent(o.name)+'.png?v='+o.version}\n"
     " version=s.version}\n"
     "function refresh(){return fetch('/api/state').then(r=>r.json()).then(show)}\n"
     "const pending=new URLSearchParams(location.search).getAll('set');\n"
     "refresh().then(()=>{for(const kv of pending){const k=kv.indexOf('=');"
     "if(k>0)send(kv.slice(0,k),kv.slice(k+1))}});\n"
+    "if(new URLSearchParams(location.search).get('events')!=='0')"
     "new EventSource('/events').addEventListener('render',refresh);\n"
     "</script></body></html>\n";
 
