@@ -26,6 +26,8 @@
 #include <time.h>
 #include <unistd.h>
 
+/* PING_S keeps an idle event stream inside the 60 s connection time-out that frees the threads
+ * of clients that went away */
 enum { MAX_NAME = 128, MAX_VALUE = 512, PING_S = 15 };
 
 typedef struct {
@@ -599,7 +601,8 @@ int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *
      * given with MHD_OPTION_SOCK_ADDR 0) */
     s->d = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION, 0,
                             NULL, NULL, handle, s, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
-                            MHD_OPTION_CONNECTION_LIMIT, 64u, MHD_OPTION_END);
+                            MHD_OPTION_CONNECTION_LIMIT, 64u, MHD_OPTION_CONNECTION_TIMEOUT, 60u,
+                            MHD_OPTION_END);
     if (!s->d) {
         int e = errno;
         serve_free(s);
