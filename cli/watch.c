@@ -12,6 +12,11 @@
  * again. SIGINT and SIGTERM end the session cleanly (exit 0): they are blocked in every thread
  * and read from a signalfd next to the inotify descriptor. */
 #include "render.h"
+#ifdef WG_HAVE_SERVE
+#include "serve.h"
+#else
+typedef struct Serve Serve; /* built without libmicrohttpd: never created */
+#endif
 
 #include <errno.h>
 #include <limits.h>
@@ -36,7 +41,14 @@ static const char help[] =
     "error while editing is printed and the last good outputs are kept. Ctrl-C stops.\n"
     "\n"
     "Options: as `wetgraph render` (see 'wetgraph render --help'), except --frames, --fps,\n"
-    "--contact-sheet, --batch, --shard and --batch-json.\n";
+    "--contact-sheet, --batch, --shard and --batch-json, and:\n"
+#ifdef WG_HAVE_SERVE
+    "  --serve [ADDR:]PORT    also serve a web view of the outputs with controls for the\n"
+    "                         graph's parameters on http://ADDR:PORT/ (ADDR: an IPv4\n"
+    "                         address, default 127.0.0.1, this machine only)\n";
+#else
+    "  --serve [ADDR:]PORT    not available: this wetgraph was built without libmicrohttpd\n";
+#endif
 
 /* A watched file: the folder it is in, its name there, and what stat said when it was read
  * (to notice a change made while the render ran, before the folders were watched again). */
@@ -175,15 +187,31 @@ static void print_ran(const WgResult *res, double ms)
 
 /* Load, check, render and write once. On success files holds what to watch next; when the
  * graph does not load, files keeps what it held (and the graph file itself). */
-static void render_once(const Options *o, WgEngine *e, FileSet *files)
+static void render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve)
 {
+    Options opt = *base, *o = &opt;
+    char **sets = NULL;
+    int n_sets = 0;
+    struct stat *before = NULL;
     WgGraph *g = NULL;
     WgRequest *r = NULL;
     WgResult *res = NULL;
     WgError err = {0};
     double t0 = now_ms();
+#ifdef WG_HAVE_SERVE
+    /* the parameter changes from the web view, read as the render starts: changes made since
+     * the last render are applied together */
+    if (serve) {
+        if (serve_sets(serve, base->sets, base->n_sets, &sets, &n_sets)) {
+            wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+            goto fail;
+        }
+        opt.sets = (const char **)sets;
+        opt.n_sets = n_sets;
+    }
+#endif
     /* the graph file and the inputs as they are before they are read */
-    struct stat *before = calloc((size_t)o->n_inputs + 1, sizeof *before);
+    before = calloc((size_t)o->n_inputs + 1, sizeof *before);
     if (!before) {
         wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         goto fail;
@@ -220,11 +248,24 @@ static void render_once(const Options *o, WgEngine *e, FileSet *files)
         else
             print_ran(res, now_ms() - t0);
     }
+#ifdef WG_HAVE_SERVE
+    if (serve) serve_publish(serve, g, res, NULL, (const char *const *)o->sets, o->n_sets);
+#endif
     goto out;
 fail:
     cli_report(&err);
     if (!o->quiet) fprintf(stderr, "watch: the last good outputs are kept; waiting for a change\n");
+#ifdef WG_HAVE_SERVE
+    if (serve) serve_publish(serve, g, NULL, &err, (const char *const *)o->sets, o->n_sets);
+#endif
 out:
+#ifdef WG_HAVE_SERVE
+    serve_sets_free(sets, n_sets);
+#else
+    (void)sets;
+    (void)n_sets;
+    (void)serve;
+#endif
     free(before);
     fflush(stdout);
     fflush(stderr);
@@ -266,10 +307,42 @@ static bool read_events(int fd, const FileSet *files, const int *wds)
     return hit;
 }
 
+/* Take --serve VALUE / --serve=VALUE out of argv (render's parser does not know it); returns
+ * the new argc, or -1 after a usage error. */
+static int take_serve(int argc, char **argv, const char **spec)
+{
+    int k = 0;
+    for (int i = 0; i < argc; i++) {
+        if (!strcmp(argv[i], "--")) {
+            while (i < argc) argv[k++] = argv[i++];
+            break;
+        }
+        if (!strcmp(argv[i], "--serve")) {
+            if (i + 1 >= argc) return cli_usage_error("watch", "--serve needs [ADDR:]PORT"), -1;
+            *spec = argv[++i];
+        } else if (!strncmp(argv[i], "--serve=", 8)) {
+            *spec = argv[i] + 8;
+        } else {
+            argv[k++] = argv[i];
+        }
+    }
+    return k;
+}
+
 int cmd_watch(int argc, char **argv)
 {
     Options o = {.cmd = "watch", .help = help};
-    int status = parse_args(argc, argv, &o);
+    const char *serve_spec = NULL;
+    Serve *serve = NULL;
+    int status;
+    argc = take_serve(argc, argv, &serve_spec);
+    if (argc < 0) return EXIT_USAGE;
+#ifndef WG_HAVE_SERVE
+    if (serve_spec)
+        return cli_usage_error("watch", "--serve is not available: this wetgraph was built "
+                                        "without libmicrohttpd");
+#endif
+    status = parse_args(argc, argv, &o);
     if (status) {
         status = status == 1 ? EXIT_OK : status;
         goto out;
@@ -298,10 +371,25 @@ int cmd_watch(int argc, char **argv)
         status = EXIT_FAILED;
         goto out;
     }
+#ifdef WG_HAVE_SERVE
+    /* after the signals are blocked: the server's threads inherit the mask */
+    if (serve_spec && serve_start(serve_spec, o.file, &serve, &err)) {
+        cli_report(&err);
+        wg_engine_free(e);
+        close(sfd);
+        status = err.code == WG_ERR_RANGE ? EXIT_USAGE : EXIT_FAILED;
+        goto out;
+    }
+    if (serve && !o.quiet) {
+        fprintf(stderr, "watch: serving on http://%s%s/\n",
+                strchr(serve_spec, ':') ? "" : "127.0.0.1:", serve_spec);
+        fflush(stderr);
+    }
+#endif
     FileSet files = {0};
     int *wds = NULL;
     for (bool stop = false; !stop;) {
-        render_once(&o, e, &files);
+        render_once(&o, e, &files, serve);
         int *grown = realloc(wds, sizeof *wds * (size_t)(files.n + 1));
         if (!grown) {
             fprintf(stderr, "wetgraph: error: out of memory\n");
@@ -323,20 +411,32 @@ int cmd_watch(int argc, char **argv)
         /* a change made while the render ran */
         double burst = files_changed(&files) ? now_ms() : -1; /* first event of a burst */
         for (;;) {
-            struct pollfd p[2] = {{ifd, POLLIN, 0}, {sfd, POLLIN, 0}};
+            struct pollfd p[3] = {{ifd, POLLIN, 0}, {sfd, POLLIN, 0}, {-1, POLLIN, 0}};
+#ifdef WG_HAVE_SERVE
+            if (serve) p[2].fd = serve_fd(serve);
+#endif
             int wait = burst < 0 ? -1 : QUIET_MS;
             if (burst >= 0 && now_ms() - burst > BURST_MAX_MS) break;
-            int n = poll(p, 2, wait);
+            int n = poll(p, 3, wait);
             if (n < 0 && errno == EINTR) continue;
             if (p[1].revents) {
                 stop = true;
                 break;
             }
+#ifdef WG_HAVE_SERVE
+            if (p[2].revents) { /* a parameter change from the web view: render now */
+                serve_drain(serve);
+                break;
+            }
+#endif
             if (n == 0) break; /* quiet for QUIET_MS after a change */
             if (read_events(ifd, &files, wds) && burst < 0) burst = now_ms();
         }
         close(ifd);
     }
+#ifdef WG_HAVE_SERVE
+    serve_stop(serve);
+#endif
     if (!o.quiet) fprintf(stderr, "watch: stopped\n");
     files_free(&files);
     free(wds);

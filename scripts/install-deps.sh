@@ -6,6 +6,8 @@
 set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
+      libmicrohttpd-dev  # `wetgraph watch --serve` (optional: built without it when missing)
+      chromium  # the headless-browser test of the --serve page (tests/cli/test_serve_page.c)
       glslang-tools  # the tests validate the GLSL shaders in docs/shaders
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then

@@ -1,0 +1,31 @@
+/* SPDX-License-Identifier: MIT */
+/* The local web view of `wetgraph watch --serve [ADDR:]PORT` (cli/serve.c): an HTTP server on
+ * its own threads that shows the latest render of the watch loop and queues parameter changes
+ * for it. */
+#ifndef WETGRAPH_CLI_SERVE_H
+#define WETGRAPH_CLI_SERVE_H
+
+#include "cli.h"
+
+typedef struct Serve Serve;
+
+/* Parse spec ("PORT" or "ADDR:PORT", ADDR an IPv4 address; default 127.0.0.1) and start
+ * listening; the caller owns *out. A bad spec is WG_ERR_RANGE, a failed listen WG_ERR_IO. */
+int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *err);
+/* A descriptor that becomes readable when a parameter change is queued; serve_drain empties
+ * it. */
+int serve_fd(const Serve *s);
+void serve_drain(Serve *s);
+/* The --set list of the next render as "name=value" strings: base (the command line's --set
+ * list) followed by the queued changes, a later entry for a name replacing an earlier one. The
+ * caller frees *out with serve_sets_free. */
+int serve_sets(Serve *s, const char **base, int n_base, char ***out, int *n);
+void serve_sets_free(char **sets, int n);
+/* Publish a finished render attempt: g (NULL when the graph did not load: the parameter list
+ * stays as it was), res (NULL when it failed; the images stay as they were), err (NULL on
+ * success) and the --set list it used. Encodes the output previews and wakes /events. */
+void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgError *err,
+                   const char *const *sets, int n_sets);
+void serve_stop(Serve *s);
+
+#endif

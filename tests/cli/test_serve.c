@@ -1,0 +1,335 @@
+/* SPDX-License-Identifier: MIT */
+/* `wetgraph watch --serve`: started in the background on a graph in a temporary folder with a
+ * free port, it serves its page; /api/state lists the graph's parameters; /api/set (GET and
+ * POST) changes one, /events announces the new render and the output's PNG then differs and
+ * decodes to the image `wetgraph render --set` writes; an unknown parameter is refused (400);
+ * path traversal (plain and %-encoded) and unknown paths are 404; an edit of the graph file
+ * still renders again; SIGINT ends it with exit 0. The HTTP client is plain sockets with
+ * HTTP/1.0 (the server closes each connection after its answer); every wait has a harness limit
+ * (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
+#include "wgtest.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/time.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { LIMIT_MS = 30000, LIMIT_S = 30 };
+
+static const char graph[] =
+    "<wetgraph version=\"1\" size=\"64\">\n"
+    "  <param name=\"level\" type=\"float\" default=\"0.25\" min=\"0\" max=\"1\"/>\n"
+    "  <param name=\"mode\" type=\"enum\" values=\"a b\" default=\"a\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"%s\"/>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"multiply\">\n"
+    "    <in name=\"foreground\" from=\"n\"/><in name=\"background\" from=\"u\"/>\n"
+    "  </node>\n"
+    "  <output name=\"c\" from=\"mix\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
+static char dir[1024];
+static pid_t watcher;
+static int port;
+
+static const char *path(const char *name)
+{
+    static char buf[8][1200];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
+static void save(const char *name, const char *scale)
+{
+    char tmp[64], text[2048];
+    snprintf(tmp, sizeof tmp, ".%s.swp", name);
+    snprintf(text, sizeof text, graph, scale);
+    wgt_write_file(path(tmp), text);
+    assert_int_equal(rename(path(tmp), path(name)), 0);
+}
+
+static int count_in(const char *file, const char *needle)
+{
+    FILE *f = fopen(path(file), "rb");
+    if (!f) return 0;
+    static char text[1 << 16];
+    size_t n = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[n] = '\0';
+    int count = 0;
+    for (const char *p = strstr(text, needle); p; p = strstr(p + 1, needle)) count++;
+    return count;
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec t = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&t, NULL);
+}
+
+static void wait_for(const char *needle, int count)
+{
+    for (int waited = 0; count_in("werr", needle) < count; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("watch did not print '%s' %d times", needle, count);
+        int st;
+        if (waitpid(watcher, &st, WNOHANG) == watcher) fail_msg("watch ended early");
+        sleep_ms(5);
+    }
+}
+
+/* A port nothing listens on now: bind port 0 and read what the system chose. */
+static int free_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(fd >= 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = 0};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    socklen_t len = sizeof sa;
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
+    close(fd);
+    return ntohs(sa.sin_port);
+}
+
+/* Connect and send "METHOD target HTTP/1.0"; the socket has a receive time-out. */
+static int request(const char *method, const char *target)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(fd >= 0);
+    struct timeval tv = {LIMIT_S, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (connect(fd, (struct sockaddr *)&sa, sizeof sa)) fail_msg("cannot connect to port %d", port);
+    char req[2048];
+    int n = snprintf(req, sizeof req, "%s %s HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n", method, target);
+    assert_int_equal(write(fd, req, (size_t)n), n);
+    return fd;
+}
+
+typedef struct {
+    int status;
+    char *head, *body; /* body points into head's buffer; free head */
+    size_t size;
+} Reply;
+
+static Reply http(const char *method, const char *target)
+{
+    int fd = request(method, target);
+    size_t cap = 1 << 16, len = 0;
+    char *buf = malloc(cap + 1);
+    assert_non_null(buf);
+    for (;;) {
+        if (len == cap) {
+            buf = realloc(buf, 2 * cap + 1);
+            assert_non_null(buf);
+            cap *= 2;
+        }
+        ssize_t n = read(fd, buf + len, cap - len);
+        if (n < 0) fail_msg("%s %s: no complete answer", method, target);
+        if (n == 0) break;
+        len += (size_t)n;
+    }
+    close(fd);
+    buf[len] = '\0';
+    Reply r = {0, buf, NULL, 0};
+    if (sscanf(buf, "HTTP/1.%*d %d", &r.status) != 1) fail_msg("%s %s: not HTTP", method, target);
+    char *end = strstr(buf, "\r\n\r\n");
+    assert_non_null(end);
+    r.body = end + 4;
+    r.size = len - (size_t)(r.body - buf);
+    return r;
+}
+
+static int status_of(const char *method, const char *target)
+{
+    Reply r = http(method, target);
+    free(r.head);
+    return r.status;
+}
+
+/* GET /out/c.png into file name; returns the decoded image (owned by the caller). */
+static WgImage *fetch_png(const char *name)
+{
+    Reply r = http("GET", "/out/c.png?v=1");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "image/png"));
+    FILE *f = fopen(path(name), "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(r.body, 1, r.size, f), r.size);
+    fclose(f);
+    free(r.head);
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path(name), 1, WG_LINEAR, &img, &err)) fail_msg("%s: %s", name, err.message);
+    return img;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s/serve", wgt_tmpdir());
+    mkdir(dir, 0777);
+    return 0;
+}
+
+static void test_serve_session(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    save("g.wetgraph", "4");
+    port = free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
+    watcher = fork();
+    assert_true(watcher >= 0);
+    if (watcher == 0) {
+        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
+        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, (char *)NULL);
+        _exit(98);
+    }
+    wait_for("watch: waiting", 1);
+
+    /* the page */
+    Reply r = http("GET", "/");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "text/html"));
+    assert_non_null(strstr(r.body, "/api/state"));
+    assert_non_null(strstr(r.body, "EventSource('/events')"));
+    free(r.head);
+
+    /* the state lists the parameters from their declarations */
+    r = http("GET", "/api/state");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "{\"name\":\"level\",\"type\":\"float\""));
+    assert_non_null(strstr(r.body, "\"value\":\"0.25\",\"min\":0,\"max\":1}"));
+    assert_non_null(strstr(r.body, "\"values\":[\"a\",\"b\"]"));
+    assert_non_null(strstr(r.body, "\"outputs\":[{\"name\":\"c\",\"version\":1}]"));
+    assert_non_null(strstr(r.body, "\"id\":\"mix\""));
+    assert_non_null(strstr(r.body, "\"error\":null"));
+    free(r.head);
+    WgImage *first = fetch_png("first.png");
+
+    /* a change: /events announces the render, the preview is the image render --set writes */
+    int events = request("GET", "/events");
+    r = http("GET", "/api/set?level=0.75");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "\"ok\":true"));
+    free(r.head);
+    char ev[4096] = "";
+    size_t got = 0;
+    while (!strstr(ev, "event: render")) {
+        ssize_t n = read(events, ev + got, sizeof ev - 1 - got);
+        if (n <= 0) fail_msg("no render event");
+        got += (size_t)n;
+        ev[got] = '\0';
+    }
+    close(events);
+    wait_for("watch: waiting", 2);
+    WgImage *second = fetch_png("second.png");
+    assert_true(wgt_max_abs_diff(first, second) > 0.1);
+    assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.75 -o cli -q", bin), 0);
+    WgImage *cli = NULL;
+    WgError err = {0};
+    if (wg_image_read(path("cli/g_c.png"), 1, WG_LINEAR, &cli, &err)) fail_msg("%s", err.message);
+    wgt_assert_identical(second, cli);
+    r = http("GET", "/api/state");
+    assert_non_null(strstr(r.body, "\"value\":\"0.75\""));
+    assert_non_null(strstr(r.body, "\"sets\":[\"level=0.75\"]"));
+    free(r.head);
+
+    /* POST works too; an unknown parameter is refused and renders nothing */
+    assert_int_equal(status_of("POST", "/api/set?level=0.5"), 200);
+    wait_for("watch: waiting", 3);
+    assert_int_equal(status_of("GET", "/api/set?nope=1"), 400);
+
+    /* only the page and the current outputs */
+    const char *bad[] = {"/out/../../etc/passwd",
+                         "/out/../../etc/passwd.png",
+                         "/out/%2e%2e/%2e%2e/etc/passwd.png",
+                         "/out/..%2f..%2fetc%2fpasswd.png",
+                         "/%2e%2e/%2e%2e/etc/passwd",
+                         "/etc/passwd",
+                         "/out/nope.png",
+                         "/out/c",
+                         "/out/.png",
+                         "/api/statex",
+                         "/g.wetgraph",
+                         "/o/g_c.png"};
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        int st = status_of("GET", bad[i]);
+        if (st != 404) fail_msg("GET %s: status %d, expected 404", bad[i], st);
+    }
+
+    /* an edit of the file renders again, with the web view's value still applied */
+    save("g.wetgraph", "9");
+    wait_for("watch: waiting", 4);
+    WgImage *third = fetch_png("third.png");
+    assert_true(wgt_max_abs_diff(second, third) > 0.01);
+    assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.5 -o cli -q", bin), 0);
+    wg_image_unref(cli);
+    cli = NULL;
+    if (wg_image_read(path("cli/g_c.png"), 1, WG_LINEAR, &cli, &err)) fail_msg("%s", err.message);
+    wgt_assert_identical(third, cli);
+    wg_image_unref(first);
+    wg_image_unref(second);
+    wg_image_unref(third);
+    wg_image_unref(cli);
+
+    /* Ctrl-C ends the session cleanly */
+    assert_int_equal(kill(watcher, SIGINT), 0);
+    int st = 0;
+    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
+        if (waited > LIMIT_MS) {
+            kill(watcher, SIGKILL);
+            fail_msg("watch did not stop on SIGINT");
+        }
+        sleep_ms(5);
+    }
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+}
+
+static int stop_watcher(void **state)
+{
+    (void)state;
+    int st;
+    if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
+        kill(watcher, SIGKILL);
+        waitpid(watcher, &st, 0);
+    }
+    watcher = 0;
+    return 0;
+}
+
+/* A malformed --serve is a usage error naming it. */
+static void test_serve_usage(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    save("g.wetgraph", "4");
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve 70000 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "--serve 70000: the port must be a number"), 1);
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve local:80 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "is not an IPv4 address"), 1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_serve_session, stop_watcher),
+        cmocka_unit_test(test_serve_usage),
+    };
+    return cmocka_run_group_tests(tests, setup, NULL);
+}
