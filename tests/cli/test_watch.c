@@ -3,8 +3,9 @@
  * a valid edit of the graph (saved as editors do, a new file renamed over the old one) gives
  * new outputs with the new value; an edit of a subgraph file too; a broken edit prints the
  * error with file and line and leaves the outputs as they were; the fix renders again; the
- * resident memory does not grow over 30 edits; SIGINT ends it with exit 0. Each wait has a
- * harness limit (no timing assertions). Runs WETGRAPH_BIN. */
+ * session survives 100 edits in a row with broken ones among them and its resident memory does
+ * not grow; SIGINT ends it with exit 0. Each wait has a harness limit (no timing assertions).
+ * Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <signal.h>
@@ -184,16 +185,24 @@ static void test_watch_session(void **state)
     assert_int_equal(count_in("err", "watch: rendered"), 4);
     assert_true(value_of("o/w_a.exr") == 0.75f);
 
-    /* 30 edits: the resident memory stays where it was after the first few */
+    /* 100 edits in a row, every seventh one broken: the resident memory stays where it was
+     * after the first few, and the session survives */
     long first = 0;
-    for (int i = 0; i < 30; i++) {
-        save("w.wetgraph", graph, i % 2 ? "0.3" : "0.4");
+    int broken = 0;
+    for (int i = 0; i < 100; i++) {
+        if (i % 7 == 3) {
+            save("w.wetgraph", "<wetgraph version=\"1\" size=\"256\">\n  <param name=%s\n", "");
+            broken++;
+        } else {
+            save("w.wetgraph", graph, i % 2 ? "0.3" : "0.4");
+        }
         wait_for("watch: waiting", 6 + i);
         if (i == 4) first = rss_kb();
     }
     long last = rss_kb();
-    print_message("VmRSS after 5 edits %ld kB, after 30 edits %ld kB\n", first, last);
+    print_message("VmRSS after 5 edits %ld kB, after 100 edits %ld kB\n", first, last);
     assert_true(last - first < 2048);
+    assert_int_equal(count_in("err", "wetgraph: error: w.wetgraph:"), 1 + broken);
     assert_true(value_of("o/w_a.exr") == 0.3f);
 
     /* Ctrl-C ends the session cleanly */
