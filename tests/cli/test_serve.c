@@ -60,45 +60,12 @@ static void save(const char *name, const char *scale)
 
 static int count_in(const char *file, const char *needle)
 {
-    FILE *f = fopen(path(file), "rb");
-    if (!f) return 0;
-    static char text[1 << 16];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    int count = 0;
-    for (const char *p = strstr(text, needle); p; p = strstr(p + 1, needle)) count++;
-    return count;
-}
-
-static void sleep_ms(int ms)
-{
-    struct timespec t = {ms / 1000, (ms % 1000) * 1000000L};
-    nanosleep(&t, NULL);
+    return wgt_count_in(path(file), needle);
 }
 
 static void wait_for(const char *needle, int count)
 {
-    for (int waited = 0; count_in("werr", needle) < count; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("watch did not print '%s' %d times", needle, count);
-        int st;
-        if (waitpid(watcher, &st, WNOHANG) == watcher) fail_msg("watch ended early");
-        sleep_ms(5);
-    }
-}
-
-/* A port nothing listens on now: bind port 0 and read what the system chose. */
-static int free_port(void)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    assert_true(fd >= 0);
-    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = 0};
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
-    socklen_t len = sizeof sa;
-    assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
-    close(fd);
-    return ntohs(sa.sin_port);
+    wgt_wait_for(watcher, path("werr"), needle, count, LIMIT_MS);
 }
 
 /* Connect and send "METHOD target HTTP/1.0"; the socket has a receive time-out. */
@@ -189,7 +156,7 @@ static void test_serve_session(void **state)
     const char *bin = getenv("WETGRAPH_BIN");
     if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
     save("g.wetgraph", "4");
-    port = free_port();
+    port = wgt_free_port();
     char spec[64];
     snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
     watcher = fork();
@@ -295,7 +262,7 @@ static void test_serve_session(void **state)
             kill(watcher, SIGKILL);
             fail_msg("watch did not stop on SIGINT");
         }
-        sleep_ms(5);
+        wgt_sleep_ms(5);
     }
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);

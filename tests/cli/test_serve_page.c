@@ -50,44 +50,12 @@ static const char *path(const char *name)
 
 static int count_in(const char *file, const char *needle)
 {
-    FILE *f = fopen(path(file), "rb");
-    if (!f) return 0;
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    int count = 0;
-    for (const char *p = strstr(text, needle); p; p = strstr(p + 1, needle)) count++;
-    return count;
-}
-
-static void sleep_ms(int ms)
-{
-    struct timespec t = {ms / 1000, (ms % 1000) * 1000000L};
-    nanosleep(&t, NULL);
+    return wgt_count_in(path(file), needle);
 }
 
 static void wait_for(const char *needle, int count)
 {
-    for (int waited = 0; count_in("werr", needle) < count; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("watch did not print '%s' %d times", needle, count);
-        int st;
-        if (waitpid(watcher, &st, WNOHANG) == watcher) fail_msg("watch ended early");
-        sleep_ms(5);
-    }
-}
-
-static int free_port(void)
-{
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    assert_true(fd >= 0);
-    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = 0};
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
-    socklen_t len = sizeof sa;
-    assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
-    close(fd);
-    return ntohs(sa.sin_port);
+    wgt_wait_for(watcher, path("werr"), needle, count, LIMIT_MS);
 }
 
 static void test_serve_page(void **state)
@@ -101,7 +69,7 @@ static void test_serve_page(void **state)
         fail_msg("chromium is not installed: the page test needs Debian's chromium "
                  "(scripts/install-deps.sh installs it)");
     wgt_write_file(path("g.wetgraph"), graph);
-    int port = free_port();
+    int port = wgt_free_port();
     char spec[64];
     snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
     watcher = fork();
@@ -136,7 +104,7 @@ static void test_serve_page(void **state)
     assert_int_equal(kill(watcher, SIGTERM), 0);
     for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
         if (waited > LIMIT_MS) fail_msg("watch did not stop on SIGTERM");
-        sleep_ms(5);
+        wgt_sleep_ms(5);
     }
     assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
 }

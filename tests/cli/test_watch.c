@@ -65,32 +65,12 @@ static void save(const char *name, const char *fmt, const char *value)
 
 static int count_in(const char *file, const char *needle)
 {
-    FILE *f = fopen(path(file), "rb");
-    if (!f) return 0;
-    static char text[1 << 20];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
-    int count = 0;
-    for (const char *p = strstr(text, needle); p; p = strstr(p + 1, needle)) count++;
-    return count;
+    return wgt_count_in(path(file), needle);
 }
 
-static void sleep_ms(int ms)
-{
-    struct timespec t = {ms / 1000, (ms % 1000) * 1000000L};
-    nanosleep(&t, NULL);
-}
-
-/* Wait until the log holds `count` lines with needle; fails after LIMIT_MS (a hang). */
 static void wait_for(const char *needle, int count)
 {
-    for (int waited = 0; count_in("err", needle) < count; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("watch did not print '%s' %d times", needle, count);
-        int st;
-        if (waitpid(watcher, &st, WNOHANG) == watcher) fail_msg("watch ended early");
-        sleep_ms(5);
-    }
+    wgt_wait_for(watcher, path("err"), needle, count, LIMIT_MS);
 }
 
 static float value_of(const char *name)
@@ -213,7 +193,7 @@ static void test_watch_session(void **state)
             kill(watcher, SIGKILL);
             fail_msg("watch did not stop on SIGINT");
         }
-        sleep_ms(5);
+        wgt_sleep_ms(5);
     }
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);

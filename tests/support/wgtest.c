@@ -2,6 +2,10 @@
 /* Test helpers; see wgtest.h. */
 #include "wgtest.h"
 
+#include <arpa/inet.h>
+#include <sys/socket.h>
+#include <netinet/in.h>
+#include <time.h>
 #include <ftw.h>
 #include <stdarg.h>
 #include <math.h>
@@ -333,4 +337,57 @@ bool wgt_exists(const char *path)
 {
     struct stat st;
     return stat(path, &st) == 0;
+}
+
+int wgt_count_in(const char *path, const char *needle)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    size_t cap = 1 << 16, n = 0;
+    char *text = malloc(cap);
+    assert_non_null(text);
+    for (size_t got; (got = fread(text + n, 1, cap - n - 1, f)) > 0;) {
+        n += got;
+        if (n + 1 == cap) {
+            cap *= 2;
+            text = realloc(text, cap);
+            assert_non_null(text);
+        }
+    }
+    fclose(f);
+    text[n] = '\0';
+    int count = 0;
+    for (const char *p = strstr(text, needle); p; p = strstr(p + 1, needle)) count++;
+    free(text);
+    return count;
+}
+
+void wgt_sleep_ms(int ms)
+{
+    struct timespec t = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&t, NULL);
+}
+
+void wgt_wait_for(pid_t pid, const char *log_path, const char *needle, int count, int limit_ms)
+{
+    for (int waited = 0; wgt_count_in(log_path, needle) < count; waited += 5) {
+        if (waited > limit_ms)
+            fail_msg("%s: '%s' did not appear %d times", log_path, needle, count);
+        int st;
+        if (waitpid(pid, &st, WNOHANG) == pid) fail_msg("the process ended early (%s)", log_path);
+        wgt_sleep_ms(5);
+    }
+}
+
+int wgt_free_port(void)
+{
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    assert_true(fd >= 0);
+    struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = 0};
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof sa), 0);
+    socklen_t len = sizeof sa;
+    assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
+    close(fd);
+    return ntohs(sa.sin_port);
 }

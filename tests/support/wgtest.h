@@ -9,6 +9,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 #include <cmocka.h>
 
 #include <wetgraph/wetgraph.h>
@@ -26,6 +27,15 @@ void wgt_write_file(const char *path, const char *text);
 int wgt_shell(const char *dir, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* Does the path exist? */
 bool wgt_exists(const char *path);
+/* Occurrences of needle in the file at path (0 when the file does not exist). */
+int wgt_count_in(const char *path, const char *needle);
+void wgt_sleep_ms(int ms);
+/* Wait until the file at log_path holds `count` occurrences of needle (a log a child process
+ * writes). Fails when process pid ends first, or after limit_ms: a harness limit against hangs,
+ * not a timing assertion. */
+void wgt_wait_for(pid_t pid, const char *log_path, const char *needle, int count, int limit_ms);
+/* A loopback TCP port nothing listens on now (bind port 0, read what the system chose). */
+int wgt_free_port(void);
 
 /* Image from values (row-major, `channels` per pixel; channels 1 or 4). values may be NULL
  * (zeros). Caller unrefs. */
