@@ -36,6 +36,70 @@ static int exr_fail(WgError *err, const char *path, exr_result_t rv, const char 
                            exr_get_default_error_message(rv));
 }
 
+/* Encode every scanline chunk of `part` from `images`. With layer names, channel "name.X" comes
+ * from the image of that name; without (names NULL, one image), channel "X" from images[0]. X is
+ * R, G, B, A, or Y for gray (component 0). */
+static int encode_chunks(exr_context_t ctx, int part, const char *path, int h, int32_t lines,
+                         int count, const char *const *names, const WgImage *const *images,
+                         WgError *err)
+{
+    static const char *const rgba[] = {"R", "G", "B", "A"};
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    bool initialised = false;
+    int rc = WG_OK;
+    exr_result_t rv;
+    for (int y = 0; y < h && !rc; y += lines) {
+        exr_chunk_info_t cinfo;
+        if ((rv = exr_write_scanline_chunk_info(ctx, part, y, &cinfo))) {
+            rc = exr_fail(err, path, rv, "chunk");
+            break;
+        }
+        rv = initialised ? exr_encoding_update(ctx, part, &cinfo, &enc)
+                         : exr_encoding_initialize(ctx, part, &cinfo, &enc);
+        if (rv) {
+            rc = exr_fail(err, path, rv, "encoder");
+            break;
+        }
+        initialised = true;
+        for (int c = 0; c < enc.channel_count; c++) {
+            exr_coding_channel_info_t *ci = &enc.channels[c];
+            /* channel names come back sorted: map each to its image and component */
+            const char *suffix = ci->channel_name;
+            int img = names ? -1 : 0, comp = 0;
+            if (names) {
+                const char *dot = strrchr(ci->channel_name, '.');
+                for (int i = 0; dot && i < count && img < 0; i++)
+                    if ((size_t)(dot - ci->channel_name) == strlen(names[i]) &&
+                        !strncmp(ci->channel_name, names[i], strlen(names[i])))
+                        img = i;
+                suffix = dot ? dot + 1 : suffix;
+            }
+            if (img < 0) {
+                rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "internal: channel '%s'",
+                                     ci->channel_name);
+                break;
+            }
+            for (int k = 0; k < 4; k++)
+                if (!strcmp(suffix, rgba[k])) comp = k;
+            const WgImage *im = images[img];
+            ci->user_bytes_per_element = 4;
+            ci->user_data_type = EXR_PIXEL_FLOAT;
+            ci->user_pixel_stride = 4 * im->channels;
+            ci->user_line_stride = (int32_t)(im->stride * sizeof(float));
+            ci->encode_from_ptr = (const uint8_t *)(wg_image_row(im, cinfo.start_y) + comp);
+        }
+        if (rc) break;
+        if (!enc.convert_and_pack_fn &&
+            (rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
+            rc = exr_fail(err, path, rv, "encoder");
+            break;
+        }
+        if ((rv = exr_encoding_run(ctx, part, &enc))) rc = exr_fail(err, path, rv, "encoding");
+    }
+    if (initialised) exr_encoding_destroy(ctx, &enc);
+    return rc;
+}
+
 static int write_part(exr_context_t ctx, const char *path, int count, const char *const *names,
                       const WgImage *const *images, bool half, WgError *err)
 {
@@ -58,55 +122,7 @@ static int write_part(exr_context_t ctx, const char *path, int count, const char
     int32_t lines;
     if ((rv = exr_get_scanlines_per_chunk(ctx, part, &lines)))
         return exr_fail(err, path, rv, "chunks");
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    bool initialised = false;
-    int rc = WG_OK;
-    for (int y = 0; y < h && !rc; y += lines) {
-        exr_chunk_info_t cinfo;
-        if ((rv = exr_write_scanline_chunk_info(ctx, part, y, &cinfo))) {
-            rc = exr_fail(err, path, rv, "chunk");
-            break;
-        }
-        rv = initialised ? exr_encoding_update(ctx, part, &cinfo, &enc)
-                         : exr_encoding_initialize(ctx, part, &cinfo, &enc);
-        if (rv) {
-            rc = exr_fail(err, path, rv, "encoder");
-            break;
-        }
-        initialised = true;
-        for (int c = 0; c < enc.channel_count; c++) {
-            exr_coding_channel_info_t *ci = &enc.channels[c];
-            /* channel names come back sorted: map each to its image and component */
-            const char *dot = strrchr(ci->channel_name, '.');
-            int img = -1, comp = 0;
-            for (int i = 0; i < count && img < 0; i++)
-                if ((size_t)(dot - ci->channel_name) == strlen(names[i]) &&
-                    !strncmp(ci->channel_name, names[i], strlen(names[i])))
-                    img = i;
-            if (img < 0) {
-                rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "internal: channel '%s'",
-                                     ci->channel_name);
-                break;
-            }
-            for (int k = 0; k < 4; k++)
-                if (!strcmp(dot + 1, rgba[k])) comp = k;
-            const WgImage *im = images[img];
-            ci->user_bytes_per_element = 4;
-            ci->user_data_type = EXR_PIXEL_FLOAT;
-            ci->user_pixel_stride = 4 * im->channels;
-            ci->user_line_stride = (int32_t)(im->stride * sizeof(float));
-            ci->encode_from_ptr = (const uint8_t *)(wg_image_row(im, cinfo.start_y) + comp);
-        }
-        if (rc) break;
-        if (!enc.convert_and_pack_fn &&
-            (rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
-            rc = exr_fail(err, path, rv, "encoder");
-            break;
-        }
-        if ((rv = exr_encoding_run(ctx, part, &enc))) rc = exr_fail(err, path, rv, "encoding");
-    }
-    if (initialised) exr_encoding_destroy(ctx, &enc);
-    return rc;
+    return encode_chunks(ctx, part, path, h, lines, count, names, images, err);
 }
 
 int wg__exr_check_layers(const char *path, int count, const char *const *names,
@@ -327,8 +343,6 @@ int wg__exr_write_image(const char *file, const char *path, const WgImage *img, 
     if (rv) return exr_fail(err, path, rv, "open");
     int part, rc = WG_OK, w = img->width, h = img->height;
     int32_t lines = 1;
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    bool initialised = false;
     if ((rv = exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, &part)) ||
         (rv = exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_ZIP))) {
         rc = exr_fail(err, path, rv, "header");
@@ -346,39 +360,8 @@ int wg__exr_write_image(const char *file, const char *path, const WgImage *img, 
         rc = exr_fail(err, path, rv, "header");
         goto done;
     }
-    for (int y = 0; y < h && !rc; y += lines) {
-        exr_chunk_info_t cinfo;
-        if ((rv = exr_write_scanline_chunk_info(ctx, part, y, &cinfo))) {
-            rc = exr_fail(err, path, rv, "chunk");
-            break;
-        }
-        rv = initialised ? exr_encoding_update(ctx, part, &cinfo, &enc)
-                         : exr_encoding_initialize(ctx, part, &cinfo, &enc);
-        if (rv) {
-            rc = exr_fail(err, path, rv, "encoder");
-            break;
-        }
-        initialised = true;
-        for (int i = 0; i < enc.channel_count; i++) {
-            exr_coding_channel_info_t *ci = &enc.channels[i];
-            int comp = 0; /* channel names come back sorted */
-            for (int k = 0; k < c; k++)
-                if (!strcmp(ci->channel_name, names[k])) comp = k;
-            ci->user_bytes_per_element = 4;
-            ci->user_data_type = EXR_PIXEL_FLOAT;
-            ci->user_pixel_stride = 4 * img->channels;
-            ci->user_line_stride = (int32_t)(img->stride * sizeof(float));
-            ci->encode_from_ptr = (const uint8_t *)(wg_image_row(img, cinfo.start_y) + comp);
-        }
-        if (!enc.convert_and_pack_fn &&
-            (rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
-            rc = exr_fail(err, path, rv, "encoder");
-            break;
-        }
-        if ((rv = exr_encoding_run(ctx, part, &enc))) rc = exr_fail(err, path, rv, "encoding");
-    }
+    rc = encode_chunks(ctx, part, path, h, lines, 1, NULL, &img, err);
 done:
-    if (initialised) exr_encoding_destroy(ctx, &enc);
     rv = exr_finish(&ctx);
     if (!rc && rv) rc = exr_fail(err, path, rv, "finish");
     return rc;
