@@ -13,6 +13,12 @@
  * by zero and other non-finite intermediates follow IEEE; the output is sanitised (NaN -> 0,
  * ±Inf -> ±FLT_MAX) unless allow_nonfinite="true". Rows are independent, so the output is
  * bit-identical for any thread count. */
+/* Without trapping maths the compiler may compute both sides of a select, and without errno
+ * sqrtf is one instruction: both let more of the kernels' loops vectorise. No value changes:
+ * only the floating-point exception flags and errno could, and nothing reads them. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("no-trapping-math", "no-math-errno")
+#endif
 #include "pixel_program.h"
 
 #include <float.h>
@@ -157,6 +163,14 @@ static inline float floor_f(float x)
     return pick(small, (float)k, x);
 }
 
+/* powf without the call for the exponents 1 and 2, common where an exponent varies from a
+ * neutral 1 (as a saturation does over dry pixels): powf(x, 1) is x and powf(x, 2) the correctly
+ * rounded x * x, for every x, NaN included. */
+static inline float pow_f(float x, float y)
+{
+    return y == 1 ? x : y == 2 ? x * x : powf(x, y);
+}
+
 /* floor(x + 0.5) exactly as the double evaluator gets it (in float, x + 0.5f could round up). */
 static inline float round_f(float x)
 {
@@ -168,12 +182,20 @@ static inline float round_f(float x)
     return pick(small, (float)k, x); /* ±0 give +0, as floor(±0 + 0.5) */
 }
 
+/* Each kernel is compiled twice, for AVX2 and for the baseline, and the loader picks one. Both
+ * run the same IEEE operations without contraction, so they give the same bits. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
+
 /* Kernels take operands as arrays; an operand that is constant over the span (a constant or a
  * row-uniform value) is passed as a pointer to one float, and the variant of the kernel that
  * reads it as a scalar is chosen by a mask (bit i: operand i is a scalar), so no broadcast row
  * is loaded. */
 #define K1(name, expr)                                                                             \
-    static void name(float *restrict d, const float *restrict a, int n)                            \
+    HOT static void name(float *restrict d, const float *restrict a, int n)                        \
     {                                                                                              \
         for (int i = 0; i < n; i++) {                                                              \
             const float x = a[i];                                                                  \
@@ -184,7 +206,8 @@ typedef void (*Kernel2)(float *restrict, const float *restrict, const float *res
 typedef void (*Kernel3)(float *restrict, const float *restrict, const float *restrict,
                         const float *restrict, int);
 #define K2V(name, X, Y, expr)                                                                      \
-    static void name(float *restrict d, const float *restrict a, const float *restrict b, int n)   \
+    HOT static void name(float *restrict d, const float *restrict a, const float *restrict b,      \
+                         int n)                                                                    \
     {                                                                                              \
         for (int i = 0; i < n; i++) {                                                              \
             const float x = X, y = Y;                                                              \
@@ -197,8 +220,8 @@ typedef void (*Kernel3)(float *restrict, const float *restrict, const float *res
     K2V(name##_vs, a[i], b[0], expr)                                                               \
     static const Kernel2 name[4] = {name##_vv, name##_sv, name##_vs, name##_vv};
 #define K3V(name, X, Y, Z, expr)                                                                   \
-    static void name(float *restrict d, const float *restrict a, const float *restrict b,          \
-                     const float *restrict c, int n)                                               \
+    HOT static void name(float *restrict d, const float *restrict a, const float *restrict b,      \
+                         const float *restrict c, int n)                                           \
     {                                                                                              \
         for (int i = 0; i < n; i++) {                                                              \
             const float x = X, y = Y, z = Z;                                                       \
@@ -247,7 +270,7 @@ K2(k_sub, x - y)
 K2(k_mul, x * y)
 K2(k_div, x / y)
 K2(k_mod, x - y * floor_f(x / y))
-K2(k_pow, powf(x, y))
+K2(k_pow, pow_f(x, y))
 K2(k_lt, x < y ? 1.0f : 0.0f)
 K2(k_le, x <= y ? 1.0f : 0.0f)
 K2(k_gt, x > y ? 1.0f : 0.0f)
@@ -358,7 +381,7 @@ static inline float clean(float v)
     return v != v ? 0.0f : v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
 }
 
-static void write_gray(float *restrict d, const float *restrict s, int n, bool raw)
+HOT static void write_gray(float *restrict d, const float *restrict s, int n, bool raw)
 {
     if (raw)
         memcpy(d, s, sizeof(float) * (size_t)n);
@@ -366,14 +389,23 @@ static void write_gray(float *restrict d, const float *restrict s, int n, bool r
         for (int i = 0; i < n; i++) d[i] = clean(s[i]);
 }
 
-static void write_color(float *restrict d, const float *r, const float *g, const float *b,
-                        const float *a, int n, bool raw)
+HOT static void write_color(float *restrict d, const float *restrict r, const float *restrict g,
+                            const float *restrict b, const float *restrict a, int n, bool raw)
 {
+    if (raw) {
+        for (int i = 0; i < n; i++) {
+            d[4 * i] = r[i];
+            d[4 * i + 1] = g[i];
+            d[4 * i + 2] = b[i];
+            d[4 * i + 3] = a[i];
+        }
+        return;
+    }
     for (int i = 0; i < n; i++) {
-        d[4 * i] = raw ? r[i] : clean(r[i]);
-        d[4 * i + 1] = raw ? g[i] : clean(g[i]);
-        d[4 * i + 2] = raw ? b[i] : clean(b[i]);
-        d[4 * i + 3] = raw ? a[i] : clean(a[i]);
+        d[4 * i] = clean(r[i]);
+        d[4 * i + 1] = clean(g[i]);
+        d[4 * i + 2] = clean(b[i]);
+        d[4 * i + 3] = clean(a[i]);
     }
 }
 
