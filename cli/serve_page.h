@@ -3,21 +3,21 @@
  * control for each <param> from its declaration (a slider for a float or int with a min and a
  * max, a number box otherwise, a checkbox for a bool, a menu for an enum, a colour picker for
  * a colour, a text box for a string), shows every output's PNG preview scaled to fit (a click
- * enlarges it to the page's width), the value under the cursor, the graph (/graph.svg, or a
- * list of its nodes when the server has no picture), the per-node times of the last render,
- * the last error and the `wetgraph render` command line that reproduces the current state. A
- * gray output can be shown through a colour map (viridis, from ten of its colours, or turbo,
- * from its polynomial approximation), for the page or per output: the browser draws the gray
- * preview onto a canvas through a 256-entry table, so the server stays with its previews. When
- * the graph reads $time the page shows a time slider and play/pause: playing sets $time, waits
- * for that render and only then asks for the next frame (one render in flight), advancing by
- * the time that passed (at least 1/30 s) and wrapping at the slider's end. A change is sent to
- * /api/set; /events announces each finished render, and the page then reloads the state and
- * the images. The page address takes ?set=name=value (repeatable; applied once on load),
- * ?cmap=viridis|turbo (the page's colour map), ?big=OUTPUT (shown enlarged), ?play=N (play N
- * frames, then pause) and ?events=0 (leave /events closed and poll /api/state while playing: a
- * still page for headless browsers, whose virtual clock waits for open connections). The
- * page is kept here as one string, written line by line. */
+ * enlarges it to the page's width), the value under the cursor, the graph (/graph.svg, linked
+ * to itself at full size, or a list of its nodes when the server has no picture), the per-node
+ * times of the last render, the last error and the `wetgraph render` command line that
+ * reproduces the current state. A gray output can be shown through a colour map (viridis, from
+ * ten of its colours, or turbo, from its polynomial approximation), for the page or per output:
+ * the browser draws the gray preview onto a canvas through a 256-entry table, so the server
+ * keeps serving only its previews. When the graph reads $time the page shows a time slider and
+ * play/pause: playing sets $time, waits for that render and only then asks for the next frame
+ * (one render in flight), advancing by the time that passed (at least 1/30 s) and wrapping at
+ * the slider's end. A change is sent to /api/set; /events announces each finished render, and
+ * the page then reloads the state and the images. The page address takes ?set=name=value
+ * (repeatable; applied once on load), ?cmap=viridis|turbo (the page's colour map), ?big=OUTPUT
+ * (shown enlarged), ?play=N (play N frames, then pause) and ?events=0 (leave /events closed and
+ * poll /api/state while playing: a still page for headless browsers, whose virtual clock waits
+ * for open connections). The page is kept here as one string, written line by line. */
 #ifndef WETGRAPH_CLI_SERVE_PAGE_H
 #define WETGRAPH_CLI_SERVE_PAGE_H
 
@@ -153,9 +153,10 @@ static const char serve_page[] =
     " if(args.get('big')===o.name)f.classList.add('big');return f}\n"
     "function graph(s){\n"
     " const b=document.getElementById('graphbox');\n"
-    " if(s.svg!==null){if(svgv!==s.svg){b.innerHTML='';const im=document.createElement('img');i"
-    "m.id='graph';im.alt='the graph';im.src='/graph.svg?v='+s.svg;b.appendChild(im);svgv=s.svg}"
-    "return}\n"
+    " if(s.svg!==null){if(svgv!==s.svg){b.innerHTML='';const l=document.createElement('a');l.hr"
+    "ef='/graph.svg?v='+s.svg;l.target='_blank';l.title='open the picture at full size';const i"
+    "m=document.createElement('img');im.id='graph';im.alt='the graph';im.src='/graph.svg?v='+s."
+    "svg;l.appendChild(im);b.appendChild(l);svgv=s.svg}return}\n"
     " svgv=null;const ms={};for(const n of s.times)if(n.computed)ms[n.id]=n.ms;\n"
     " const ul=document.createElement('ul');ul.id='nodes';\n"
     " for(const n of s.nodes){const li=document.createElement('li');li.textContent=n.id+' ('+n."
@@ -168,7 +169,8 @@ static const char serve_page[] =
     "function poll(){if(waiters.length)refresh().then(()=>{if(waiters.length)setTimeout(poll,50"
     ")})}\n"
     "function showTime(t){const i=document.getElementById('time');if(t>+i.max)i.max=Math.ceil(t"
-    ");i.value=t;document.getElementById('tval').textContent=t.toFixed(2)}\n"
+    ");i.value=t;const v=document.getElementById('tval');v.textContent=t.toFixed(2);v.dataset.t"
+    "=t}\n"
     "function setPlaying(p){playing=p;const b=document.getElementById('play');b.innerHTML=p?'&#"
     "10074;&#10074; pause':'&#9654; play';b.dataset.playing=p;if(p){lastFrame=performance.now()"
     ";step()}}\n"
@@ -190,8 +192,8 @@ static const char serve_page[] =
     " document.getElementById('timebox').hidden=!s.reads_time;\n"
     " if(!playing&&document.getElementById('time')!==document.activeElement)showTime(s.time);\n"
     " document.getElementById('err').textContent=s.error?'error: '+s.error:'';\n"
-    " document.getElementById('cmd').value='wetgraph render '+q(s.file)+s.sets.map(x=>' --set '"
-    "+q(x)).join('')+(s.reads_time||s.time?' --time '+s.time:'');\n"
+    " document.getElementById('cmd').textContent='wetgraph render '+q(s.file)+s.sets.map(x=>' -"
+    "-set '+q(x)).join('')+(s.reads_time||s.time?' --time '+s.time:'');\n"
     " const t=document.getElementById('times');t.innerHTML='';\n"
     " for(const n of s.times){const r=t.insertRow();r.insertCell().textContent=n.id;r.insertCel"
     "l().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' ms':'cached"

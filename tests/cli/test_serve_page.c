@@ -2,12 +2,17 @@
 /* The page of `wetgraph watch --serve` in a real browser: Debian's chromium, headless, loads
  * it with ?set=level=0.6&events=0 (no open /events connection, which would keep its virtual
  * clock waiting) and dumps the DOM the script built. The DOM must hold a slider for the
- * float parameter `level` with its declared range, a menu for the enum, and the output's image
- * loaded (the page marks a figure with data-loaded once its image has loaded); the watch
- * session must have rendered with level=0.6 (the page applied the address's setting). Fails
- * with a clear message when chromium is not installed (scripts/install-deps.sh installs it).
- * chromium runs under `timeout` with a virtual time budget (a harness limit, not a timing
- * assertion). Runs WETGRAPH_BIN. */
+ * float parameter `level` with its declared range, a menu for the enum, the output's image
+ * loaded (the page marks a figure with data-loaded once its image has loaded) and shown in
+ * gray, and, with no dot in the watch session's PATH, the list of the graph's nodes; the watch
+ * session must have rendered with level=0.6 (the page applied the address's setting). On a
+ * graph that reads $time, with a stand-in dot in PATH, the page (?cmap=turbo&play=3&big=height)
+ * shows the picture, shows the output enlarged, draws the gray output through the turbo colour map
+ * (the canvas pixel the page reads back is not gray), plays three frames and pauses, and the
+ * command line it offers has --time; the last frame's output file is the one `wetgraph render
+ * --time T` writes for the time the page shows. Fails with a clear message when chromium is not
+ * installed (scripts/install-deps.sh installs it). chromium runs under `timeout` with a virtual
+ * time budget (a harness limit, not a timing assertion). Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
@@ -36,6 +41,18 @@ static const char graph[] =
     "  <output name=\"c\" from=\"mix\" format=\"png\"/>\n"
     "</wetgraph>\n";
 
+/* gray, and changing with $time */
+static const char animated[] =
+    "<wetgraph version=\"1\" size=\"64\">\n"
+    "  <param name=\"speed\" type=\"float\" default=\"1\" min=\"0\" max=\"4\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+    "  <node id=\"wave\" type=\"pixel\" expr=\"fract(x + y + $time)\"/>\n"
+    "  <node id=\"mix\" type=\"blend\" mode=\"multiply\">\n"
+    "    <in name=\"foreground\" from=\"n\"/><in name=\"background\" from=\"wave\"/>\n"
+    "  </node>\n"
+    "  <output name=\"height\" from=\"mix\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
 static char dir[1024];
 static pid_t watcher;
 
@@ -58,17 +75,33 @@ static void wait_for(const char *needle, int count)
     wgt_wait_for(watcher, path("werr"), needle, count, LIMIT_MS);
 }
 
-static void test_serve_page(void **state)
+static void stop(void)
 {
-    (void)state;
+    int st;
+    assert_int_equal(kill(watcher, SIGTERM), 0);
+    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("watch did not stop on SIGTERM");
+        wgt_sleep_ms(5);
+    }
+    watcher = 0;
+    assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+}
+
+/* Start watch on g.wetgraph with PATH set to path_dir (a folder of the test's folder: "bin"
+ * holds a stand-in dot, "nobin" nothing); returns the port it serves. */
+static int start(const char *path_dir)
+{
     const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
-    snprintf(dir, sizeof dir, "%s/serve_page", wgt_tmpdir());
-    mkdir(dir, 0777);
-    if (wgt_shell(dir, "command -v chromium"))
-        fail_msg("chromium is not installed: the page test needs Debian's chromium "
-                 "(scripts/install-deps.sh installs it)");
-    wgt_write_file(path("g.wetgraph"), graph);
+    mkdir(path("bin"), 0777);
+    mkdir(path("nobin"), 0777);
+    wgt_write_file(path("bin/dot"),
+                   "#!/bin/sh\n"
+                   "PATH=/usr/bin:/bin\n"
+                   "cat >/dev/null\n"
+                   "echo '<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"120\" "
+                   "height=\"40\"><text x=\"4\" y=\"24\">stand-in</text></svg>'\n");
+    chmod(path("bin/dot"), 0755);
+    unlink(path("werr"));
     int port = wgt_free_port();
     char spec[64];
     snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
@@ -76,9 +109,23 @@ static void test_serve_page(void **state)
     assert_true(watcher >= 0);
     if (watcher == 0) {
         if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
+        setenv("PATH", path(path_dir), 1);
         execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, (char *)NULL);
         _exit(98);
     }
+    return port;
+}
+
+static void test_serve_page(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    if (wgt_shell(dir, "command -v chromium"))
+        fail_msg("chromium is not installed: the page test needs Debian's chromium "
+                 "(scripts/install-deps.sh installs it)");
+    wgt_write_file(path("g.wetgraph"), graph);
+    int port = start("nobin");
     wait_for("watch: waiting", 1);
     int st = wgt_shell(
         dir,
@@ -91,8 +138,13 @@ static void test_serve_page(void **state)
         fail_msg("the page built no slider for 'level' (%s)", path("dom.html"));
     assert_int_equal(count_in("dom.html", "id=\"param-level\""), 1);
     assert_int_equal(count_in("dom.html", "<select id=\"param-mode\""), 1);
-    if (!count_in("dom.html", "<figure id=\"out-c\" data-loaded="))
+    if (!count_in("dom.html", "<figure id=\"out-c\" data-channels=\"1\" data-map=\"gray\" "
+                              "data-loaded="))
         fail_msg("the page did not load the image of output 'c' (%s)", path("dom.html"));
+    /* no dot: the graph is a list of its nodes */
+    assert_int_equal(count_in("dom.html", "<ul id=\"nodes\"><li>n (noise)"), 1);
+    assert_int_equal(count_in("dom.html", "<li>mix (blend)"), 1);
+    assert_int_equal(count_in("dom.html", "<div id=\"timebox\" hidden=\"\">"), 1);
     wait_for("watch: waiting", 2); /* the render of ?set=level=0.6 */
     assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.6 -o cli -q", bin), 0);
     size_t a, b;
@@ -101,12 +153,76 @@ static void test_serve_page(void **state)
     assert_true(a == b && !memcmp(served, cli, a));
     free(served);
     free(cli);
-    assert_int_equal(kill(watcher, SIGTERM), 0);
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("watch did not stop on SIGTERM");
-        wgt_sleep_ms(5);
+    stop();
+}
+
+/* The value of attribute name="..." in the first element holding needle, or "". */
+static const char *attr(const char *needle, const char *name)
+{
+    static char value[256];
+    size_t size;
+    char *dom = wgt_read_file(path("dom.html"), &size), key[64];
+    value[0] = '\0';
+    char *el = strstr(dom, needle), *end = el ? strchr(el, '>') : NULL;
+    snprintf(key, sizeof key, " %s=\"", name);
+    char *at = el ? strstr(el, key) : NULL;
+    if (at && at < end) {
+        at += strlen(key);
+        snprintf(value, sizeof value, "%.*s", (int)strcspn(at, "\""), at);
     }
-    assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+    free(dom);
+    return value;
+}
+
+static void test_serve_page_false_colour_and_play(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    if (wgt_shell(dir, "command -v chromium"))
+        fail_msg("chromium is not installed: the page test needs Debian's chromium "
+                 "(scripts/install-deps.sh installs it)");
+    wgt_write_file(path("g.wetgraph"), animated);
+    int port = start("bin");
+    wait_for("watch: waiting", 1);
+    int st = wgt_shell(dir,
+                       "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
+                       "--user-data-dir=profile --virtual-time-budget=5000 --window-size=1200,800 "
+                       "--dump-dom 'http://127.0.0.1:%d/?cmap=turbo&play=3&big=height&events=0' "
+                       ">dom.html 2>chromium.log",
+                       port);
+    if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium.log"));
+    /* the picture dot drew */
+    assert_int_equal(
+        count_in("dom.html", "<img id=\"graph\" alt=\"the graph\" src=\"/graph.svg?v="), 1);
+    /* the gray output through turbo: the pixel read back from the canvas is coloured */
+    if (strcmp(attr("<figure id=\"out-height\"", "data-map"), "turbo"))
+        fail_msg("the output is not shown through turbo (%s)", path("dom.html"));
+    int r = -1, g = -1, b = -1;
+    if (sscanf(attr("<figure id=\"out-height\"", "data-sample"), "%d,%d,%d", &r, &g, &b) != 3)
+        fail_msg("no pixel read back from the canvas (%s)", path("dom.html"));
+    if (r == g && g == b) fail_msg("the canvas pixel %d,%d,%d is gray", r, g, b);
+    assert_string_equal(attr("<figure id=\"out-height\"", "class"), "big"); /* ?big=height */
+    /* three frames played, then paused, at a time after 0 */
+    assert_string_equal(attr("<button id=\"play\"", "data-frames"), "3");
+    assert_string_equal(attr("<button id=\"play\"", "data-playing"), "false");
+    char t[64];
+    snprintf(t, sizeof t, "%s", attr("<span id=\"tval\"", "data-t"));
+    if (!(atof(t) > 0)) fail_msg("$time did not advance: '%s' (%s)", t, path("dom.html"));
+    assert_int_equal(count_in("dom.html", "<div id=\"timebox\">"), 1);
+    char cmd[128]; /* Save as --set: the time too */
+    snprintf(cmd, sizeof cmd, "wetgraph render g.wetgraph --time %s</textarea>", t);
+    if (count_in("dom.html", cmd) != 1) fail_msg("no '%s' in %s", cmd, path("dom.html"));
+    wait_for("watch: waiting", 4); /* the first render and three frames */
+    assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --time %s -o cli -q", bin, t), 0);
+    size_t a, n;
+    char *served = wgt_read_file(path("o/g_height.png"), &a),
+         *cli = wgt_read_file(path("cli/g_height.png"), &n);
+    if (a != n || memcmp(served, cli, a))
+        fail_msg("the last frame is not the render at $time = %s", t);
+    free(served);
+    free(cli);
+    stop();
 }
 
 static int stop_watcher(void **state)
@@ -121,10 +237,19 @@ static int stop_watcher(void **state)
     return 0;
 }
 
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s/serve_page", wgt_tmpdir());
+    mkdir(dir, 0777);
+    return 0;
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_serve_page, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_page_false_colour_and_play, stop_watcher),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests(tests, setup, NULL);
 }
