@@ -1,19 +1,19 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph watch --serve`: a libmicrohttpd server (a listening thread and one thread per
  * connection) beside the watch loop, on IPv4 or IPv6 ([ADDR]:PORT; [::] is dual stack). It
- * serves exactly six things: the page (cli/serve_page.h), GET /api/state (JSON), GET
- * /out/NAME.png (the latest preview of output NAME, looked up in the output list by exact name
- * and never used as a path), GET /graph.svg (the request's graph drawn by graphviz, 404 when
- * `dot` is not installed), GET or POST /api/set?name=value (a parameter, or $time) and GET
- * /events (server-sent events, one per finished render); any other path is 404. Renders never
- * run here: the watch thread publishes a snapshot (the previews encoded as PNG, the
- * parameters, the graph's nodes and picture, whether it reads $time, node times, the last
- * error) under a mutex, and /api/set only queues the change under that mutex and wakes the
- * watch thread through an eventfd; the watch thread reads the queue when it starts a render, so
- * changes that arrive before it starts are applied together and no render runs for a
- * superseded value. The picture is made by running `dot -Tsvg` (found through PATH, with fixed
- * arguments, the graph on its standard input) in the watch thread when the graph's Graphviz
- * text changes, not on every render. */
+ * serves exactly six things: the page (cli/serve_page.h), GET /api/state (JSON; ?after=V waits
+ * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
+ * output list by exact name and never used as a path), GET /graph.svg (the request's graph
+ * drawn by graphviz, 404 when `dot` is not installed), GET or POST /api/set?name=value (a
+ * parameter, or $time) and GET /events (server-sent events, one per finished render); any
+ * other path is 404. Renders never run here: the watch thread publishes a snapshot (the
+ * previews encoded as PNG, the parameters, the graph's nodes and picture, whether it reads
+ * $time, node times, the last error) under a mutex, and /api/set only queues the change under
+ * that mutex and wakes the watch thread through an eventfd; the watch thread reads the queue
+ * when it starts a render, so changes that arrive before it starts are applied together and
+ * no render runs for a superseded value. The picture is made by running `dot -Tsvg` (found
+ * through PATH, with fixed arguments, the graph on its standard input) in the watch thread
+ * when the graph's Graphviz text changes, not on every render. */
 #include "serve.h"
 
 #include "png_preview.h"
@@ -541,10 +541,25 @@ static enum MHD_Result not_found(struct MHD_Connection *c)
 
 static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
 {
+    /* ?after=V: answer once render V+1 is published (at most PING_S later): a page that does not
+     * keep /events open waits for the next render without polling */
+    const char *after = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "after");
+    char *end = NULL;
+    unsigned long long v = after ? strtoull(after, &end, 10) : 0;
+    if (after && (!*after || *end))
+        return respond_text(c, MHD_HTTP_BAD_REQUEST, "text/plain", "after: a render number\n");
     Mem m;
     FILE *f = mem_open(&m);
     if (!f) return MHD_NO;
     pthread_mutex_lock(&s->lock);
+    if (after) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_sec += PING_S;
+        int rc = 0;
+        while (!s->stopping && s->version <= v && rc != ETIMEDOUT)
+            rc = pthread_cond_timedwait(&s->rendered, &s->lock, &until);
+    }
     fprintf(f, "{\"version\":%llu,\"file\":", (unsigned long long)s->version);
     cli_json_string(f, s->file);
     fprintf(f, ",\"params\":%s,\"time\":%.17g,\"reads_time\":%s,\"nodes\":%s,\"svg\":",

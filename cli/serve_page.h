@@ -15,9 +15,10 @@
  * the slider's end. A change is sent to /api/set; /events announces each finished render, and
  * the page then reloads the state and the images. The page address takes ?set=name=value
  * (repeatable; applied once on load), ?cmap=viridis|turbo (the page's colour map), ?big=OUTPUT
- * (shown enlarged), ?play=N (play N frames, then pause) and ?events=0 (leave /events closed and
- * poll /api/state while playing: a still page for headless browsers, whose virtual clock waits
- * for open connections). The page is kept here as one string, written line by line. */
+ * (shown enlarged), ?play=N (play N frames, then pause) and ?events=0 (leave /events closed
+ * and, while playing, wait for each frame with /api/state?after=V: for headless browsers,
+ * whose virtual clock stands still while a request is open, which an open /events would be
+ * for ever). The page is kept here as one string, written line by line. */
 #ifndef WETGRAPH_CLI_SERVE_PAGE_H
 #define WETGRAPH_CLI_SERVE_PAGE_H
 
@@ -164,10 +165,10 @@ static const char serve_page[] =
     " b.innerHTML='';b.appendChild(ul)}\n"
     "// $time: play renders frame after frame, the next asked for when the last has finished\n"
     "let playing=false,frames=0,lastFrame=0;const waiters=[];\n"
-    "function rendered(v){return new Promise(r=>{waiters.push([v,r]);if(!events)setTimeout(poll"
-    ",50)})}\n"
-    "function poll(){if(waiters.length)refresh().then(()=>{if(waiters.length)setTimeout(poll,50"
-    ")})}\n"
+    "// without /events, /api/state?after=V answers when a render newer than V is published\n"
+    "function rendered(v){return new Promise(r=>{waiters.push([v,r]);if(!events)poll(v)})}\n"
+    "function poll(v){fetch('/api/state?after='+v).then(r=>r.json()).then(s=>{show(s);if(waiter"
+    "s.length)poll(version)})}\n"
     "function showTime(t){const i=document.getElementById('time');if(t>+i.max)i.max=Math.ceil(t"
     ");i.value=t;const v=document.getElementById('tval');v.textContent=t.toFixed(2);v.dataset.t"
     "=t}\n"

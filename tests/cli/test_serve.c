@@ -4,14 +4,14 @@
  * reads $time and which outputs are gray; /api/set (GET and POST) changes one, /events
  * announces the new render and the output's PNG then differs and decodes to the image
  * `wetgraph render --set` writes; an unknown parameter is refused (400); /api/set?$time=T sets
- * $time (a malformed time is refused); /graph.svg is what `dot -Tsvg` wrote (a stand-in script
- * first in PATH records its arguments and input) and dot runs once, not on every render;
- * without dot in PATH /graph.svg is 404; path traversal (plain and %-encoded) and unknown paths
- * are 404; an edit of the graph file still renders again; SIGINT ends it with exit 0. It
- * listens on [::1] and on [::] (IPv4 too) when the machine has IPv6 loopback (skipped
- * otherwise), and a malformed address is a usage error naming it. The HTTP client is plain
- * sockets with HTTP/1.0 (the server closes each connection after its answer); every wait has a
- * harness limit (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
+ * $time (a malformed time is refused) and /api/state?after=V answers with that render; /graph.svg
+ * is what `dot -Tsvg` wrote (a stand-in script first in PATH records its arguments and input) and
+ * dot runs once, not on every render; without dot in PATH /graph.svg is 404; path traversal (plain
+ * and %-encoded) and unknown paths are 404; an edit of the graph file still renders again; SIGINT
+ * ends it with exit 0. It listens on [::1] and on [::] (IPv4 too) when the machine has IPv6
+ * loopback (skipped otherwise), and a malformed address is a usage error naming it. The HTTP client
+ * is plain sockets with HTTP/1.0 (the server closes each connection after its answer); every wait
+ * has a harness limit (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
@@ -99,9 +99,9 @@ typedef struct {
     size_t size;
 } Reply;
 
-static Reply http(const char *method, const char *target)
+/* Read the answer to a request() made earlier. */
+static Reply answer(int fd, const char *method, const char *target)
 {
-    int fd = request(method, target);
     size_t cap = 1 << 16, len = 0;
     char *buf = malloc(cap + 1);
     assert_non_null(buf);
@@ -125,6 +125,11 @@ static Reply http(const char *method, const char *target)
     r.body = end + 4;
     r.size = len - (size_t)(r.body - buf);
     return r;
+}
+
+static Reply http(const char *method, const char *target)
+{
+    return answer(request(method, target), method, target);
 }
 
 static int status_of(const char *method, const char *target)
@@ -280,12 +285,25 @@ static void test_serve_session(void **state)
     wait_for("watch: waiting", 3);
     assert_int_equal(status_of("GET", "/api/set?nope=1"), 400);
 
-    /* $time: a number is queued and the state shows the render's time; anything else is
-     * refused */
-    assert_int_equal(status_of("POST", "/api/set?%24time=2.5"), 200);
-    wait_for("watch: waiting", 4);
+    /* $time: a number is queued and the state shows the render's time (/api/state?after=V
+     * answers once that render is there); anything else is refused */
     r = http("GET", "/api/state");
+    unsigned long long v = 0;
+    assert_int_equal(sscanf(r.body, "{\"version\":%llu,", &v), 1);
+    free(r.head);
+    char target[64], version[64];
+    snprintf(target, sizeof target, "/api/state?after=%llu", v);
+    int waiting = request("GET", target);
+    assert_int_equal(status_of("POST", "/api/set?%24time=2.5"), 200);
+    r = answer(waiting, "GET", target);
+    snprintf(version, sizeof version, "{\"version\":%llu,", v + 1);
+    assert_non_null(strstr(r.body, version));
     assert_non_null(strstr(r.body, "\"time\":2.5,"));
+    free(r.head);
+    wait_for("watch: waiting", 4);
+    assert_int_equal(status_of("GET", "/api/state?after=x"), 400);
+    r = http("GET", "/api/state?after=0"); /* already there */
+    assert_int_equal(r.status, 200);
     assert_non_null(strstr(r.body, "\"sets\":[\"level=0.5\"]"));
     free(r.head);
     assert_int_equal(status_of("POST", "/api/set?%24time=soon"), 400);
