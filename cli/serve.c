@@ -284,25 +284,8 @@ static char *nodes_json(const WgGraph *g)
     return mem_take(&m);
 }
 
-/* A request like the render's (its --set list and $time; no inputs, which serve does not
- * know): enough to tell whether the graph reads $time and to draw it. */
-static WgRequest *graph_request(const WgGraph *g, const char *const *sets, int n_sets, double time)
-{
-    WgRequest *r = wg_request_new(g);
-    for (int i = 0; r && i < n_sets; i++) {
-        char name[MAX_NAME + 1];
-        size_t len = strcspn(sets[i], "=");
-        if (len > MAX_NAME || !sets[i][len]) continue;
-        snprintf(name, sizeof name, "%.*s", (int)len, sets[i]);
-        WgError e = {0};
-        wg_request_set(r, name, sets[i] + len + 1, &e); /* a bad value failed the render */
-    }
-    if (r) wg_request_set_time(r, time);
-    return r;
-}
-
-/* The graph's Graphviz text: the request's (with the fused groups) or, when that cannot be
- * planned without the inputs, the graph's. */
+/* The graph's Graphviz text: the request's (with the fused groups) or, when there is no
+ * request or it cannot be planned, the graph's. */
 static char *dot_text(const WgGraph *g, const WgRequest *r)
 {
     Mem m;
@@ -412,24 +395,23 @@ out:
     return out;
 }
 
-void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgError *err,
-                   const char *const *sets, int n_sets)
+void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
+                   const WgError *err, const char *const *sets, int n_sets)
 {
     /* everything is prepared outside the lock: readers wait only for the swap */
     char *params = NULL, **names = NULL, *times = NULL, *setj = sets_json(sets, n_sets);
     char *error = NULL, *nodes = NULL, *svg = NULL, *dot = NULL;
     size_t svg_size = 0;
-    bool reads = false;
+    bool reads = s->reads_time; /* kept while the request does not plan (an edit under way) */
     int n_names = 0, n_outs = 0;
     Output *outs = NULL;
     if (g) {
         params = params_json(g, sets, n_sets);
         nodes = nodes_json(g);
-        WgRequest *r = graph_request(g, sets, n_sets, s->next_time);
         WgError e = {0};
-        if (r && wg_request_reads_time(r, &reads, &e)) reads = false;
+        bool b;
+        if (r && !wg_request_reads_time(r, &b, &e)) reads = b;
         dot = dot_text(g, r);
-        wg_request_free(r);
         if (dot && s->dot_text && !strcmp(dot, s->dot_text)) { /* the same picture */
             free(dot);
             dot = NULL;

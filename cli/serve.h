@@ -26,11 +26,12 @@ void serve_sets_free(char **sets, int n);
  * command line's --time, or 0). */
 double serve_time(Serve *s, double base);
 /* Publish a finished render attempt: g (NULL when the graph did not load: the parameter list
- * stays as it was), res (NULL when it failed; the images stay as they were), err (NULL on
- * success) and the --set list it used. Encodes the output previews, finds whether the graph
- * reads $time, draws the graph with dot when its Graphviz text changed, and wakes /events. */
-void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgError *err,
-                   const char *const *sets, int n_sets);
+ * stays as it was), the request r (NULL when it was not built), res (NULL when it failed; the
+ * images stay as they were), err (NULL on success) and the --set list it used. Encodes the output
+ * previews, finds whether the graph reads $time, draws the graph with dot when its Graphviz text
+ * changed, and wakes /events. */
+void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
+                   const WgError *err, const char *const *sets, int n_sets);
 void serve_stop(Serve *s);
 
 #endif

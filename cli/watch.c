@@ -252,14 +252,14 @@ static void render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
             print_ran(res, now_ms() - t0);
     }
 #ifdef WG_HAVE_SERVE
-    if (serve) serve_publish(serve, g, res, NULL, (const char *const *)o->sets, o->n_sets);
+    if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
 #endif
     goto out;
 fail:
     cli_report(&err);
     if (!o->quiet) fprintf(stderr, "watch: the last good outputs are kept; waiting for a change\n");
 #ifdef WG_HAVE_SERVE
-    if (serve) serve_publish(serve, g, NULL, &err, (const char *const *)o->sets, o->n_sets);
+    if (serve) serve_publish(serve, g, r, NULL, &err, (const char *const *)o->sets, o->n_sets);
 #endif
 out:
 #ifdef WG_HAVE_SERVE

@@ -6,10 +6,11 @@
  * loaded (the page marks a figure with data-loaded once its image has loaded) and shown in
  * gray, and, with no dot in the watch session's PATH, the list of the graph's nodes; the watch
  * session must have rendered with level=0.6 (the page applied the address's setting). On a
- * graph that reads $time, with a stand-in dot in PATH, the page (?cmap=turbo&play=3&big=height)
- * shows the picture, shows the output enlarged, draws the gray output through the turbo colour map
- * (the canvas pixel the page reads back is not gray), plays three frames and pauses, and the
- * command line it offers has --time; the last frame's output file is the one `wetgraph render
+ * graph that reads $time and has an image input, with a stand-in dot in PATH, the page
+ * (?cmap=turbo&play=3&big=height) shows the picture, shows the output enlarged, draws the gray
+ * output through the turbo colour map (the canvas pixel the page reads back is not gray), plays
+ * three frames and pauses, and the command line it offers has --time; the last frame's output file
+ * is the one `wetgraph render
  * --time T` writes for the time the page shows. Fails with a clear message when chromium is not
  * installed (scripts/install-deps.sh installs it). chromium runs under `timeout` with a virtual
  * time budget (a harness limit, not a timing assertion). Runs WETGRAPH_BIN. */
@@ -41,14 +42,14 @@ static const char graph[] =
     "  <output name=\"c\" from=\"mix\" format=\"png\"/>\n"
     "</wetgraph>\n";
 
-/* gray, and changing with $time */
+/* gray, changing with $time, with an image input that has no default (as foam's shore) */
 static const char animated[] =
     "<wetgraph version=\"1\" size=\"64\">\n"
+    "  <input name=\"shape\" type=\"gray\"/>\n"
     "  <param name=\"speed\" type=\"float\" default=\"1\" min=\"0\" max=\"4\"/>\n"
-    "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
     "  <node id=\"wave\" type=\"pixel\" expr=\"fract(x + y + $time)\"/>\n"
     "  <node id=\"mix\" type=\"blend\" mode=\"multiply\">\n"
-    "    <in name=\"foreground\" from=\"n\"/><in name=\"background\" from=\"wave\"/>\n"
+    "    <in name=\"foreground\" from=\"$shape\"/><in name=\"background\" from=\"wave\"/>\n"
     "  </node>\n"
     "  <output name=\"height\" from=\"mix\" format=\"png\"/>\n"
     "</wetgraph>\n";
@@ -88,8 +89,9 @@ static void stop(void)
 }
 
 /* Start watch on g.wetgraph with PATH set to path_dir (a folder of the test's folder: "bin"
- * holds a stand-in dot, "nobin" nothing); returns the port it serves. */
-static int start(const char *path_dir)
+ * holds a stand-in dot, "nobin" nothing) and input (an --input value, or NULL); returns the
+ * port it serves. */
+static int start(const char *path_dir, const char *input)
 {
     const char *bin = getenv("WETGRAPH_BIN");
     mkdir(path("bin"), 0777);
@@ -110,7 +112,8 @@ static int start(const char *path_dir)
     if (watcher == 0) {
         if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
         setenv("PATH", path(path_dir), 1);
-        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, (char *)NULL);
+        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, input ? "--input" : NULL,
+              input, (char *)NULL);
         _exit(98);
     }
     return port;
@@ -125,7 +128,7 @@ static void test_serve_page(void **state)
         fail_msg("chromium is not installed: the page test needs Debian's chromium "
                  "(scripts/install-deps.sh installs it)");
     wgt_write_file(path("g.wetgraph"), graph);
-    int port = start("nobin");
+    int port = start("nobin", NULL);
     wait_for("watch: waiting", 1);
     int st = wgt_shell(
         dir,
@@ -182,8 +185,13 @@ static void test_serve_page_false_colour_and_play(void **state)
     if (wgt_shell(dir, "command -v chromium"))
         fail_msg("chromium is not installed: the page test needs Debian's chromium "
                  "(scripts/install-deps.sh installs it)");
+    wgt_write_file(path("shape.wetgraph"), "<wetgraph version=\"1\" size=\"64\">"
+                                           "<node id=\"n\" type=\"noise\" scale=\"4\"/>"
+                                           "<output name=\"s\" from=\"n\" format=\"png\"/>"
+                                           "</wetgraph>\n");
+    assert_int_equal(wgt_shell(dir, "'%s' render shape.wetgraph -o . -q", bin), 0);
     wgt_write_file(path("g.wetgraph"), animated);
-    int port = start("bin");
+    int port = start("bin", "shape=shape_s.png");
     wait_for("watch: waiting", 1);
     int st = wgt_shell(dir,
                        "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
@@ -214,7 +222,10 @@ static void test_serve_page_false_colour_and_play(void **state)
     snprintf(cmd, sizeof cmd, "wetgraph render g.wetgraph --time %s</textarea>", t);
     if (count_in("dom.html", cmd) != 1) fail_msg("no '%s' in %s", cmd, path("dom.html"));
     wait_for("watch: waiting", 4); /* the first render and three frames */
-    assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --time %s -o cli -q", bin, t), 0);
+    assert_int_equal(
+        wgt_shell(dir, "'%s' render g.wetgraph --input shape=shape_s.png --time %s -o cli -q", bin,
+                  t),
+        0);
     size_t a, n;
     char *served = wgt_read_file(path("o/g_height.png"), &a),
          *cli = wgt_read_file(path("cli/g_height.png"), &n);
