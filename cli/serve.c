@@ -22,7 +22,6 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
-#include <math.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -374,11 +373,12 @@ static char *run_dot(const char *text, size_t *size)
     ok = true;
 out:
     if (pid > 0) {
-        int st;
+        int st = 0;
+        pid_t w;
         if (!ok) kill(pid, SIGKILL);
-        while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+        while ((w = waitpid(pid, &st, 0)) < 0 && errno == EINTR) {
         }
-        ok = ok && WIFEXITED(st) && WEXITSTATUS(st) == 0;
+        ok = ok && w == pid && WIFEXITED(st) && WEXITSTATUS(st) == 0;
     }
     if (in >= 0) close(in);
     if (pipefd[0] >= 0) close(pipefd[0]);

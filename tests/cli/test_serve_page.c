@@ -8,12 +8,13 @@
  * session must have rendered with level=0.6 (the page applied the address's setting). On a
  * graph that reads $time and has an image input, with a stand-in dot in PATH, the page
  * (?cmap=turbo&play=3&big=height) shows the picture, shows the output enlarged, draws the gray
- * output through the turbo colour map (the canvas pixel the page reads back is not gray), plays
- * three frames and pauses, and the command line it offers has --time; the last frame's output file
- * is the one `wetgraph render
- * --time T` writes for the time the page shows. Fails with a clear message when chromium is not
- * installed (scripts/install-deps.sh installs it). chromium runs under `timeout` with a virtual
- * time budget (a harness limit, not a timing assertion). Runs WETGRAPH_BIN. */
+ * output through the turbo colour map (the canvas pixel the page reads back is not gray),
+ * plays three frames and pauses, and the command line it offers has --time; the last frame's
+ * output file is the one `wetgraph render --time T` writes for the time the page shows. With
+ * /events open (as a person's browser has it), ?play=3 renders three frames too. Fails with a
+ * clear message when chromium is not installed (scripts/install-deps.sh installs it). chromium
+ * runs under `timeout` with a virtual time budget (a harness limit, not a timing assertion).
+ * Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
@@ -55,7 +56,16 @@ static const char animated[] =
     "</wetgraph>\n";
 
 static char dir[1024];
-static pid_t watcher;
+static pid_t watcher, chromium; /* chromium: the `timeout` running it in the background */
+
+/* Stop the background chromium (timeout passes SIGTERM on) and wait for it to be gone. */
+static void stop_chromium(void)
+{
+    if (chromium <= 0) return;
+    kill(chromium, SIGTERM);
+    for (int waited = 0; kill(chromium, 0) == 0 && waited < LIMIT_MS; waited += 5) wgt_sleep_ms(5);
+    chromium = 0;
+}
 
 static const char *path(const char *name)
 {
@@ -236,9 +246,44 @@ static void test_serve_page_false_colour_and_play(void **state)
     stop();
 }
 
+/* Playing with /events open (as in a browser a person uses): the page hears of each frame
+ * through the event stream. chromium's virtual clock never runs out with the stream open, so it
+ * runs in the background until the three frames have rendered, and is then stopped. */
+static void test_serve_page_plays_with_events(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    if (wgt_shell(dir, "command -v chromium"))
+        fail_msg("chromium is not installed: the page test needs Debian's chromium "
+                 "(scripts/install-deps.sh installs it)");
+    assert_int_equal(wgt_shell(dir, "'%s' render shape.wetgraph -o . -q", bin), 0);
+    wgt_write_file(path("g.wetgraph"), animated);
+    int port = start("nobin", "shape=shape_s.png");
+    wait_for("watch: waiting", 1);
+    unlink(path("chromium.pid"));
+    assert_int_equal(wgt_shell(dir,
+                               "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
+                               "--user-data-dir=profile2 --virtual-time-budget=5000 "
+                               "--window-size=1200,800 --dump-dom "
+                               "'http://127.0.0.1:%d/?play=3' >dom2.html 2>chromium2.log & "
+                               "echo $! >chromium.pid",
+                               port),
+                     0);
+    size_t size;
+    char *text = wgt_read_file(path("chromium.pid"), &size);
+    chromium = atoi(text);
+    free(text);
+    assert_true(chromium > 0);
+    wait_for("watch: waiting", 4); /* the first render and three frames */
+    stop_chromium();
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
+    stop_chromium();
     int st;
     if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
         kill(watcher, SIGKILL);
@@ -261,6 +306,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_serve_page, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_false_colour_and_play, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_page_plays_with_events, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
