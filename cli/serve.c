@@ -1,14 +1,19 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph watch --serve`: a libmicrohttpd server (a listening thread and one thread per
- * connection) beside the watch loop. It serves exactly five things: the page (cli/serve_page.h),
- * GET /api/state (JSON), GET /out/NAME.png (the latest preview of output NAME, looked up in the
- * output list by exact name and never used as a path), GET or POST /api/set?name=value and
- * GET /events (server-sent events, one per finished render); any other path is 404. Renders
- * never run here: the watch thread publishes a snapshot (the previews encoded as PNG, the
- * parameters, node times, the last error) under a mutex, and /api/set only queues the change
- * under that mutex and wakes the watch thread through an eventfd; the watch thread reads the
- * queue when it starts a render, so changes that arrive before it starts are applied together
- * and no render runs for a superseded value. */
+ * connection) beside the watch loop, on IPv4 or IPv6 ([ADDR]:PORT; [::] is dual stack). It
+ * serves exactly six things: the page (cli/serve_page.h), GET /api/state (JSON; ?after=V waits
+ * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
+ * output list by exact name and never used as a path), GET /graph.svg (the request's graph
+ * drawn by graphviz, 404 when `dot` is not installed), GET or POST /api/set?name=value (a
+ * parameter, or $time) and GET /events (server-sent events, one per finished render); any
+ * other path is 404. Renders never run here: the watch thread publishes a snapshot (the
+ * previews encoded as PNG, the parameters, the graph's nodes and picture, whether it reads
+ * $time, node times, the last error) under a mutex, and /api/set only queues the change under
+ * that mutex and wakes the watch thread through an eventfd; the watch thread reads the queue
+ * when it starts a render, so changes that arrive before it starts are applied together and
+ * no render runs for a superseded value. The picture is made by running `dot -Tsvg` (found
+ * through PATH, with fixed arguments, the graph on its standard input) in the watch thread
+ * when the graph's Graphviz text changes, not on every render. */
 #include "serve.h"
 
 #include "png_preview.h"
@@ -16,24 +21,36 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <pthread.h>
+#include <signal.h>
+#include <spawn.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/eventfd.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
 /* PING_S keeps an idle event stream inside the 60 s connection time-out that frees the threads
  * of clients that went away */
 enum { MAX_NAME = 128, MAX_VALUE = 512, PING_S = 15 };
+/* dot gets this long (it lays out graphs of a few hundred nodes in well under a second) and
+ * may write this much before its picture is given up */
+enum { DOT_LIMIT_MS = 10000, MAX_SVG = 16 << 20 };
+
+extern char **environ;
 
 typedef struct {
     char *name;
     unsigned char *png;
     size_t size;
+    int channels; /* 1: a gray map (the page may show it in false colour), 4: colour */
 } Output;
 
 struct Serve {
@@ -50,9 +67,20 @@ struct Serve {
     int n_params;
     Output *outs;
     int n_outs;
+    double time;      /* $time of the last render */
+    double next_time; /* $time of the render under way (the watch thread's) */
+    bool reads_time;  /* the graph's outputs depend on $time */
+    char *nodes_json; /* the graph's nodes: [{"id":..,"type":..},...] */
+    char *svg;        /* the graph drawn by dot, or NULL */
+    size_t svg_size;
+    uint64_t svg_version; /* pictures made so far, for the page's cache-busting address */
     /* queued changes, under lock */
     char **q_name, **q_value;
     int n_q;
+    bool q_has_time;
+    double q_time;
+    /* the watch thread's own: the Graphviz text the picture was made from */
+    char *dot_text;
 };
 
 typedef struct {
@@ -150,6 +178,15 @@ void serve_sets_free(char **sets, int n)
     free(sets);
 }
 
+double serve_time(Serve *s, double base)
+{
+    pthread_mutex_lock(&s->lock);
+    double t = s->q_has_time ? s->q_time : base;
+    s->next_time = t;
+    pthread_mutex_unlock(&s->lock);
+    return t;
+}
+
 static char *params_json(const WgGraph *g, const char *const *sets, int n_sets)
 {
     Mem m;
@@ -228,16 +265,161 @@ static void outputs_free(Output *o, int n)
     free(o);
 }
 
-void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgError *err,
-                   const char *const *sets, int n_sets)
+static char *nodes_json(const WgGraph *g)
+{
+    Mem m;
+    FILE *f = mem_open(&m);
+    if (!f) return NULL;
+    fputc('[', f);
+    for (int i = 0; i < wg_graph_node_count(g); i++) {
+        const WgGraphNodeInfo *n = wg_graph_node_info(g, i);
+        fputs(i ? ",{\"id\":" : "{\"id\":", f);
+        cli_json_string(f, n->id);
+        fputs(",\"type\":", f);
+        cli_json_string(f, n->type);
+        fputc('}', f);
+    }
+    fputc(']', f);
+    return mem_take(&m);
+}
+
+/* The graph's Graphviz text: the request's (with the fused groups) or, when there is no
+ * request or it cannot be planned, the graph's. */
+static char *dot_text(const WgGraph *g, const WgRequest *r)
+{
+    Mem m;
+    FILE *f = mem_open(&m);
+    if (!f) return NULL;
+    WgError e = {0};
+    if (r && !wg_request_write_dot(r, f, &e)) return mem_take(&m);
+    free(mem_take(&m));
+    if (!(f = mem_open(&m))) return NULL;
+    wg_graph_write_dot(g, f);
+    return mem_take(&m);
+}
+
+static bool write_all(int fd, const char *p, size_t n)
+{
+    while (n) {
+        ssize_t k = write(fd, p, n);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) return false;
+        p += k;
+        n -= (size_t)k;
+    }
+    return true;
+}
+
+/* Run `dot -Tsvg` (through PATH, fixed arguments) on text; the SVG (owned by the caller) or
+ * NULL when dot is not installed, fails, takes longer than DOT_LIMIT_MS or writes more than
+ * MAX_SVG bytes. The text goes through a memory file, so dot never blocks on a full pipe while
+ * its output is read. */
+static char *run_dot(const char *text, size_t *size)
+{
+    char *out = NULL;
+    size_t len = 0, cap = 0;
+    bool ok = false;
+    pid_t pid = -1;
+    int in = memfd_create("wetgraph-dot", MFD_CLOEXEC), pipefd[2] = {-1, -1};
+    if (in < 0 || pipe2(pipefd, O_CLOEXEC) || !write_all(in, text, strlen(text)) ||
+        lseek(in, 0, SEEK_SET))
+        goto out;
+    posix_spawn_file_actions_t fa;
+    posix_spawnattr_t at;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, in, 0);
+    posix_spawn_file_actions_adddup2(&fa, pipefd[1], 1);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    posix_spawnattr_init(&at);
+    sigset_t none, dfl;
+    sigemptyset(&none); /* the watch thread blocks SIGINT and SIGTERM; dot must not */
+    sigemptyset(&dfl);
+    sigaddset(&dfl, SIGPIPE);
+    posix_spawnattr_setsigmask(&at, &none);
+    posix_spawnattr_setsigdefault(&at, &dfl);
+    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+    char *argv[] = {"dot", "-Tsvg", NULL};
+    int rc = posix_spawnp(&pid, "dot", &fa, &at, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    posix_spawnattr_destroy(&at);
+    close(pipefd[1]);
+    pipefd[1] = -1;
+    if (rc) {
+        pid = -1;
+        goto out;
+    }
+    struct timespec t0, t;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (;;) {
+        clock_gettime(CLOCK_MONOTONIC, &t);
+        long left =
+            DOT_LIMIT_MS - ((t.tv_sec - t0.tv_sec) * 1000 + (t.tv_nsec - t0.tv_nsec) / 1000000);
+        struct pollfd pf = {pipefd[0], POLLIN, 0};
+        if (left <= 0 || len > MAX_SVG) goto out;
+        int n = poll(&pf, 1, (int)left);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) goto out;
+        if (len + 65536 + 1 > cap) {
+            char *grown = realloc(out, cap = 2 * cap + 65536 + 1);
+            if (!grown) goto out;
+            out = grown;
+        }
+        ssize_t k = read(pipefd[0], out + len, cap - len - 1);
+        if (k < 0 && errno == EINTR) continue;
+        if (k < 0) goto out;
+        if (k == 0) break;
+        len += (size_t)k;
+    }
+    ok = true;
+out:
+    if (pid > 0) {
+        int st = 0;
+        pid_t w;
+        if (!ok) kill(pid, SIGKILL);
+        while ((w = waitpid(pid, &st, 0)) < 0 && errno == EINTR) {
+        }
+        ok = ok && w == pid && WIFEXITED(st) && WEXITSTATUS(st) == 0;
+    }
+    if (in >= 0) close(in);
+    if (pipefd[0] >= 0) close(pipefd[0]);
+    if (pipefd[1] >= 0) close(pipefd[1]);
+    if (ok && out) {
+        out[len] = '\0';
+        ok = strstr(out, "<svg") != NULL;
+    }
+    if (!ok) {
+        free(out);
+        return NULL;
+    }
+    *size = len;
+    return out;
+}
+
+void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
+                   const WgError *err, const char *const *sets, int n_sets)
 {
     /* everything is prepared outside the lock: readers wait only for the swap */
     char *params = NULL, **names = NULL, *times = NULL, *setj = sets_json(sets, n_sets);
-    char *error = NULL;
+    char *error = NULL, *nodes = NULL, *svg = NULL, *dot = NULL;
+    size_t svg_size = 0;
+    bool reads = s->reads_time; /* kept while the request does not plan (an edit under way) */
     int n_names = 0, n_outs = 0;
     Output *outs = NULL;
     if (g) {
         params = params_json(g, sets, n_sets);
+        nodes = nodes_json(g);
+        WgError e = {0};
+        bool b;
+        if (r && !wg_request_reads_time(r, &b, &e)) reads = b;
+        dot = dot_text(g, r);
+        if (dot && s->dot_text && !strcmp(dot, s->dot_text)) { /* the same picture */
+            free(dot);
+            dot = NULL;
+        } else if (dot) {
+            svg = run_dot(dot, &svg_size);
+            free(s->dot_text);
+            s->dot_text = dot; /* only the watch thread reads it */
+        }
         n_names = wg_graph_param_count(g);
         names = calloc((size_t)n_names + 1, sizeof *names);
         for (int i = 0; names && i < n_names; i++)
@@ -249,6 +431,7 @@ void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgErro
         outs = calloc((size_t)n_outs + 1, sizeof *outs);
         for (int i = 0; outs && i < n_outs; i++) {
             outs[i].name = strdup(wg_result_output_name(res, i));
+            outs[i].channels = wg_result_output_image(res, i)->channels;
             if (wg_png_preview(wg_result_output_image(res, i), wg_result_output_colorspace(res, i),
                                &outs[i].png, &outs[i].size))
                 outs[i].png = NULL;
@@ -269,6 +452,19 @@ void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgErro
         s->n_params = n_names;
         params = NULL;
         names = NULL;
+        s->reads_time = reads;
+    }
+    if (g && nodes) {
+        free(s->nodes_json);
+        s->nodes_json = nodes;
+        nodes = NULL;
+    }
+    if (dot) { /* a new picture, or none when dot failed */
+        free(s->svg);
+        s->svg = svg;
+        s->svg_size = svg_size;
+        s->svg_version++;
+        svg = NULL;
     }
     if (res && outs && times) {
         outputs_free(s->outs, s->n_outs);
@@ -276,6 +472,7 @@ void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgErro
         s->outs = outs;
         s->n_outs = n_outs;
         s->times_json = times;
+        s->time = s->next_time;
         s->out_version = s->version + 1;
         outs = NULL;
         times = NULL;
@@ -296,6 +493,8 @@ void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgErro
     outputs_free(outs, outs ? n_outs : 0);
     free(times);
     free(setj);
+    free(nodes);
+    free(svg);
 }
 
 static enum MHD_Result respond(struct MHD_Connection *c, unsigned status, const char *type,
@@ -324,17 +523,40 @@ static enum MHD_Result not_found(struct MHD_Connection *c)
 
 static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
 {
+    /* ?after=V: answer once render V+1 is published (at most PING_S later): a page that does not
+     * keep /events open waits for the next render without polling */
+    const char *after = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "after");
+    char *end = NULL;
+    unsigned long long v = after ? strtoull(after, &end, 10) : 0;
+    if (after && (!*after || *end))
+        return respond_text(c, MHD_HTTP_BAD_REQUEST, "text/plain", "after: a render number\n");
     Mem m;
     FILE *f = mem_open(&m);
     if (!f) return MHD_NO;
     pthread_mutex_lock(&s->lock);
+    if (after) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_sec += PING_S;
+        int rc = 0;
+        while (!s->stopping && s->version <= v && rc != ETIMEDOUT)
+            rc = pthread_cond_timedwait(&s->rendered, &s->lock, &until);
+    }
     fprintf(f, "{\"version\":%llu,\"file\":", (unsigned long long)s->version);
     cli_json_string(f, s->file);
-    fprintf(f, ",\"params\":%s,\"outputs\":[", s->params_json ? s->params_json : "[]");
+    fprintf(f, ",\"params\":%s,\"time\":%.17g,\"reads_time\":%s,\"nodes\":%s,\"svg\":",
+            s->params_json ? s->params_json : "[]", s->time, s->reads_time ? "true" : "false",
+            s->nodes_json ? s->nodes_json : "[]");
+    if (s->svg)
+        fprintf(f, "%llu", (unsigned long long)s->svg_version);
+    else
+        fputs("null", f);
+    fputs(",\"outputs\":[", f);
     for (int i = 0; i < s->n_outs; i++) {
         fputs(i ? ",{\"name\":" : "{\"name\":", f);
         cli_json_string(f, s->outs[i].name);
-        fprintf(f, ",\"version\":%llu}", (unsigned long long)s->out_version);
+        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->out_version,
+                s->outs[i].channels);
     }
     fprintf(f, "],\"times\":%s,\"sets\":%s,\"error\":", s->times_json ? s->times_json : "[]",
             s->sets_json ? s->sets_json : "[]");
@@ -363,6 +585,27 @@ static enum MHD_Result image(Serve *s, struct MHD_Connection *c, const char *nam
     }
     pthread_mutex_unlock(&s->lock);
     return not_found(c);
+}
+
+static enum MHD_Result graph_svg(Serve *s, struct MHD_Connection *c)
+{
+    pthread_mutex_lock(&s->lock);
+    if (!s->svg) {
+        pthread_mutex_unlock(&s->lock);
+        return not_found(c);
+    }
+    struct MHD_Response *r =
+        MHD_create_response_from_buffer(s->svg_size, s->svg, MHD_RESPMEM_MUST_COPY);
+    pthread_mutex_unlock(&s->lock);
+    if (!r) return MHD_NO;
+    MHD_add_response_header(r, "Content-Type", "image/svg+xml");
+    MHD_add_response_header(r, "Cache-Control", "no-store");
+    /* the picture is only ever shown as an image: nothing in it runs */
+    MHD_add_response_header(r, "Content-Security-Policy",
+                            "default-src 'none'; style-src 'unsafe-inline'");
+    enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
+    MHD_destroy_response(r);
+    return ok;
 }
 
 typedef struct {
@@ -396,6 +639,17 @@ static enum MHD_Result set_one(void *cls, enum MHD_ValueKind kind, const char *k
             snprintf(x->msg, sizeof x->msg, "'%.64s': the value has a control character", key);
             return MHD_NO;
         }
+    if (!strcmp(key, "$time")) {
+        double t;
+        if (!wg_parse_number(value, &t)) {
+            snprintf(x->msg, sizeof x->msg, "$time: '%.64s' is not a number", value);
+            return MHD_NO;
+        }
+        s->q_has_time = true;
+        s->q_time = t;
+        x->n++;
+        return MHD_YES;
+    }
     if (!known_param(s, key)) {
         snprintf(x->msg, sizeof x->msg, "the graph has no parameter '%.64s'", key);
         return MHD_NO;
@@ -533,6 +787,7 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
         return respond_text(c, MHD_HTTP_OK, "text/html; charset=utf-8", serve_page);
     if (!strcmp(url, "/api/state")) return state(s, c);
     if (!strcmp(url, "/events")) return events(s, c);
+    if (!strcmp(url, "/graph.svg")) return graph_svg(s, c);
     size_t len = strlen(url);
     if (!strncmp(url, "/out/", 5) && len > 9 && !strcmp(url + len - 4, ".png"))
         return image(s, c, url + 5, len - 9);
@@ -548,6 +803,9 @@ static void serve_free(Serve *s)
     free(s->times_json);
     free(s->sets_json);
     free(s->error);
+    free(s->nodes_json);
+    free(s->svg);
+    free(s->dot_text);
     for (int i = 0; i < s->n_params; i++) free(s->param_names[i]);
     free(s->param_names);
     outputs_free(s->outs, s->n_outs);
@@ -562,16 +820,34 @@ static void serve_free(Serve *s)
     free(s);
 }
 
-int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *err)
+/* Parse spec: PORT, IPV4:PORT or [IPV6]:PORT. */
+static int parse_spec(const char *spec, struct sockaddr_storage *ss, bool *v6, WgError *err)
 {
-    *out = NULL;
     char addr[64] = "127.0.0.1";
-    const char *colon = strrchr(spec, ':'), *port_text = colon ? colon + 1 : spec;
-    if (colon) {
+    const char *port_text = spec;
+    *v6 = false;
+    if (spec[0] == '[') {
+        const char *close = strchr(spec, ']');
+        if (!close || close[1] != ':' || (size_t)(close - spec - 1) >= sizeof addr)
+            return wg_error_set(err, WG_ERR_RANGE, NULL,
+                                "--serve %s: expected [IPV6]:PORT, such as [::1]:8080", spec);
+        snprintf(addr, sizeof addr, "%.*s", (int)(close - spec - 1), spec + 1);
+        port_text = close + 2;
+        *v6 = true;
+    } else if (strchr(spec, ':')) {
+        const char *colon = strchr(spec, ':');
+        if (strchr(colon + 1, ':'))
+            return wg_error_set(err, WG_ERR_RANGE, NULL,
+                                "--serve %s: an IPv6 address goes in brackets: [ADDR]:PORT, "
+                                "such as [::1]:8080",
+                                spec);
         if ((size_t)(colon - spec) >= sizeof addr || colon == spec)
             return wg_error_set(err, WG_ERR_RANGE, NULL,
-                                "--serve %s: expected [ADDR:]PORT with an IPv4 address", spec);
+                                "--serve %s: expected [ADDR:]PORT with an IPv4 address, or "
+                                "[IPV6]:PORT",
+                                spec);
         snprintf(addr, sizeof addr, "%.*s", (int)(colon - spec), spec);
+        port_text = colon + 1;
     }
     char *end;
     errno = 0;
@@ -580,13 +856,33 @@ int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *
         *port_text == '-' || *port_text == ' ')
         return wg_error_set(err, WG_ERR_RANGE, NULL,
                             "--serve %s: the port must be a number from 1 to 65535", spec);
-    struct sockaddr_in sa = {0};
-    sa.sin_family = AF_INET;
-    sa.sin_port = htons((uint16_t)port);
-    if (inet_pton(AF_INET, addr, &sa.sin_addr) != 1)
-        return wg_error_set(err, WG_ERR_RANGE, NULL,
-                            "--serve %s: '%s' is not an IPv4 address such as 127.0.0.1", spec,
-                            addr);
+    memset(ss, 0, sizeof *ss);
+    if (*v6) {
+        struct sockaddr_in6 *sa = (struct sockaddr_in6 *)ss;
+        sa->sin6_family = AF_INET6;
+        sa->sin6_port = htons((uint16_t)port);
+        if (inet_pton(AF_INET6, addr, &sa->sin6_addr) != 1)
+            return wg_error_set(err, WG_ERR_RANGE, NULL,
+                                "--serve %s: '%s' is not an IPv6 address such as ::1", spec, addr);
+    } else {
+        struct sockaddr_in *sa = (struct sockaddr_in *)ss;
+        sa->sin_family = AF_INET;
+        sa->sin_port = htons((uint16_t)port);
+        if (inet_pton(AF_INET, addr, &sa->sin_addr) != 1)
+            return wg_error_set(err, WG_ERR_RANGE, NULL,
+                                "--serve %s: '%s' is not an IPv4 address such as 127.0.0.1", spec,
+                                addr);
+    }
+    return WG_OK;
+}
+
+int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *err)
+{
+    *out = NULL;
+    struct sockaddr_storage ss;
+    bool v6;
+    int rc = parse_spec(spec, &ss, &v6, err);
+    if (rc) return rc;
     Serve *s = calloc(1, sizeof *s);
     if (!s) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     pthread_mutex_init(&s->lock, NULL);
@@ -599,15 +895,19 @@ int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *
     }
     /* no MHD_USE_ERROR_LOG: its messages would duplicate the error below (and call the port
      * given with MHD_OPTION_SOCK_ADDR 0) */
-    s->d = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION, 0,
-                            NULL, NULL, handle, s, MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&sa,
-                            MHD_OPTION_CONNECTION_LIMIT, 64u, MHD_OPTION_CONNECTION_TIMEOUT, 60u,
-                            MHD_OPTION_END);
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION;
+    if (v6) /* [::] also takes IPv4 connections (dual stack) */
+        flags |= IN6_IS_ADDR_UNSPECIFIED(&((struct sockaddr_in6 *)&ss)->sin6_addr)
+                     ? MHD_USE_DUAL_STACK
+                     : MHD_USE_IPv6;
+    s->d = MHD_start_daemon(flags, 0, NULL, NULL, handle, s, MHD_OPTION_SOCK_ADDR,
+                            (struct sockaddr *)&ss, MHD_OPTION_CONNECTION_LIMIT, 64u,
+                            MHD_OPTION_CONNECTION_TIMEOUT, 60u, MHD_OPTION_END);
     if (!s->d) {
         int e = errno;
         serve_free(s);
-        return wg_error_set(err, WG_ERR_IO, NULL, "--serve %s: cannot listen on %s:%ld: %s", spec,
-                            addr, port, strerror(e));
+        return wg_error_set(err, WG_ERR_IO, NULL, "--serve %s: cannot listen: %s", spec,
+                            strerror(e));
     }
     *out = s;
     return WG_OK;

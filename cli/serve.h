@@ -9,8 +9,9 @@
 
 typedef struct Serve Serve;
 
-/* Parse spec ("PORT" or "ADDR:PORT", ADDR an IPv4 address; default 127.0.0.1) and start
- * listening; the caller owns *out. A bad spec is WG_ERR_RANGE, a failed listen WG_ERR_IO. */
+/* Parse spec ("PORT", "ADDR:PORT" with an IPv4 ADDR, or "[ADDR]:PORT" with an IPv6 ADDR, "[::]"
+ * taking IPv4 too; default 127.0.0.1) and start listening; the caller owns *out. A bad spec is
+ * WG_ERR_RANGE, a failed listen WG_ERR_IO. */
 int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *err);
 /* A descriptor that becomes readable when a parameter change is queued; serve_drain empties
  * it. */
@@ -21,11 +22,16 @@ void serve_drain(Serve *s);
  * caller frees *out with serve_sets_free. */
 int serve_sets(Serve *s, const char **base, int n_base, char ***out, int *n);
 void serve_sets_free(char **sets, int n);
+/* $time for the next render: the last one the page set (/api/set?$time=T), else base (the
+ * command line's --time, or 0). */
+double serve_time(Serve *s, double base);
 /* Publish a finished render attempt: g (NULL when the graph did not load: the parameter list
- * stays as it was), res (NULL when it failed; the images stay as they were), err (NULL on
- * success) and the --set list it used. Encodes the output previews and wakes /events. */
-void serve_publish(Serve *s, const WgGraph *g, const WgResult *res, const WgError *err,
-                   const char *const *sets, int n_sets);
+ * stays as it was), the request r (NULL when it was not built), res (NULL when it failed; the
+ * images stay as they were), err (NULL on success) and the --set list it used. Encodes the output
+ * previews, finds whether the graph reads $time, draws the graph with dot when its Graphviz text
+ * changed, and wakes /events. */
+void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
+                   const WgError *err, const char *const *sets, int n_sets);
 void serve_stop(Serve *s);
 
 #endif

@@ -44,8 +44,9 @@ static const char help[] =
     "--contact-sheet, --batch, --shard and --batch-json, and:\n"
 #ifdef WG_HAVE_SERVE
     "  --serve [ADDR:]PORT    also serve a web view of the outputs with controls for the\n"
-    "                         graph's parameters on http://ADDR:PORT/ (ADDR: an IPv4\n"
-    "                         address, default 127.0.0.1, this machine only)\n";
+    "                         graph's parameters (and $time) on http://ADDR:PORT/ (ADDR:\n"
+    "                         an IPv4 address, or an IPv6 one in brackets such as [::1];\n"
+    "                         default 127.0.0.1, this machine only)\n";
 #else
     "  --serve [ADDR:]PORT    not available: this wetgraph was built without libmicrohttpd\n";
 #endif
@@ -208,6 +209,8 @@ static void render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
         }
         opt.sets = (const char **)sets;
         opt.n_sets = n_sets;
+        opt.time = serve_time(serve, base->has_time ? base->time : 0); /* the page's play */
+        opt.has_time = true;
     }
 #endif
     /* the graph file and the inputs as they are before they are read */
@@ -249,14 +252,14 @@ static void render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
             print_ran(res, now_ms() - t0);
     }
 #ifdef WG_HAVE_SERVE
-    if (serve) serve_publish(serve, g, res, NULL, (const char *const *)o->sets, o->n_sets);
+    if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
 #endif
     goto out;
 fail:
     cli_report(&err);
     if (!o->quiet) fprintf(stderr, "watch: the last good outputs are kept; waiting for a change\n");
 #ifdef WG_HAVE_SERVE
-    if (serve) serve_publish(serve, g, NULL, &err, (const char *const *)o->sets, o->n_sets);
+    if (serve) serve_publish(serve, g, r, NULL, &err, (const char *const *)o->sets, o->n_sets);
 #endif
 out:
 #ifdef WG_HAVE_SERVE

@@ -211,6 +211,7 @@ typedef struct WgPlan {
     int n_insts, cap_insts;
     WgPlanOutput *outputs;
     int n_outputs;
+    bool reads_time; /* an instance reads $time (a timed node, an expression, a node's scope) */
 } WgPlan;
 
 struct WgRequest {

@@ -490,6 +490,9 @@ static int eval_attr(Builder *b, Frame *f, const NodeDef *n, const AttrDef *a, c
 {
     int rc;
     if (a->expr) {
+        for (int i = 0; i < a->expr->count_ && !b->plan->reads_time; i++)
+            b->plan->reads_time = a->expr->nodes_[i].op == WG_EX_VAR &&
+                                  a->expr->nodes_[i].slot == f->g->n_params + WG_SCOPE_TIME;
         memset(out, 0, sizeof *out);
         out->type = d ? d->type : WG_PARAM_FLOAT_T;
         out->num = wg_expr_eval(a->expr, slots);
@@ -571,6 +574,7 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
     int index = b->plan->n_insts - 1;
     fill_scope(f, slots, seed, w, h);
     in->type = t;
+    if (t->flags & WG_NODE_TIMED) b->plan->reads_time = true;
     size_t idl = strlen(f->prefix) + strlen(n->id) + 1;
     in->id = wg_malloc(idl);
     if (in->id) snprintf(in->id, idl, "%s%s", f->prefix, n->id);
@@ -657,6 +661,7 @@ static int inst_builtin(Builder *b, Frame *f, int idx, int *result)
                 rc = WG_ERR_NOMEM;
                 goto out_slots;
             }
+            if (i == g->n_params + WG_SCOPE_TIME) b->plan->reads_time = true;
             in->scope_values[in->n_scope++] = slots[i];
         }
     }
@@ -1053,6 +1058,16 @@ out:
     wg__key_index_free(&b.merged);
     if (rc) wg__plan_free(plan);
     return rc;
+}
+
+int wg_request_reads_time(const WgRequest *r, bool *out, WgError *err)
+{
+    WgPlan plan;
+    int rc = wg__plan_build(r, &plan, err);
+    if (rc) return rc;
+    *out = plan.reads_time;
+    wg__plan_free(&plan);
+    return WG_OK;
 }
 
 /* The engine-internal node behind wg_request_set_input_image. */

@@ -1,12 +1,17 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph watch --serve`: started in the background on a graph in a temporary folder with a
- * free port, it serves its page; /api/state lists the graph's parameters; /api/set (GET and
- * POST) changes one, /events announces the new render and the output's PNG then differs and
- * decodes to the image `wetgraph render --set` writes; an unknown parameter is refused (400);
- * path traversal (plain and %-encoded) and unknown paths are 404; an edit of the graph file
- * still renders again; SIGINT ends it with exit 0. The HTTP client is plain sockets with
- * HTTP/1.0 (the server closes each connection after its answer); every wait has a harness limit
- * (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
+ * free port, it serves its page; /api/state lists the graph's parameters, its nodes, whether it
+ * reads $time and which outputs are gray; /api/set (GET and POST) changes one, /events
+ * announces the new render and the output's PNG then differs and decodes to the image
+ * `wetgraph render --set` writes; an unknown parameter is refused (400); /api/set?$time=T sets
+ * $time (a malformed time is refused) and /api/state?after=V answers with that render; /graph.svg
+ * is what `dot -Tsvg` wrote (a stand-in script first in PATH records its arguments and input) and
+ * dot runs once, not on every render; without dot in PATH /graph.svg is 404; path traversal (plain
+ * and %-encoded) and unknown paths are 404; an edit of the graph file still renders again; SIGINT
+ * ends it with exit 0. It listens on [::1] and on [::] (IPv4 too) when the machine has IPv6
+ * loopback (skipped otherwise), and a malformed address is a usage error naming it. The HTTP client
+ * is plain sockets with HTTP/1.0 (the server closes each connection after its answer); every wait
+ * has a harness limit (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
@@ -38,7 +43,7 @@ static const char graph[] =
 
 static char dir[1024];
 static pid_t watcher;
-static int port;
+static int port, family = AF_INET; /* where request() connects: 127.0.0.1 or ::1 */
 
 static const char *path(const char *name)
 {
@@ -71,13 +76,17 @@ static void wait_for(const char *needle, int count)
 /* Connect and send "METHOD target HTTP/1.0"; the socket has a receive time-out. */
 static int request(const char *method, const char *target)
 {
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    int fd = socket(family, SOCK_STREAM, 0);
     assert_true(fd >= 0);
     struct timeval tv = {LIMIT_S, 0};
     setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
     struct sockaddr_in sa = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
     sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (connect(fd, (struct sockaddr *)&sa, sizeof sa)) fail_msg("cannot connect to port %d", port);
+    struct sockaddr_in6 sa6 = {.sin6_family = AF_INET6, .sin6_port = htons((uint16_t)port)};
+    sa6.sin6_addr = in6addr_loopback;
+    if (family == AF_INET6 ? connect(fd, (struct sockaddr *)&sa6, sizeof sa6)
+                           : connect(fd, (struct sockaddr *)&sa, sizeof sa))
+        fail_msg("cannot connect to port %d (%s)", port, family == AF_INET6 ? "::1" : "127.0.0.1");
     char req[2048];
     int n = snprintf(req, sizeof req, "%s %s HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n", method, target);
     assert_int_equal(write(fd, req, (size_t)n), n);
@@ -90,9 +99,9 @@ typedef struct {
     size_t size;
 } Reply;
 
-static Reply http(const char *method, const char *target)
+/* Read the answer to a request() made earlier. */
+static Reply answer(int fd, const char *method, const char *target)
 {
-    int fd = request(method, target);
     size_t cap = 1 << 16, len = 0;
     char *buf = malloc(cap + 1);
     assert_non_null(buf);
@@ -116,6 +125,11 @@ static Reply http(const char *method, const char *target)
     r.body = end + 4;
     r.size = len - (size_t)(r.body - buf);
     return r;
+}
+
+static Reply http(const char *method, const char *target)
+{
+    return answer(request(method, target), method, target);
 }
 
 static int status_of(const char *method, const char *target)
@@ -142,11 +156,53 @@ static WgImage *fetch_png(const char *name)
     return img;
 }
 
+/* Start watch on g.wetgraph serving spec, with PATH set to path_dirs (a folder of the test's
+ * folder, with or without a stand-in dot). */
+static void start(const char *spec, const char *path_dir)
+{
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    unlink(path("werr")); /* the last session's log */
+    watcher = fork();
+    assert_true(watcher >= 0);
+    if (watcher == 0) {
+        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
+        setenv("PATH", path(path_dir), 1);
+        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, (char *)NULL);
+        _exit(98);
+    }
+}
+
+static void stop(void)
+{
+    assert_int_equal(kill(watcher, SIGINT), 0);
+    int st = 0;
+    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
+        if (waited > LIMIT_MS) {
+            kill(watcher, SIGKILL);
+            fail_msg("watch did not stop on SIGINT");
+        }
+        wgt_sleep_ms(5);
+    }
+    watcher = 0;
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+}
+
 static int setup(void **state)
 {
     (void)state;
     snprintf(dir, sizeof dir, "%s/serve", wgt_tmpdir());
     mkdir(dir, 0777);
+    /* a stand-in for graphviz's dot: records each run's arguments and input */
+    mkdir(path("bin"), 0777);
+    mkdir(path("nobin"), 0777);
+    wgt_write_file(path("bin/dot"), "#!/bin/sh\nPATH=/usr/bin:/bin\n"
+                                    "echo \"$*\" >>dot.args\n"
+                                    "cat >dot.in\n"
+                                    "echo '<svg xmlns=\"http://www.w3.org/2000/svg\"><text>stand-in"
+                                    "</text></svg>'\n");
+    chmod(path("bin/dot"), 0755);
     return 0;
 }
 
@@ -157,15 +213,10 @@ static void test_serve_session(void **state)
     if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
     save("g.wetgraph", "4");
     port = wgt_free_port();
+    family = AF_INET;
     char spec[64];
     snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
-    watcher = fork();
-    assert_true(watcher >= 0);
-    if (watcher == 0) {
-        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
-        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, (char *)NULL);
-        _exit(98);
-    }
+    start(spec, "bin");
     wait_for("watch: waiting", 1);
 
     /* the page */
@@ -182,10 +233,23 @@ static void test_serve_session(void **state)
     assert_non_null(strstr(r.body, "{\"name\":\"level\",\"type\":\"float\""));
     assert_non_null(strstr(r.body, "\"value\":\"0.25\",\"min\":0,\"max\":1}"));
     assert_non_null(strstr(r.body, "\"values\":[\"a\",\"b\"]"));
-    assert_non_null(strstr(r.body, "\"outputs\":[{\"name\":\"c\",\"version\":1}]"));
+    assert_non_null(strstr(r.body, "\"outputs\":[{\"name\":\"c\",\"version\":1,\"channels\":1}]"));
     assert_non_null(strstr(r.body, "\"id\":\"mix\""));
+    assert_non_null(strstr(r.body, "\"nodes\":[{\"id\":\"n\",\"type\":\"noise\"},"));
+    assert_non_null(strstr(r.body, "\"time\":0,\"reads_time\":false"));
+    assert_non_null(strstr(r.body, "\"svg\":1"));
     assert_non_null(strstr(r.body, "\"error\":null"));
     free(r.head);
+
+    /* the graph's picture: dot -Tsvg with the graph on its input, its output served as is */
+    r = http("GET", "/graph.svg");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "image/svg+xml"));
+    assert_non_null(strstr(r.body, "<text>stand-in</text></svg>"));
+    free(r.head);
+    assert_int_equal(count_in("dot.args", "-Tsvg\n"), 1);
+    assert_int_equal(count_in("dot.in", "digraph"), 1);
+    assert_true(count_in("dot.in", "mix") > 0);
     WgImage *first = fetch_png("first.png");
 
     /* a change: /events announces the render, the preview is the image render --set writes */
@@ -221,6 +285,32 @@ static void test_serve_session(void **state)
     wait_for("watch: waiting", 3);
     assert_int_equal(status_of("GET", "/api/set?nope=1"), 400);
 
+    /* $time: a number is queued and the state shows the render's time (/api/state?after=V
+     * answers once that render is there); anything else is refused */
+    r = http("GET", "/api/state");
+    unsigned long long v = 0;
+    assert_int_equal(sscanf(r.body, "{\"version\":%llu,", &v), 1);
+    free(r.head);
+    char target[64], version[64];
+    snprintf(target, sizeof target, "/api/state?after=%llu", v);
+    int waiting = request("GET", target);
+    assert_int_equal(status_of("POST", "/api/set?%24time=2.5"), 200);
+    r = answer(waiting, "GET", target);
+    snprintf(version, sizeof version, "{\"version\":%llu,", v + 1);
+    assert_non_null(strstr(r.body, version));
+    assert_non_null(strstr(r.body, "\"time\":2.5,"));
+    free(r.head);
+    wait_for("watch: waiting", 4);
+    assert_int_equal(status_of("GET", "/api/state?after=x"), 400);
+    r = http("GET", "/api/state?after=0"); /* already there */
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "\"sets\":[\"level=0.5\"]"));
+    free(r.head);
+    assert_int_equal(status_of("POST", "/api/set?%24time=soon"), 400);
+    assert_int_equal(status_of("POST", "/api/set?%24time=1e999"), 400);
+    /* four renders with other values, one picture: dot runs when the graph changes */
+    assert_int_equal(count_in("dot.args", "-Tsvg\n"), 1);
+
     /* only the page and the current outputs */
     const char *bad[] = {"/out/../../etc/passwd",
                          "/out/../../etc/passwd.png",
@@ -233,7 +323,12 @@ static void test_serve_session(void **state)
                          "/out/.png",
                          "/api/statex",
                          "/g.wetgraph",
-                         "/o/g_c.png"};
+                         "/o/g_c.png",
+                         "/graph.svgx",
+                         "/graph.svg/../../etc/passwd",
+                         "/out/../graph.svg",
+                         "/graph",
+                         "/dot.in"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         int st = status_of("GET", bad[i]);
         if (st != 404) fail_msg("GET %s: status %d, expected 404", bad[i], st);
@@ -241,7 +336,7 @@ static void test_serve_session(void **state)
 
     /* an edit of the file renders again, with the web view's value still applied */
     save("g.wetgraph", "9");
-    wait_for("watch: waiting", 4);
+    wait_for("watch: waiting", 5);
     WgImage *third = fetch_png("third.png");
     assert_true(wgt_max_abs_diff(second, third) > 0.01);
     assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.5 -o cli -q", bin), 0);
@@ -255,17 +350,67 @@ static void test_serve_session(void **state)
     wg_image_unref(cli);
 
     /* Ctrl-C ends the session cleanly */
-    assert_int_equal(kill(watcher, SIGINT), 0);
-    int st = 0;
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) {
-            kill(watcher, SIGKILL);
-            fail_msg("watch did not stop on SIGINT");
-        }
-        wgt_sleep_ms(5);
-    }
-    assert_true(WIFEXITED(st));
-    assert_int_equal(WEXITSTATUS(st), 0);
+    stop();
+}
+
+/* Without dot in PATH there is no picture (the page lists the nodes instead). */
+static void test_serve_without_dot(void **state)
+{
+    (void)state;
+    save("g.wetgraph", "4");
+    port = wgt_free_port();
+    family = AF_INET;
+    char spec[64];
+    snprintf(spec, sizeof spec, "%d", port);
+    start(spec, "nobin");
+    wait_for("watch: waiting", 1);
+    Reply r = http("GET", "/api/state");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "\"svg\":null"));
+    assert_non_null(strstr(r.body, "\"nodes\":[{\"id\":\"n\",\"type\":\"noise\"},"));
+    free(r.head);
+    assert_int_equal(status_of("GET", "/graph.svg"), 404);
+    stop();
+}
+
+/* Can this machine listen on ::1? */
+static bool have_ipv6_loopback(void)
+{
+    int fd = socket(AF_INET6, SOCK_STREAM, 0);
+    if (fd < 0) return false;
+    struct sockaddr_in6 sa = {.sin6_family = AF_INET6};
+    sa.sin6_addr = in6addr_loopback;
+    bool ok = bind(fd, (struct sockaddr *)&sa, sizeof sa) == 0;
+    close(fd);
+    return ok;
+}
+
+/* [::1]:PORT listens on IPv6 loopback; [::]:PORT takes IPv6 and IPv4 connections. */
+static void test_serve_ipv6(void **state)
+{
+    (void)state;
+    if (!have_ipv6_loopback()) skip();
+    save("g.wetgraph", "4");
+    port = wgt_free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "[::1]:%d", port);
+    start(spec, "nobin");
+    wait_for("watch: waiting", 1);
+    assert_int_equal(count_in("werr", "serving on http://[::1]:"), 1);
+    family = AF_INET6;
+    assert_int_equal(status_of("GET", "/api/state"), 200);
+    assert_int_equal(status_of("GET", "/out/../../etc/passwd.png"), 404);
+    stop();
+
+    port = wgt_free_port();
+    snprintf(spec, sizeof spec, "[::]:%d", port);
+    start(spec, "nobin");
+    wait_for("watch: waiting", 1);
+    family = AF_INET6;
+    assert_int_equal(status_of("GET", "/api/state"), 200);
+    family = AF_INET;
+    assert_int_equal(status_of("GET", "/api/state"), 200);
+    stop();
 }
 
 static int stop_watcher(void **state)
@@ -290,12 +435,24 @@ static void test_serve_usage(void **state)
     assert_int_equal(count_in("err2", "--serve 70000: the port must be a number"), 1);
     assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve local:80 2>err2", bin), 2);
     assert_int_equal(count_in("err2", "is not an IPv4 address"), 1);
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve ::1:8080 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "--serve ::1:8080: an IPv6 address goes in brackets"), 1);
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve '[::1]8080' 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "--serve [::1]8080: expected [IPV6]:PORT"), 1);
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve '[::1' 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "expected [IPV6]:PORT"), 1);
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve '[1.2.3.4]:80' 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "'1.2.3.4' is not an IPv6 address"), 1);
+    assert_int_equal(wgt_shell(dir, "'%s' watch g.wetgraph --serve '[::1]:0' 2>err2", bin), 2);
+    assert_int_equal(count_in("err2", "the port must be a number from 1 to 65535"), 1);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_serve_session, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_without_dot, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_ipv6, stop_watcher),
         cmocka_unit_test(test_serve_usage),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

@@ -867,6 +867,38 @@ static void test_identical_nodes_are_merged(void **state)
     wg_graph_free(g);
 }
 
+/* wg_request_reads_time: true when an output depends on $time through an expression attribute or
+ * a per-pixel expression; false when only an unused node reads it. */
+static bool reads_time(const char *body)
+{
+    char xml[2048];
+    snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"8\">%s</wetgraph>", body);
+    WgGraph *g = load(xml);
+    WgRequest *r = request(g);
+    WgError err = {0};
+    bool out = true;
+    assert_int_equal(wg_request_reads_time(r, &out, &err), WG_OK);
+    wg_request_free(r);
+    wg_graph_free(g);
+    return out;
+}
+
+static void test_reads_time(void **state)
+{
+    (void)state;
+    assert_false(reads_time("<node id=\"n\" type=\"noise\" scale=\"4\"/>"
+                            "<output name=\"o\" from=\"n\"/>"));
+    assert_true(reads_time("<node id=\"n\" type=\"noise\" scale=\"=4 + $time\"/>"
+                           "<output name=\"o\" from=\"n\"/>"));
+    assert_false(reads_time("<node id=\"n\" type=\"noise\" scale=\"4\"/>"
+                            "<node id=\"unused\" type=\"noise\" scale=\"=4 + $time\"/>"
+                            "<output name=\"o\" from=\"n\"/>"));
+    assert_true(reads_time("<node id=\"p\" type=\"pixel\" expr=\"fract($time)\"/>"
+                           "<output name=\"o\" from=\"p\"/>"));
+    assert_false(reads_time("<node id=\"p\" type=\"pixel\" expr=\"x\"/>"
+                            "<output name=\"o\" from=\"p\"/>"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -884,6 +916,7 @@ int main(void)
         cmocka_unit_test(test_graph_inputs),
         cmocka_unit_test(test_evaluated_count),
         cmocka_unit_test(test_identical_nodes_are_merged),
+        cmocka_unit_test(test_reads_time),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

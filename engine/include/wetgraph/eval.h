@@ -80,6 +80,12 @@ int wg_request_check(const WgRequest *r, WgError *err);
  * each group of its nodes that a render of the request with nothing cached evaluates fused. */
 int wg_request_write_dot(const WgRequest *r, FILE *f, WgError *err);
 
+/* Does a render of the request read $time: does an output depend on a node that reads it
+ * directly (a timed node or a node's own expression scope) or on a parameter given as an
+ * expression that names $time? When *out is false, renders at any time give the same
+ * images. */
+int wg_request_reads_time(const WgRequest *r, bool *out, WgError *err);
+
 /* Evaluate. On success the caller owns *out. */
 int wg_render(WgEngine *e, const WgRequest *r, WgResult **out, WgError *err);
 
