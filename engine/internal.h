@@ -227,6 +227,7 @@ struct WgRequest {
     double time;
     WgProgressFn progress;
     void *progress_user;
+    WgCancel *cancel; /* borrowed; NULL: none */
 };
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);
