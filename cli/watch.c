@@ -206,6 +206,7 @@ typedef struct {
     int ifd, sfd, serve_fd, stop_fd;
     pthread_t tid;
     bool running;
+    bool signalled; /* it was a signal (read after the join) */
 } Monitor;
 
 static void *monitor_main(void *arg)
@@ -221,6 +222,7 @@ static void *monitor_main(void *arg)
             return NULL;
         }
         if (p[0].revents) return NULL;
+        m->signalled = p[2].revents != 0;
         if (p[2].revents || p[3].revents || (p[1].revents && read_events(m->ifd, m->files, m->wds)))
             break;
     }
@@ -332,7 +334,8 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
     wg_cancel_free(cancel);
     if (superseded) {
         if (!o->quiet)
-            fprintf(stderr, "watch: render superseded after %.2f s\n", (now_ms() - t0) / 1e3);
+            fprintf(stderr, "watch: render %s after %.2f s\n",
+                    m.signalled ? "stopped" : "superseded", (now_ms() - t0) / 1e3);
         goto out;
     }
     if (rc || write_outputs(o, g, res, -1, &err)) goto fail;

@@ -5,7 +5,8 @@
  * error with file and line and leaves the outputs as they were; the fix renders again; the
  * session survives 100 edits in a row with broken ones among them and its resident memory does
  * not grow; SIGINT ends it with exit 0. An edit saved while a long render runs cancels that
- * render ("superseded") and the edit's render follows, with the outputs a plain render gives.
+ * render ("superseded") and the edit's render follows, with the outputs a plain render gives;
+ * SIGINT during a long render stops it and ends the session.
  * Each wait has a harness limit (no timing assertions). Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
@@ -323,11 +324,21 @@ static void test_watch_supersedes_a_running_render(void **state)
     assert_true(value_of("o/w_a.exr") == 0.75f);
 
     /* the outputs are those of a plain render of the last state */
-    assert_int_equal(wgt_shell(dir, "\"$WG\" render w.wetgraph -o ref --threads 1"), 0);
+    /* (run in ref/, where its out and err files go: err here is the watch's log) */
+    mkdir(path("ref"), 0777);
+    assert_int_equal(
+        wgt_shell(path("ref"), "cd .. && \"$WG\" render w.wetgraph -o ref --threads 1"), 0);
     assert_same_image("o/w_a.exr", "ref/w_a.exr");
     assert_same_image("o/w_b.exr", "ref/w_b.exr");
     assert_same_image("o/w_c.exr", "ref/w_c.exr");
 
+    /* Ctrl-C during a long render stops it too, and the session ends cleanly */
+    entries = count_entries(path("cache"));
+    save_slow("0.625");
+    for (int waited = 0; count_entries(path("cache")) == entries; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("the long render did not start");
+        wgt_sleep_ms(5);
+    }
     assert_int_equal(kill(watcher, SIGINT), 0);
     int st = 0;
     for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
@@ -339,6 +350,9 @@ static void test_watch_supersedes_a_running_render(void **state)
     }
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);
+    assert_int_equal(count_in("err", "watch: render stopped after "), 1);
+    assert_int_equal(count_in("err", "watch: render superseded after "), 1);
+    assert_true(value_of("o/w_a.exr") == 0.75f); /* the outputs of the last complete render */
 }
 
 int main(void)
