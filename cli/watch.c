@@ -9,8 +9,13 @@
  * gathered until 50 ms pass without one (at most 1 s), then the render runs once. A graph that
  * does not load or check, or a render that fails, prints the error (file:line) and leaves the
  * last good outputs as they are (outputs are written all or none); the next change is tried
- * again. SIGINT and SIGTERM end the session cleanly (exit 0): they are blocked in every thread
- * and read from a signalfd next to the inotify descriptor. */
+ * again. A change that arrives while a render runs (an event for a watched file, a queued change
+ * from the web view) cancels that render through its cancel token: a monitor thread polls the
+ * same descriptors during wg_render, only to request the cancel; the loop then reads them and
+ * starts the next render with everything that changed. A cancelled render prints one line and
+ * keeps the last good outputs. SIGINT and SIGTERM end the session cleanly (exit 0), cancelling a
+ * running render too: they are blocked in every thread and read from a signalfd next to the
+ * inotify descriptor. */
 #include "render.h"
 #ifdef WG_HAVE_SERVE
 #include "serve.h"
@@ -21,9 +26,11 @@ typedef struct Serve Serve; /* built without libmicrohttpd: never created */
 #include <errno.h>
 #include <limits.h>
 #include <poll.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/eventfd.h>
 #include <sys/inotify.h>
 #include <sys/stat.h>
 #include <sys/signalfd.h>
@@ -37,7 +44,8 @@ static const char help[] =
     "\n"
     "Render FILE as `wetgraph render` does, then render again each time FILE, a subgraph\n"
     "file it uses or an --input image changes, in the same process: nodes the change does\n"
-    "not touch come from the memory cache. Prints the nodes that ran and their time. A graph\n"
+    "not touch come from the memory cache. Prints the nodes that ran and their time. A change\n"
+    "made while a render runs cancels it (\"render superseded\") and renders again. A graph\n"
     "error while editing is printed and the last good outputs are kept. Ctrl-C stops.\n"
     "\n"
     "Options: as `wetgraph render` (see 'wetgraph render --help'), except --frames, --fps,\n"
@@ -186,10 +194,86 @@ static void print_ran(const WgResult *res, double ms)
     }
 }
 
-/* Load, check, render and write once. On success files holds what to watch next; when the
- * graph does not load, files keeps what it held (and the graph file itself). */
-static void render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve)
+static int watch_files(const FileSet *files, int *wds, bool warn);
+static bool read_events(int fd, const FileSet *files, const int *wds);
+
+/* While a render runs: requests its cancel token when a watched file changes, a parameter
+ * change is queued by the web view or a signal arrives. Signals and queued changes are left for
+ * the loop to read; file events are read here (the loop watches anew after the render and
+ * compares the files' stat). */
+typedef struct {
+    WgCancel *cancel;
+    const FileSet *files;
+    int *wds;
+    int ifd, sfd, serve_fd, stop_fd;
+    pthread_t tid;
+    bool running;
+    bool signalled; /* it was a signal (read after the join) */
+} Monitor;
+
+static void *monitor_main(void *arg)
 {
+    Monitor *m = arg;
+    for (;;) {
+        struct pollfd p[4] = {{m->stop_fd, POLLIN, 0},
+                              {m->ifd, POLLIN, 0},
+                              {m->sfd, POLLIN, 0},
+                              {m->serve_fd, POLLIN, 0}};
+        if (poll(p, 4, -1) < 0) {
+            if (errno == EINTR) continue;
+            return NULL;
+        }
+        if (p[0].revents) return NULL;
+        m->signalled = p[2].revents != 0;
+        if (p[2].revents || p[3].revents || (p[1].revents && read_events(m->ifd, m->files, m->wds)))
+            break;
+    }
+    wg_cancel_request(m->cancel);
+    return NULL;
+}
+
+/* Start watching for what supersedes the render about to start; a change made since the files
+ * were read cancels it at once. Without a monitor (no memory, no thread) the render just runs to
+ * the end. */
+static void monitor_start(Monitor *m, WgCancel *cancel, const FileSet *files, int sfd, Serve *serve)
+{
+    *m = (Monitor){
+        .cancel = cancel, .files = files, .ifd = -1, .sfd = sfd, .serve_fd = -1, .stop_fd = -1};
+#ifdef WG_HAVE_SERVE
+    if (serve) m->serve_fd = serve_fd(serve);
+#else
+    (void)serve;
+#endif
+    if (!cancel || !(m->wds = calloc((size_t)files->n + 1, sizeof *m->wds))) return;
+    if ((m->ifd = watch_files(files, m->wds, false)) < 0 ||
+        (m->stop_fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) < 0)
+        return;
+    if (files_changed(files)) {
+        wg_cancel_request(cancel);
+        return;
+    }
+    m->running = pthread_create(&m->tid, NULL, monitor_main, m) == 0;
+}
+
+static void monitor_stop(Monitor *m)
+{
+    if (m->running) {
+        uint64_t one = 1;
+        if (write(m->stop_fd, &one, sizeof one) < 0) {
+        } /* an eventfd write of 1 does not fail */
+        pthread_join(m->tid, NULL);
+    }
+    if (m->ifd >= 0) close(m->ifd);
+    if (m->stop_fd >= 0) close(m->stop_fd);
+    free(m->wds);
+}
+
+/* Load, check, render and write once. On success files holds what to watch next; when the
+ * graph does not load, files keeps what it held (and the graph file itself). Returns true when
+ * the render was cancelled by a newer change (or a signal). */
+static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve, int sfd)
+{
+    bool superseded = false;
     Options opt = *base, *o = &opt;
     char **sets = NULL;
     int n_sets = 0;
@@ -242,9 +326,23 @@ static void render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
         wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         goto fail;
     }
-    if (build_request(o, g, &r, &err) || wg_request_check(r, &err) || wg_render(e, r, &res, &err) ||
-        write_outputs(o, g, res, -1, &err))
-        goto fail;
+    if (build_request(o, g, &r, &err) || wg_request_check(r, &err)) goto fail;
+    WgCancel *cancel = wg_cancel_new();
+    Monitor m;
+    wg_request_set_cancel(r, cancel);
+    monitor_start(&m, cancel, files, sfd, serve);
+    rc = wg_render(e, r, &res, &err);
+    monitor_stop(&m);
+    superseded = rc == WG_ERR_CANCELLED && cancel && wg_cancel_requested(cancel);
+    wg_request_set_cancel(r, NULL);
+    wg_cancel_free(cancel);
+    if (superseded) {
+        if (!o->quiet)
+            fprintf(stderr, "watch: render %s after %.2f s\n",
+                    m.signalled ? "stopped" : "superseded", (now_ms() - t0) / 1e3);
+        goto out;
+    }
+    if (rc || write_outputs(o, g, res, -1, &err)) goto fail;
     if (!o->quiet) {
         if (o->stats)
             print_stats(e, res, o->stats_json);
@@ -275,10 +373,12 @@ out:
     wg_result_free(res);
     wg_request_free(r);
     wg_graph_free(g);
+    return superseded;
 }
 
-/* An inotify descriptor watching the folders of files; wds[i] is file i's folder's watch. */
-static int watch_files(const FileSet *files, int *wds)
+/* An inotify descriptor watching the folders of files; wds[i] is file i's folder's watch. warn:
+ * say which folders cannot be watched. */
+static int watch_files(const FileSet *files, int *wds, bool warn)
 {
     int fd = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
     if (fd < 0) return -1;
@@ -286,7 +386,7 @@ static int watch_files(const FileSet *files, int *wds)
         wds[i] = inotify_add_watch(fd, files->f[i].dir,
                                    IN_CLOSE_WRITE | IN_MOVED_TO | IN_MOVED_FROM | IN_CREATE |
                                        IN_DELETE | IN_ATTRIB);
-        if (wds[i] < 0)
+        if (wds[i] < 0 && warn)
             fprintf(stderr, "wetgraph: warning: %s: cannot watch the folder: %s\n", files->f[i].dir,
                     strerror(errno));
     }
@@ -392,7 +492,7 @@ int cmd_watch(int argc, char **argv)
     FileSet files = {0};
     int *wds = NULL;
     for (bool stop = false; !stop;) {
-        render_once(&o, e, &files, serve);
+        bool superseded = render_once(&o, e, &files, serve, sfd);
         int *grown = realloc(wds, sizeof *wds * (size_t)(files.n + 1));
         if (!grown) {
             fprintf(stderr, "wetgraph: error: out of memory\n");
@@ -400,19 +500,20 @@ int cmd_watch(int argc, char **argv)
             break;
         }
         wds = grown;
-        int ifd = watch_files(&files, wds);
+        int ifd = watch_files(&files, wds, true);
         if (ifd < 0) {
             fprintf(stderr, "wetgraph: error: cannot watch files: %s\n", strerror(errno));
             status = EXIT_FAILED;
             break;
         }
-        if (!o.quiet) {
+        if (!o.quiet && !superseded) {
             fprintf(stderr, "watch: waiting for changes to %d file%s (Ctrl-C to stop)\n", files.n,
                     files.n == 1 ? "" : "s");
             fflush(stderr);
         }
-        /* a change made while the render ran */
-        double burst = files_changed(&files) ? now_ms() : -1; /* first event of a burst */
+        /* a change made while the render ran (a cancelled render was superseded by one: a
+         * file event, a parameter change or a signal, all read below) */
+        double burst = superseded || files_changed(&files) ? now_ms() : -1; /* burst's start */
         for (;;) {
             struct pollfd p[3] = {{ifd, POLLIN, 0}, {sfd, POLLIN, 0}, {-1, POLLIN, 0}};
 #ifdef WG_HAVE_SERVE

@@ -3,9 +3,12 @@
  * requested outputs, stopping at cache hits), check that the working set fits the memory
  * budget, then run ready nodes on the worker pool. Intermediates are released as soon as their
  * last consumer has run; the in-memory cache keeps what fits in the budget. The first failing
- * node cancels the rest and its error is reported. */
+ * node cancels the rest and its error is reported; so does the request's cancel token, from
+ * another thread: wg_cancel_request sets the cancel flag of every render registered with the
+ * token, which the scheduler, wg_parallel_rows' chunks and the fused bands already check. */
 #include "internal.h"
 
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -70,7 +73,10 @@ struct Run {
     size_t ahead;
     int frontier;
     volatile int cancel;
+    WgCancel *token; /* the request's cancel token, with this run registered in it */
+    Run *token_next; /* the token's other running renders */
     int rc;
+    bool skipped; /* a node ended with WG_ERR_CANCELLED: counted as completed, but not done */
     WgError err;
     bool fuse;   /* fuse point operations (fuse.c) */
     size_t need; /* the sequential peak the plan needs */
@@ -94,6 +100,84 @@ double wg__now_ms(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+/* ---- cancel tokens ----------------------------------------------------------------------- */
+
+struct WgCancel {
+    pthread_mutex_t mu; /* taken before a run's mu, never while holding one */
+    atomic_int requested;
+    Run *runs; /* the renders using the token now */
+};
+
+WgCancel *wg_cancel_new(void)
+{
+    WgCancel *c = wg_calloc(1, sizeof *c);
+    if (!c) return NULL;
+    pthread_mutex_init(&c->mu, NULL);
+    atomic_init(&c->requested, 0);
+    return c;
+}
+
+void wg_cancel_free(WgCancel *c)
+{
+    if (!c) return;
+    pthread_mutex_destroy(&c->mu);
+    wg_free(c);
+}
+
+void wg_cancel_request(WgCancel *c)
+{
+    pthread_mutex_lock(&c->mu);
+    atomic_store(&c->requested, 1);
+    for (Run *run = c->runs; run; run = run->token_next) {
+        pthread_mutex_lock(&run->mu);
+        run->cancel = 1;
+        pthread_cond_broadcast(&run->cv); /* the control thread may be waiting for a node */
+        pthread_mutex_unlock(&run->mu);
+    }
+    pthread_mutex_unlock(&c->mu);
+}
+
+void wg_cancel_reset(WgCancel *c)
+{
+    atomic_store(&c->requested, 0);
+}
+
+bool wg_cancel_requested(const WgCancel *c)
+{
+    return atomic_load((atomic_int *)&c->requested) != 0;
+}
+
+/* From here on a request of the token sets run->cancel (also when it already was). */
+static void token_register(Run *run, WgCancel *c)
+{
+    if (!c) return;
+    pthread_mutex_lock(&c->mu);
+    run->token = c;
+    run->token_next = c->runs;
+    c->runs = run;
+    if (atomic_load(&c->requested)) run->cancel = 1;
+    pthread_mutex_unlock(&c->mu);
+}
+
+static void token_unregister(Run *run)
+{
+    WgCancel *c = run->token;
+    if (!c) return;
+    pthread_mutex_lock(&c->mu);
+    for (Run **pp = &c->runs; *pp; pp = &(*pp)->token_next)
+        if (*pp == run) {
+            *pp = run->token_next;
+            break;
+        }
+    pthread_mutex_unlock(&c->mu);
+}
+
+static int cancelled_error(WgError *err)
+{
+    return wg_error_set(err, WG_ERR_CANCELLED, NULL,
+                        "the render was cancelled (its cancel token was requested)");
 }
 
 /* ---- engine ------------------------------------------------------------------------------ */
@@ -389,6 +473,7 @@ static void node_job(void *user)
             run->rc = rc;
             run->err = err;
         }
+        if (rc == WG_ERR_CANCELLED) run->skipped = true;
         run->cancel = 1;
         run->live -= node->need;
     } else {
@@ -768,6 +853,7 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
 {
     double t0 = wg__now_ms();
     *out = NULL;
+    if (req->cancel && wg_cancel_requested(req->cancel)) return cancelled_error(err);
     WgPlan *plan = wg_calloc(1, sizeof *plan);
     if (!plan) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     int rc = wg__plan_build(req, plan, err);
@@ -778,6 +864,7 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     Run run = {.e = e, .r = req, .plan = plan, .fuse = fuse};
     pthread_mutex_init(&run.mu, NULL);
     pthread_cond_init(&run.cv, NULL);
+    token_register(&run, req->cancel);
     run.nodes = wg_calloc((size_t)plan->n_insts + 1, sizeof(Node));
     run.ready = wg_calloc((size_t)plan->n_insts + 1, sizeof(int));
     run.seq_peak = wg_calloc((size_t)plan->n_insts + 1, sizeof(size_t));
@@ -855,6 +942,9 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
             pthread_mutex_lock(&run.mu);
         }
     }
+    /* cancelled by the token (not by a failing node) before every node had run */
+    if (run.rc == WG_OK && run.cancel && (run.skipped || run.completed < run.total))
+        run.rc = cancelled_error(&run.err);
     pthread_mutex_unlock(&run.mu);
     /* the last nodes may have finished while the callback ran: always end on done == total */
     if (req->progress && !run.rc && reported < run.total)
@@ -879,6 +969,7 @@ done:
         for (int k = 0; k < plan->n_outputs; k++)
             kept += wg_image_bytes(wg_result_output_image(*out, k));
     fit_budget(e, kept);
+    token_unregister(&run);
     wg_free(run.nodes);
     wg_free(run.ready);
     wg_free(run.dependents);

@@ -228,6 +228,7 @@ struct WgRequest {
     double time;
     WgProgressFn progress;
     void *progress_user;
+    WgCancel *cancel; /* borrowed; NULL: none */
 };
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);
@@ -332,8 +333,15 @@ int wg__png_check(const char *path, bool whole, char *msg, size_t size);
 /* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
 char *wg__temp_path_for(const char *path);
 /* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
- * not have exactly that form. */
+ * not have exactly that form; with host: the writer's host id there (wg__temp_host), or -1 for
+ * a name without one (written by an earlier version). */
+long wg__temp_name_parse(const char *name, long long *host);
 long wg__temp_name_pid(const char *name);
+/* This machine's id in temporaries' names: a hash of its host name and /etc/machine-id. */
+uint32_t wg__temp_host(void);
+/* wg_remove_stale_temporaries removes another machine's temporaries (and those without a host
+ * id) only when they have not been modified for this many seconds. */
+#define WG_TEMP_FOREIGN_AGE (24 * 60 * 60)
 
 /* ---- misc -------------------------------------------------------------------------------- */
 

@@ -10,8 +10,8 @@
  * through a write set: each file is written whole and flushed to a temporary beside its target,
  * then all the temporaries are renamed over their targets in one loop, so a set of files is
  * replaced together or (barring a failing rename in that loop) not at all. The temporaries'
- * names carry the writer's process id, so the ones a killed process left can be told from a
- * running writer's and removed.
+ * names carry the writer's host and process id, so the ones a killed process left can be told
+ * from a running writer's and removed, also in a folder that several machines share.
  * PNG files are checked (png_check.c) before the library sees them, because libpng prints its
  * own errors to stderr. */
 #include "internal.h"
@@ -23,11 +23,13 @@
 #include <limits.h>
 #include <math.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 #include <xxhash.h>
 
@@ -92,11 +94,37 @@ float wg_linear_to_srgb(float v)
 }
 
 /* Temporary files. A write to "<dir>/<stem><ext>" (<ext>: the last ".suffix" of the file name,
- * or empty) first goes to "<dir>/.<stem>.tmp<pid>-<n><ext>": hidden, in the target's folder so
- * the final rename() never crosses file systems, with the target's extension because the
- * encoders choose the format by it; <pid> is the writing process and <n> a per-process counter,
- * both decimal without leading zeros. wg__temp_path_for makes these names and
- * wg__temp_name_pid recognises them; nothing else spells the pattern out. */
+ * or empty) first goes to "<dir>/.<stem>.tmp<pid>-<n>-<host><ext>": hidden, in the target's
+ * folder so the final rename() never crosses file systems, with the target's extension because
+ * the encoders choose the format by it; <pid> is the writing process and <n> a per-process
+ * counter, both decimal without leading zeros, and <host> the writing machine (wg__temp_host),
+ * 8 lowercase hex digits: process ids repeat across the machines sharing a cache folder on a
+ * network file system. Names without "-<host>" were written by earlier versions.
+ * wg__temp_path_for makes these names and wg__temp_name_parse recognises them; nothing else
+ * spells the pattern out. */
+uint32_t wg__temp_host(void)
+{
+    /* computed once; threads that race compute the same value */
+    static atomic_uint value;
+    static atomic_bool known;
+    if (atomic_load(&known)) return (uint32_t)atomic_load(&value);
+    /* the host name tells containers apart, the machine id hosts that share a name */
+    char id[512] = "";
+    if (gethostname(id, 256)) id[0] = '\0';
+    id[255] = '\0';
+    size_t n = strlen(id);
+    FILE *f = fopen("/etc/machine-id", "r");
+    if (f) {
+        id[n++] = '\n';
+        n += fread(id + n, 1, sizeof id - n - 1, f);
+        fclose(f);
+    }
+    uint32_t h = (uint32_t)XXH3_64bits(id, n);
+    atomic_store(&value, h);
+    atomic_store(&known, true);
+    return h;
+}
+
 char *wg__temp_path_for(const char *path)
 {
     const char *slash = strrchr(path, '/');
@@ -105,11 +133,11 @@ char *wg__temp_path_for(const char *path)
     if (!ext) ext = "";
     static unsigned counter;
     unsigned c = __atomic_add_fetch(&counter, 1, __ATOMIC_RELAXED);
-    size_t n = strlen(path) + 64;
+    size_t n = strlen(path) + 80;
     char *tmp = wg_malloc(n);
     if (!tmp) return NULL;
-    snprintf(tmp, n, "%.*s.%.*s.tmp%ld-%u%s", (int)(base - path), path, (int)(ext - base), base,
-             (long)getpid(), c, ext);
+    snprintf(tmp, n, "%.*s.%.*s.tmp%ld-%u-%08x%s", (int)(base - path), path, (int)(ext - base),
+             base, (long)getpid(), c, (unsigned)wg__temp_host(), ext);
     return tmp;
 }
 
@@ -128,21 +156,49 @@ static bool take_number(const char **p, unsigned long long max, unsigned long lo
     return true;
 }
 
-long wg__temp_name_pid(const char *name)
+/* "-" and exactly 8 lowercase hex digits. */
+static bool take_host(const char **p, uint32_t *out)
 {
+    const char *s = *p;
+    if (*s++ != '-') return false;
+    uint32_t v = 0;
+    for (int i = 0; i < 8; i++, s++) {
+        if (*s >= '0' && *s <= '9')
+            v = v << 4 | (uint32_t)(*s - '0');
+        else if (*s >= 'a' && *s <= 'f')
+            v = v << 4 | (uint32_t)(*s - 'a' + 10);
+        else
+            return false;
+    }
+    *p = s;
+    *out = v;
+    return true;
+}
+
+long wg__temp_name_parse(const char *name, long long *host)
+{
+    if (host) *host = -1;
     if (name[0] != '.' || strchr(name, '/')) return 0;
     for (const char *m = strstr(name + 1, ".tmp"); m; m = strstr(m + 1, ".tmp")) {
         const char *p = m + 4;
         unsigned long long pid, n;
         if (!take_number(&p, INT_MAX, &pid) || *p++ != '-' || !take_number(&p, UINT_MAX, &n))
             continue;
+        uint32_t h = 0;
+        bool has_host = take_host(&p, &h);
         /* the rest is the target's extension: empty (then the stem has no dot) or one suffix */
         bool ext_ok =
             *p ? *p == '.' && !strchr(p + 1, '.') : !memchr(name + 1, '.', (size_t)(m - name - 1));
-        if (!ext_ok) continue;
-        if (pid >= 1) return (long)pid;
+        if (!ext_ok || pid < 1) continue;
+        if (host) *host = has_host ? (long long)h : -1;
+        return (long)pid;
     }
     return 0;
+}
+
+long wg__temp_name_pid(const char *name)
+{
+    return wg__temp_name_parse(name, NULL);
 }
 
 int wg_remove_stale_temporaries(const char *dir)
@@ -150,14 +206,24 @@ int wg_remove_stale_temporaries(const char *dir)
     DIR *d = opendir(dir && dir[0] ? dir : ".");
     if (!d) return 0;
     int removed = 0;
+    time_t now = time(NULL);
+    long long self = wg__temp_host();
     struct dirent *e;
     while ((e = readdir(d))) {
-        long pid = wg__temp_name_pid(e->d_name);
-        /* only a process that does not exist is gone: EPERM means alive (another user's) */
-        if (pid < 1 || kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        long long host;
+        long pid = wg__temp_name_parse(e->d_name, &host);
+        if (pid < 1) continue;
         struct stat st;
         if (fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) || !S_ISREG(st.st_mode))
             continue;
+        if (host == self) {
+            /* only a process that does not exist is gone: EPERM means alive (another user's) */
+            if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        } else {
+            /* another machine's (or an earlier version's, which did not say): its process
+             * cannot be asked, so only a file left untouched for long is taken for stale */
+            if (!(st.st_mtime < now - WG_TEMP_FOREIGN_AGE)) continue;
+        }
         if (unlinkat(dirfd(d), e->d_name, 0) == 0) removed++;
     }
     closedir(d);
@@ -642,8 +708,9 @@ static int stage_begin(WgWriteSet *s, const char *path, char **temp, WgError *er
 {
     const char *slash = strrchr(path, '/');
     if (wg__temp_name_pid(slash ? slash + 1 : path))
-        return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0,
-                               "the name has the form of a temporary file (.NAME.tmpPID-N.EXT)");
+        return wg_error_set_at(
+            err, WG_ERR_USAGE, path, 0, 0,
+            "the name has the form of a temporary file (.NAME.tmpPID-N-HOST.EXT)");
     if (s->count == s->cap) {
         int cap = s->cap ? 2 * s->cap : 8;
         Staged *f = wg_realloc_array(s->files, (size_t)s->cap, (size_t)cap, sizeof *f);

@@ -193,6 +193,11 @@ void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user)
     r->progress_user = user;
 }
 
+void wg_request_set_cancel(WgRequest *r, WgCancel *c)
+{
+    r->cancel = c;
+}
+
 int wg_request_check(const WgRequest *r, WgError *err)
 {
     WgPlan plan;

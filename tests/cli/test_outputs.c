@@ -7,6 +7,8 @@
  * replaced. */
 #include "wgtest.h"
 
+#include "internal.h"
+
 #include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -278,21 +280,29 @@ static void test_stale_temporaries_are_removed(void **state)
     long me = (long)getpid();
     char name[256];
     /* removed: regular files named exactly like temporaries of a process that is gone */
-    const char *gone[] = {".g_mask.tmp%ld-1.png", ".g_color.tmp%ld-12.png", ".other.tmp%ld-3",
-                          ".x.y.tmp%ld-4294967295.exr"};
+    unsigned host = (unsigned)wg__temp_host(); /* this machine's id in the names */
+    const char *gone[] = {".g_mask.tmp%ld-1-%08x.png", ".g_color.tmp%ld-12-%08x.png",
+                          ".other.tmp%ld-3-%08x", ".x.y.tmp%ld-4294967295-%08x.exr"};
     for (int i = 0; i < 4; i++) {
-        snprintf(name, sizeof name, gone[i], (long)dead);
+        snprintf(name, sizeof name, gone[i], (long)dead, host);
         touch(in("s1", name));
     }
-    snprintf(name, sizeof name, ".lay.tmp%ld-2.exr", (long)dead);
+    snprintf(name, sizeof name, ".lay.tmp%ld-2-%08x.exr", (long)dead, host);
     touch(in("s2", name));
-    /* kept: live processes (this one, init), other names, and anything not a regular file */
-    const char *live[] = {".g_mask.tmp%ld-1.png", ".g_seed.tmp%ld-9.exr"};
+    /* kept: live processes (this one, init), another machine's and earlier versions' recent
+     * temporaries, other names, and anything not a regular file */
+    const char *live[] = {".g_mask.tmp%ld-1-%08x.png", ".g_seed.tmp%ld-9-%08x.exr"};
     for (int i = 0; i < 2; i++) {
-        snprintf(name, sizeof name, live[i], me);
+        snprintf(name, sizeof name, live[i], me, host);
         touch(in("s1", name));
     }
-    touch(in("s1", ".g_mask.tmp1-1.png"));
+    char init[64], foreign[64], legacy[64];
+    snprintf(init, sizeof init, ".g_mask.tmp1-1-%08x.png", host);
+    snprintf(foreign, sizeof foreign, ".g_mask.tmp%ld-2-%08x.png", (long)dead, host ^ 1u);
+    snprintf(legacy, sizeof legacy, ".g_mask.tmp%ld-3.png", (long)dead);
+    touch(in("s1", init));
+    touch(in("s1", foreign));
+    touch(in("s1", legacy));
     const char *other[] = {"g_mask.tmp%ld-1.png",   ".g_mask.tmp%ld-1.png.part",
                            ".g_mask.tmp%ld-x.png",  ".g_mask.tmp%ld1.png",
                            ".g_mask.tmp0%ld-1.png", ".a.b.tmp%ld-1",
@@ -301,10 +311,10 @@ static void test_stale_temporaries_are_removed(void **state)
         snprintf(name, sizeof name, other[i], (long)dead);
         touch(in("s1", name));
     }
-    snprintf(name, sizeof name, ".dir.tmp%ld-1.png", (long)dead);
+    snprintf(name, sizeof name, ".dir.tmp%ld-1-%08x.png", (long)dead, host);
     assert_int_equal(mkdir(in("s1", name), 0777), 0);
     char link[256];
-    snprintf(link, sizeof link, ".link.tmp%ld-2.png", (long)dead);
+    snprintf(link, sizeof link, ".link.tmp%ld-2-%08x.png", (long)dead, host);
     assert_int_equal(symlink("g_mask.png", in("s1", link)), 0);
     char before[4096];
     listing(at("s1"), before, sizeof before);
@@ -314,22 +324,24 @@ static void test_stale_temporaries_are_removed(void **state)
     run_free(&r);
 
     for (int i = 0; i < 4; i++) {
-        snprintf(name, sizeof name, gone[i], (long)dead);
+        snprintf(name, sizeof name, gone[i], (long)dead, host);
         if (exists(in("s1", name))) fail_msg("stale %s was not removed", name);
     }
-    snprintf(name, sizeof name, ".lay.tmp%ld-2.exr", (long)dead);
+    snprintf(name, sizeof name, ".lay.tmp%ld-2-%08x.exr", (long)dead, host);
     if (exists(in("s2", name))) fail_msg("stale %s was not removed", name);
     assert_true(exists(in("s2", "lay.exr")));
     for (int i = 0; i < 2; i++) {
-        snprintf(name, sizeof name, live[i], me);
+        snprintf(name, sizeof name, live[i], me, host);
         if (!exists(in("s1", name))) fail_msg("%s of a live process was removed", name);
     }
-    assert_true(exists(in("s1", ".g_mask.tmp1-1.png")));
+    assert_true(exists(in("s1", init)));
+    assert_true(exists(in("s1", foreign)));
+    assert_true(exists(in("s1", legacy)));
     for (int i = 0; i < 8; i++) {
         snprintf(name, sizeof name, other[i], (long)dead);
         if (!exists(in("s1", name))) fail_msg("%s is not a temporary but was removed", name);
     }
-    snprintf(name, sizeof name, ".dir.tmp%ld-1.png", (long)dead);
+    snprintf(name, sizeof name, ".dir.tmp%ld-1-%08x.png", (long)dead, host);
     assert_true(exists(in("s1", name)));
     assert_true(exists(in("s1", link)));
     for (int i = 0; i < 4; i++) assert_true(exists(in("s1", outputs4[i])));

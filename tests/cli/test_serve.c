@@ -9,12 +9,14 @@
  * dot runs once, not on every render; without dot in PATH /graph.svg is 404; path traversal (plain
  * and %-encoded) and unknown paths are 404; an edit of the graph file still renders again; SIGINT
  * ends it with exit 0. It listens on [::1] and on [::] (IPv4 too) when the machine has IPv6
- * loopback (skipped otherwise), and a malformed address is a usage error naming it. The HTTP client
+ * loopback (skipped otherwise), and a malformed address is a usage error naming it. A value set
+ * while a long render runs cancels that render ("superseded") and the next one applies it. The HTTP client
  * is plain sockets with HTTP/1.0 (the server closes each connection after its answer); every wait
  * has a harness limit (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
+#include <dirent.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <stdio.h>
@@ -425,6 +427,118 @@ static int stop_watcher(void **state)
     return 0;
 }
 
+/* Entries (files not starting with '.') under a folder, recursively. */
+static int cache_entry_count(const char *folder)
+{
+    DIR *d = opendir(folder);
+    if (!d) return 0;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char p[2048];
+        snprintf(p, sizeof p, "%s/%s", folder, e->d_name);
+        struct stat st;
+        if (stat(p, &st)) continue;
+        n += S_ISDIR(st.st_mode) ? cache_entry_count(p) : 1;
+    }
+    closedir(d);
+    return n;
+}
+
+/* A chain of ambient occlusions whose radius is a parameter: short at first, then /api/set
+ * makes it long (far more work than the harness limit allows); a second /api/set arrives while
+ * that render runs, after its first new node is in the disk cache, and makes the chain short
+ * again: the long render is superseded, and the outputs are those of `wetgraph render` with the
+ * last values. */
+static void test_serve_set_supersedes_a_running_render(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    char text[8192];
+    int n = snprintf(text, sizeof text,
+                     "<wetgraph version=\"1\" size=\"1024\">\n"
+                     "  <param name=\"level\" type=\"float\" default=\"0.25\" min=\"0\" "
+                     "max=\"1\"/>\n"
+                     "  <param name=\"radius\" type=\"float\" default=\"16\" min=\"0\" "
+                     "max=\"64\"/>\n"
+                     "  <param name=\"dirs\" type=\"int\" default=\"64\" min=\"1\" "
+                     "max=\"64\"/>\n"
+                     "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+                     "  <node id=\"n\" type=\"noise\" scale=\"5\"/>\n"
+                     "  <node id=\"ao0\" type=\"blur\" sigma=\"1\"><in name=\"source\" "
+                     "from=\"n\"/></node>\n");
+    for (int i = 1; i <= 16; i++)
+        n += snprintf(text + n, sizeof text - (size_t)n,
+                      "  <node id=\"ao%d\" type=\"ambient_occlusion\" radius=\"=radius\" "
+                      "directions=\"=dirs\"><in name=\"height\" from=\"ao%d\"/></node>\n",
+                      i, i - 1);
+    snprintf(text + n, sizeof text - (size_t)n,
+             "  <output name=\"a\" from=\"u\" format=\"exr32\"/>\n"
+             "  <output name=\"c\" from=\"ao16\" format=\"exr32\"/>\n"
+             "</wetgraph>\n");
+    wgt_write_file(path("slow.wetgraph"), text);
+    unlink(path("werr")); /* the log of the session before */
+    port = wgt_free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
+    watcher = fork();
+    assert_true(watcher >= 0);
+    if (watcher == 0) {
+        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
+        execl(bin, bin, "watch", "slow.wetgraph", "-o", "so", "--threads", "2", "--cache", "scache",
+              "--set", "radius=0.25", "--set", "dirs=1", "--serve", spec, (char *)NULL);
+        _exit(98);
+    }
+    wait_for("watch: waiting", 1);
+    int entries = cache_entry_count(path("scache"));
+    assert_int_equal(status_of("GET", "/api/set?radius=16&dirs=64"), 200);
+    for (int waited = 0; cache_entry_count(path("scache")) == entries; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("the long render did not start");
+        if (waitpid(watcher, NULL, WNOHANG) == watcher) fail_msg("watch ended");
+        wgt_sleep_ms(5);
+    }
+    assert_int_equal(status_of("GET", "/api/set?radius=0.5&dirs=1&level=0.75"), 200);
+    wait_for("watch: waiting", 2);
+    assert_int_equal(count_in("werr", "watch: render superseded after "), 1);
+    assert_int_equal(count_in("werr", "watch: rendered"), 2); /* the first and the last */
+    assert_int_equal(count_in("werr", "error"), 0);
+    Reply r = http("GET", "/api/state");
+    assert_non_null(strstr(r.body, "\"error\":null"));
+    free(r.head);
+
+    assert_int_equal(
+        wgt_shell(dir,
+                  "'%s' render slow.wetgraph -o sref --set radius=0.5 --set dirs=1 --set "
+                  "level=0.75 --threads 1",
+                  bin),
+        0);
+    static const char *const outs[][2] = {{"so/slow_a.exr", "sref/slow_a.exr"},
+                                          {"so/slow_c.exr", "sref/slow_c.exr"}};
+    for (int i = 0; i < 2; i++) {
+        WgImage *x = NULL, *y = NULL;
+        WgError err = {0};
+        if (wg_image_read(path(outs[i][0]), 0, WG_LINEAR, &x, &err) ||
+            wg_image_read(path(outs[i][1]), 0, WG_LINEAR, &y, &err))
+            fail_msg("%s", err.message);
+        wgt_assert_identical(x, y);
+        wg_image_unref(x);
+        wg_image_unref(y);
+    }
+
+    assert_int_equal(kill(watcher, SIGINT), 0);
+    int st = 0;
+    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
+        if (waited > LIMIT_MS) {
+            kill(watcher, SIGKILL);
+            fail_msg("watch did not stop on SIGINT");
+        }
+        wgt_sleep_ms(5);
+    }
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+}
+
 /* A malformed --serve is a usage error naming it. */
 static void test_serve_usage(void **state)
 {
@@ -454,6 +568,7 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_without_dot, stop_watcher),
         cmocka_unit_test_teardown(test_serve_ipv6, stop_watcher),
         cmocka_unit_test(test_serve_usage),
+        cmocka_unit_test_teardown(test_serve_set_supersedes_a_running_render, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -4,10 +4,13 @@
  * new outputs with the new value; an edit of a subgraph file too; a broken edit prints the
  * error with file and line and leaves the outputs as they were; the fix renders again; the
  * session survives 100 edits in a row with broken ones among them and its resident memory does
- * not grow; SIGINT ends it with exit 0. Each wait has a harness limit (no timing assertions).
- * Runs WETGRAPH_BIN. */
+ * not grow; SIGINT ends it with exit 0. An edit saved while a long render runs cancels that
+ * render ("superseded") and the edit's render follows, with the outputs a plain render gives;
+ * SIGINT during a long render stops it and ends the session.
+ * Each wait has a harness limit (no timing assertions). Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
+#include <dirent.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -56,7 +59,7 @@ static const char *path(const char *name)
 /* Save as an editor does: write a new file, rename it over the old one. */
 static void save(const char *name, const char *fmt, const char *value)
 {
-    char tmp[64], text[2048];
+    char tmp[64], text[8192];
     snprintf(tmp, sizeof tmp, ".%s.swp", name);
     snprintf(text, sizeof text, fmt, value);
     wgt_write_file(path(tmp), text);
@@ -230,11 +233,134 @@ static void test_watch_usage(void **state)
     assert_true(count_in("err2", "wetgraph watch: bad --threads") == 1);
 }
 
+/* The graph with a chain of ambient occlusions on `c`: about 20 s of work on two threads (far
+ * more than the harness limit allows), after a noise node that finishes at once. */
+static void save_slow(const char *value)
+{
+    char text[8192];
+    int n = snprintf(text, sizeof text,
+                     "<wetgraph version=\"1\" size=\"1024\">\n"
+                     "  <param name=\"level\" type=\"float\" default=\"%s\"/>\n"
+                     "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+                     "  <node id=\"n\" type=\"noise\" scale=\"5\"/>\n"
+                     "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" "
+                     "from=\"n\"/></node>\n",
+                     value);
+    for (int i = 1; i <= 16; i++)
+        n += snprintf(text + n, sizeof text - (size_t)n,
+                      "  <node id=\"ao%d\" type=\"ambient_occlusion\" radius=\"16\" "
+                      "directions=\"64\"><in name=\"height\" from=\"%s%.0d\"/></node>\n",
+                      i, i > 1 ? "ao" : "b", i > 1 ? i - 1 : 0);
+    snprintf(text + n, sizeof text - (size_t)n,
+             "  <output name=\"a\" from=\"u\" format=\"exr32\"/>\n"
+             "  <output name=\"c\" from=\"ao16\" format=\"exr32\"/>\n"
+             "</wetgraph>\n");
+    save("w.wetgraph", "%s", text);
+}
+
+/* Entries (files not starting with '.') under a folder, recursively. */
+static int count_entries(const char *folder)
+{
+    DIR *d = opendir(folder);
+    if (!d) return 0;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char p[2048];
+        snprintf(p, sizeof p, "%s/%s", folder, e->d_name);
+        struct stat st;
+        if (stat(p, &st)) continue;
+        n += S_ISDIR(st.st_mode) ? count_entries(p) : 1;
+    }
+    closedir(d);
+    return n;
+}
+
+static void assert_same_image(const char *a, const char *b)
+{
+    WgImage *x = NULL, *y = NULL;
+    WgError err = {0};
+    if (wg_image_read(path(a), 0, WG_LINEAR, &x, &err)) fail_msg("%s: %s", a, err.message);
+    if (wg_image_read(path(b), 0, WG_LINEAR, &y, &err)) fail_msg("%s: %s", b, err.message);
+    wgt_assert_identical(x, y);
+    wg_image_unref(x);
+    wg_image_unref(y);
+}
+
+static void test_watch_supersedes_a_running_render(void **state)
+{
+    (void)state;
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    snprintf(dir, sizeof dir, "%s/watch_cancel", wgt_tmpdir());
+    mkdir(dir, 0777);
+    save("sub.wetgraph", sub, "0.125");
+    save("w.wetgraph", graph, "0.25");
+    watcher = fork();
+    assert_true(watcher >= 0);
+    if (watcher == 0) {
+        if (chdir(dir) || !freopen("out", "w", stdout) || !freopen("err", "w", stderr)) _exit(99);
+        execl(bin, bin, "watch", "w.wetgraph", "-o", "o", "--threads", "2", "--cache", "cache",
+              (char *)NULL);
+        _exit(98);
+    }
+    wait_for("watch: waiting", 1);
+    int entries = count_entries(path("cache"));
+
+    /* the long render has begun once its first nodes are in the disk cache; the next edit
+     * arrives while the occlusions run */
+    save_slow("0.5");
+    for (int waited = 0; count_entries(path("cache")) == entries; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("the long render did not start");
+        if (waitpid(watcher, NULL, WNOHANG) == watcher) fail_msg("watch ended");
+        wgt_sleep_ms(5);
+    }
+    save("w.wetgraph", graph, "0.75");
+    wait_for("watch: waiting", 2);
+    assert_int_equal(count_in("err", "watch: render superseded after "), 1);
+    assert_int_equal(count_in("err", "watch: rendered"), 2); /* the first and the last */
+    assert_int_equal(count_in("err", "error"), 0);
+    assert_true(value_of("o/w_a.exr") == 0.75f);
+
+    /* the outputs are those of a plain render of the last state */
+    /* (run in ref/, where its out and err files go: err here is the watch's log) */
+    mkdir(path("ref"), 0777);
+    assert_int_equal(
+        wgt_shell(path("ref"), "cd .. && \"$WG\" render w.wetgraph -o ref --threads 1"), 0);
+    assert_same_image("o/w_a.exr", "ref/w_a.exr");
+    assert_same_image("o/w_b.exr", "ref/w_b.exr");
+    assert_same_image("o/w_c.exr", "ref/w_c.exr");
+
+    /* Ctrl-C during a long render stops it too, and the session ends cleanly */
+    entries = count_entries(path("cache"));
+    save_slow("0.625");
+    for (int waited = 0; count_entries(path("cache")) == entries; waited += 5) {
+        if (waited > LIMIT_MS) fail_msg("the long render did not start");
+        wgt_sleep_ms(5);
+    }
+    assert_int_equal(kill(watcher, SIGINT), 0);
+    int st = 0;
+    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
+        if (waited > LIMIT_MS) {
+            kill(watcher, SIGKILL);
+            fail_msg("watch did not stop on SIGINT");
+        }
+        wgt_sleep_ms(5);
+    }
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+    assert_int_equal(count_in("err", "watch: render stopped after "), 1);
+    assert_int_equal(count_in("err", "watch: render superseded after "), 1);
+    assert_true(value_of("o/w_a.exr") == 0.75f); /* the outputs of the last complete render */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_watch_session, stop_watcher),
         cmocka_unit_test(test_watch_usage),
+        cmocka_unit_test_teardown(test_watch_supersedes_a_running_render, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

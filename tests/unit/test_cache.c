@@ -5,6 +5,8 @@
  * image node's key follows the content of its file. Results are bit-identical cold or warm. */
 #include "wgtest.h"
 
+#include "internal.h"
+
 #include <dirent.h>
 #include <math.h>
 #include <stdio.h>
@@ -744,9 +746,10 @@ static void test_stale_temporaries_are_removed(void **state)
     snprintf(stem, sizeof stem, "%.*s", (int)(strlen(base) - 4), base);
     *slash = '\0';
     char dead[1400], dead2[1400], live[1400], other[1400], other2[1400];
-    snprintf(dead, sizeof dead, "%s/.%s.tmp%ld-1.wgc", sub, stem, (long)child);
-    snprintf(dead2, sizeof dead2, "%s/.%s.tmp%ld-12.wgc", sub, stem, (long)child);
-    snprintf(live, sizeof live, "%s/.%s.tmp%ld-3.wgc", sub, stem, (long)getpid());
+    unsigned host = (unsigned)wg__temp_host(); /* this machine's */
+    snprintf(dead, sizeof dead, "%s/.%s.tmp%ld-1-%08x.wgc", sub, stem, (long)child, host);
+    snprintf(dead2, sizeof dead2, "%s/.%s.tmp%ld-12-%08x.wgc", sub, stem, (long)child, host);
+    snprintf(live, sizeof live, "%s/.%s.tmp%ld-3-%08x.wgc", sub, stem, (long)getpid(), host);
     snprintf(other, sizeof other, "%s/.%s.tmp%ld-1.png.bak", sub, stem, (long)child);
     snprintf(other2, sizeof other2, "%s/.notes.tmp%ldx-1.wgc", sub, (long)child);
     size_t n;

@@ -16,6 +16,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+#include <sys/wait.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -620,10 +622,11 @@ static void test_successful_write_leaves_no_temp_files(void **state)
 static void next_temp_path(const char *path, char *out, size_t size)
 {
     char *t = wg__temp_path_for(path);
+    char *host = strrchr(t, '-'); /* "-<host><ext>" */
+    *host = '\0';
     char *dash = strrchr(t, '-');
     unsigned c = (unsigned)strtoul(dash + 1, NULL, 10);
-    const char *ext = strrchr(path, '.');
-    snprintf(out, size, "%.*s-%u%s", (int)(dash - t), t, c + 1, ext ? ext : "");
+    snprintf(out, size, "%.*s-%u-%s", (int)(dash - t), t, c + 1, host + 1);
     wg_free(t);
 }
 
@@ -706,6 +709,92 @@ static void test_temp_names_are_recognised_exactly(void **state)
     assert_int_equal(wg__temp_name_pid(".a.b.tmp12-1.exr"), 12);
     assert_int_equal(wg__temp_name_pid(".x.tmp5-6.tmp7-8.png"), 7);
     assert_int_equal(wg__temp_name_pid("..tmp3-1.hidden"), 3);
+}
+
+/* Temporaries carry this machine's id beside the process id; names with another id, or without
+ * one (earlier versions), are temporaries too, and the host part has exactly one form. */
+static void test_temp_names_carry_the_host(void **state)
+{
+    (void)state;
+    char *t = wg__temp_path_for("/d/height.png");
+    char want[64];
+    snprintf(want, sizeof want, "-%08x.png", (unsigned)wg__temp_host());
+    assert_string_equal(t + strlen(t) - strlen(want), want);
+    long long host = 0;
+    assert_int_equal(wg__temp_name_parse(strrchr(t, '/') + 1, &host), (long)getpid());
+    assert_true(host == (long long)wg__temp_host());
+    wg_free(t);
+    assert_int_equal(wg__temp_name_parse(".h.tmp12-1-0a1b2c3d.png", &host), 12);
+    assert_true(host == 0x0a1b2c3d);
+    assert_int_equal(wg__temp_name_parse(".h.tmp12-1-ffffffff", &host), 12);
+    assert_true(host == 0xffffffffLL);
+    assert_int_equal(wg__temp_name_parse(".h.tmp12-1.png", &host), 12);
+    assert_true(host == -1);
+    static const char *const others[] = {".h.tmp12-1-0A1B2C3D.png",  ".h.tmp12-1-0a1b2c3.png",
+                                         ".h.tmp12-1-0a1b2c3d4.png", ".h.tmp12-1-0a1b2c3g.png",
+                                         ".h.tmp12-1--a1b2c3d.png",  ".h.tmp12-1-0a1b2c3d.x.png"};
+    for (size_t i = 0; i < sizeof others / sizeof others[0]; i++)
+        if (wg__temp_name_pid(others[i])) fail_msg("'%s' taken for a temporary", others[i]);
+}
+
+static void touch_file(const char *dir, const char *name, time_t age)
+{
+    char p[1400];
+    snprintf(p, sizeof p, "%s/%s", dir, name);
+    wgt_write_file(p, "partial");
+    struct timespec ts[2] = {{time(NULL) - age, 0}, {time(NULL) - age, 0}};
+    assert_int_equal(utimensat(AT_FDCWD, p, ts, 0), 0);
+}
+
+/* This machine's temporaries go when their process is gone; another machine's (whose processes
+ * cannot be asked) and those without a host id only when a day has passed since they were last
+ * written. */
+static void test_stale_temporaries_by_host(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("stale_hosts");
+    pid_t child = fork(); /* a process id that is certainly gone */
+    assert_true(child >= 0);
+    if (child == 0) _exit(0);
+    assert_int_equal(waitpid(child, NULL, 0), child);
+    unsigned self = (unsigned)wg__temp_host(), other = self ^ 0x5a5a5a5au;
+    long dead = (long)child, live = (long)getpid();
+    const time_t day = WG_TEMP_FOREIGN_AGE, fresh = 60;
+    struct {
+        const char *fmt;
+        long pid;
+        unsigned host;
+        time_t age;
+        bool removed;
+    } cases[] = {
+        {".a%d.tmp%ld-1-%08x.png", dead, self, fresh, true},        /* this host, gone */
+        {".a%d.tmp%ld-1-%08x.png", live, self, fresh, false},       /* this host, running */
+        {".a%d.tmp%ld-1-%08x.png", live, self, 2 * day, false},     /* running, however old */
+        {".a%d.tmp%ld-1-%08x.png", dead, other, fresh, false},      /* another host: cannot tell */
+        {".a%d.tmp%ld-1-%08x.png", dead, other, day - 3600, false}, /* ... less than a day */
+        {".a%d.tmp%ld-1-%08x.png", live, other, day + 3600, true},  /* ... a day untouched */
+        {".a%d.tmp%ld-1.png", dead, 0, fresh, false},               /* no host id */
+        {".a%d.tmp%ld-1.png", live, 0, day + 3600, true},
+        {"a%d.tmp%ld-1-%08x.png", dead, self, 2 * day, false}, /* not a temporary's name */
+    };
+    int n = (int)(sizeof cases / sizeof cases[0]), expect = 0;
+    char names[16][256];
+    for (int i = 0; i < n; i++) {
+        snprintf(names[i], sizeof names[i], cases[i].fmt, i, cases[i].pid, cases[i].host);
+        touch_file(dir, names[i], cases[i].age);
+        expect += cases[i].removed;
+    }
+    char sub[1200]; /* a folder named like a stale temporary stays */
+    snprintf(sub, sizeof sub, "%s/.d.tmp%ld-1-%08x.png", dir, dead, self);
+    assert_int_equal(mkdir(sub, 0777), 0);
+    assert_int_equal(wg_remove_stale_temporaries(dir), expect);
+    for (int i = 0; i < n; i++) {
+        char p[1400];
+        snprintf(p, sizeof p, "%s/%s", dir, names[i]);
+        if (wgt_exists(p) == cases[i].removed)
+            fail_msg("'%s' should have been %s", names[i], cases[i].removed ? "removed" : "kept");
+    }
+    assert_true(wgt_exists(sub));
 }
 
 /* Temporaries of a write set, in the order the set made them. */
@@ -1718,6 +1807,8 @@ int main(void)
         cmocka_unit_test(test_successful_write_leaves_no_temp_files),
         cmocka_unit_test(test_failed_write_keeps_the_old_file),
         cmocka_unit_test(test_temp_names_are_recognised_exactly),
+        cmocka_unit_test(test_temp_names_carry_the_host),
+        cmocka_unit_test(test_stale_temporaries_by_host),
         cmocka_unit_test(test_write_set_replaces_all_or_reports_which),
         cmocka_unit_test(test_layered_exr_channels_and_values),
         cmocka_unit_test(test_layered_exr_rejects_bad_layers),

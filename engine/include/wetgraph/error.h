@@ -21,7 +21,7 @@ enum {
     WG_ERR_CYCLE = -6,     /* graph or subgraph recursion */
     WG_ERR_USAGE = -7,     /* bad API or command-line use */
     WG_ERR_EVAL = -8,      /* a node failed while computing */
-    WG_ERR_CANCELLED = -9, /* evaluation stopped because another node failed */
+    WG_ERR_CANCELLED = -9, /* evaluation stopped: another node failed, or wg_cancel_request */
     WG_ERR_BUDGET = -10,   /* working set does not fit the memory budget */
 };
 

@@ -74,6 +74,24 @@ void wg_request_set_time(WgRequest *r, double time);
 typedef void (*WgProgressFn)(void *user, int done, int total, const char *node_id);
 void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user);
 
+/* Cancelling a render from another thread (or from its progress callback). A cancel token is
+ * set on requests; wg_cancel_request makes every render of those requests that is running, and
+ * every one started later, stop and return WG_ERR_CANCELLED: nodes not started are not started,
+ * and running nodes stop at their next band of rows (docs/engine.md says how soon). Nothing a
+ * cancelled node had begun enters the memory or disk cache; nodes that had finished stay cached,
+ * so the next render reuses them and gives the same pixels as an uncancelled one. A token stays
+ * requested until wg_cancel_reset. Renders of other requests (on the same engine) carry on. */
+typedef struct WgCancel WgCancel;
+/* The caller owns the token (NULL when out of memory). Free it only when no render uses it. */
+WgCancel *wg_cancel_new(void);
+void wg_cancel_free(WgCancel *c);
+/* Thread-safe; not async-signal-safe (it takes a lock). */
+void wg_cancel_request(WgCancel *c);
+void wg_cancel_reset(WgCancel *c);
+bool wg_cancel_requested(const WgCancel *c);
+/* Renders of r stop when c is requested (NULL: never). The request borrows the token. */
+void wg_request_set_cancel(WgRequest *r, WgCancel *c);
+
 /* Resolve everything (sizes, parameters, types, files) without evaluating. */
 int wg_request_check(const WgRequest *r, WgError *err);
 /* Graphviz description of the request's graph (as wg_graph_write_dot) with a cluster around
@@ -86,7 +104,8 @@ int wg_request_write_dot(const WgRequest *r, FILE *f, WgError *err);
  * images. */
 int wg_request_reads_time(const WgRequest *r, bool *out, WgError *err);
 
-/* Evaluate. On success the caller owns *out. */
+/* Evaluate. On success the caller owns *out. WG_ERR_CANCELLED (and *out NULL) when the
+ * request's cancel token was requested before the render finished. */
 int wg_render(WgEngine *e, const WgRequest *r, WgResult **out, WgError *err);
 
 typedef enum { WG_COMPUTED = 0, WG_HIT_MEMORY = 1, WG_HIT_DISK = 2 } WgCacheOutcome;

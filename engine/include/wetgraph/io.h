@@ -64,8 +64,8 @@ float wg_srgb_to_linear(float v);
 float wg_linear_to_srgb(float v);
 
 /* Write sets: several files replaced together. Each add writes one complete file to a
- * temporary beside its target (same folder, hidden name ".NAME.tmpPID-N.EXT" with this
- * process's id) and flushes it to the disk; the targets are untouched. Commit then renames
+ * temporary beside its target (same folder, hidden name ".NAME.tmpPID-N-HOST.EXT" with this
+ * process's id and 8 hex digits identifying this machine) and flushes it to the disk; the targets are untouched. Commit then renames
  * every temporary over its target in one tight loop, after checking that no target is a folder,
  * and flushes the folders. If an add fails, the caller frees the set and no target changes. If a
  * rename fails (rare: the target changed meanwhile), the files before it are replaced and the
@@ -85,9 +85,11 @@ int wg_write_set_commit(WgWriteSet *s, WgError *err);
 void wg_write_set_free(WgWriteSet *s);
 
 /* Remove, from the folder `dir`, the temporaries of writers that no longer run: regular files
- * named like a write set's temporaries whose process id belongs to no live process on this
- * machine (a render killed with SIGKILL or by a power cut leaves them). Temporaries of live
- * processes and every other file are kept. Best effort; returns how many were removed. */
+ * named like a write set's temporaries of this machine whose process id belongs to no live
+ * process (a render killed with SIGKILL or by a power cut leaves them). Another machine's
+ * temporaries, and those whose name has no machine id (earlier versions), cannot be checked:
+ * they are removed only when not modified for 24 hours. Temporaries of live processes and every
+ * other file are kept. Best effort; returns how many were removed. */
 int wg_remove_stale_temporaries(const char *dir);
 
 #ifdef __cplusplus

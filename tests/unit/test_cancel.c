@@ -1,0 +1,438 @@
+/* SPDX-License-Identifier: MIT */
+/* Cancelling a render with a cancel token (wg_request_set_cancel, wg_cancel_request): before it
+ * starts, from its progress callback, and from another thread while a long node runs. A
+ * cancelled render returns WG_ERR_CANCELLED without a result; the node that was running stops
+ * at its next chunk of rows and leaves nothing in the memory or disk cache; the nodes that had
+ * finished stay cached; the next render is bit-identical to one on a fresh engine. The long
+ * node is a test node ("gate") whose row chunks wait until the test releases them, so nothing
+ * depends on timing; alarm() is the harness limit against hangs. */
+#include "wgtest.h"
+
+#include <dirent.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* ---- the gate node: out = source * 0.5 + a pattern of (x, y); each chunk of rows waits for
+ * `released` ---------------------------------------------------------------------------------- */
+
+static atomic_int released = 1;
+static atomic_int chunks_started;
+
+typedef struct {
+    const WgImage *src;
+    WgImage *dst;
+} GateJob;
+
+static void gate_rows(void *user, int y0, int y1)
+{
+    GateJob *j = user;
+    atomic_fetch_add(&chunks_started, 1);
+    while (!atomic_load(&released)) wgt_sleep_ms(1);
+    for (int y = y0; y < y1; y++) {
+        const float *s = wg_image_row(j->src, y);
+        float *d = wg_image_row(j->dst, y);
+        for (int x = 0; x < j->dst->width; x++)
+            d[x] = s[x] * 0.5f + (float)((x * 7 + y * 3) % 11) / 22;
+    }
+}
+
+static int gate_eval(WgNodeContext *ctx, WgError *err)
+{
+    (void)err;
+    GateJob j = {ctx->inputs[0], ctx->outputs[0]};
+    return wg_parallel_rows(ctx, ctx->height, gate_rows, &j);
+}
+
+static const WgPortSpec gate_in[] = {WG_PORT("source", WG_GRAY), WG_PORT_END};
+static const WgPortSpec gate_out[] = {WG_PORT("out", WG_GRAY), WG_PORT_END};
+static const WgParamSpec gate_params[] = {WG_PARAM_END};
+static const WgNodeType gate_type = {
+    .name = "gate",
+    .summary = "test node whose row chunks wait for the test",
+    .category = "test",
+    .params = gate_params,
+    .inputs = gate_in,
+    .outputs = gate_out,
+    .eval = gate_eval,
+};
+
+static const WgNodeType *types[512];
+
+static int use_gate(void **state)
+{
+    (void)state;
+    int n = 0;
+    while (wg_node_types[n]) {
+        types[n] = wg_node_types[n];
+        n++;
+    }
+    types[n++] = &gate_type;
+    types[n] = NULL;
+    wg_set_node_types(types);
+    atomic_store(&released, 1);
+    return 0;
+}
+
+static int restore_builtin(void **state)
+{
+    (void)state;
+    wg_set_node_types(wg_node_types);
+    atomic_store(&released, 1);
+    return 0;
+}
+
+/* noise -> blur -> gate -> levels -> out; "pre" is the blur's own output too. */
+static const char *const graph_xml =
+    "<wetgraph version=\"1\" size=\"256\" seed=\"3\">\n"
+    "  <node id=\"n\" type=\"noise\"/>\n"
+    "  <node id=\"pre\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"g\" type=\"gate\"><in name=\"source\" from=\"pre\"/></node>\n"
+    "  <node id=\"post\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"g\"/></node>\n"
+    "  <output name=\"out\" from=\"post\"/>\n"
+    "  <output name=\"pre\" from=\"pre\"/>\n"
+    "</wetgraph>\n";
+
+static void expect_same_outputs(const WgResult *a, const WgResult *b)
+{
+    assert_int_equal(wg_result_output_count(a), wg_result_output_count(b));
+    for (int i = 0; i < wg_result_output_count(a); i++)
+        wgt_assert_identical(wg_result_output_image(a, i), wg_result_output_image(b, i));
+}
+
+/* The outputs of a render of g on a fresh engine without any cache. */
+static WgResult *reference(const WgGraph *g)
+{
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgRequest *r = wg_request_new(g);
+    WgResult *res = wgt_render_request(e, r);
+    wg_request_free(r);
+    wg_engine_free(e);
+    return res;
+}
+
+static void expect_outcome(const WgResult *res, const char *id, WgCacheOutcome want)
+{
+    const WgNodeStat *s = wgt_stat(res, id);
+    if (!s) fail_msg("no stat for node '%s'", id);
+    if (s->cache != want) fail_msg("node '%s': cache outcome %d, expected %d", id, s->cache, want);
+}
+
+static void expect_cancelled(WgEngine *e, const WgRequest *r)
+{
+    WgResult *res = NULL;
+    WgError err = {0};
+    int rc = wg_render(e, r, &res, &err);
+    if (rc != WG_ERR_CANCELLED)
+        fail_msg("render returned %d (%s), expected WG_ERR_CANCELLED", rc, err.message);
+    assert_null(res);
+    wgt_assert_error(&err, WG_ERR_CANCELLED, 0, "cancelled");
+}
+
+/* ---- tests ------------------------------------------------------------------------------- */
+
+static void test_cancel_before_start(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(graph_xml);
+    WgResult *ref = reference(g);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgRequest *r = wg_request_new(g);
+    WgCancel *c = wg_cancel_new();
+    assert_non_null(c);
+    wg_request_set_cancel(r, c);
+    assert_false(wg_cancel_requested(c));
+    wg_cancel_request(c);
+    assert_true(wg_cancel_requested(c));
+    atomic_store(&chunks_started, 0);
+    expect_cancelled(e, r);
+    assert_int_equal(atomic_load(&chunks_started), 0); /* nothing ran */
+    /* a second render of a requested token is cancelled too, until reset */
+    expect_cancelled(e, r);
+    wg_cancel_reset(c);
+    WgResult *res = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 4); /* nothing was cached */
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    /* a request without a token is not affected by a requested one */
+    wg_cancel_request(c);
+    WgRequest *other = wg_request_new(g);
+    wg_engine_clear_cache(e);
+    res = wgt_render_request(e, other);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_request_free(other);
+    wg_cancel_free(c);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_result_free(ref);
+    wg_graph_free(g);
+}
+
+typedef struct {
+    WgCancel *c;
+    int calls, cancel_at, last_done, total;
+} Progress;
+
+static void cancel_in_progress(void *user, int done, int total, const char *node)
+{
+    (void)node;
+    Progress *p = user;
+    p->calls++;
+    p->last_done = done;
+    p->total = total;
+    if (done >= p->cancel_at) wg_cancel_request(p->c);
+}
+
+static void test_cancel_from_progress_callback(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(graph_xml);
+    WgResult *ref = reference(g);
+    WgEngine *e = wgt_engine(1, 0, NULL); /* one worker: the nodes run in plan order */
+    WgRequest *r = wg_request_new(g);
+    WgCancel *c = wg_cancel_new();
+    wg_request_set_cancel(r, c);
+    Progress p = {c, 0, 2, 0, 0};
+    wg_request_set_progress(r, cancel_in_progress, &p);
+    expect_cancelled(e, r);
+    assert_int_equal(p.total, 4);
+    assert_true(p.last_done >= 2);
+    assert_true(p.last_done < 4); /* never told the render completed */
+    /* n and pre finished before the cancel and are cached; the rest runs now */
+    wg_cancel_reset(c);
+    p.cancel_at = 1000;
+    WgResult *res = wgt_render_request(e, r);
+    expect_outcome(res, "pre", WG_HIT_MEMORY); /* (n is then not needed) */
+    expect_outcome(res, "g", WG_COMPUTED);
+    expect_outcome(res, "post", WG_COMPUTED);
+    assert_int_equal(p.last_done, 2);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_cancel_free(c);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_result_free(ref);
+    wg_graph_free(g);
+}
+
+typedef struct {
+    WgEngine *e;
+    const WgRequest *r;
+    WgResult *res;
+    WgError err;
+    int rc;
+} RenderThread;
+
+static void *render_thread(void *arg)
+{
+    RenderThread *t = arg;
+    t->rc = wg_render(t->e, t->r, &t->res, &t->err);
+    return NULL;
+}
+
+/* Start a render of r on another thread, wait until the gate node runs (its chunks hold), then
+ * cancel it and let the chunks go. Returns how many of the gate's chunks started. */
+static int cancel_during_gate(WgEngine *e, const WgRequest *r, WgCancel *c)
+{
+    atomic_store(&released, 0);
+    atomic_store(&chunks_started, 0);
+    RenderThread t = {e, r, NULL, {0}, 0};
+    pthread_t tid;
+    assert_int_equal(pthread_create(&tid, NULL, render_thread, &t), 0);
+    while (atomic_load(&chunks_started) == 0) wgt_sleep_ms(1); /* alarm() is the limit */
+    wg_cancel_request(c);
+    atomic_store(&released, 1);
+    pthread_join(tid, NULL);
+    if (t.rc != WG_ERR_CANCELLED)
+        fail_msg("render returned %d (%s), expected WG_ERR_CANCELLED", t.rc, t.err.message);
+    assert_null(t.res);
+    wgt_assert_error(&t.err, WG_ERR_CANCELLED, 0, "cancelled");
+    return atomic_load(&chunks_started);
+}
+
+static void test_cancel_from_another_thread(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(graph_xml);
+    WgResult *ref = reference(g);
+    const int threads = 2;
+    WgEngine *e = wgt_engine(threads, 0, NULL);
+    WgRequest *r = wg_request_new(g);
+    WgCancel *c = wg_cancel_new();
+    wg_request_set_cancel(r, c);
+    int started = cancel_during_gate(e, r, c);
+    /* the chunks that were waiting finish; no other chunk of the gate's 64 starts */
+    assert_true(started >= 1);
+    assert_true(started <= threads);
+    /* the gate's partial output is not cached: it is computed again, and post after it */
+    wg_cancel_reset(c);
+    atomic_store(&chunks_started, 0);
+    WgResult *res = wgt_render_request(e, r);
+    expect_outcome(res, "pre", WG_HIT_MEMORY); /* (n is then not needed) */
+    expect_outcome(res, "g", WG_COMPUTED);
+    expect_outcome(res, "post", WG_COMPUTED);
+    assert_int_equal(atomic_load(&chunks_started), 64);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    /* and now everything is cached */
+    res = wgt_render_request(e, r);
+    assert_int_equal(wg_result_evaluated_count(res), 0);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_cancel_free(c);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_result_free(ref);
+    wg_graph_free(g);
+}
+
+/* The node that is cancelled is the last one: every node is then counted as completed, but the
+ * render is still cancelled, not a result with a missing image. */
+static void test_cancel_the_last_node(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"256\" seed=\"3\">\n"
+                          "  <node id=\"n\" type=\"noise\"/>\n"
+                          "  <node id=\"g\" type=\"gate\"><in name=\"source\" from=\"n\"/></node>\n"
+                          "  <output name=\"out\" from=\"g\"/>\n"
+                          "</wetgraph>\n");
+    WgResult *ref = reference(g);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgRequest *r = wg_request_new(g);
+    WgCancel *c = wg_cancel_new();
+    wg_request_set_cancel(r, c);
+    cancel_during_gate(e, r, c);
+    wg_cancel_reset(c);
+    WgResult *res = wgt_render_request(e, r);
+    expect_outcome(res, "g", WG_COMPUTED);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_cancel_free(c);
+    wg_request_free(r);
+    wg_engine_free(e);
+    wg_result_free(ref);
+    wg_graph_free(g);
+}
+
+/* Files in the cache folder (recursively): entries, and names starting with '.' (temporaries). */
+static void count_files(const char *dir, int *entries, int *hidden)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *ent;
+    while ((ent = readdir(d))) {
+        if (!strcmp(ent->d_name, ".") || !strcmp(ent->d_name, "..")) continue;
+        char path[2048];
+        snprintf(path, sizeof path, "%s/%s", dir, ent->d_name);
+        DIR *sub = opendir(path);
+        if (sub) {
+            closedir(sub);
+            count_files(path, entries, hidden);
+        } else if (ent->d_name[0] == '.') {
+            ++*hidden;
+        } else {
+            ++*entries;
+        }
+    }
+    closedir(d);
+}
+
+static void test_cancel_with_disk_cache(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(graph_xml);
+    WgResult *ref = reference(g);
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s", wgt_path("cancel_cache"));
+    WgEngine *e = wgt_engine(2, 0, dir);
+    WgRequest *r = wg_request_new(g);
+    WgCancel *c = wg_cancel_new();
+    wg_request_set_cancel(r, c);
+    cancel_during_gate(e, r, c);
+    wg_engine_free(e);
+    /* n (if it is not a cheap node) and pre are on disk; the gate and post are not; no
+     * temporary is left */
+    int entries = 0, hidden = 0;
+    count_files(dir, &entries, &hidden);
+    assert_int_equal(hidden, 0);
+    assert_true(entries >= 1 && entries <= 2);
+    int before = entries;
+
+    /* a fresh engine on the same folder: the finished nodes come from the disk, the rest is
+     * computed, and the pixels are those of an uncancelled render */
+    e = wgt_engine(2, 0, dir);
+    wg_cancel_reset(c);
+    WgResult *res = wgt_render_request(e, r);
+    expect_outcome(res, "pre", WG_HIT_DISK);
+    expect_outcome(res, "g", WG_COMPUTED);
+    expect_outcome(res, "post", WG_COMPUTED);
+    expect_same_outputs(res, ref);
+    wg_result_free(res);
+    wg_engine_free(e);
+    entries = hidden = 0;
+    count_files(dir, &entries, &hidden);
+    assert_int_equal(hidden, 0);
+    assert_int_equal(entries, before + 2);
+
+    wg_cancel_free(c);
+    wg_request_free(r);
+    wg_result_free(ref);
+    wg_graph_free(g);
+}
+
+/* Two requests of one graph on one engine at once, each with its own token: cancelling one
+ * leaves the other to finish with the right pixels. */
+static void test_cancel_leaves_other_requests(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(graph_xml);
+    WgResult *ref = reference(g);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgRequest *r1 = wg_request_new(g), *r2 = wg_request_new(g);
+    WgCancel *c1 = wg_cancel_new(), *c2 = wg_cancel_new();
+    wg_request_set_cancel(r1, c1);
+    wg_request_set_cancel(r2, c2);
+    atomic_store(&released, 0);
+    atomic_store(&chunks_started, 0);
+    RenderThread t1 = {e, r1, NULL, {0}, 0}, t2 = {e, r2, NULL, {0}, 0};
+    pthread_t tid1, tid2;
+    assert_int_equal(pthread_create(&tid1, NULL, render_thread, &t1), 0);
+    while (atomic_load(&chunks_started) == 0) wgt_sleep_ms(1);
+    assert_int_equal(pthread_create(&tid2, NULL, render_thread, &t2), 0);
+    wg_cancel_request(c1);
+    atomic_store(&released, 1);
+    pthread_join(tid1, NULL);
+    pthread_join(tid2, NULL);
+    assert_int_equal(t1.rc, WG_ERR_CANCELLED);
+    assert_null(t1.res);
+    if (t2.rc) fail_msg("the other render failed: %s", t2.err.message);
+    expect_same_outputs(t2.res, ref);
+    wg_result_free(t2.res);
+    wg_cancel_free(c1);
+    wg_cancel_free(c2);
+    wg_request_free(r1);
+    wg_request_free(r2);
+    wg_engine_free(e);
+    wg_result_free(ref);
+    wg_graph_free(g);
+}
+
+int main(void)
+{
+    alarm(120); /* harness limit: a render that never notices its cancel hangs the test */
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_cancel_before_start, use_gate, restore_builtin),
+        cmocka_unit_test_setup_teardown(test_cancel_from_progress_callback, use_gate,
+                                        restore_builtin),
+        cmocka_unit_test_setup_teardown(test_cancel_from_another_thread, use_gate, restore_builtin),
+        cmocka_unit_test_setup_teardown(test_cancel_the_last_node, use_gate, restore_builtin),
+        cmocka_unit_test_setup_teardown(test_cancel_with_disk_cache, use_gate, restore_builtin),
+        cmocka_unit_test_setup_teardown(test_cancel_leaves_other_requests, use_gate,
+                                        restore_builtin),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
