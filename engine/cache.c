@@ -273,7 +273,7 @@ static FILE *open_entry(const char *path, off_t size, bool *bad)
 }
 
 const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
-                                  int height, int channels)
+                                  int height, int channels, bool uniform)
 {
     char *path = wg__cache_entry_path(c, key, port);
     if (!path) return NULL;
@@ -290,7 +290,9 @@ const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, i
         bad = true;
         goto out;
     }
-    img = wg_image_new(width, height, channels);
+    /* a uniform image has one row for all: every row of the file is read into it */
+    img = uniform ? wg__image_new_uniform_in(NULL, width, height, channels)
+                  : wg_image_new(width, height, channels);
     if (!img) goto out;
     XXH3_state_t *st = XXH3_createState();
     if (!st) {

@@ -331,7 +331,10 @@ static int eval_node(Run *run, Node *node, WgError *err)
         inputs[i] = src;
     }
     for (int o = 0; o < in->n_out; o++) {
-        outputs[o] = wg__image_new_in(run->e->mem, in->width, in->height, in->out_channels[o]);
+        outputs[o] =
+            t->flags & WG_NODE_UNIFORM
+                ? wg__image_new_uniform_in(run->e->mem, in->width, in->height, in->out_channels[o])
+                : wg__image_new_in(run->e->mem, in->width, in->height, in->out_channels[o]);
         if (!outputs[o]) {
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image", in->width,
                               in->height);
@@ -508,8 +511,9 @@ static void node_job(void *user)
 static size_t inst_bytes(const WgInst *in)
 {
     size_t b = 0;
+    int rows = in->type->flags & WG_NODE_UNIFORM ? 1 : in->height; /* one row for all */
     for (int o = 0; o < in->n_out; o++)
-        b += wg_image_bytes_for(in->width, in->height, in->out_channels[o]);
+        b += wg_image_bytes_for(in->width, rows, in->out_channels[o]);
     return b;
 }
 
@@ -572,7 +576,8 @@ static bool lookup_cache(Run *run, int i)
     all = true;
     for (int o = 0; o < in->n_out && all; o++)
         all = (n->out[o] =
-                   wg__cache_disk_get(c, in->key, o, in->width, in->height, in->out_channels[o]));
+                   wg__cache_disk_get(c, in->key, o, in->width, in->height, in->out_channels[o],
+                                      in->type->flags & WG_NODE_UNIFORM));
     if (all) {
         if (run->e->memory_cache)
             for (int o = 0; o < in->n_out; o++) wg__cache_put(c, in->key, o, n->out[o]);

@@ -446,7 +446,10 @@ int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgFuseSourceFn sou
         }
     }
     for (int o = 0; o < sink->n_out; o++) {
-        out[o] = wg_image_new(sink->width, sink->height, sink->out_channels[o]);
+        out[o] =
+            sink->type->flags & WG_NODE_UNIFORM /* as eval gives it */
+                ? wg__image_new_uniform_in(NULL, sink->width, sink->height, sink->out_channels[o])
+                : wg_image_new(sink->width, sink->height, sink->out_channels[o]);
         if (!out[o]) {
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory for a %dx%d image",
                               sink->width, sink->height);

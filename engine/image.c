@@ -101,12 +101,19 @@ size_t wg_image_bytes_for(int width, int height, int channels)
     return row * (size_t)height * sizeof(float);
 }
 
-size_t wg_image_bytes(const WgImage *img)
+static size_t row_floats(int width, int channels)
 {
-    return img ? img->stride * (size_t)img->height * sizeof(float) : 0;
+    return ((size_t)width * (size_t)channels + 15) & ~(size_t)15;
 }
 
-WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels)
+size_t wg_image_bytes(const WgImage *img)
+{
+    if (!img) return 0;
+    if (img->stride == 0) return row_floats(img->width, img->channels) * sizeof(float);
+    return img->stride * (size_t)img->height * sizeof(float);
+}
+
+static WgImage *image_new(WgMemPool *pool, int width, int height, int channels, bool uniform)
 {
     if (width < 1 || height < 1 || width > WG_MAX_SIDE || height > WG_MAX_SIDE) return NULL;
     if (channels != 1 && channels != 4) return NULL;
@@ -115,7 +122,7 @@ WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels)
     img->width = width;
     img->height = height;
     img->channels = channels;
-    img->stride = ((size_t)width * (size_t)channels + 15) & ~(size_t)15;
+    img->stride = uniform ? 0 : row_floats(width, channels);
     img->pool_ = pool;
     img->data = wg__mempool_get(pool, wg_image_bytes(img), &img->mapped_);
     if (!img->data) {
@@ -124,6 +131,16 @@ WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels)
     }
     img->refcount_ = 1;
     return img;
+}
+
+WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels)
+{
+    return image_new(pool, width, height, channels, false);
+}
+
+WgImage *wg__image_new_uniform_in(WgMemPool *pool, int width, int height, int channels)
+{
+    return image_new(pool, width, height, channels, true);
 }
 
 WgImage *wg_image_new(int width, int height, int channels)
@@ -298,7 +315,12 @@ WgImage *wg__image_convert_in(WgMemPool *pool, const WgImage *src, int width, in
         if (sized != src) return sized;
         /* a real copy so the caller may own and modify it */
         WgImage *copy = wg__image_new_in(pool, width, height, channels);
-        if (copy) memcpy(copy->data, src->data, wg_image_bytes(src));
+        if (copy && src->stride == copy->stride)
+            memcpy(copy->data, src->data, wg_image_bytes(src));
+        else if (copy) /* src has one row for all */
+            for (int y = 0; y < height; y++)
+                memcpy(wg_image_row(copy, y), wg_image_row(src, y),
+                       sizeof(float) * (size_t)width * (size_t)channels);
         wg_image_unref(sized);
         return copy;
     }

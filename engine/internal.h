@@ -246,9 +246,9 @@ void wg__cache_free(WgCache *c);
 const WgImage *wg__cache_get(WgCache *c, const uint64_t key[2], int port);
 void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *img);
 /* Disk lookup: a new reference when a valid entry of exactly that shape exists; invalid
- * entries are removed. */
+ * entries are removed. `uniform`: read it as an image of one row for all (stride 0). */
 const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
-                                  int height, int channels);
+                                  int height, int channels, bool uniform);
 int wg__cache_disk_put(WgCache *c, const uint64_t key[2], int port, const WgImage *img);
 bool wg__cache_has_disk(const WgCache *c);
 /* Evict least recently used memory entries until they hold at most max_bytes that nothing
@@ -281,6 +281,8 @@ void wg__mempool_stats(WgMemPool *p, WgMemoryStats *out);
 void wg__mempool_set_poison(bool on);
 /* An image whose pixels come from (and go back to) `pool`. */
 WgImage *wg__image_new_in(WgMemPool *pool, int width, int height, int channels);
+/* An image whose rows are all one row of memory (stride 0): for outputs of WG_NODE_UNIFORM. */
+WgImage *wg__image_new_uniform_in(WgMemPool *pool, int width, int height, int channels);
 /* wg_image_convert with the new images from (and back to) `pool`. */
 WgImage *wg__image_convert_in(WgMemPool *pool, const WgImage *src, int width, int height,
                               int channels);

@@ -35,7 +35,9 @@ static int uniform_eval(WgNodeContext *ctx, WgError *err)
     (void)err;
     const UniformParams *p = ctx->params;
     WgImage *out = ctx->outputs[0];
-    for (int y = 0; y < out->height; y++) {
+    /* rows sharing one row of memory (how the engine gives it its output) take one */
+    int rows = out->stride ? out->height : 1;
+    for (int y = 0; y < rows; y++) {
         float *r = wg_image_row(out, y);
         if (out->channels == 1)
             for (int x = 0; x < out->width; x++) r[x] = p->value;
@@ -55,7 +57,7 @@ const WgNodeType wg_node_uniform = {
     .params = uniform_params,
     .params_size = sizeof(UniformParams),
     .outputs = uniform_out,
-    .flags = WG_NODE_SOURCE | WG_NODE_POINT | WG_NODE_CHEAP,
+    .flags = WG_NODE_SOURCE | WG_NODE_POINT | WG_NODE_CHEAP | WG_NODE_UNIFORM,
     .output_channels = uniform_channels,
     .eval = uniform_eval,
 };

@@ -89,7 +89,12 @@ static int statistics_eval(WgNodeContext *ctx, WgError *err)
             f.value[1] = hi;
             f.value[2] = m < lo ? lo : m > hi ? hi : m;
         }
-        rc = wg_parallel_rows(ctx, ctx->height, stats_fill, &f);
+        /* rows that share one row of memory (as the engine gives a uniform node) take one */
+        int rows = ctx->outputs[0]->stride ? ctx->height : 1;
+        if (rows > 1)
+            rc = wg_parallel_rows(ctx, rows, stats_fill, &f);
+        else
+            stats_fill(&f, 0, 1);
     }
     wg_free(j.row_lo);
     wg_free(j.row_hi);
@@ -122,6 +127,6 @@ const WgNodeType wg_node_statistics = {
            "count.",
     .inputs = statistics_in,
     .outputs = statistics_out,
-    .flags = WG_NODE_GLOBAL,
+    .flags = WG_NODE_GLOBAL | WG_NODE_UNIFORM,
     .eval = statistics_eval,
 };

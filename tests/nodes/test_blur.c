@@ -413,7 +413,7 @@ static void test_budget_counts_the_spectrum(void **state)
 {
     (void)state;
     WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"1024\">\n"
-                          "  <node id=\"u\" type=\"uniform\" value=\"0.5\"/>\n"
+                          "  <node id=\"u\" type=\"pixel\" expr=\"0.5\"/>\n"
                           "  <node id=\"soft\" type=\"blur\" sigma=\"0.75\">"
                           "<in name=\"source\" from=\"u\"/></node>\n"
                           "  <output name=\"out\" from=\"soft\"/>\n"

@@ -224,7 +224,7 @@ static void test_working_memory_that_cannot_fit_is_refused_up_front(void **state
 {
     (void)state;
     WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"1024\">\n"
-                          "  <node id=\"u\" type=\"uniform\" kind=\"color\" color=\"#336699\"/>\n"
+                          "  <node id=\"u\" type=\"pixel\" kind=\"color\" expr=\"rgb(0.2, 0.4, 0.6)\"/>\n"
                           "  <node id=\"soft\" type=\"blur\" sigma=\"3\" quality=\"exact\">"
                           "<in name=\"source\" from=\"u\"/></node>\n"
                           "  <output name=\"out\" from=\"soft\"/>\n"

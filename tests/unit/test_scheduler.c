@@ -312,7 +312,7 @@ static void test_missing_input_image_file_fails_cleanly(void **state)
 static const char *const budget_xml =
     "<wetgraph version=\"1\" size=\"64\">\n"
     "  <node id=\"small\" type=\"uniform\" value=\"0.5\"/>\n"
-    "  <node id=\"big\" type=\"uniform\" kind=\"color\" color=\"0.1 0.2 0.3 1\" size=\"512\"/>\n"
+    "  <node id=\"big\" type=\"pixel\" kind=\"color\" expr=\"rgb(0.1, 0.2, 0.3)\" size=\"512\"/>\n"
     "  <node id=\"medium\" type=\"blur\" sigma=\"1\" size=\"256\"><in name=\"source\" "
     "from=\"big\"/></node>\n"
     "  <node id=\"down\" type=\"levels\" out_high=\"2\"><in name=\"source\" "

@@ -18,7 +18,8 @@ extern "C" {
 typedef struct WgImage {
     int width, height;
     int channels;  /* 1 or 4 */
-    size_t stride; /* floats between the starts of two rows */
+    size_t stride; /* floats between the starts of two rows; 0 when every row is the same
+                      memory (an image of one value, as a WG_NODE_UNIFORM node outputs) */
     float *data;
     int refcount_;           /* private: use wg_image_ref / wg_image_unref */
     int mapped_;             /* private: data is a memory mapping of its own */
