@@ -38,6 +38,7 @@ typedef struct Node {
     size_t out_bytes; /* its outputs, held after it has run until its last consumer has */
     size_t need;      /* held while it runs: outputs, inputs converted for it, scratch */
     bool started, ahead;
+    bool parallel;      /* counted in Run.running_parallel while it runs */
     size_t ahead_bytes; /* what it adds to Run.ahead */
     /* Fusion (fuse.c): a group runs as one job, its sink's. `fused` marks the other members,
      * which are never scheduled on their own; a sink lists the members (plan order, itself
@@ -57,6 +58,7 @@ struct Run {
     pthread_mutex_t mu;
     pthread_cond_t cv;
     int running, completed, total;
+    int running_parallel; /* running jobs that split their rows over the workers */
     int *ready; /* nodes whose inputs are done, not started: a binary min-heap of plan indexes,
                    taken lowest first, so one thread follows the plan order the budget
                    estimate assumes */
@@ -404,11 +406,17 @@ static void ready_push(Run *run, int index)
     h[k] = index;
 }
 
-static void ready_pop(Run *run)
+/* Takes the entry at heap position k out (0: the lowest). */
+static void ready_take(Run *run, int k)
 {
     int *h = run->ready;
     int last = h[--run->n_ready];
-    int k = 0, n = run->n_ready;
+    int n = run->n_ready;
+    if (k == n) return;
+    while (k > 0 && h[(k - 1) / 2] > last) { /* up, when it came from another branch */
+        h[k] = h[(k - 1) / 2];
+        k = (k - 1) / 2;
+    }
     for (;;) {
         int c = 2 * k + 1;
         if (c >= n) break;
@@ -417,7 +425,12 @@ static void ready_pop(Run *run)
         h[k] = h[c];
         k = c;
     }
-    if (n > 0) h[k] = last;
+    h[k] = last;
+}
+
+static bool parallel_job(const Run *run, const Node *n)
+{
+    return !(run->plan->insts[n->index].type->flags & WG_NODE_SERIAL) || n->n_members;
 }
 
 static void release(Run *run, int index)
@@ -469,6 +482,7 @@ static void node_job(void *user)
     }
     pthread_mutex_lock(&run->mu);
     run->running--;
+    run->running_parallel -= node->parallel;
     run->completed += n_members;
     node->done = true;
     if (rc) {
@@ -908,7 +922,22 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
                     f->ahead_bytes = 0;
                 }
             }
-            Node *n = &run.nodes[run.ready[0]];
+            /* Row-parallel nodes run one at a time, each on every worker: the same work in no
+             * more wall time than running several side by side, with fewer images alive at
+             * once, and each node's time is its real latency. Serial nodes (file decoding) run
+             * beside them on the workers the row chunks leave: while a parallel node runs, the
+             * first ready serial one may start. */
+            int pos = 0;
+            if (run.running_parallel > 0) {
+                pos = -1;
+                for (int q = 0; q < run.n_ready; q++)
+                    if (!parallel_job(&run, &run.nodes[run.ready[q]]) &&
+                        (pos < 0 || run.ready[q] < run.ready[pos]))
+                        pos = q;
+                if (pos < 0) break;
+            }
+            Node *n = &run.nodes[run.ready[pos]];
+            bool parallel = parallel_job(&run, n);
             bool ahead = n->index != run.frontier;
             size_t after = run.live + n->need;
             /* wait for memory; the frontier node can always run once the others are done */
@@ -918,8 +947,10 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
                 break;
             /* make room: the cache and the pool keep only what the working set leaves */
             fit_budget(e, after);
-            ready_pop(&run);
+            ready_take(&run, pos);
             run.running++;
+            run.running_parallel += parallel;
+            n->parallel = parallel;
             run.live = after;
             n->started = true;
             if (ahead) {

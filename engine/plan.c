@@ -1083,7 +1083,7 @@ const WgNodeType wg__node_constant = {
     .summary = "An image given through the API",
     .category = "internal",
     .outputs = constant_out,
-    .flags = WG_NODE_SOURCE,
+    .flags = WG_NODE_SOURCE | WG_NODE_SERIAL,
     .eval = constant_eval,
 };
 
@@ -1107,6 +1107,6 @@ const WgNodeType wg__node_promote = {
     .category = "internal",
     .inputs = promote_in,
     .outputs = promote_out,
-    .flags = WG_NODE_POINT | WG_NODE_CHEAP,
+    .flags = WG_NODE_POINT | WG_NODE_CHEAP | WG_NODE_SERIAL,
     .eval = promote_eval,
 };

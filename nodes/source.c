@@ -57,7 +57,7 @@ const WgNodeType wg_node_uniform = {
     .params = uniform_params,
     .params_size = sizeof(UniformParams),
     .outputs = uniform_out,
-    .flags = WG_NODE_SOURCE | WG_NODE_POINT | WG_NODE_CHEAP | WG_NODE_UNIFORM,
+    .flags = WG_NODE_SOURCE | WG_NODE_POINT | WG_NODE_CHEAP | WG_NODE_UNIFORM | WG_NODE_SERIAL,
     .output_channels = uniform_channels,
     .eval = uniform_eval,
 };
@@ -157,7 +157,7 @@ const WgNodeType wg_node_image = {
     .params = image_params,
     .params_size = sizeof(ImageParams),
     .outputs = image_out,
-    .flags = WG_NODE_SOURCE | WG_NODE_GLOBAL,
+    .flags = WG_NODE_SOURCE | WG_NODE_GLOBAL | WG_NODE_SERIAL,
     .output_channels = image_channels,
     .check = image_check,
     .eval = image_eval,

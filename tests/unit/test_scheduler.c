@@ -2,10 +2,12 @@
 /* The scheduler: bit-identical results for any thread count, only the nodes the requested
  * outputs need are evaluated, a failing node stops the render with its id and location (for any
  * thread count, without crashing or leaking), the memory budget is checked before anything runs,
- * and the reported peak memory is plausible. */
+ * and the reported peak memory is plausible. Row-parallel nodes run one at a time (each on every
+ * worker) while serial ones (WG_NODE_SERIAL) run beside them. */
 #include "wgtest.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -484,6 +486,117 @@ static void test_progress_reaches_the_total(void **state)
     wg_graph_free(g);
 }
 
+/* Probes: a row-parallel node type and a serial one (WG_NODE_SERIAL), sources writing their
+ * value (distinct, else equal nodes would be merged into one), that count how many of their kind
+ * run at once. A serial probe waits (at most 2 s) for a second one to run beside it; a parallel one
+ * lingers 5 ms so that another would show. */
+static atomic_int parallel_now, parallel_most, serial_now, serial_most;
+
+static void note(atomic_int *now, atomic_int *most)
+{
+    int v = atomic_fetch_add(now, 1) + 1, m = atomic_load(most);
+    while (v > m && !atomic_compare_exchange_weak(most, &m, v)) {
+    }
+}
+
+typedef struct {
+    float value;
+} ProbeParams;
+static const WgParamSpec probe_params[] = {
+    WG_PARAM_FLOAT(ProbeParams, value, "Value written (distinct values keep probes apart)", 0, -10,
+                   10),
+    WG_PARAM_END,
+};
+
+static void probe_fill(WgNodeContext *ctx)
+{
+    float v = ((const ProbeParams *)ctx->params)->value;
+    WgImage *o = ctx->outputs[0];
+    for (int y = 0; y < o->height; y++)
+        for (int x = 0; x < o->width; x++) wg_image_row(o, y)[x] = v;
+}
+
+static int parallel_probe_eval(WgNodeContext *ctx, WgError *err)
+{
+    (void)err;
+    note(&parallel_now, &parallel_most);
+    wgt_sleep_ms(5);
+    probe_fill(ctx);
+    atomic_fetch_sub(&parallel_now, 1);
+    return WG_OK;
+}
+
+static int serial_probe_eval(WgNodeContext *ctx, WgError *err)
+{
+    (void)err;
+    note(&serial_now, &serial_most);
+    for (int i = 0; i < 2000 && atomic_load(&serial_now) < 2; i++) wgt_sleep_ms(1);
+    probe_fill(ctx);
+    atomic_fetch_sub(&serial_now, 1);
+    return WG_OK;
+}
+
+static const WgPortSpec probe_out[] = {WG_PORT("out", WG_GRAY), WG_PORT_END};
+static const WgNodeType parallel_probe = {
+    .name = "parallel_probe",
+    .summary = "test node",
+    .category = "test",
+    .params = probe_params,
+    .params_size = sizeof(ProbeParams),
+    .outputs = probe_out,
+    .flags = WG_NODE_SOURCE,
+    .eval = parallel_probe_eval,
+};
+static const WgNodeType serial_probe = {
+    .name = "serial_probe",
+    .summary = "test node",
+    .category = "test",
+    .params = probe_params,
+    .params_size = sizeof(ProbeParams),
+    .outputs = probe_out,
+    .flags = WG_NODE_SOURCE | WG_NODE_SERIAL,
+    .eval = serial_probe_eval,
+};
+
+static void test_parallel_nodes_run_one_at_a_time(void **state)
+{
+    (void)state;
+    static const WgNodeType *types[512];
+    int n = 0;
+    while (wg_node_types[n]) {
+        types[n] = wg_node_types[n];
+        n++;
+    }
+    types[n++] = &parallel_probe;
+    types[n++] = &serial_probe;
+    types[n] = NULL;
+    wg_set_node_types(types);
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"16\">\n"
+                          "  <node id=\"s1\" type=\"serial_probe\" value=\"1\"/>\n"
+                          "  <node id=\"s2\" type=\"serial_probe\" value=\"2\"/>\n"
+                          "  <node id=\"p1\" type=\"parallel_probe\" value=\"3\"/>\n"
+                          "  <node id=\"p2\" type=\"parallel_probe\" value=\"4\"/>\n"
+                          "  <node id=\"p3\" type=\"parallel_probe\" value=\"5\"/>\n"
+                          "  <node id=\"p4\" type=\"parallel_probe\" value=\"6\"/>\n"
+                          "  <node id=\"sum\" type=\"pixel\" expr=\"a + b + c + d + e + f\">"
+                          "<in name=\"a\" from=\"s1\"/><in name=\"b\" from=\"s2\"/>"
+                          "<in name=\"c\" from=\"p1\"/><in name=\"d\" from=\"p2\"/>"
+                          "<in name=\"e\" from=\"p3\"/><in name=\"f\" from=\"p4\"/></node>\n"
+                          "  <output name=\"out\" from=\"sum\"/>\n"
+                          "</wetgraph>\n");
+    for (int threads = 2; threads <= 4; threads += 2) {
+        atomic_store(&parallel_most, 0);
+        atomic_store(&serial_most, 0);
+        WgResult *res = wgt_render(g, threads);
+        assert_true(wgt_px(wgt_output(res, "out"), 3, 5, 0) == 21.0f);
+        assert_int_equal(atomic_load(&parallel_most), 1);
+        assert_int_equal(atomic_load(&serial_most), 2); /* both serial probes at once */
+        wg_result_free(res);
+    }
+    wg_graph_free(g);
+    wg_set_node_types(wg_node_types);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -496,6 +609,7 @@ int main(void)
         cmocka_unit_test(test_peak_bytes_is_plausible),
         cmocka_unit_test(test_engine_options),
         cmocka_unit_test(test_progress_reaches_the_total),
+        cmocka_unit_test(test_parallel_nodes_run_one_at_a_time),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -140,6 +140,9 @@ enum {
     WG_NODE_EXTRA_PARAMS = 1 << 7,   /* undeclared numeric attributes are passed as extras */
     WG_NODE_CHEAP = 1 << 8,          /* cheaper to recompute than to read from the disk cache */
     WG_NODE_SCOPED = 1 << 9,         /* reads ctx->scope_* (graph params etc.) in its own maths */
+    WG_NODE_SERIAL = 1 << 11,        /* evaluates on one thread (never calls wg_parallel_rows):
+                                        the scheduler runs it beside the row-parallel nodes,
+                                        which otherwise run one at a time on every thread */
     WG_NODE_UNIFORM = 1 << 10,       /* every pixel of every output has the same value: the
                                         engine gives it outputs whose rows all share one row of
                                         memory (stride 0), so writing row 0 is enough */
