@@ -426,6 +426,12 @@ void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i,
  * renders left in the target folders are removed first. */
 int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err)
 {
+    return write_outputs_except(o, g, res, frame, NULL, err);
+}
+
+int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res, int frame,
+                         const bool *kept, WgError *err)
+{
     int n = wg_result_output_count(res);
     bool separate = o->out_dir || !o->layered;
     const char *dir = o->out_dir ? o->out_dir : ".";
@@ -468,6 +474,7 @@ int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int f
             wg_remove_stale_temporaries(dir);
     }
     for (int i = 0; !rc && separate && i < n; i++) {
+        if (kept && kept[i]) continue;
         WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
         output_path(o, g, res, i, frame, paths[i], sizeof paths[i]);
         rc = wg_write_set_image(set, paths[i], wg_result_output_image(res, i), f,
@@ -477,7 +484,8 @@ int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int f
     wg_write_set_free(set);
     if (!rc && !o->quiet) {
         if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", layered_name(o, frame), n);
-        for (int i = 0; separate && i < n; i++) printf("%s\n", paths[i]);
+        for (int i = 0; separate && i < n; i++)
+            if (!kept || !kept[i]) printf("%s\n", paths[i]);
     }
     free(paths);
     return rc;

@@ -38,6 +38,10 @@ void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i,
                  char *buf, size_t size);
 /* Write every output of res (frame >= 0: with "_<frame>" in the names), all or none. */
 int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err);
+/* The same, leaving out (not writing, not listing) the separate files of the outputs i with
+ * kept[i] true: their files already hold these images. kept NULL: none. */
+int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res, int frame,
+                         const bool *kept, WgError *err);
 /* The per-node table (stderr) or JSON (stdout) of one render. */
 void print_stats(const WgEngine *e, const WgResult *res, bool json);
 /* path with "_<frame>" (4 digits at least) before its extension; path itself for frame < 0. */

@@ -40,6 +40,8 @@
 /* PING_S keeps an idle event stream inside the 60 s connection time-out that frees the threads
  * of clients that went away */
 enum { MAX_NAME = 128, MAX_VALUE = 512, PING_S = 15 };
+/* previews are at most this many pixels on their longer side (the page scales them to fit) */
+enum { PREVIEW_MAX = 1024 };
 /* dot gets this long (it lays out graphs of a few hundred nodes in well under a second) and
  * may write this much before its picture is given up */
 enum { DOT_LIMIT_MS = 10000, MAX_SVG = 16 << 20 };
@@ -50,7 +52,9 @@ typedef struct {
     char *name;
     unsigned char *png;
     size_t size;
-    int channels; /* 1: a gray map (the page may show it in false colour), 4: colour */
+    int channels;       /* 1: a gray map (the page may show it in false colour), 4: colour */
+    const WgImage *img; /* the image it shows (a reference: its address stays unique) */
+    uint64_t version;   /* the render that made the image: the page reloads it when it changes */
 } Output;
 
 struct Serve {
@@ -61,7 +65,7 @@ struct Serve {
     pthread_cond_t rendered;
     bool stopping;
     /* the snapshot, under lock */
-    uint64_t version, out_version; /* renders published; the last that made images */
+    uint64_t version; /* renders published */
     char *params_json, *times_json, *sets_json, *error;
     char **param_names;
     int n_params;
@@ -261,6 +265,7 @@ static void outputs_free(Output *o, int n)
     for (int i = 0; i < n; i++) {
         free(o[i].name);
         free(o[i].png);
+        wg_image_unref(o[i].img);
     }
     free(o);
 }
@@ -395,6 +400,36 @@ out:
     return out;
 }
 
+/* The PNG of o->img: the previous render's when that showed the same image under the same name
+ * (the engine's memory cache handed the image back: nothing it depends on changed), else a new
+ * one, scaled down to PREVIEW_MAX on its longer side. s->outs is only ever replaced by the watch
+ * thread, which runs this, so reading it here needs no lock. */
+static void preview(const Serve *s, Output *o, WgColorspace cs)
+{
+    for (int k = 0; k < s->n_outs; k++) {
+        const Output *p = &s->outs[k];
+        if (p->img == o->img && p->png && o->name && !strcmp(p->name, o->name)) {
+            o->png = malloc(p->size);
+            if (o->png) memcpy(o->png, p->png, p->size);
+            o->size = p->size;
+            o->version = p->version;
+            if (o->png) return;
+        }
+    }
+    const WgImage *img = o->img;
+    WgImage *small = NULL;
+    int w = img->width, h = img->height, side = w > h ? w : h;
+    if (side > PREVIEW_MAX) {
+        double f = (double)PREVIEW_MAX / side;
+        int sw = (int)(w * f + 0.5), sh = (int)(h * f + 0.5);
+        small = wg_image_convert(img, sw < 1 ? 1 : sw, sh < 1 ? 1 : sh, img->channels);
+        if (small) img = small;
+    }
+    if (wg_png_preview(img, cs, &o->png, &o->size)) o->png = NULL;
+    o->version = s->version + 1; /* the render being published */
+    wg_image_unref(small);
+}
+
 void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
                    const WgError *err, const char *const *sets, int n_sets)
 {
@@ -430,11 +465,11 @@ void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResul
         n_outs = wg_result_output_count(res);
         outs = calloc((size_t)n_outs + 1, sizeof *outs);
         for (int i = 0; outs && i < n_outs; i++) {
+            const WgImage *img = wg_result_output_image(res, i);
             outs[i].name = strdup(wg_result_output_name(res, i));
-            outs[i].channels = wg_result_output_image(res, i)->channels;
-            if (wg_png_preview(wg_result_output_image(res, i), wg_result_output_colorspace(res, i),
-                               &outs[i].png, &outs[i].size))
-                outs[i].png = NULL;
+            outs[i].channels = img->channels;
+            outs[i].img = wg_image_ref(img);
+            preview(s, &outs[i], wg_result_output_colorspace(res, i));
         }
     }
     if (err) {
@@ -473,7 +508,6 @@ void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResul
         s->n_outs = n_outs;
         s->times_json = times;
         s->time = s->next_time;
-        s->out_version = s->version + 1;
         outs = NULL;
         times = NULL;
     }
@@ -555,7 +589,7 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
     for (int i = 0; i < s->n_outs; i++) {
         fputs(i ? ",{\"name\":" : "{\"name\":", f);
         cli_json_string(f, s->outs[i].name);
-        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->out_version,
+        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->outs[i].version,
                 s->outs[i].channels);
     }
     fprintf(f, "],\"times\":%s,\"sets\":%s,\"error\":", s->times_json ? s->times_json : "[]",

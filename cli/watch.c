@@ -271,7 +271,63 @@ static void monitor_stop(Monitor *m)
 /* Load, check, render and write once. On success files holds what to watch next; when the
  * graph does not load, files keeps what it held (and the graph file itself). Returns true when
  * the render was cancelled by a newer change (or a signal). */
-static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve, int sfd)
+/* The files the last render wrote, with a reference to each image: an output whose image is
+ * the same object again (the engine's memory cache handed it back: nothing it depends on
+ * changed) to the same path is not written again. Holding the reference keeps the address from
+ * being reused by another image. */
+typedef struct {
+    int n;
+    char **paths;
+    const WgImage **images;
+} Written;
+
+static void written_clear(Written *w)
+{
+    for (int i = 0; i < w->n; i++) {
+        free(w->paths[i]);
+        wg_image_unref(w->images[i]);
+    }
+    free(w->paths);
+    free(w->images);
+    *w = (Written){0};
+}
+
+/* kept[i]: output i of res would be written to a file that already holds its image. */
+static void written_compare(const Written *w, const Options *o, const WgGraph *g,
+                            const WgResult *res, bool *kept)
+{
+    for (int i = 0; i < wg_result_output_count(res); i++) {
+        char path[4096];
+        output_path(o, g, res, i, -1, path, sizeof path);
+        const WgImage *img = wg_result_output_image(res, i);
+        struct stat st;
+        for (int k = 0; k < w->n && !kept[i]; k++)
+            kept[i] = w->images[k] == img && !strcmp(w->paths[k], path) && stat(path, &st) == 0;
+    }
+}
+
+/* Remember what res wrote (all its outputs now are in their files). */
+static void written_update(Written *w, const Options *o, const WgGraph *g, const WgResult *res)
+{
+    written_clear(w);
+    int n = wg_result_output_count(res);
+    w->paths = calloc((size_t)n + 1, sizeof *w->paths);
+    w->images = calloc((size_t)n + 1, sizeof *w->images);
+    if (!w->paths || !w->images) {
+        written_clear(w); /* forgetting only costs writing them again */
+        return;
+    }
+    for (int i = 0; i < n; i++) {
+        char path[4096];
+        output_path(o, g, res, i, -1, path, sizeof path);
+        w->paths[i] = strdup(path);
+        w->images[i] = wg_image_ref(wg_result_output_image(res, i));
+        w->n++;
+    }
+}
+
+static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve, int sfd,
+                        Written *written)
 {
     bool superseded = false;
     Options opt = *base, *o = &opt;
@@ -342,7 +398,18 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
                     m.signalled ? "stopped" : "superseded", (now_ms() - t0) / 1e3);
         goto out;
     }
-    if (rc || write_outputs(o, g, res, -1, &err)) goto fail;
+    if (rc) goto fail;
+    bool layered = o->layered != NULL;
+    bool *kept = calloc((size_t)wg_result_output_count(res) + 1, sizeof *kept);
+    if (!kept) {
+        wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        goto fail;
+    }
+    if (!layered) written_compare(written, o, g, res, kept);
+    rc = write_outputs_except(o, g, res, -1, kept, &err);
+    free(kept);
+    if (rc) goto fail;
+    if (!layered) written_update(written, o, g, res);
     if (!o->quiet) {
         if (o->stats)
             print_stats(e, res, o->stats_json);
@@ -490,9 +557,10 @@ int cmd_watch(int argc, char **argv)
     }
 #endif
     FileSet files = {0};
+    Written written = {0};
     int *wds = NULL;
     for (bool stop = false; !stop;) {
-        bool superseded = render_once(&o, e, &files, serve, sfd);
+        bool superseded = render_once(&o, e, &files, serve, sfd, &written);
         int *grown = realloc(wds, sizeof *wds * (size_t)(files.n + 1));
         if (!grown) {
             fprintf(stderr, "wetgraph: error: out of memory\n");
@@ -543,6 +611,7 @@ int cmd_watch(int argc, char **argv)
 #endif
     if (!o.quiet) fprintf(stderr, "watch: stopped\n");
     files_free(&files);
+    written_clear(&written);
     free(wds);
     wg_engine_free(e);
     close(sfd);

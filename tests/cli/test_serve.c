@@ -10,9 +10,10 @@
  * and %-encoded) and unknown paths are 404; an edit of the graph file still renders again; SIGINT
  * ends it with exit 0. It listens on [::1] and on [::] (IPv4 too) when the machine has IPv6
  * loopback (skipped otherwise), and a malformed address is a usage error naming it. A value set
- * while a long render runs cancels that render ("superseded") and the next one applies it. The HTTP client
- * is plain sockets with HTTP/1.0 (the server closes each connection after its answer); every wait
- * has a harness limit (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN. */
+ * while a long render runs cancels that render ("superseded") and the next one applies it. The HTTP
+ * client is plain sockets with HTTP/1.0 (the server closes each connection after its answer); every
+ * wait has a harness limit (socket time-outs, LIMIT_MS), no timing assertions. Runs WETGRAPH_BIN.
+ */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
@@ -355,6 +356,63 @@ static void test_serve_session(void **state)
     stop();
 }
 
+/* The version (the render that made its image) /api/state gives output `name`. */
+static long output_version(const char *state, const char *name)
+{
+    char key[256];
+    snprintf(key, sizeof key, "{\"name\":\"%s\",\"version\":", name);
+    const char *p = strstr(state, key);
+    if (!p) fail_msg("no output %s in %s", name, state);
+    return atol(p + strlen(key));
+}
+
+/* Previews: an image wider than 1024 pixels is served scaled to 1024 on its longer side; after
+ * a change that leaves an output's image as it was, that output keeps its version (the page
+ * does not reload it) and its preview, while the changed one gets the new render's. */
+static void test_serve_previews(void **state)
+{
+    (void)state;
+    wgt_write_file(path("g.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"64\">\n"
+                   "  <param name=\"level\" type=\"float\" default=\"0.25\" min=\"0\" max=\"1\"/>\n"
+                   "  <node id=\"wide\" type=\"pixel\" size=\"1500x300\" expr=\"u * level\"/>\n"
+                   "  <node id=\"still\" type=\"noise\" scale=\"4\"/>\n"
+                   "  <output name=\"wide\" from=\"wide\" format=\"png\"/>\n"
+                   "  <output name=\"still\" from=\"still\" format=\"png\"/>\n"
+                   "</wetgraph>\n");
+    port = wgt_free_port();
+    family = AF_INET;
+    char spec[64];
+    snprintf(spec, sizeof spec, "%d", port);
+    start(spec, "nobin");
+    wait_for("watch: waiting", 1);
+    Reply r = http("GET", "/out/wide.png");
+    assert_int_equal(r.status, 200);
+    assert_true(r.size > 24 && !memcmp(r.body + 12, "IHDR", 4));
+    const unsigned char *ihdr = (const unsigned char *)r.body + 16;
+    long w = (long)ihdr[0] << 24 | (long)ihdr[1] << 16 | ihdr[2] << 8 | ihdr[3];
+    long h = (long)ihdr[4] << 24 | (long)ihdr[5] << 16 | ihdr[6] << 8 | ihdr[7];
+    assert_int_equal(w, 1024);
+    assert_int_equal(h, 205); /* 300 * 1024 / 1500, rounded */
+    free(r.head);
+    Reply before = http("GET", "/out/still.png");
+    r = http("GET", "/api/state");
+    long wide0 = output_version(r.body, "wide"), still0 = output_version(r.body, "still");
+    free(r.head);
+    assert_int_equal(status_of("POST", "/api/set?level=0.5"), 200);
+    wait_for("watch: waiting", 2);
+    r = http("GET", "/api/state?after=1");
+    long wide1 = output_version(r.body, "wide"), still1 = output_version(r.body, "still");
+    free(r.head);
+    assert_true(wide1 > wide0);
+    assert_int_equal(still1, still0);
+    Reply after = http("GET", "/out/still.png");
+    assert_true(after.size == before.size && !memcmp(after.body, before.body, after.size));
+    free(before.head);
+    free(after.head);
+    stop();
+}
+
 /* Without dot in PATH there is no picture (the page lists the nodes instead). */
 static void test_serve_without_dot(void **state)
 {
@@ -566,6 +624,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_serve_session, stop_watcher),
         cmocka_unit_test_teardown(test_serve_without_dot, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_previews, stop_watcher),
         cmocka_unit_test_teardown(test_serve_ipv6, stop_watcher),
         cmocka_unit_test(test_serve_usage),
         cmocka_unit_test_teardown(test_serve_set_supersedes_a_running_render, stop_watcher),

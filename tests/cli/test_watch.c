@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph watch`: started in the background on a graph in a temporary folder, it renders;
  * a valid edit of the graph (saved as editors do, a new file renamed over the old one) gives
- * new outputs with the new value; an edit of a subgraph file too; a broken edit prints the
+ * new outputs with the new value, and writes only the files whose image changed (or that are
+ * missing); an edit of a subgraph file too; a broken edit prints the
  * error with file and line and leaves the outputs as they were; the fix renders again; the
  * session survives 100 edits in a row with broken ones among them and its resident memory does
  * not grow; SIGINT ends it with exit 0. An edit saved while a long render runs cancels that
@@ -135,17 +136,30 @@ static void test_watch_session(void **state)
     assert_true(value_of("o/w_a.exr") == 0.25f);
     assert_true(value_of("o/w_b.exr") == 0.125f);
 
-    /* a valid edit: only what depends on it runs again */
+    /* a valid edit: only what depends on it runs again, and only the files whose image changed
+       are written again (b's file is the same file: same inode; a's was replaced) */
+    struct stat a0, b0, a1, b1;
+    assert_int_equal(stat(path("o/w_a.exr"), &a0), 0);
+    assert_int_equal(stat(path("o/w_b.exr"), &b0), 0);
     save("w.wetgraph", graph, "0.5");
     wait_for("watch: waiting", 2);
     assert_int_equal(count_in("err", "watch: rendered"), 2);
     assert_true(value_of("o/w_a.exr") == 0.5f);
     assert_int_equal(count_in("err", "blur"), 1);
+    assert_int_equal(stat(path("o/w_a.exr"), &a1), 0);
+    assert_int_equal(stat(path("o/w_b.exr"), &b1), 0);
+    assert_true(a1.st_ino != a0.st_ino);
+    assert_true(b1.st_ino == b0.st_ino);
+    assert_int_equal(count_in("out", "o/w_b.exr"), 1); /* listed when it was written */
+    assert_int_equal(count_in("out", "o/w_a.exr"), 2);
 
-    /* a subgraph's edit */
+    /* a subgraph's edit; c's file, removed meanwhile, is written again although its image
+       did not change */
+    assert_int_equal(unlink(path("o/w_c.exr")), 0);
     save("sub.wetgraph", sub, "0.375");
     wait_for("watch: waiting", 3);
     assert_true(value_of("o/w_b.exr") == 0.375f);
+    assert_true(wgt_exists(path("o/w_c.exr")));
 
     /* a broken edit: the error with file and line, the outputs kept */
     size_t before_size;
