@@ -93,6 +93,49 @@ float wg_linear_to_srgb(float v)
     return (float)(x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1 / 2.4) - 0.055);
 }
 
+static int quantize8_formula(float v, bool srgb)
+{
+    if (isnan(v)) v = 0;
+    if (srgb) v = wg_linear_to_srgb(v);
+    double x = v < 0 ? 0 : v > 1 ? 1 : v;
+    return (int)floor(x * 255.0 + 0.5);
+}
+
+/* Encoding to 8-bit sRGB: the code grows with the value (checked over every float from 0 to 2),
+ * so it is the number of thresholds at or below it, threshold[k] being the smallest float
+ * whose code is k; each is found by bisection over the bit patterns of the positive floats,
+ * which order as the floats do. */
+static float srgb8_threshold[256];
+static pthread_once_t srgb8_once = PTHREAD_ONCE_INIT;
+
+static void srgb8_build(void)
+{
+    for (int k = 1; k < 256; k++) {
+        uint32_t lo = 0, hi = 0x40000000u; /* code(0) = 0 < k <= 255 = code(2) */
+        while (lo + 1 < hi) {
+            uint32_t mid = lo + (hi - lo) / 2;
+            float f;
+            memcpy(&f, &mid, sizeof f);
+            if (quantize8_formula(f, true) >= k)
+                hi = mid;
+            else
+                lo = mid;
+        }
+        memcpy(&srgb8_threshold[k], &hi, sizeof hi);
+    }
+}
+
+uint8_t wg_quantize8(float v, bool srgb)
+{
+    if (!srgb) return (uint8_t)quantize8_formula(v, false);
+    pthread_once(&srgb8_once, srgb8_build);
+    if (!(v > 0)) return 0; /* NaN, zero and negative values */
+    int k = 0;              /* the last threshold at or below v: binary search */
+    for (int step = 128; step > 0; step >>= 1)
+        if (srgb8_threshold[k + step] <= v) k += step;
+    return (uint8_t)k;
+}
+
 /* Temporary files. A write to "<dir>/<stem><ext>" (<ext>: the last ".suffix" of the file name,
  * or empty) first goes to "<dir>/.<stem>.tmp<pid>-<n>-<host><ext>": hidden, in the target's
  * folder so the final rename() never crosses file systems, with the target's extension because
@@ -667,7 +710,7 @@ static int encode_to_file(const char *path, const WgImage *img, WgFormat format,
                     float v = r[x * img->channels + k];
                     bool colour = k < 3; /* gray is a colour channel too; alpha never is */
                     if (bits == 8)
-                        ((uint8_t *)buf)[i] = (uint8_t)quantize(v, cs, colour, 255.0);
+                        ((uint8_t *)buf)[i] = wg_quantize8(v, cs == WG_SRGB && colour);
                     else if (bits == 16)
                         ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
                     else

@@ -1782,6 +1782,53 @@ static void test_jpeg_probe_matches_openimageio(void **state)
     if (d) closedir(d);
 }
 
+/* wg_quantize8 against the formula it replaces (sRGB encoding with pow, clamping, rounding):
+ * every float within 64 ulps of each place the code changes, a sweep over [0, 2] and beyond,
+ * and the special values. */
+static int quantize8_reference(float v, bool srgb)
+{
+    if (isnan(v)) v = 0;
+    if (srgb) v = wg_linear_to_srgb(v);
+    double x = v < 0 ? 0 : v > 1 ? 1 : v;
+    return (int)floor(x * 255.0 + 0.5);
+}
+
+static float float_of(uint32_t bits)
+{
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+static void test_quantize8_matches_the_formula(void **state)
+{
+    (void)state;
+    long checked = 0;
+    for (int srgb = 0; srgb < 2; srgb++) {
+        int last = 0;
+        for (uint32_t b = 0; b <= 0x40400000u; b += 331) { /* 0 .. 3 */
+            float v = float_of(b);
+            int want = quantize8_reference(v, srgb);
+            assert_int_equal(wg_quantize8(v, srgb), want);
+            if (want != last) /* a change of code: every float around it */
+                for (uint32_t n = b > 400 ? b - 400 : 0; n <= b + 64; n++, checked++)
+                    assert_int_equal(wg_quantize8(float_of(n), srgb),
+                                     quantize8_reference(float_of(n), srgb));
+            last = want;
+            checked++;
+        }
+        static const float special[] = {0.0f, -0.0f, -1.0f, -INFINITY, INFINITY, 1.0f, 2.0f,
+                                        1e30f, 1e-45f, -1e-45f, 0.5f, 0.0031308f};
+        for (size_t i = 0; i < sizeof special / sizeof special[0]; i++)
+            assert_int_equal(wg_quantize8(special[i], srgb),
+                             quantize8_reference(special[i], srgb));
+        assert_int_equal(wg_quantize8(NAN, srgb), 0);
+        assert_int_equal(wg_quantize8(-NAN, srgb), 0);
+    }
+    assert_int_equal(wg_quantize8(1.0f, true), 255);
+    assert_true(checked > 1000000);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1824,6 +1871,7 @@ int main(void)
         cmocka_unit_test(test_png_probe_matches_openimageio),
         cmocka_unit_test(test_integer_files_read_as_openimageio_floats),
         cmocka_unit_test(test_jpeg_probe_matches_openimageio),
+        cmocka_unit_test(test_quantize8_matches_the_formula),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -62,6 +62,10 @@ int wg_exr_write_layers(const char *path, int count, const char *const *names,
 /* sRGB transfer functions (IEC 61966-2-1), exact formulas in double. */
 float wg_srgb_to_linear(float v);
 float wg_linear_to_srgb(float v);
+/* The code an 8-bit file stores for v: NaN as 0, sRGB-encoded first (wg_linear_to_srgb) when
+ * srgb, clamped to [0, 1], rounded to nearest (floor(x * 255 + 0.5)). The sRGB case looks the
+ * value up in a table of the 255 thresholds between codes (no pow): bit-identical. */
+uint8_t wg_quantize8(float v, bool srgb);
 
 /* Write sets: several files replaced together. Each add writes one complete file to a
  * temporary beside its target (same folder, hidden name ".NAME.tmpPID-N-HOST.EXT" with this
