@@ -40,7 +40,7 @@
 /* PING_S keeps an idle event stream inside the 60 s connection time-out that frees the threads
  * of clients that went away */
 enum { MAX_NAME = 128, MAX_VALUE = 512, PING_S = 15 };
-/* previews are at most this many pixels on their longer side (the page scales them to fit) */
+/* previews have at most this many pixels on their longer side (the page scales them to fit) */
 enum { PREVIEW_MAX = 1024 };
 /* dot gets this long (it lays out graphs of a few hundred nodes in well under a second) and
  * may write this much before its picture is given up */
@@ -48,10 +48,26 @@ enum { DOT_LIMIT_MS = 10000, MAX_SVG = 16 << 20 };
 
 extern char **environ;
 
+/* A preview's PNG, shared by the snapshots that show the same image. Only the watch thread
+ * makes, shares and frees them (HTTP threads copy the bytes under the lock), so the count
+ * needs no atomics. */
+typedef struct {
+    int refs;
+    size_t size;
+    unsigned char *bytes;
+} Png;
+
+static void png_drop(Png *p)
+{
+    if (p && --p->refs == 0) {
+        free(p->bytes);
+        free(p);
+    }
+}
+
 typedef struct {
     char *name;
-    unsigned char *png;
-    size_t size;
+    Png *png;
     int channels;       /* 1: a gray map (the page may show it in false colour), 4: colour */
     const WgImage *img; /* the image it shows (a reference: its address stays unique) */
     uint64_t version;   /* the render that made the image: the page reloads it when it changes */
@@ -264,7 +280,7 @@ static void outputs_free(Output *o, int n)
 {
     for (int i = 0; i < n; i++) {
         free(o[i].name);
-        free(o[i].png);
+        png_drop(o[i].png);
         wg_image_unref(o[i].img);
     }
     free(o);
@@ -402,32 +418,30 @@ out:
 
 /* The PNG of o->img: the previous render's when that showed the same image under the same name
  * (the engine's memory cache handed the image back: nothing it depends on changed), else a new
- * one, scaled down to PREVIEW_MAX on its longer side. s->outs is only ever replaced by the watch
- * thread, which runs this, so reading it here needs no lock. */
+ * one, reduced by the smallest whole factor that brings its longer side to PREVIEW_MAX or less
+ * (each pixel the mean of a block). s->outs is only ever replaced by the
+ * watch thread, which runs this, so reading it here needs no lock. */
 static void preview(const Serve *s, Output *o, WgColorspace cs)
 {
     for (int k = 0; k < s->n_outs; k++) {
         const Output *p = &s->outs[k];
         if (p->img == o->img && p->png && o->name && !strcmp(p->name, o->name)) {
-            o->png = malloc(p->size);
-            if (o->png) memcpy(o->png, p->png, p->size);
-            o->size = p->size;
+            o->png = p->png;
+            o->png->refs++;
             o->version = p->version;
-            if (o->png) return;
+            return;
         }
     }
     const WgImage *img = o->img;
-    WgImage *small = NULL;
-    int w = img->width, h = img->height, side = w > h ? w : h;
-    if (side > PREVIEW_MAX) {
-        double f = (double)PREVIEW_MAX / side;
-        int sw = (int)(w * f + 0.5), sh = (int)(h * f + 0.5);
-        small = wg_image_convert(img, sw < 1 ? 1 : sw, sh < 1 ? 1 : sh, img->channels);
-        if (small) img = small;
+    int side = img->width > img->height ? img->width : img->height;
+    o->png = calloc(1, sizeof *o->png);
+    if (o->png && wg_png_preview(img, (side + PREVIEW_MAX - 1) / PREVIEW_MAX, cs, &o->png->bytes,
+                                 &o->png->size)) {
+        free(o->png);
+        o->png = NULL;
     }
-    if (wg_png_preview(img, cs, &o->png, &o->size)) o->png = NULL;
+    if (o->png) o->png->refs = 1;
     o->version = s->version + 1; /* the render being published */
-    wg_image_unref(small);
 }
 
 void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
@@ -613,7 +627,8 @@ static enum MHD_Result image(Serve *s, struct MHD_Connection *c, const char *nam
     for (int i = 0; i < s->n_outs; i++) {
         if (strlen(s->outs[i].name) != len || memcmp(s->outs[i].name, name, len) || !s->outs[i].png)
             continue;
-        enum MHD_Result ok = respond(c, MHD_HTTP_OK, "image/png", s->outs[i].png, s->outs[i].size);
+        enum MHD_Result ok =
+            respond(c, MHD_HTTP_OK, "image/png", s->outs[i].png->bytes, s->outs[i].png->size);
         pthread_mutex_unlock(&s->lock);
         return ok;
     }

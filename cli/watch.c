@@ -399,6 +399,10 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
         goto out;
     }
     if (rc) goto fail;
+#ifdef WG_HAVE_SERVE
+    /* the page first: the files follow (a failure to write them is published then) */
+    if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
+#endif
     bool layered = o->layered != NULL;
     bool *kept = calloc((size_t)wg_result_output_count(res) + 1, sizeof *kept);
     if (!kept) {
@@ -416,9 +420,6 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
         else
             print_ran(res, now_ms() - t0);
     }
-#ifdef WG_HAVE_SERVE
-    if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
-#endif
     goto out;
 fail:
     cli_report(&err);

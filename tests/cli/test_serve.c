@@ -366,7 +366,8 @@ static long output_version(const char *state, const char *name)
     return atol(p + strlen(key));
 }
 
-/* Previews: an image wider than 1024 pixels is served scaled to 1024 on its longer side; after
+/* Previews: an image wider than 1024 pixels is served reduced by the smallest whole factor that
+ * brings it to 1024 or less (1500 by 2: 750); after
  * a change that leaves an output's image as it was, that output keeps its version (the page
  * does not reload it) and its preview, while the changed one gets the new render's. */
 static void test_serve_previews(void **state)
@@ -392,8 +393,8 @@ static void test_serve_previews(void **state)
     const unsigned char *ihdr = (const unsigned char *)r.body + 16;
     long w = (long)ihdr[0] << 24 | (long)ihdr[1] << 16 | ihdr[2] << 8 | ihdr[3];
     long h = (long)ihdr[4] << 24 | (long)ihdr[5] << 16 | ihdr[6] << 8 | ihdr[7];
-    assert_int_equal(w, 1024);
-    assert_int_equal(h, 205); /* 300 * 1024 / 1500, rounded */
+    assert_int_equal(w, 750); /* reduced by 2, the smallest whole factor that fits 1024 */
+    assert_int_equal(h, 150);
     free(r.head);
     Reply before = http("GET", "/out/still.png");
     r = http("GET", "/api/state");
