@@ -29,7 +29,14 @@
  *    operations around it (docs/engine.md): its inputs and outputs are then views of the band
  *    (data at the band's first row, height the band's) and ctx->height is the band's height.
  *    Address pixels only through wg_image_row() and the images' sizes, and never depend on a
- *    pixel's absolute row: a node that does is not a point operation. */
+ *    pixel's absolute row: a node that does is not a point operation.
+ * 10. Inputs may be uniform images (stride 0: every row is the same memory), e.g. an
+ *    unconnected graph input's default: read them through wg_image_row() like any other. A
+ *    node whose outputs are one value everywhere declares WG_NODE_UNIFORM and gets such
+ *    outputs; writing row 0 fills them.
+ * 11. A node that never calls wg_parallel_rows (its work is one thread's) declares
+ *    WG_NODE_SERIAL, so the scheduler runs it beside the row-parallel nodes rather than alone
+ *    (docs/engine.md, Threads). */
 #ifndef WETGRAPH_NODE_H
 #define WETGRAPH_NODE_H
 
