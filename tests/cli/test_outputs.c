@@ -127,21 +127,7 @@ static int count_hidden(const char *dir)
 
 static void expect_same_file(const char *a, const char *b)
 {
-    size_t na, nb;
-    char *x = wgt_read_file(a, &na), *y = wgt_read_file(b, &nb);
-    if (na != nb || memcmp(x, y, na)) fail_msg("%s and %s differ", a, b);
-    free(x);
-    free(y);
-}
-
-static bool same_file(const char *a, const char *b)
-{
-    size_t na, nb;
-    char *x = wgt_read_file(a, &na), *y = wgt_read_file(b, &nb);
-    bool same = na == nb && !memcmp(x, y, na);
-    free(x);
-    free(y);
-    return same;
+    if (!wgt_same_file(a, b)) fail_msg("%s and %s differ", a, b);
 }
 
 static void copy_file(const char *from, const char *to)
@@ -252,7 +238,7 @@ static void test_unwritable_last_output_replaces_nothing(void **state)
         if (!strstr(r.out, outputs4[i])) fail_msg("%s not printed:\n%s", outputs4[i], r.out);
     run_free(&r);
     for (int i = 0; i < 3; i++)
-        if (same_file(in("r1", outputs4[i]), in("keep", outputs4[i])))
+        if (wgt_same_file(in("r1", outputs4[i]), in("keep", outputs4[i])))
             fail_msg("%s did not change", outputs4[i]);
     assert_int_equal(count_hidden(at("r1")), 0);
     rm_rf(at("r1"));

@@ -17,7 +17,6 @@
 #include "wgtest.h"
 
 #include <arpa/inet.h>
-#include <dirent.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <stdio.h>
@@ -159,34 +158,38 @@ static WgImage *fetch_png(const char *name)
     return img;
 }
 
-/* Start watch on g.wetgraph serving spec, with PATH set to path_dirs (a folder of the test's
- * folder, with or without a stand-in dot). */
-static void start(const char *spec, const char *path_dir)
+/* Start `watch GRAPH -o o ... --serve HOST:PORT` on a free port (PORT alone when host is NULL)
+ * with the options `more` (NULL-terminated, may be empty) and PATH set to path_dir (a folder of
+ * the test's folder, with or without a stand-in dot, or NULL to keep PATH), logging to wout and
+ * werr; wait for its first render. request() then connects over IPv4. */
+static void start_watch(const char *graph_file, const char *host, const char *path_dir,
+                        const char *const more[])
 {
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
     unlink(path("werr")); /* the last session's log */
-    watcher = fork();
-    assert_true(watcher >= 0);
-    if (watcher == 0) {
-        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
-        setenv("PATH", path(path_dir), 1);
-        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, (char *)NULL);
-        _exit(98);
-    }
+    port = wgt_free_port();
+    family = AF_INET;
+    char spec[64];
+    if (host)
+        snprintf(spec, sizeof spec, "%s:%d", host, port);
+    else
+        snprintf(spec, sizeof spec, "%d", port);
+    const char *args[32] = {"watch", graph_file, "-o", "o", "--serve", spec};
+    for (int i = 0; more[i]; i++) args[6 + i] = more[i];
+    watcher = wgt_spawn(dir, "wout", "werr", path_dir ? path(path_dir) : NULL, args);
+    wait_for("watch: waiting", 1);
 }
 
+/* Start watch on g.wetgraph (see start_watch). */
+static void start(const char *host, const char *path_dir)
+{
+    static const char *const none[] = {NULL};
+    start_watch("g.wetgraph", host, path_dir, none);
+}
+
+/* Ctrl-C ends the session cleanly. */
 static void stop(void)
 {
-    assert_int_equal(kill(watcher, SIGINT), 0);
-    int st = 0;
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) {
-            kill(watcher, SIGKILL);
-            fail_msg("watch did not stop on SIGINT");
-        }
-        wgt_sleep_ms(5);
-    }
+    int st = wgt_stop(watcher, SIGINT, LIMIT_MS);
     watcher = 0;
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);
@@ -215,12 +218,7 @@ static void test_serve_session(void **state)
     const char *bin = getenv("WETGRAPH_BIN");
     if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
     save("g.wetgraph", "4");
-    port = wgt_free_port();
-    family = AF_INET;
-    char spec[64];
-    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
-    start(spec, "bin");
-    wait_for("watch: waiting", 1);
+    start("127.0.0.1", "bin");
 
     /* the page */
     Reply r = http("GET", "/");
@@ -381,12 +379,7 @@ static void test_serve_previews(void **state)
                    "  <output name=\"wide\" from=\"wide\" format=\"png\"/>\n"
                    "  <output name=\"still\" from=\"still\" format=\"png\"/>\n"
                    "</wetgraph>\n");
-    port = wgt_free_port();
-    family = AF_INET;
-    char spec[64];
-    snprintf(spec, sizeof spec, "%d", port);
-    start(spec, "nobin");
-    wait_for("watch: waiting", 1);
+    start(NULL, "nobin");
     Reply r = http("GET", "/out/wide.png");
     assert_int_equal(r.status, 200);
     assert_true(r.size > 24 && !memcmp(r.body + 12, "IHDR", 4));
@@ -419,12 +412,7 @@ static void test_serve_without_dot(void **state)
 {
     (void)state;
     save("g.wetgraph", "4");
-    port = wgt_free_port();
-    family = AF_INET;
-    char spec[64];
-    snprintf(spec, sizeof spec, "%d", port);
-    start(spec, "nobin");
-    wait_for("watch: waiting", 1);
+    start(NULL, "nobin");
     Reply r = http("GET", "/api/state");
     assert_int_equal(r.status, 200);
     assert_non_null(strstr(r.body, "\"svg\":null"));
@@ -452,21 +440,14 @@ static void test_serve_ipv6(void **state)
     (void)state;
     if (!have_ipv6_loopback()) skip();
     save("g.wetgraph", "4");
-    port = wgt_free_port();
-    char spec[64];
-    snprintf(spec, sizeof spec, "[::1]:%d", port);
-    start(spec, "nobin");
-    wait_for("watch: waiting", 1);
+    start("[::1]", "nobin");
     assert_int_equal(count_in("werr", "serving on http://[::1]:"), 1);
     family = AF_INET6;
     assert_int_equal(status_of("GET", "/api/state"), 200);
     assert_int_equal(status_of("GET", "/out/../../etc/passwd.png"), 404);
     stop();
 
-    port = wgt_free_port();
-    snprintf(spec, sizeof spec, "[::]:%d", port);
-    start(spec, "nobin");
-    wait_for("watch: waiting", 1);
+    start("[::]", "nobin");
     family = AF_INET6;
     assert_int_equal(status_of("GET", "/api/state"), 200);
     family = AF_INET;
@@ -477,32 +458,9 @@ static void test_serve_ipv6(void **state)
 static int stop_watcher(void **state)
 {
     (void)state;
-    int st;
-    if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
-        kill(watcher, SIGKILL);
-        waitpid(watcher, &st, 0);
-    }
+    wgt_kill(watcher);
     watcher = 0;
     return 0;
-}
-
-/* Entries (files not starting with '.') under a folder, recursively. */
-static int cache_entry_count(const char *folder)
-{
-    DIR *d = opendir(folder);
-    if (!d) return 0;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        if (e->d_name[0] == '.') continue;
-        char p[2048];
-        snprintf(p, sizeof p, "%s/%s", folder, e->d_name);
-        struct stat st;
-        if (stat(p, &st)) continue;
-        n += S_ISDIR(st.st_mode) ? cache_entry_count(p) : 1;
-    }
-    closedir(d);
-    return n;
 }
 
 /* A chain of ambient occlusions whose radius is a parameter: short at first, then /api/set
@@ -514,49 +472,19 @@ static void test_serve_set_supersedes_a_running_render(void **state)
 {
     (void)state;
     const char *bin = getenv("WETGRAPH_BIN");
-    char text[8192];
-    int n = snprintf(text, sizeof text,
-                     "<wetgraph version=\"1\" size=\"1024\">\n"
-                     "  <param name=\"level\" type=\"float\" default=\"0.25\" min=\"0\" "
-                     "max=\"1\"/>\n"
-                     "  <param name=\"radius\" type=\"float\" default=\"16\" min=\"0\" "
-                     "max=\"64\"/>\n"
-                     "  <param name=\"dirs\" type=\"int\" default=\"64\" min=\"1\" "
-                     "max=\"64\"/>\n"
-                     "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
-                     "  <node id=\"n\" type=\"noise\" scale=\"5\"/>\n"
-                     "  <node id=\"ao0\" type=\"blur\" sigma=\"1\"><in name=\"source\" "
-                     "from=\"n\"/></node>\n");
-    for (int i = 1; i <= 16; i++)
-        n += snprintf(text + n, sizeof text - (size_t)n,
-                      "  <node id=\"ao%d\" type=\"ambient_occlusion\" radius=\"=radius\" "
-                      "directions=\"=dirs\"><in name=\"height\" from=\"ao%d\"/></node>\n",
-                      i, i - 1);
-    snprintf(text + n, sizeof text - (size_t)n,
-             "  <output name=\"a\" from=\"u\" format=\"exr32\"/>\n"
-             "  <output name=\"c\" from=\"ao16\" format=\"exr32\"/>\n"
-             "</wetgraph>\n");
+    char *text = wgt_slow_graph(
+        "  <param name=\"level\" type=\"float\" default=\"0.25\" min=\"0\" max=\"1\"/>\n"
+        "  <param name=\"radius\" type=\"float\" default=\"16\" min=\"0\" max=\"64\"/>\n"
+        "  <param name=\"dirs\" type=\"int\" default=\"64\" min=\"1\" max=\"64\"/>\n",
+        "=radius", "=dirs");
     wgt_write_file(path("slow.wetgraph"), text);
-    unlink(path("werr")); /* the log of the session before */
-    port = wgt_free_port();
-    char spec[64];
-    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
-    watcher = fork();
-    assert_true(watcher >= 0);
-    if (watcher == 0) {
-        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
-        execl(bin, bin, "watch", "slow.wetgraph", "-o", "so", "--threads", "2", "--cache", "scache",
-              "--set", "radius=0.25", "--set", "dirs=1", "--serve", spec, (char *)NULL);
-        _exit(98);
-    }
-    wait_for("watch: waiting", 1);
-    int entries = cache_entry_count(path("scache"));
+    free(text);
+    static const char *const more[] = {"--threads",   "2",     "--cache", "scache", "--set",
+                                       "radius=0.25", "--set", "dirs=1",  NULL};
+    start_watch("slow.wetgraph", "127.0.0.1", NULL, more);
+    int entries = wgt_count_files(path("scache"), NULL);
     assert_int_equal(status_of("GET", "/api/set?radius=16&dirs=64"), 200);
-    for (int waited = 0; cache_entry_count(path("scache")) == entries; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("the long render did not start");
-        if (waitpid(watcher, NULL, WNOHANG) == watcher) fail_msg("watch ended");
-        wgt_sleep_ms(5);
-    }
+    wgt_wait_for_files(watcher, path("scache"), entries, LIMIT_MS);
     assert_int_equal(status_of("GET", "/api/set?radius=0.5&dirs=1&level=0.75"), 200);
     wait_for("watch: waiting", 2);
     assert_int_equal(count_in("werr", "watch: render superseded after "), 1);
@@ -572,30 +500,9 @@ static void test_serve_set_supersedes_a_running_render(void **state)
                   "level=0.75 --threads 1",
                   bin),
         0);
-    static const char *const outs[][2] = {{"so/slow_a.exr", "sref/slow_a.exr"},
-                                          {"so/slow_c.exr", "sref/slow_c.exr"}};
-    for (int i = 0; i < 2; i++) {
-        WgImage *x = NULL, *y = NULL;
-        WgError err = {0};
-        if (wg_image_read(path(outs[i][0]), 0, WG_LINEAR, &x, &err) ||
-            wg_image_read(path(outs[i][1]), 0, WG_LINEAR, &y, &err))
-            fail_msg("%s", err.message);
-        wgt_assert_identical(x, y);
-        wg_image_unref(x);
-        wg_image_unref(y);
-    }
-
-    assert_int_equal(kill(watcher, SIGINT), 0);
-    int st = 0;
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) {
-            kill(watcher, SIGKILL);
-            fail_msg("watch did not stop on SIGINT");
-        }
-        wgt_sleep_ms(5);
-    }
-    assert_true(WIFEXITED(st));
-    assert_int_equal(WEXITSTATUS(st), 0);
+    wgt_assert_identical_files(path("o/slow_a.exr"), path("sref/slow_a.exr"));
+    wgt_assert_identical_files(path("o/slow_c.exr"), path("sref/slow_c.exr"));
+    stop();
 }
 
 /* A malformed --serve is a usage error naming it. */

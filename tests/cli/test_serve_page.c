@@ -86,16 +86,35 @@ static void wait_for(const char *needle, int count)
     wgt_wait_for(watcher, path("werr"), needle, count, LIMIT_MS);
 }
 
+/* SIGTERM ends the session cleanly. */
 static void stop(void)
 {
-    int st;
-    assert_int_equal(kill(watcher, SIGTERM), 0);
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("watch did not stop on SIGTERM");
-        wgt_sleep_ms(5);
-    }
+    int st = wgt_stop(watcher, SIGTERM, LIMIT_MS);
     watcher = 0;
     assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+}
+
+/* WETGRAPH_BIN; fails the test when it is not set or chromium is not installed. */
+static const char *need_chromium(void)
+{
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    if (wgt_shell(dir, "command -v chromium"))
+        fail_msg("chromium is not installed: the page test needs Debian's chromium "
+                 "(scripts/install-deps.sh installs it)");
+    return bin;
+}
+
+/* Load the page at http://127.0.0.1:port/query in headless chromium, its DOM into dom.html (a
+ * virtual time budget, and `timeout` as the harness limit). */
+static void dump_dom(int port, const char *query)
+{
+    int st = wgt_shell(dir,
+                       "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
+                       "--user-data-dir=profile --virtual-time-budget=5000 --window-size=1200,800 "
+                       "--dump-dom 'http://127.0.0.1:%d/%s' >dom.html 2>chromium.log",
+                       port, query);
+    if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium.log"));
 }
 
 /* Start watch on g.wetgraph with PATH set to path_dir (a folder of the test's folder: "bin"
@@ -103,7 +122,6 @@ static void stop(void)
  * port it serves. */
 static int start(const char *path_dir, const char *input)
 {
-    const char *bin = getenv("WETGRAPH_BIN");
     mkdir(path("bin"), 0777);
     mkdir(path("nobin"), 0777);
     wgt_write_file(path("bin/dot"),
@@ -117,36 +135,20 @@ static int start(const char *path_dir, const char *input)
     int port = wgt_free_port();
     char spec[64];
     snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
-    watcher = fork();
-    assert_true(watcher >= 0);
-    if (watcher == 0) {
-        if (chdir(dir) || !freopen("wout", "w", stdout) || !freopen("werr", "w", stderr)) _exit(99);
-        setenv("PATH", path(path_dir), 1);
-        execl(bin, bin, "watch", "g.wetgraph", "-o", "o", "--serve", spec, input ? "--input" : NULL,
-              input, (char *)NULL);
-        _exit(98);
-    }
+    const char *args[] = {
+        "watch", "g.wetgraph", "-o", "o", "--serve", spec, input ? "--input" : NULL, input, NULL};
+    watcher = wgt_spawn(dir, "wout", "werr", path(path_dir), args);
     return port;
 }
 
 static void test_serve_page(void **state)
 {
     (void)state;
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
-    if (wgt_shell(dir, "command -v chromium"))
-        fail_msg("chromium is not installed: the page test needs Debian's chromium "
-                 "(scripts/install-deps.sh installs it)");
+    const char *bin = need_chromium();
     wgt_write_file(path("g.wetgraph"), graph);
     int port = start("nobin", NULL);
     wait_for("watch: waiting", 1);
-    int st = wgt_shell(
-        dir,
-        "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
-        "--user-data-dir=profile --virtual-time-budget=5000 --window-size=1200,800 "
-        "--dump-dom 'http://127.0.0.1:%d/?set=level=0.6&events=0' >dom.html 2>chromium.log",
-        port);
-    if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium.log"));
+    dump_dom(port, "?set=level=0.6&events=0");
     if (!count_in("dom.html", "<input type=\"range\" min=\"0\" max=\"2\""))
         fail_msg("the page built no slider for 'level' (%s)", path("dom.html"));
     assert_int_equal(count_in("dom.html", "id=\"param-level\""), 1);
@@ -160,12 +162,7 @@ static void test_serve_page(void **state)
     assert_int_equal(count_in("dom.html", "<div id=\"timebox\" hidden=\"\">"), 1);
     wait_for("watch: waiting", 2); /* the render of ?set=level=0.6 */
     assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.6 -o cli -q", bin), 0);
-    size_t a, b;
-    char *served = wgt_read_file(path("o/g_c.png"), &a),
-         *cli = wgt_read_file(path("cli/g_c.png"), &b);
-    assert_true(a == b && !memcmp(served, cli, a));
-    free(served);
-    free(cli);
+    assert_true(wgt_same_file(path("o/g_c.png"), path("cli/g_c.png")));
     stop();
 }
 
@@ -190,11 +187,7 @@ static const char *attr(const char *needle, const char *name)
 static void test_serve_page_false_colour_and_play(void **state)
 {
     (void)state;
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
-    if (wgt_shell(dir, "command -v chromium"))
-        fail_msg("chromium is not installed: the page test needs Debian's chromium "
-                 "(scripts/install-deps.sh installs it)");
+    const char *bin = need_chromium();
     wgt_write_file(path("shape.wetgraph"), "<wetgraph version=\"1\" size=\"64\">"
                                            "<node id=\"n\" type=\"noise\" scale=\"4\"/>"
                                            "<output name=\"s\" from=\"n\" format=\"png\"/>"
@@ -203,13 +196,7 @@ static void test_serve_page_false_colour_and_play(void **state)
     wgt_write_file(path("g.wetgraph"), animated);
     int port = start("bin", "shape=shape_s.png");
     wait_for("watch: waiting", 1);
-    int st = wgt_shell(dir,
-                       "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
-                       "--user-data-dir=profile --virtual-time-budget=5000 --window-size=1200,800 "
-                       "--dump-dom 'http://127.0.0.1:%d/?cmap=turbo&play=3&big=height&events=0' "
-                       ">dom.html 2>chromium.log",
-                       port);
-    if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium.log"));
+    dump_dom(port, "?cmap=turbo&play=3&big=height&events=0");
     /* the picture dot drew */
     assert_int_equal(
         count_in("dom.html", "<img id=\"graph\" alt=\"the graph\" src=\"/graph.svg?v="), 1);
@@ -236,13 +223,8 @@ static void test_serve_page_false_colour_and_play(void **state)
         wgt_shell(dir, "'%s' render g.wetgraph --input shape=shape_s.png --time %s -o cli -q", bin,
                   t),
         0);
-    size_t a, n;
-    char *served = wgt_read_file(path("o/g_height.png"), &a),
-         *cli = wgt_read_file(path("cli/g_height.png"), &n);
-    if (a != n || memcmp(served, cli, a))
+    if (!wgt_same_file(path("o/g_height.png"), path("cli/g_height.png")))
         fail_msg("the last frame is not the render at $time = %s", t);
-    free(served);
-    free(cli);
     stop();
 }
 
@@ -252,11 +234,7 @@ static void test_serve_page_false_colour_and_play(void **state)
 static void test_serve_page_plays_with_events(void **state)
 {
     (void)state;
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
-    if (wgt_shell(dir, "command -v chromium"))
-        fail_msg("chromium is not installed: the page test needs Debian's chromium "
-                 "(scripts/install-deps.sh installs it)");
+    const char *bin = need_chromium();
     assert_int_equal(wgt_shell(dir, "'%s' render shape.wetgraph -o . -q", bin), 0);
     wgt_write_file(path("g.wetgraph"), animated);
     int port = start("nobin", "shape=shape_s.png");
@@ -284,11 +262,7 @@ static int stop_watcher(void **state)
 {
     (void)state;
     stop_chromium();
-    int st;
-    if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
-        kill(watcher, SIGKILL);
-        waitpid(watcher, &st, 0);
-    }
+    wgt_kill(watcher);
     watcher = 0;
     return 0;
 }

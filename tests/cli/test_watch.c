@@ -11,7 +11,6 @@
  * Each wait has a harness limit (no timing assertions). Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
-#include <dirent.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -77,6 +76,15 @@ static void wait_for(const char *needle, int count)
     wgt_wait_for(watcher, path("err"), needle, count, LIMIT_MS);
 }
 
+/* Start watch on w.wetgraph in the test's folder (with a disk cache in folder `cache` unless it
+ * is NULL), logging to out and err there. */
+static pid_t spawn_watch(const char *cache)
+{
+    const char *args[] = {
+        "watch", "w.wetgraph", "-o", "o", "--threads", "2", cache ? "--cache" : NULL, cache, NULL};
+    return wgt_spawn(dir, "out", "err", NULL, args);
+}
+
 static float value_of(const char *name)
 {
     WgImage *img = NULL;
@@ -111,26 +119,22 @@ static int setup(void **state)
 static void test_watch_session(void **state)
 {
     (void)state;
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
     save("sub.wetgraph", sub, "0.125");
     save("w.wetgraph", graph, "0.25");
-    watcher = fork();
-    assert_true(watcher >= 0);
-    if (watcher == 0) {
-        if (chdir(dir) || !freopen("out", "w", stdout) || !freopen("err", "w", stderr)) _exit(99);
-        /* under AddressSanitizer, freed memory is held in a quarantine that would look like
-         * growth; without it the resident memory means what it does in a normal build */
-        const char *asan = getenv("ASAN_OPTIONS");
-        if (asan) {
-            char opts[1024];
-            snprintf(opts, sizeof opts, "%s:quarantine_size_mb=0:thread_local_quarantine_size_kb=0",
-                     asan);
-            setenv("ASAN_OPTIONS", opts, 1);
-        }
-        execl(bin, bin, "watch", "w.wetgraph", "-o", "o", "--threads", "2", (char *)NULL);
-        _exit(98);
+    /* under AddressSanitizer, freed memory is held in a quarantine that would look like growth;
+     * without it the resident memory means what it does in a normal build (the watcher's
+     * setting only: this process's is restored) */
+    const char *asan = getenv("ASAN_OPTIONS");
+    char *asan_before = asan ? strdup(asan) : NULL;
+    if (asan) {
+        char opts[1024];
+        snprintf(opts, sizeof opts, "%s:quarantine_size_mb=0:thread_local_quarantine_size_kb=0",
+                 asan);
+        setenv("ASAN_OPTIONS", opts, 1);
     }
+    watcher = spawn_watch(NULL);
+    if (asan_before) setenv("ASAN_OPTIONS", asan_before, 1);
+    free(asan_before);
     wait_for("watch: waiting", 1);
     assert_int_equal(count_in("err", "watch: rendered"), 1);
     assert_true(value_of("o/w_a.exr") == 0.25f);
@@ -203,15 +207,7 @@ static void test_watch_session(void **state)
     assert_true(value_of("o/w_a.exr") == 0.3f);
 
     /* Ctrl-C ends the session cleanly */
-    assert_int_equal(kill(watcher, SIGINT), 0);
-    int st = 0;
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) {
-            kill(watcher, SIGKILL);
-            fail_msg("watch did not stop on SIGINT");
-        }
-        wgt_sleep_ms(5);
-    }
+    int st = wgt_stop(watcher, SIGINT, LIMIT_MS);
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);
     assert_int_equal(count_in("err", "watch: stopped"), 1);
@@ -221,11 +217,7 @@ static void test_watch_session(void **state)
 static int stop_watcher(void **state)
 {
     (void)state;
-    int st;
-    if (watcher > 0 && waitpid(watcher, &st, WNOHANG) == 0) {
-        kill(watcher, SIGKILL);
-        waitpid(watcher, &st, 0);
-    }
+    wgt_kill(watcher);
     watcher = 0;
     return 0;
 }
@@ -251,85 +243,35 @@ static void test_watch_usage(void **state)
  * more than the harness limit allows), after a noise node that finishes at once. */
 static void save_slow(const char *value)
 {
-    char text[8192];
-    int n = snprintf(text, sizeof text,
-                     "<wetgraph version=\"1\" size=\"1024\">\n"
-                     "  <param name=\"level\" type=\"float\" default=\"%s\"/>\n"
-                     "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
-                     "  <node id=\"n\" type=\"noise\" scale=\"5\"/>\n"
-                     "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" "
-                     "from=\"n\"/></node>\n",
-                     value);
-    for (int i = 1; i <= 16; i++)
-        n += snprintf(text + n, sizeof text - (size_t)n,
-                      "  <node id=\"ao%d\" type=\"ambient_occlusion\" radius=\"16\" "
-                      "directions=\"64\"><in name=\"height\" from=\"%s%.0d\"/></node>\n",
-                      i, i > 1 ? "ao" : "b", i > 1 ? i - 1 : 0);
-    snprintf(text + n, sizeof text - (size_t)n,
-             "  <output name=\"a\" from=\"u\" format=\"exr32\"/>\n"
-             "  <output name=\"c\" from=\"ao16\" format=\"exr32\"/>\n"
-             "</wetgraph>\n");
+    char params[256];
+    snprintf(params, sizeof params, "  <param name=\"level\" type=\"float\" default=\"%s\"/>\n",
+             value);
+    char *text = wgt_slow_graph(params, "16", "64");
     save("w.wetgraph", "%s", text);
+    free(text);
 }
 
-/* Entries (files not starting with '.') under a folder, recursively. */
-static int count_entries(const char *folder)
-{
-    DIR *d = opendir(folder);
-    if (!d) return 0;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        if (e->d_name[0] == '.') continue;
-        char p[2048];
-        snprintf(p, sizeof p, "%s/%s", folder, e->d_name);
-        struct stat st;
-        if (stat(p, &st)) continue;
-        n += S_ISDIR(st.st_mode) ? count_entries(p) : 1;
-    }
-    closedir(d);
-    return n;
-}
-
+/* The images in two files of the test's folder are bit-identical. */
 static void assert_same_image(const char *a, const char *b)
 {
-    WgImage *x = NULL, *y = NULL;
-    WgError err = {0};
-    if (wg_image_read(path(a), 0, WG_LINEAR, &x, &err)) fail_msg("%s: %s", a, err.message);
-    if (wg_image_read(path(b), 0, WG_LINEAR, &y, &err)) fail_msg("%s: %s", b, err.message);
-    wgt_assert_identical(x, y);
-    wg_image_unref(x);
-    wg_image_unref(y);
+    wgt_assert_identical_files(path(a), path(b));
 }
 
 static void test_watch_supersedes_a_running_render(void **state)
 {
     (void)state;
-    const char *bin = getenv("WETGRAPH_BIN");
-    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
     snprintf(dir, sizeof dir, "%s/watch_cancel", wgt_tmpdir());
     mkdir(dir, 0777);
     save("sub.wetgraph", sub, "0.125");
     save("w.wetgraph", graph, "0.25");
-    watcher = fork();
-    assert_true(watcher >= 0);
-    if (watcher == 0) {
-        if (chdir(dir) || !freopen("out", "w", stdout) || !freopen("err", "w", stderr)) _exit(99);
-        execl(bin, bin, "watch", "w.wetgraph", "-o", "o", "--threads", "2", "--cache", "cache",
-              (char *)NULL);
-        _exit(98);
-    }
+    watcher = spawn_watch("cache");
     wait_for("watch: waiting", 1);
-    int entries = count_entries(path("cache"));
+    int entries = wgt_count_files(path("cache"), NULL);
 
     /* the long render has begun once its first nodes are in the disk cache; the next edit
      * arrives while the occlusions run */
     save_slow("0.5");
-    for (int waited = 0; count_entries(path("cache")) == entries; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("the long render did not start");
-        if (waitpid(watcher, NULL, WNOHANG) == watcher) fail_msg("watch ended");
-        wgt_sleep_ms(5);
-    }
+    wgt_wait_for_files(watcher, path("cache"), entries, LIMIT_MS);
     save("w.wetgraph", graph, "0.75");
     wait_for("watch: waiting", 2);
     assert_int_equal(count_in("err", "watch: render superseded after "), 1);
@@ -347,21 +289,10 @@ static void test_watch_supersedes_a_running_render(void **state)
     assert_same_image("o/w_c.exr", "ref/w_c.exr");
 
     /* Ctrl-C during a long render stops it too, and the session ends cleanly */
-    entries = count_entries(path("cache"));
+    entries = wgt_count_files(path("cache"), NULL);
     save_slow("0.625");
-    for (int waited = 0; count_entries(path("cache")) == entries; waited += 5) {
-        if (waited > LIMIT_MS) fail_msg("the long render did not start");
-        wgt_sleep_ms(5);
-    }
-    assert_int_equal(kill(watcher, SIGINT), 0);
-    int st = 0;
-    for (int waited = 0; waitpid(watcher, &st, WNOHANG) != watcher; waited += 5) {
-        if (waited > LIMIT_MS) {
-            kill(watcher, SIGKILL);
-            fail_msg("watch did not stop on SIGINT");
-        }
-        wgt_sleep_ms(5);
-    }
+    wgt_wait_for_files(watcher, path("cache"), entries, LIMIT_MS);
+    int st = wgt_stop(watcher, SIGINT, LIMIT_MS);
     assert_true(WIFEXITED(st));
     assert_int_equal(WEXITSTATUS(st), 0);
     assert_int_equal(count_in("err", "watch: render stopped after "), 1);

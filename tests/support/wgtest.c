@@ -3,6 +3,8 @@
 #include "wgtest.h"
 
 #include <arpa/inet.h>
+#include <dirent.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <netinet/in.h>
 #include <time.h>
@@ -172,6 +174,16 @@ char *wgt_read_file(const char *path, size_t *size)
     return buf;
 }
 
+bool wgt_same_file(const char *a, const char *b)
+{
+    size_t na, nb;
+    char *x = wgt_read_file(a, &na), *y = wgt_read_file(b, &nb);
+    bool same = na == nb && !memcmp(x, y, na);
+    free(x);
+    free(y);
+    return same;
+}
+
 const WgImage *wgt_output(const WgResult *r, const char *name)
 {
     for (int i = 0; i < wg_result_output_count(r); i++)
@@ -274,6 +286,17 @@ void wgt_assert_identical(const WgImage *a, const WgImage *b)
                     fail_msg("images differ at x=%d y=%d channel %d: %.9g vs %.9g", i / a->channels,
                              y, i % a->channels, wg_image_row(a, y)[i], wg_image_row(b, y)[i]);
         }
+}
+
+void wgt_assert_identical_files(const char *a, const char *b)
+{
+    WgImage *x = NULL, *y = NULL;
+    WgError err = {0};
+    if (wg_image_read(a, 0, WG_LINEAR, &x, &err)) fail_with(a, &err);
+    if (wg_image_read(b, 0, WG_LINEAR, &y, &err)) fail_with(b, &err);
+    wgt_assert_identical(x, y);
+    wg_image_unref(x);
+    wg_image_unref(y);
 }
 
 double wgt_max_abs_diff(const WgImage *a, const WgImage *b)
@@ -390,4 +413,111 @@ int wgt_free_port(void)
     assert_int_equal(getsockname(fd, (struct sockaddr *)&sa, &len), 0);
     close(fd);
     return ntohs(sa.sin_port);
+}
+
+pid_t wgt_spawn(const char *dir, const char *out_name, const char *err_name, const char *path_env,
+                const char *const args[])
+{
+    const char *bin = getenv("WETGRAPH_BIN");
+    if (!bin || !bin[0]) fail_msg("WETGRAPH_BIN is not set");
+    const char *argv[64] = {bin};
+    int n = 1;
+    while (args[n - 1]) {
+        assert_true(n < 63);
+        argv[n] = args[n - 1];
+        n++;
+    }
+    argv[n] = NULL;
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        if (chdir(dir) || !freopen(out_name, "w", stdout) || !freopen(err_name, "w", stderr))
+            _exit(99);
+        if (path_env) setenv("PATH", path_env, 1);
+        execv(bin, (char *const *)argv);
+        _exit(98);
+    }
+    return pid;
+}
+
+int wgt_stop(pid_t pid, int sig, int limit_ms)
+{
+    assert_int_equal(kill(pid, sig), 0);
+    int st = 0;
+    for (int waited = 0; waitpid(pid, &st, WNOHANG) != pid; waited += 5) {
+        if (waited > limit_ms) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+            fail_msg("process %ld did not stop on signal %d", (long)pid, sig);
+        }
+        wgt_sleep_ms(5);
+    }
+    return st;
+}
+
+void wgt_kill(pid_t pid)
+{
+    int st;
+    if (pid > 0 && waitpid(pid, &st, WNOHANG) == 0) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &st, 0);
+    }
+}
+
+int wgt_count_files(const char *folder, int *hidden)
+{
+    DIR *d = opendir(folder);
+    if (!d) return 0;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        char p[2048];
+        snprintf(p, sizeof p, "%s/%s", folder, e->d_name);
+        struct stat st;
+        if (stat(p, &st)) continue; /* gone meanwhile (a temporary renamed) */
+        if (S_ISDIR(st.st_mode))
+            n += wgt_count_files(p, hidden);
+        else if (e->d_name[0] != '.')
+            n++;
+        else if (hidden)
+            ++*hidden;
+    }
+    closedir(d);
+    return n;
+}
+
+void wgt_wait_for_files(pid_t pid, const char *folder, int count, int limit_ms)
+{
+    for (int waited = 0; wgt_count_files(folder, NULL) <= count; waited += 5) {
+        if (waited > limit_ms) fail_msg("%s: no more than %d files appeared", folder, count);
+        int st;
+        if (waitpid(pid, &st, WNOHANG) == pid) fail_msg("the process ended early (%s)", folder);
+        wgt_sleep_ms(5);
+    }
+}
+
+char *wgt_slow_graph(const char *params, const char *radius, const char *directions)
+{
+    size_t cap = 8192 + strlen(params);
+    char *text = malloc(cap);
+    assert_non_null(text);
+    int n = snprintf(text, cap,
+                     "<wetgraph version=\"1\" size=\"1024\">\n"
+                     "%s"
+                     "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+                     "  <node id=\"n\" type=\"noise\" scale=\"5\"/>\n"
+                     "  <node id=\"ao0\" type=\"blur\" sigma=\"1\"><in name=\"source\" "
+                     "from=\"n\"/></node>\n",
+                     params);
+    for (int i = 1; i <= 16; i++)
+        n += snprintf(text + n, cap - (size_t)n,
+                      "  <node id=\"ao%d\" type=\"ambient_occlusion\" radius=\"%s\" "
+                      "directions=\"%s\"><in name=\"height\" from=\"ao%d\"/></node>\n",
+                      i, radius, directions, i - 1);
+    snprintf(text + n, cap - (size_t)n,
+             "  <output name=\"a\" from=\"u\" format=\"exr32\"/>\n"
+             "  <output name=\"c\" from=\"ao16\" format=\"exr32\"/>\n"
+             "</wetgraph>\n");
+    return text;
 }

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* Shared helpers for the cmocka test suites: building small images, loading graphs from
- * strings, rendering, evaluating one node on given inputs, and comparing images. Every helper
- * fails the current test (cmocka fail_msg) on unexpected errors, so tests stay short. */
+ * strings, rendering, evaluating one node on given inputs, comparing images, and running the CLI in
+ * the background. Every helper fails the current test (cmocka fail_msg) on unexpected errors, so
+ * tests stay short. */
 #ifndef WGTEST_H
 #define WGTEST_H
 
@@ -36,6 +37,29 @@ void wgt_sleep_ms(int ms);
 void wgt_wait_for(pid_t pid, const char *log_path, const char *needle, int count, int limit_ms);
 /* A loopback TCP port nothing listens on now (bind port 0, read what the system chose). */
 int wgt_free_port(void);
+/* Start WETGRAPH_BIN with args (NULL-terminated, without the program name) in the background:
+ * in folder dir, stdout and stderr into dir/out_name and dir/err_name, and PATH set to path_env
+ * unless it is NULL. Returns the process id (exit status 99: no such folder or files, 98: the
+ * program did not start). */
+pid_t wgt_spawn(const char *dir, const char *out_name, const char *err_name, const char *path_env,
+                const char *const args[]);
+/* Send sig to process pid and wait until it ends; after limit_ms (a harness limit) it is killed
+ * and the test fails. Returns its wait status. */
+int wgt_stop(pid_t pid, int sig, int limit_ms);
+/* End process pid with SIGKILL if it still runs, and reap it (a teardown after a failure). */
+void wgt_kill(pid_t pid);
+/* Files under folder, recursively, whose names do not start with '.'; *hidden (may be NULL)
+ * gets those whose names do (temporaries). A missing folder has none. */
+int wgt_count_files(const char *folder, int *hidden);
+/* Wait until folder holds more than `count` files (wgt_count_files). Fails when process pid
+ * ends first, or after limit_ms (a harness limit). */
+void wgt_wait_for_files(pid_t pid, const char *folder, int count, int limit_ms);
+/* Text of a 1024x1024 graph that is slow to render: `params` (parameter declarations, with a
+ * float `level`), a uniform u of level, a noise and a blur, then a chain of 16 ambient_occlusion
+ * nodes with the given radius and directions attributes; output a is u, output c the last
+ * occlusion. With radius 16 and 64 directions it is about 20 s of work on two threads. malloc'd:
+ * free it. */
+char *wgt_slow_graph(const char *params, const char *radius, const char *directions);
 
 /* Image from values (row-major, `channels` per pixel; channels 1 or 4). values may be NULL
  * (zeros). Caller unrefs. */
@@ -64,6 +88,8 @@ WgResult *wgt_render_request(WgEngine *e, const WgRequest *r);
 const WgNodeStat *wgt_stat(const WgResult *r, const char *id);
 /* A whole file, NUL-terminated (malloc'd; free it); fails the test if it cannot be read. */
 char *wgt_read_file(const char *path, size_t *size);
+/* Do the files at paths a and b hold the same bytes? Fails the test if one cannot be read. */
+bool wgt_same_file(const char *a, const char *b);
 
 /* Output image by name from a result (borrowed). */
 const WgImage *wgt_output(const WgResult *r, const char *name);
@@ -81,6 +107,8 @@ int wgt_node_error(const char *type, const char *attrs, int w, int h, int n, con
 void wgt_assert_same_shape(const WgImage *a, const WgImage *b);
 /* Bit-identical pixels. */
 void wgt_assert_identical(const WgImage *a, const WgImage *b);
+/* The images in the files at paths a and b (channels as stored) are bit-identical. */
+void wgt_assert_identical_files(const char *a, const char *b);
 /* max |a - b| <= tol over every channel. */
 void wgt_assert_near(const WgImage *a, const WgImage *b, double tol);
 double wgt_max_abs_diff(const WgImage *a, const WgImage *b);

@@ -8,7 +8,6 @@
  * depends on timing; alarm() is the harness limit against hangs. */
 #include "wgtest.h"
 
-#include <dirent.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -132,44 +131,65 @@ static void expect_cancelled(WgEngine *e, const WgRequest *r)
     wgt_assert_error(&err, WG_ERR_CANCELLED, 0, "cancelled");
 }
 
+/* A graph, its reference outputs, an engine, and a request of the graph with a cancel token. */
+typedef struct {
+    WgGraph *g;
+    WgResult *ref;
+    WgEngine *e;
+    WgRequest *r;
+    WgCancel *c;
+} Fixture;
+
+static Fixture fixture(const char *xml, int threads, const char *cache_dir)
+{
+    Fixture f;
+    f.g = wgt_load(xml);
+    f.ref = reference(f.g);
+    f.e = wgt_engine(threads, 0, cache_dir);
+    f.r = wg_request_new(f.g);
+    f.c = wg_cancel_new();
+    assert_non_null(f.c);
+    wg_request_set_cancel(f.r, f.c);
+    return f;
+}
+
+static void fixture_free(Fixture *f)
+{
+    wg_cancel_free(f->c);
+    wg_request_free(f->r);
+    wg_engine_free(f->e);
+    wg_result_free(f->ref);
+    wg_graph_free(f->g);
+}
+
 /* ---- tests ------------------------------------------------------------------------------- */
 
 static void test_cancel_before_start(void **state)
 {
     (void)state;
-    WgGraph *g = wgt_load(graph_xml);
-    WgResult *ref = reference(g);
-    WgEngine *e = wgt_engine(2, 0, NULL);
-    WgRequest *r = wg_request_new(g);
-    WgCancel *c = wg_cancel_new();
-    assert_non_null(c);
-    wg_request_set_cancel(r, c);
-    assert_false(wg_cancel_requested(c));
-    wg_cancel_request(c);
-    assert_true(wg_cancel_requested(c));
+    Fixture f = fixture(graph_xml, 2, NULL);
+    assert_false(wg_cancel_requested(f.c));
+    wg_cancel_request(f.c);
+    assert_true(wg_cancel_requested(f.c));
     atomic_store(&chunks_started, 0);
-    expect_cancelled(e, r);
+    expect_cancelled(f.e, f.r);
     assert_int_equal(atomic_load(&chunks_started), 0); /* nothing ran */
     /* a second render of a requested token is cancelled too, until reset */
-    expect_cancelled(e, r);
-    wg_cancel_reset(c);
-    WgResult *res = wgt_render_request(e, r);
+    expect_cancelled(f.e, f.r);
+    wg_cancel_reset(f.c);
+    WgResult *res = wgt_render_request(f.e, f.r);
     assert_int_equal(wg_result_evaluated_count(res), 4); /* nothing was cached */
-    expect_same_outputs(res, ref);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
     /* a request without a token is not affected by a requested one */
-    wg_cancel_request(c);
-    WgRequest *other = wg_request_new(g);
-    wg_engine_clear_cache(e);
-    res = wgt_render_request(e, other);
-    expect_same_outputs(res, ref);
+    wg_cancel_request(f.c);
+    WgRequest *other = wg_request_new(f.g);
+    wg_engine_clear_cache(f.e);
+    res = wgt_render_request(f.e, other);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
     wg_request_free(other);
-    wg_cancel_free(c);
-    wg_request_free(r);
-    wg_engine_free(e);
-    wg_result_free(ref);
-    wg_graph_free(g);
+    fixture_free(&f);
 }
 
 typedef struct {
@@ -190,33 +210,24 @@ static void cancel_in_progress(void *user, int done, int total, const char *node
 static void test_cancel_from_progress_callback(void **state)
 {
     (void)state;
-    WgGraph *g = wgt_load(graph_xml);
-    WgResult *ref = reference(g);
-    WgEngine *e = wgt_engine(1, 0, NULL); /* one worker: the nodes run in plan order */
-    WgRequest *r = wg_request_new(g);
-    WgCancel *c = wg_cancel_new();
-    wg_request_set_cancel(r, c);
-    Progress p = {c, 0, 2, 0, 0};
-    wg_request_set_progress(r, cancel_in_progress, &p);
-    expect_cancelled(e, r);
+    Fixture f = fixture(graph_xml, 1, NULL); /* one worker: the nodes run in plan order */
+    Progress p = {f.c, 0, 2, 0, 0};
+    wg_request_set_progress(f.r, cancel_in_progress, &p);
+    expect_cancelled(f.e, f.r);
     assert_int_equal(p.total, 4);
     assert_true(p.last_done >= 2);
     assert_true(p.last_done < 4); /* never told the render completed */
     /* n and pre finished before the cancel and are cached; the rest runs now */
-    wg_cancel_reset(c);
+    wg_cancel_reset(f.c);
     p.cancel_at = 1000;
-    WgResult *res = wgt_render_request(e, r);
+    WgResult *res = wgt_render_request(f.e, f.r);
     expect_outcome(res, "pre", WG_HIT_MEMORY); /* (n is then not needed) */
     expect_outcome(res, "g", WG_COMPUTED);
     expect_outcome(res, "post", WG_COMPUTED);
     assert_int_equal(p.last_done, 2);
-    expect_same_outputs(res, ref);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
-    wg_cancel_free(c);
-    wg_request_free(r);
-    wg_engine_free(e);
-    wg_result_free(ref);
-    wg_graph_free(g);
+    fixture_free(&f);
 }
 
 typedef struct {
@@ -257,37 +268,28 @@ static int cancel_during_gate(WgEngine *e, const WgRequest *r, WgCancel *c)
 static void test_cancel_from_another_thread(void **state)
 {
     (void)state;
-    WgGraph *g = wgt_load(graph_xml);
-    WgResult *ref = reference(g);
     const int threads = 2;
-    WgEngine *e = wgt_engine(threads, 0, NULL);
-    WgRequest *r = wg_request_new(g);
-    WgCancel *c = wg_cancel_new();
-    wg_request_set_cancel(r, c);
-    int started = cancel_during_gate(e, r, c);
+    Fixture f = fixture(graph_xml, threads, NULL);
+    int started = cancel_during_gate(f.e, f.r, f.c);
     /* the chunks that were waiting finish; no other chunk of the gate's 64 starts */
     assert_true(started >= 1);
     assert_true(started <= threads);
     /* the gate's partial output is not cached: it is computed again, and post after it */
-    wg_cancel_reset(c);
+    wg_cancel_reset(f.c);
     atomic_store(&chunks_started, 0);
-    WgResult *res = wgt_render_request(e, r);
+    WgResult *res = wgt_render_request(f.e, f.r);
     expect_outcome(res, "pre", WG_HIT_MEMORY); /* (n is then not needed) */
     expect_outcome(res, "g", WG_COMPUTED);
     expect_outcome(res, "post", WG_COMPUTED);
     assert_int_equal(atomic_load(&chunks_started), 64);
-    expect_same_outputs(res, ref);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
     /* and now everything is cached */
-    res = wgt_render_request(e, r);
+    res = wgt_render_request(f.e, f.r);
     assert_int_equal(wg_result_evaluated_count(res), 0);
-    expect_same_outputs(res, ref);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
-    wg_cancel_free(c);
-    wg_request_free(r);
-    wg_engine_free(e);
-    wg_result_free(ref);
-    wg_graph_free(g);
+    fixture_free(&f);
 }
 
 /* The node that is cancelled is the last one: every node is then counted as completed, but the
@@ -295,93 +297,54 @@ static void test_cancel_from_another_thread(void **state)
 static void test_cancel_the_last_node(void **state)
 {
     (void)state;
-    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"256\" seed=\"3\">\n"
-                          "  <node id=\"n\" type=\"noise\"/>\n"
-                          "  <node id=\"g\" type=\"gate\"><in name=\"source\" from=\"n\"/></node>\n"
-                          "  <output name=\"out\" from=\"g\"/>\n"
-                          "</wetgraph>\n");
-    WgResult *ref = reference(g);
-    WgEngine *e = wgt_engine(2, 0, NULL);
-    WgRequest *r = wg_request_new(g);
-    WgCancel *c = wg_cancel_new();
-    wg_request_set_cancel(r, c);
-    cancel_during_gate(e, r, c);
-    wg_cancel_reset(c);
-    WgResult *res = wgt_render_request(e, r);
+    Fixture f = fixture("<wetgraph version=\"1\" size=\"256\" seed=\"3\">\n"
+                        "  <node id=\"n\" type=\"noise\"/>\n"
+                        "  <node id=\"g\" type=\"gate\"><in name=\"source\" from=\"n\"/></node>\n"
+                        "  <output name=\"out\" from=\"g\"/>\n"
+                        "</wetgraph>\n",
+                        2, NULL);
+    cancel_during_gate(f.e, f.r, f.c);
+    wg_cancel_reset(f.c);
+    WgResult *res = wgt_render_request(f.e, f.r);
     expect_outcome(res, "g", WG_COMPUTED);
-    expect_same_outputs(res, ref);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
-    wg_cancel_free(c);
-    wg_request_free(r);
-    wg_engine_free(e);
-    wg_result_free(ref);
-    wg_graph_free(g);
-}
-
-/* Files in the cache folder (recursively): entries, and names starting with '.' (temporaries). */
-static void count_files(const char *dir, int *entries, int *hidden)
-{
-    DIR *d = opendir(dir);
-    if (!d) return;
-    struct dirent *ent;
-    while ((ent = readdir(d))) {
-        if (!strcmp(ent->d_name, ".") || !strcmp(ent->d_name, "..")) continue;
-        char path[2048];
-        snprintf(path, sizeof path, "%s/%s", dir, ent->d_name);
-        DIR *sub = opendir(path);
-        if (sub) {
-            closedir(sub);
-            count_files(path, entries, hidden);
-        } else if (ent->d_name[0] == '.') {
-            ++*hidden;
-        } else {
-            ++*entries;
-        }
-    }
-    closedir(d);
+    fixture_free(&f);
 }
 
 static void test_cancel_with_disk_cache(void **state)
 {
     (void)state;
-    WgGraph *g = wgt_load(graph_xml);
-    WgResult *ref = reference(g);
     char dir[1024];
     snprintf(dir, sizeof dir, "%s", wgt_path("cancel_cache"));
-    WgEngine *e = wgt_engine(2, 0, dir);
-    WgRequest *r = wg_request_new(g);
-    WgCancel *c = wg_cancel_new();
-    wg_request_set_cancel(r, c);
-    cancel_during_gate(e, r, c);
-    wg_engine_free(e);
+    Fixture f = fixture(graph_xml, 2, dir);
+    cancel_during_gate(f.e, f.r, f.c);
+    wg_engine_free(f.e);
     /* n (if it is not a cheap node) and pre are on disk; the gate and post are not; no
      * temporary is left */
-    int entries = 0, hidden = 0;
-    count_files(dir, &entries, &hidden);
+    int hidden = 0, entries = wgt_count_files(dir, &hidden);
     assert_int_equal(hidden, 0);
     assert_true(entries >= 1 && entries <= 2);
     int before = entries;
 
     /* a fresh engine on the same folder: the finished nodes come from the disk, the rest is
      * computed, and the pixels are those of an uncancelled render */
-    e = wgt_engine(2, 0, dir);
-    wg_cancel_reset(c);
-    WgResult *res = wgt_render_request(e, r);
+    f.e = wgt_engine(2, 0, dir);
+    wg_cancel_reset(f.c);
+    WgResult *res = wgt_render_request(f.e, f.r);
     expect_outcome(res, "pre", WG_HIT_DISK);
     expect_outcome(res, "g", WG_COMPUTED);
     expect_outcome(res, "post", WG_COMPUTED);
-    expect_same_outputs(res, ref);
+    expect_same_outputs(res, f.ref);
     wg_result_free(res);
-    wg_engine_free(e);
-    entries = hidden = 0;
-    count_files(dir, &entries, &hidden);
+    wg_engine_free(f.e);
+    f.e = NULL;
+    hidden = 0;
+    entries = wgt_count_files(dir, &hidden);
     assert_int_equal(hidden, 0);
     assert_int_equal(entries, before + 2);
 
-    wg_cancel_free(c);
-    wg_request_free(r);
-    wg_result_free(ref);
-    wg_graph_free(g);
+    fixture_free(&f);
 }
 
 /* Two requests of one graph on one engine at once, each with its own token: cancelling one
@@ -389,36 +352,29 @@ static void test_cancel_with_disk_cache(void **state)
 static void test_cancel_leaves_other_requests(void **state)
 {
     (void)state;
-    WgGraph *g = wgt_load(graph_xml);
-    WgResult *ref = reference(g);
-    WgEngine *e = wgt_engine(2, 0, NULL);
-    WgRequest *r1 = wg_request_new(g), *r2 = wg_request_new(g);
-    WgCancel *c1 = wg_cancel_new(), *c2 = wg_cancel_new();
-    wg_request_set_cancel(r1, c1);
+    Fixture f = fixture(graph_xml, 2, NULL); /* f.r with f.c, and another with its own token */
+    WgRequest *r2 = wg_request_new(f.g);
+    WgCancel *c2 = wg_cancel_new();
     wg_request_set_cancel(r2, c2);
     atomic_store(&released, 0);
     atomic_store(&chunks_started, 0);
-    RenderThread t1 = {e, r1, NULL, {0}, 0}, t2 = {e, r2, NULL, {0}, 0};
+    RenderThread t1 = {f.e, f.r, NULL, {0}, 0}, t2 = {f.e, r2, NULL, {0}, 0};
     pthread_t tid1, tid2;
     assert_int_equal(pthread_create(&tid1, NULL, render_thread, &t1), 0);
     while (atomic_load(&chunks_started) == 0) wgt_sleep_ms(1);
     assert_int_equal(pthread_create(&tid2, NULL, render_thread, &t2), 0);
-    wg_cancel_request(c1);
+    wg_cancel_request(f.c);
     atomic_store(&released, 1);
     pthread_join(tid1, NULL);
     pthread_join(tid2, NULL);
     assert_int_equal(t1.rc, WG_ERR_CANCELLED);
     assert_null(t1.res);
     if (t2.rc) fail_msg("the other render failed: %s", t2.err.message);
-    expect_same_outputs(t2.res, ref);
+    expect_same_outputs(t2.res, f.ref);
     wg_result_free(t2.res);
-    wg_cancel_free(c1);
     wg_cancel_free(c2);
-    wg_request_free(r1);
     wg_request_free(r2);
-    wg_engine_free(e);
-    wg_result_free(ref);
-    wg_graph_free(g);
+    fixture_free(&f);
 }
 
 int main(void)
