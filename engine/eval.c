@@ -259,6 +259,12 @@ WgMemPool *wg__engine_mempool(WgEngine *e)
 /* The cache and the pool's idle buffers share what the working set (`live`) leaves of the
  * budget; the pool gives way first. Images the cache evicts go to the pool, hence the second
  * trim. */
+void wg_engine_trim(WgEngine *e, size_t max_cache, size_t max_pool)
+{
+    wg__cache_trim(e->cache, max_cache);
+    wg__mempool_trim(e->mem, max_pool);
+}
+
 static void fit_budget(WgEngine *e, size_t live)
 {
     size_t room = live < e->budget ? e->budget - live : 0;

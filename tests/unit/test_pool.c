@@ -328,12 +328,41 @@ static void test_alloc_failures(void **state)
     wg_graph_free(g);
 }
 
+/* wg_engine_trim: with room for nothing, every cached image goes (the next render computes
+ * every node again, to the same pixels) and the pool gives back every idle buffer; with room
+ * for everything, nothing goes. */
+static void test_trim(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(mixed_xml(128));
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *first = render_on(e, g);
+    int all = wg_result_evaluated_count(first);
+    assert_true(all > 10);
+    wg_engine_trim(e, SIZE_MAX, SIZE_MAX);
+    WgResult *res = render_on(e, g);
+    assert_int_equal(wg_result_evaluated_count(res), 0); /* all kept */
+    wg_result_free(res);
+    wg_engine_trim(e, 0, 0);
+    WgMemoryStats m;
+    wg_engine_memory_stats(e, &m);
+    assert_int_equal(m.pool_bytes, 0);
+    assert_int_equal(m.pool_buffers, 0);
+    res = render_on(e, g);
+    assert_int_equal(wg_result_evaluated_count(res), all);
+    assert_results_identical(first, res);
+    wg_result_free(res);
+    wg_result_free(first);
+    wg_engine_free(e);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_classes),         cmocka_unit_test(test_outlives_engine),
         cmocka_unit_test(test_reuse_identical), cmocka_unit_test(test_budget_counts_pool),
-        cmocka_unit_test(test_alloc_failures),
+        cmocka_unit_test(test_alloc_failures),  cmocka_unit_test(test_trim),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

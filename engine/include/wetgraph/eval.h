@@ -55,6 +55,11 @@ typedef struct WgMemoryStats {
     size_t pool_released; /* bytes given back to the system (trimmed or not kept) */
 } WgMemoryStats;
 void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out);
+/* Keep at most max_cache bytes of images in the memory cache (the least recently used go
+ * first) and at most max_pool bytes of idle buffers in the pool (the rest goes back to the
+ * system). For a long session that only needs about what its last render used: `wetgraph
+ * watch` keeps twice that. Not while a render of this engine runs. */
+void wg_engine_trim(WgEngine *e, size_t max_cache, size_t max_pool);
 
 /* A request refers to the graph (which must outlive it). */
 WgRequest *wg_request_new(const WgGraph *g);
