@@ -976,7 +976,7 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
         if (run.cancel && run.running == 0) break;
         int before = run.completed;
         pthread_cond_wait(&run.cv, &run.mu);
-        if (req->progress && run.completed != before) {
+        if (req->progress && run.completed != before && !run.cancel) { /* not past a cancel */
             int done = run.completed, total = run.total;
             reported = done;
             pthread_mutex_unlock(&run.mu);

@@ -303,7 +303,11 @@ static void test_cancel_the_last_node(void **state)
                         "  <output name=\"out\" from=\"g\"/>\n"
                         "</wetgraph>\n",
                         2, NULL);
+    Progress p = {NULL, 0, 1000, 0, 0}; /* only watches */
+    wg_request_set_progress(f.r, cancel_in_progress, &p);
     cancel_during_gate(f.e, f.r, f.c);
+    assert_true(p.calls == 0 || p.last_done < p.total); /* never told it completed */
+    wg_request_set_progress(f.r, NULL, NULL);
     wg_cancel_reset(f.c);
     WgResult *res = wgt_render_request(f.e, f.r);
     expect_outcome(res, "g", WG_COMPUTED);
