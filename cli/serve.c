@@ -154,9 +154,12 @@ void serve_drain(Serve *s)
     }
 }
 
-int serve_sets(Serve *s, const char **base, int n_base, char ***out, int *n)
+int serve_sets(Serve *s, const char **base, int n_base, double base_time, char ***out, int *n,
+               double *time)
 {
     pthread_mutex_lock(&s->lock);
+    serve_drain(s); /* the wake-ups of everything read here */
+    *time = s->next_time = s->q_has_time ? s->q_time : base_time;
     char **sets = calloc((size_t)(n_base + s->n_q + 1), sizeof *sets);
     int count = 0, rc = sets ? WG_OK : WG_ERR_NOMEM;
     for (int i = 0; !rc && i < n_base + s->n_q; i++) {
@@ -196,15 +199,6 @@ void serve_sets_free(char **sets, int n)
 {
     for (int i = 0; sets && i < n; i++) free(sets[i]);
     free(sets);
-}
-
-double serve_time(Serve *s, double base)
-{
-    pthread_mutex_lock(&s->lock);
-    double t = s->q_has_time ? s->q_time : base;
-    s->next_time = t;
-    pthread_mutex_unlock(&s->lock);
-    return t;
 }
 
 static char *params_json(const WgGraph *g, const char *const *sets, int n_sets)
@@ -734,12 +728,12 @@ static enum MHD_Result set(Serve *s, struct MHD_Connection *c)
     SetCtx x = {s, "", 0};
     pthread_mutex_lock(&s->lock);
     MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, set_one, &x);
-    pthread_mutex_unlock(&s->lock);
-    if (x.n) {
+    if (x.n) { /* under the lock: serve_sets reads the queue and the wake-ups together */
         uint64_t one = 1;
         if (write(s->efd, &one, sizeof one) < 0) {
         } /* a full counter still wakes the loop */
     }
+    pthread_mutex_unlock(&s->lock);
     char body[400];
     if (x.msg[0]) {
         Mem m;

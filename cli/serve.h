@@ -18,13 +18,14 @@ int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *
 int serve_fd(const Serve *s);
 void serve_drain(Serve *s);
 /* The --set list of the next render as "name=value" strings: base (the command line's --set
- * list) followed by the queued changes, a later entry for a name replacing an earlier one. The
- * caller frees *out with serve_sets_free. */
-int serve_sets(Serve *s, const char **base, int n_base, char ***out, int *n);
+ * list) followed by the queued changes, a later entry for a name replacing an earlier one, and
+ * its $time: the last one the page set (/api/set?$time=T), else base_time (the command line's
+ * --time, or 0). Read together with emptying serve_fd, under the lock /api/set queues and
+ * signals under: a wake-up left on serve_fd afterwards is always a change this list does not
+ * have yet. The caller frees *out with serve_sets_free. */
+int serve_sets(Serve *s, const char **base, int n_base, double base_time, char ***out, int *n,
+               double *time);
 void serve_sets_free(char **sets, int n);
-/* $time for the next render: the last one the page set (/api/set?$time=T), else base (the
- * command line's --time, or 0). */
-double serve_time(Serve *s, double base);
 /* Publish a finished render attempt: g (NULL when the graph did not load: the parameter list
  * stays as it was), the request r (NULL when it was not built), res (NULL when it failed; the
  * images stay as they were), err (NULL on success) and the --set list it used. Encodes the output

@@ -343,13 +343,13 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
     /* the parameter changes from the web view, read as the render starts: changes made since
      * the last render are applied together */
     if (serve) {
-        if (serve_sets(serve, base->sets, base->n_sets, &sets, &n_sets)) {
+        if (serve_sets(serve, base->sets, base->n_sets, base->has_time ? base->time : 0, &sets,
+                       &n_sets, &opt.time)) { /* $time: the page's play */
             wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
             goto fail;
         }
         opt.sets = (const char **)sets;
         opt.n_sets = n_sets;
-        opt.time = serve_time(serve, base->has_time ? base->time : 0); /* the page's play */
         opt.has_time = true;
     }
 #endif
