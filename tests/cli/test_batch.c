@@ -37,11 +37,7 @@ static char dir[1024];
 
 static const char *path(const char *name)
 {
-    static char buf[8][1200];
-    static int next;
-    char *p = buf[next++ & 7];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
+    return wgt_join(dir, name);
 }
 
 /* Run a shell command in dir ("$WG" is the wetgraph binary); returns the exit status, stdout

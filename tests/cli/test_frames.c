@@ -30,11 +30,7 @@ static char dir[1024];
 
 static const char *path(const char *name)
 {
-    static char buf[8][1200];
-    static int next;
-    char *p = buf[next++ & 7];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
+    return wgt_join(dir, name);
 }
 
 /* Run `wetgraph ARGS` in dir; returns the exit status, stdout and stderr in files out / err. */

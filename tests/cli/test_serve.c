@@ -49,11 +49,7 @@ static int port, family = AF_INET; /* where request() connects: 127.0.0.1 or ::1
 
 static const char *path(const char *name)
 {
-    static char buf[8][1200];
-    static int next;
-    char *p = buf[next++ & 7];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
+    return wgt_join(dir, name);
 }
 
 static void save(const char *name, const char *scale)

@@ -69,11 +69,7 @@ static void stop_chromium(void)
 
 static const char *path(const char *name)
 {
-    static char buf[8][1200];
-    static int next;
-    char *p = buf[next++ & 7];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
+    return wgt_join(dir, name);
 }
 
 static int count_in(const char *file, const char *needle)

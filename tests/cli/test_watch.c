@@ -49,11 +49,7 @@ static pid_t watcher;
 
 static const char *path(const char *name)
 {
-    static char buf[8][1200];
-    static int next;
-    char *p = buf[next++ & 7];
-    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
-    return p;
+    return wgt_join(dir, name);
 }
 
 /* Save as an editor does: write a new file, rename it over the old one. */

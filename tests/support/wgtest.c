@@ -47,13 +47,18 @@ const char *wgt_tmpdir(void)
     return tmp_dir;
 }
 
+const char *wgt_join(const char *dir, const char *name)
+{
+    static char buf[16][2048];
+    static int next;
+    char *p = buf[next++ & 15];
+    snprintf(p, sizeof buf[0], "%s/%s", dir, name);
+    return p;
+}
+
 const char *wgt_path(const char *name)
 {
-    static char buf[8][1024];
-    static int next;
-    char *p = buf[next++ & 7];
-    snprintf(p, 1024, "%s/%s", wgt_tmpdir(), name);
-    return p;
+    return wgt_join(wgt_tmpdir(), name);
 }
 
 void wgt_write_file(const char *path, const char *text)

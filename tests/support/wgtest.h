@@ -18,7 +18,9 @@
 /* Folder for scratch files of this test process (created on first use, under the build dir's
  * TMPDIR or /tmp); never shared between test executables. */
 const char *wgt_tmpdir(void);
-/* wgt_tmpdir()/name, in a static rotating buffer (valid for the next 8 calls). */
+/* dir/name, in a static rotating buffer (valid for the next 16 calls of it or wgt_path). */
+const char *wgt_join(const char *dir, const char *name);
+/* wgt_tmpdir()/name, as wgt_join. */
 const char *wgt_path(const char *name);
 /* Write text to a file (e.g. a .wetgraph under wgt_tmpdir()). */
 void wgt_write_file(const char *path, const char *text);
