@@ -817,6 +817,41 @@ static void test_inspection_commands(void **state)
     free_batch(c, n);
 }
 
+/* `render --output basecolor --stats=json` of the wet material (the Bricks102 maps of
+ * ../shared, at 64²): only what the base colour needs runs, which the JSON shows: the albedo
+ * and the masks are there, the normals, the meniscus and the zones view are not. */
+static void test_wet_basecolor_alone(void **state)
+{
+    (void)state;
+    const char *shared = getenv("WETGRAPH_SHARED"), *source = getenv("WETGRAPH_SOURCE");
+    if (!shared || !source) fail_msg("WETGRAPH_SHARED or WETGRAPH_SOURCE is not set");
+    char out[1024];
+    snprintf(out, sizeof out, "%s", wgt_path("wet_base"));
+    mkdir(out, 0777);
+    const char *m = "bricks102_stonewall_1k/Bricks102_1K-JPG";
+    int st = wgt_shell(out,
+                       "\"$WG\" render '%s/graphs/wet_material.wetgraph' -o . -q --size 64 "
+                       "--input basecolor='%s/materials/%s_Color.jpg' "
+                       "--input height='%s/materials/%s_Displacement.jpg' "
+                       "--set water_level=0.6 --output basecolor --stats=json",
+                       source, shared, m, shared, m);
+    assert_int_equal(st, 0);
+    size_t size;
+    char *j = wgt_read_file(wgt_join(out, "out"), &size);
+    assert_non_null(strstr(j, "\"id\": \"tex/albedo\""));
+    assert_non_null(strstr(j, "\"id\": \"masks/immersed\""));
+    static const char *const unneeded[] = {"tex/surf/normal_out", "tex/surf/water_normal",
+                                           "tex/surf/meniscus", "masks/zones"};
+    for (size_t i = 0; i < sizeof unneeded / sizeof unneeded[0]; i++) {
+        char key[128];
+        snprintf(key, sizeof key, "\"id\": \"%s\"", unneeded[i]);
+        if (strstr(j, key)) fail_msg("%s ran for the base colour alone", unneeded[i]);
+    }
+    assert_true(wgt_exists(wgt_join(out, "wet_material_basecolor.png")));
+    assert_false(wgt_exists(wgt_join(out, "wet_material_normal.png")));
+    free(j);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -827,6 +862,7 @@ int main(void)
         cmocka_unit_test(test_numeric_options_are_strict),
         cmocka_unit_test(test_cache_option),
         cmocka_unit_test(test_inspection_commands),
+        cmocka_unit_test(test_wet_basecolor_alone),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
