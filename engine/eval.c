@@ -26,6 +26,11 @@ struct WgEngine {
 
 typedef struct Run Run;
 
+typedef struct {
+    int *h;
+    int n;
+} Heap;
+
 typedef struct Node {
     Run *run;
     int index;
@@ -59,10 +64,11 @@ struct Run {
     pthread_cond_t cv;
     int running, completed, total;
     int running_parallel; /* running jobs that split their rows over the workers */
-    int *ready; /* nodes whose inputs are done, not started: a binary min-heap of plan indexes,
-                   taken lowest first, so one thread follows the plan order the budget
-                   estimate assumes */
-    int n_ready;
+    /* nodes whose inputs are done, not started: binary min-heaps of plan indexes, taken lowest
+     * first, so one thread follows the plan order the budget estimate assumes; the row-parallel
+     * nodes in ready[0], the serial ones (WG_NODE_SERIAL) in ready[1] */
+    Heap ready[2];
+    int *ready_storage;
     int *dependents;   /* storage of every node's dependents list */
     int *members;      /* storage of every fused group's members list */
     size_t live, peak; /* outputs held and needs of the running nodes */
@@ -401,10 +407,10 @@ static int eval_group(Run *run, Node *node, WgError *err)
     return rc;
 }
 
-static void ready_push(Run *run, int index)
+static void heap_push(Heap *q, int index)
 {
-    int *h = run->ready;
-    int k = run->n_ready++;
+    int *h = q->h;
+    int k = q->n++;
     while (k > 0 && h[(k - 1) / 2] > index) {
         h[k] = h[(k - 1) / 2];
         k = (k - 1) / 2;
@@ -412,17 +418,11 @@ static void ready_push(Run *run, int index)
     h[k] = index;
 }
 
-/* Takes the entry at heap position k out (0: the lowest). */
-static void ready_take(Run *run, int k)
+static void heap_pop(Heap *q)
 {
-    int *h = run->ready;
-    int last = h[--run->n_ready];
-    int n = run->n_ready;
-    if (k == n) return;
-    while (k > 0 && h[(k - 1) / 2] > last) { /* up, when it came from another branch */
-        h[k] = h[(k - 1) / 2];
-        k = (k - 1) / 2;
-    }
+    int *h = q->h;
+    int last = h[--q->n];
+    int k = 0, n = q->n;
     for (;;) {
         int c = 2 * k + 1;
         if (c >= n) break;
@@ -431,12 +431,17 @@ static void ready_take(Run *run, int k)
         h[k] = h[c];
         k = c;
     }
-    h[k] = last;
+    if (n > 0) h[k] = last;
 }
 
 static bool parallel_job(const Run *run, const Node *n)
 {
     return !(run->plan->insts[n->index].type->flags & WG_NODE_SERIAL) || n->n_members;
+}
+
+static void ready_push(Run *run, int index)
+{
+    heap_push(&run->ready[parallel_job(run, &run->nodes[index]) ? 0 : 1], index);
 }
 
 static void release(Run *run, int index)
@@ -891,9 +896,11 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     pthread_cond_init(&run.cv, NULL);
     token_register(&run, req->cancel);
     run.nodes = wg_calloc((size_t)plan->n_insts + 1, sizeof(Node));
-    run.ready = wg_calloc((size_t)plan->n_insts + 1, sizeof(int));
+    run.ready_storage = wg_calloc(2 * ((size_t)plan->n_insts + 1), sizeof(int));
+    run.ready[0].h = run.ready_storage;
+    run.ready[1].h = run.ready_storage ? run.ready_storage + plan->n_insts + 1 : NULL;
     run.seq_peak = wg_calloc((size_t)plan->n_insts + 1, sizeof(size_t));
-    if (!run.nodes || !run.ready || !run.seq_peak) {
+    if (!run.nodes || !run.ready_storage || !run.seq_peak) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto done;
     }
@@ -917,7 +924,7 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     int reported = 0;
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total) {
-        while (!run.cancel && run.n_ready > 0) {
+        while (!run.cancel && run.ready[0].n + run.ready[1].n > 0) {
             while (run.frontier < plan->n_insts &&
                    (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started ||
                     run.nodes[run.frontier].fused)) {
@@ -933,17 +940,14 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
              * once, and each node's time is its real latency. Serial nodes (file decoding) run
              * beside them on the workers the row chunks leave: while a parallel node runs, the
              * first ready serial one may start. */
-            int pos = 0;
+            Heap *from = &run.ready[1];
             if (run.running_parallel > 0) {
-                pos = -1;
-                for (int q = 0; q < run.n_ready; q++)
-                    if (!parallel_job(&run, &run.nodes[run.ready[q]]) &&
-                        (pos < 0 || run.ready[q] < run.ready[pos]))
-                        pos = q;
-                if (pos < 0) break;
+                if (from->n == 0) break;
+            } else if (from->n == 0 || (run.ready[0].n > 0 && run.ready[0].h[0] < from->h[0])) {
+                from = &run.ready[0];
             }
-            Node *n = &run.nodes[run.ready[pos]];
-            bool parallel = parallel_job(&run, n);
+            Node *n = &run.nodes[from->h[0]];
+            bool parallel = from == &run.ready[0];
             bool ahead = n->index != run.frontier;
             size_t after = run.live + n->need;
             /* wait for memory; the frontier node can always run once the others are done */
@@ -953,7 +957,7 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
                 break;
             /* make room: the cache and the pool keep only what the working set leaves */
             fit_budget(e, after);
-            ready_take(&run, pos);
+            heap_pop(from);
             run.running++;
             run.running_parallel += parallel;
             n->parallel = parallel;
@@ -1013,7 +1017,7 @@ done:
     fit_budget(e, kept);
     token_unregister(&run);
     wg_free(run.nodes);
-    wg_free(run.ready);
+    wg_free(run.ready_storage);
     wg_free(run.dependents);
     wg_free(run.members);
     wg_free(run.seq_peak);
