@@ -81,14 +81,16 @@ int main(int argc, char **argv)
     const char *prefix = "Bricks102_1K-JPG_";
     char **opts = calloc((size_t)argc + 1, sizeof(char *));
     int n_opts = 0, pos = 0;
-    for (int i = 0; i < argc; i++) {
-        if (i > 0 && argv[i][0] != '-' && (argv[i - 1][0] != '-' || i == 1 || pos > 0)) {
-            if (pos == 0) graph = argv[i];
-            if (pos == 1) dir = argv[i];
-            pos++;
-            continue;
+    opts[n_opts++] = argv[0];
+    for (int i = 1; i < argc; i++) {
+        if (argv[i][0] == '-') { /* an option and its value */
+            opts[n_opts++] = argv[i];
+            if (i + 1 < argc) opts[n_opts++] = argv[++i];
+        } else if (pos++ == 0) {
+            graph = argv[i];
+        } else {
+            dir = argv[i];
         }
-        opts[n_opts++] = argv[i];
     }
     BenchArgs a;
     int rc = bench_args(n_opts, opts, &a);
