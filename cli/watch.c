@@ -58,7 +58,8 @@ static const char help[] =
     "  --serve [ADDR:]PORT    also serve a web view of the outputs with controls for the\n"
     "                         graph's parameters (and $time) on http://ADDR:PORT/ (ADDR:\n"
     "                         an IPv4 address, or an IPv6 one in brackets such as [::1];\n"
-    "                         default 127.0.0.1, this machine only)\n";
+    "                         default 127.0.0.1, this machine only: the page has no\n"
+    "                         authentication, only a token against other sites' pages)\n";
 #else
     "  --serve [ADDR:]PORT    not available: this wetgraph was built without libmicrohttpd\n";
 #endif
