@@ -4,7 +4,7 @@
 # Bricks102 wall at SIZE² (default 2048) with THREADS workers (default 2) and all 17 outputs
 # written to a temporary folder, driven as the page drives it. After the first (cold) render,
 # RUNS times (default 5): a new value of one texturing parameter (dark_wet) is sent with
-# POST /api/set, and the script measures, from the moment it sent it,
+# POST /api/set (with the page's token), and the script measures, from the moment it sent it,
 #  event    the server-sent `render` event announcing the new render (what the page listens to)
 #  visible  the new base-colour preview received (GET /out/basecolor.png, as the page loads it)
 # beside the render's node time (the nodes it computed, from /api/state's `times`, image loading
@@ -67,6 +67,9 @@ try:
     c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
     c.request("GET", "/api/state?after=0")  # the first render published
     cold_nodes = node_ms(c.getresponse().read())
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    c.request("GET", "/")  # the page holds the run's token, which a change needs
+    token = re.search(rb'name="wetgraph-token" content="([0-9a-f]+)"', c.getresponse().read())[1]
     events = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
     events.request("GET", "/events")
     stream = events.getresponse()
@@ -80,7 +83,8 @@ try:
         value = "0.9%d" % k
         t0 = time.perf_counter()
         c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
-        c.request("POST", "/api/set?dark_wet=" + value)
+        c.request("POST", "/api/set?dark_wet=" + value,
+                  headers={"X-Wetgraph-Token": token.decode()})
         answer = c.getresponse().read()
         if b'"ok":true' not in answer:
             sys.exit("POST /api/set?dark_wet=%s: %s" % (value, answer.decode()))

@@ -4,9 +4,18 @@
  * serves exactly six things: the page (cli/serve_page.h), GET /api/state (JSON; ?after=V waits
  * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
  * output list by exact name and never used as a path), GET /graph.svg (the request's graph
- * drawn by graphviz, 404 when `dot` is not installed), GET or POST /api/set?name=value (a
- * parameter, or $time) and GET /events (server-sent events, one per finished render); any
- * other path is 404. Renders never run here: the watch thread publishes a snapshot (the
+ * drawn by graphviz, 404 when `dot` is not installed), POST /api/set (parameters, or $time, as
+ * name=value pairs in the query string or an application/x-www-form-urlencoded body; all are
+ * checked before any is queued) and GET /events (server-sent events, one per finished render);
+ * any other path is 404. Only this server's own page may use it: a request whose Host is not
+ * this server (localhost, a loopback address or the bound one, with the port) is 421, so a
+ * name an attacker points here (DNS rebinding) reads nothing; a request another site's page
+ * makes (Sec-Fetch-Site) is 403 unless it is a navigation, and a change also needs POST, no
+ * foreign Origin and the run's random token, which only the page carries (in a header, which
+ * another site's page cannot send without the server's consent). A target with %00 is refused
+ * (it would decode to a shorter name). Connections that send nothing for IDLE_S seconds are
+ * closed and there are many connection threads, so half-sent requests do not lock the page
+ * out. Renders never run here: the watch thread publishes a snapshot (the
  * previews encoded as PNG, the parameters, the graph's nodes and picture, whether it reads
  * $time, node times, the last error) under a mutex, and /api/set only queues the change under
  * that mutex and wakes the watch thread through an eventfd; the watch thread reads the queue
@@ -31,15 +40,23 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/eventfd.h>
 #include <sys/mman.h>
+#include <sys/random.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
-/* PING_S keeps an idle event stream inside the 60 s connection time-out that frees the threads
- * of clients that went away */
-enum { MAX_NAME = 128, MAX_VALUE = 512, PING_S = 15 };
+/* A connection that sends nothing for IDLE_S seconds is closed (a request whose headers never
+ * end holds a thread only that long); the event stream and /api/state?after=V, which wait for
+ * a render, get LONG_S, and PING_S keeps an idle event stream inside it (the time-out frees the
+ * threads of clients that went away). Up to CONNECTIONS connections, PER_ADDRESS from one
+ * client address: half-sent requests from one address cannot take every thread. */
+enum { MAX_NAME = 128, MAX_VALUE = 512, MAX_CHANGES = 64, MAX_BODY = 16384 };
+enum { PING_S = 15, IDLE_S = 5, LONG_S = 60, CONNECTIONS = 512, PER_ADDRESS = 128 };
+/* the header that carries the run's token with a change (the page has it) */
+#define TOKEN_HEADER "X-Wetgraph-Token"
 /* previews have at most this many pixels on their longer side (the page scales them to fit) */
 enum { PREVIEW_MAX = 1024 };
 /* dot gets this long (it lays out graphs of a few hundred nodes in well under a second) and
@@ -75,6 +92,11 @@ typedef struct {
 
 struct Serve {
     struct MHD_Daemon *d;
+    struct sockaddr_storage addr; /* the address it listens on */
+    int port;
+    bool wildcard;  /* it listens on every address (0.0.0.0 or [::]) */
+    char token[33]; /* a random token per run, in hex: /api/set needs it */
+    char *page[2];  /* the page with the token: [1] applies its address's ?set=, [0] not */
     int efd;
     char *file;
     pthread_mutex_t lock;
@@ -102,6 +124,15 @@ struct Serve {
     /* the watch thread's own: the Graphviz text the picture was made from */
     char *dot_text;
 };
+
+/* A request's own state (libmicrohttpd's con_cls), from its first line to its end. */
+typedef struct {
+    bool started; /* the headers are in */
+    bool nul;     /* the target, as sent, has %00 */
+    char *body;   /* up to MAX_BODY bytes of the body */
+    size_t body_size;
+    bool body_too_big;
+} Req;
 
 typedef struct {
     char *buf;
@@ -568,10 +599,15 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
     /* ?after=V: answer once render V+1 is published (at most PING_S later): a page that does not
      * keep /events open waits for the next render without polling */
     const char *after = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "after");
-    char *end = NULL;
-    unsigned long long v = after ? strtoull(after, &end, 10) : 0;
-    if (after && (!*after || *end))
-        return respond_text(c, MHD_HTTP_BAD_REQUEST, "text/plain", "after: a render number\n");
+    unsigned long long v = 0;
+    if (after) { /* digits only: strtoull would take a sign and wrap "-1" round */
+        errno = 0;
+        v = strtoull(after, NULL, 10);
+        if (!*after || strspn(after, "0123456789") != strlen(after) || errno == ERANGE)
+            return respond_text(c, MHD_HTTP_BAD_REQUEST, "text/plain",
+                                "after: a render number from 0 to 18446744073709551615\n");
+        MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, (unsigned)LONG_S);
+    }
     Mem m;
     FILE *f = mem_open(&m);
     if (!f) return MHD_NO;
@@ -651,11 +687,146 @@ static enum MHD_Result graph_svg(Serve *s, struct MHD_Connection *c)
     return ok;
 }
 
+/* One name=value change of /api/set, decoded. */
 typedef struct {
-    Serve *s;
-    char msg[256];
-    int n;
-} SetCtx;
+    char *name, *value;
+} Change;
+
+typedef struct {
+    Change *c;
+    int n, cap;
+    char msg[256]; /* the first problem, or "" */
+} Changes;
+
+static void changes_free(Changes *x)
+{
+    for (int i = 0; i < x->n; i++) {
+        free(x->c[i].name);
+        free(x->c[i].value);
+    }
+    free(x->c);
+}
+
+/* Add a copy of name and value, of these lengths (a decoded NUL makes strlen shorter). */
+static void changes_add(Changes *x, const char *name, size_t name_len, const char *value,
+                        size_t value_len)
+{
+    if (x->msg[0]) return;
+    if (x->n == MAX_CHANGES) {
+        snprintf(x->msg, sizeof x->msg, "at most %d changes at once", MAX_CHANGES);
+        return;
+    }
+    if (!name_len || name_len > MAX_NAME || value_len > MAX_VALUE) {
+        snprintf(x->msg, sizeof x->msg,
+                 "'%.64s': a name of 1 to %d characters and a value of at most %d are needed", name,
+                 MAX_NAME, MAX_VALUE);
+        return;
+    }
+    if (strlen(name) != name_len || strlen(value) != value_len) {
+        snprintf(x->msg, sizeof x->msg, "'%.64s': a NUL character in the name or the value", name);
+        return;
+    }
+    for (const char *p = value; *p; p++)
+        if ((unsigned char)*p < 0x20) {
+            snprintf(x->msg, sizeof x->msg, "'%.64s': the value has a control character", name);
+            return;
+        }
+    if (x->n == x->cap) {
+        int cap = x->cap ? 2 * x->cap : 8;
+        Change *grown = realloc(x->c, sizeof *grown * (size_t)cap);
+        if (!grown) {
+            snprintf(x->msg, sizeof x->msg, "out of memory");
+            return;
+        }
+        x->c = grown;
+        x->cap = cap;
+    }
+    Change *c = &x->c[x->n];
+    c->name = strndup(name, name_len);
+    c->value = strndup(value, value_len);
+    if (!c->name || !c->value) {
+        free(c->name);
+        free(c->value);
+        snprintf(x->msg, sizeof x->msg, "out of memory");
+        return;
+    }
+    x->n++;
+}
+
+static enum MHD_Result query_change(void *cls, enum MHD_ValueKind kind, const char *key,
+                                    size_t key_size, const char *value, size_t value_size)
+{
+    (void)kind;
+    Changes *x = cls;
+    if (!value) {
+        snprintf(x->msg, sizeof x->msg, "'%.64s': name=value is needed", key);
+        return MHD_NO;
+    }
+    changes_add(x, key, key_size, value, value_size);
+    return x->msg[0] ? MHD_NO : MHD_YES;
+}
+
+static int hex_digit(char c)
+{
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+/* Decode one application/x-www-form-urlencoded field (len bytes) into out, which has room for
+ * len + 1; its length, or -1 for a malformed %-escape. */
+static long form_decode(const char *p, size_t len, char *out)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < len; i++) {
+        if (p[i] == '%') {
+            int hi = i + 2 < len ? hex_digit(p[i + 1]) : -1;
+            int lo = hi >= 0 ? hex_digit(p[i + 2]) : -1;
+            if (lo < 0) return -1;
+            out[k++] = (char)(hi * 16 + lo);
+            i += 2;
+        } else {
+            out[k++] = p[i] == '+' ? ' ' : p[i];
+        }
+    }
+    out[k] = '\0';
+    return (long)k;
+}
+
+/* The changes of a form body: name=value pairs joined by '&'. */
+static void body_changes(Changes *x, const char *body, size_t size)
+{
+    for (size_t at = 0; at < size && !x->msg[0];) {
+        const char *pair = body + at;
+        const char *amp = memchr(pair, '&', size - at);
+        size_t len = amp ? (size_t)(amp - pair) : size - at;
+        at += len + 1;
+        if (!len) continue;
+        const char *eq = memchr(pair, '=', len);
+        if (!eq) {
+            snprintf(x->msg, sizeof x->msg, "'%.*s': name=value is needed in the body",
+                     (int)(len > 64 ? 64 : len), pair);
+            return;
+        }
+        size_t name_len = (size_t)(eq - pair), value_len = len - name_len - 1;
+        /* an encoded field longer than this decodes to more than the limit */
+        if (name_len > 3 * (MAX_NAME + 1) || value_len > 3 * (MAX_VALUE + 1)) {
+            snprintf(x->msg, sizeof x->msg,
+                     "a name of 1 to %d characters and a value of at most %d are needed", MAX_NAME,
+                     MAX_VALUE);
+            return;
+        }
+        char name[3 * (MAX_NAME + 1) + 1], value[3 * (MAX_VALUE + 1) + 1];
+        long nl = form_decode(pair, name_len, name);
+        long vl = form_decode(eq + 1, value_len, value);
+        if (nl < 0 || vl < 0) {
+            snprintf(x->msg, sizeof x->msg, "a malformed %%-escape in the body");
+            return;
+        }
+        changes_add(x, name, (size_t)nl, value, (size_t)vl);
+    }
+}
 
 static bool known_param(const Serve *s, const char *name)
 {
@@ -664,91 +835,125 @@ static bool known_param(const Serve *s, const char *name)
     return false;
 }
 
-/* Called with s->lock held: queue one change. */
-static enum MHD_Result set_one(void *cls, enum MHD_ValueKind kind, const char *key,
-                               const char *value)
+/* Called with s->lock held: is change c one the graph takes? */
+static bool change_ok(const Serve *s, const Change *c, char *msg, size_t size)
 {
-    (void)kind;
-    SetCtx *x = cls;
-    Serve *s = x->s;
-    if (x->msg[0]) return MHD_NO;
-    if (!value || strlen(key) > MAX_NAME || strlen(value) > MAX_VALUE) {
-        snprintf(x->msg, sizeof x->msg, "'%.64s': a value of at most %d characters is needed", key,
-                 MAX_VALUE);
-        return MHD_NO;
-    }
-    for (const char *p = value; *p; p++)
-        if ((unsigned char)*p < 0x20) {
-            snprintf(x->msg, sizeof x->msg, "'%.64s': the value has a control character", key);
-            return MHD_NO;
-        }
-    if (!strcmp(key, "$time")) {
+    if (!strcmp(c->name, "$time")) {
         double t;
-        if (!wg_parse_number(value, &t)) {
-            snprintf(x->msg, sizeof x->msg, "$time: '%.64s' is not a number", value);
-            return MHD_NO;
-        }
-        s->q_has_time = true;
-        s->q_time = t;
-        x->n++;
-        return MHD_YES;
+        if (wg_parse_number(c->value, &t)) return true;
+        snprintf(msg, size, "$time: '%.64s' is not a number", c->value);
+        return false;
     }
-    if (!known_param(s, key)) {
-        snprintf(x->msg, sizeof x->msg, "the graph has no parameter '%.64s'", key);
-        return MHD_NO;
+    if (known_param(s, c->name)) return true;
+    snprintf(msg, size, "the graph has no parameter '%.64s'", c->name);
+    return false;
+}
+
+/* Called with s->lock held: queue change c (checked by change_ok); false when out of memory. */
+static bool queue_change(Serve *s, const Change *c)
+{
+    if (!strcmp(c->name, "$time")) {
+        wg_parse_number(c->value, &s->q_time);
+        s->q_has_time = true;
+        return true;
     }
     for (int i = 0; i < s->n_q; i++)
-        if (!strcmp(s->q_name[i], key)) {
-            char *v = strdup(value);
-            if (!v) return MHD_NO;
+        if (!strcmp(s->q_name[i], c->name)) {
+            char *v = strdup(c->value);
+            if (!v) return false;
             free(s->q_value[i]);
             s->q_value[i] = v;
-            x->n++;
-            return MHD_YES;
+            return true;
         }
     char **nn = realloc(s->q_name, sizeof *nn * (size_t)(s->n_q + 1));
     if (nn) s->q_name = nn;
     char **vv = realloc(s->q_value, sizeof *vv * (size_t)(s->n_q + 1));
     if (vv) s->q_value = vv;
-    char *k = strdup(key), *v = strdup(value);
+    char *k = strdup(c->name), *v = strdup(c->value);
     if (!nn || !vv || !k || !v) {
         free(k);
         free(v);
-        snprintf(x->msg, sizeof x->msg, "out of memory");
-        return MHD_NO;
+        return false;
     }
     s->q_name[s->n_q] = k;
     s->q_value[s->n_q++] = v;
-    x->n++;
-    return MHD_YES;
+    return true;
 }
 
-static enum MHD_Result set(Serve *s, struct MHD_Connection *c)
+static enum MHD_Result set_error(struct MHD_Connection *c, unsigned status, const char *msg)
 {
-    SetCtx x = {s, "", 0};
+    Mem m;
+    FILE *f = mem_open(&m);
+    if (!f) return MHD_NO;
+    fputs("{\"ok\":false,\"error\":", f);
+    cli_json_string(f, msg);
+    fputs("}\n", f);
+    char *text = mem_take(&m);
+    if (!text) return MHD_NO;
+    enum MHD_Result ok = respond_text(c, status, "application/json", text);
+    free(text);
+    return ok;
+}
+
+/* Is the media type of a Content-Type value type (parameters such as charset aside)? */
+static bool media_type_is(const char *value, const char *type)
+{
+    while (*value == ' ' || *value == '\t') value++;
+    size_t len = strlen(type);
+    if (strncasecmp(value, type, len)) return false;
+    value += len;
+    while (*value == ' ' || *value == '\t') value++;
+    return !*value || *value == ';';
+}
+
+/* POST /api/set: the changes in the query string and in a form body, all checked before any
+ * is queued (a request with one bad change changes nothing). */
+static enum MHD_Result set(Serve *s, struct MHD_Connection *c, const Req *q)
+{
+    if (q->body_too_big) {
+        char msg[96];
+        snprintf(msg, sizeof msg, "the body is larger than %d bytes", MAX_BODY);
+        return set_error(c, MHD_HTTP_CONTENT_TOO_LARGE, msg);
+    }
+    Changes x = {0};
+    MHD_get_connection_values_n(c, MHD_GET_ARGUMENT_KIND, query_change, &x);
+    if (q->body_size) {
+        const char *type = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type");
+        if (!type || !media_type_is(type, "application/x-www-form-urlencoded")) {
+            changes_free(&x);
+            return set_error(c, MHD_HTTP_UNSUPPORTED_MEDIA_TYPE,
+                             "the body must be application/x-www-form-urlencoded "
+                             "(name=value&name=value)");
+        }
+        body_changes(&x, q->body, q->body_size);
+    }
+    if (!x.msg[0] && !x.n)
+        snprintf(x.msg, sizeof x.msg,
+                 "nothing to set: send name=value pairs in the query string or in an "
+                 "application/x-www-form-urlencoded body");
+    int queued = 0;
+    bool nomem = false;
     pthread_mutex_lock(&s->lock);
-    MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, set_one, &x);
-    if (x.n) { /* under the lock: serve_sets reads the queue and the wake-ups together */
+    for (int i = 0; !x.msg[0] && i < x.n; i++) change_ok(s, &x.c[i], x.msg, sizeof x.msg);
+    for (int i = 0; !x.msg[0] && i < x.n; i++) {
+        if (!queue_change(s, &x.c[i])) {
+            nomem = true;
+            break;
+        }
+        queued++;
+    }
+    if (queued) { /* under the lock: serve_sets reads the queue and the wake-ups together */
         uint64_t one = 1;
         if (write(s->efd, &one, sizeof one) < 0) {
         } /* a full counter still wakes the loop */
     }
     pthread_mutex_unlock(&s->lock);
-    char body[400];
-    if (x.msg[0]) {
-        Mem m;
-        FILE *f = mem_open(&m);
-        if (!f) return MHD_NO;
-        fputs("{\"ok\":false,\"error\":", f);
-        cli_json_string(f, x.msg);
-        fputs("}\n", f);
-        char *text = mem_take(&m);
-        if (!text) return MHD_NO;
-        enum MHD_Result ok = respond_text(c, MHD_HTTP_BAD_REQUEST, "application/json", text);
-        free(text);
-        return ok;
-    }
-    snprintf(body, sizeof body, "{\"ok\":true,\"queued\":%d}\n", x.n);
+    if (nomem) snprintf(x.msg, sizeof x.msg, "out of memory");
+    changes_free(&x);
+    if (x.msg[0])
+        return set_error(c, nomem ? MHD_HTTP_INTERNAL_SERVER_ERROR : MHD_HTTP_BAD_REQUEST, x.msg);
+    char body[64];
+    snprintf(body, sizeof body, "{\"ok\":true,\"queued\":%d}\n", queued);
     return respond_text(c, MHD_HTTP_OK, "application/json", body);
 }
 
@@ -797,6 +1002,7 @@ static enum MHD_Result events(Serve *s, struct MHD_Connection *c)
         free(ev);
         return MHD_NO;
     }
+    MHD_set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, (unsigned)LONG_S);
     MHD_add_response_header(r, "Content-Type", "text/event-stream");
     MHD_add_response_header(r, "Cache-Control", "no-store");
     enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
@@ -804,30 +1010,179 @@ static enum MHD_Result events(Serve *s, struct MHD_Connection *c)
     return ok;
 }
 
+/* libmicrohttpd's URI log callback: a request's own state, made before its headers are read,
+ * from its target as it was sent (%-escapes not yet decoded). */
+static void *req_new(void *cls, const char *uri, struct MHD_Connection *c)
+{
+    (void)cls;
+    (void)c;
+    Req *q = calloc(1, sizeof *q);
+    if (q) q->nul = strstr(uri, "%00") != NULL;
+    return q;
+}
+
+static void req_done(void *cls, struct MHD_Connection *c, void **con_cls,
+                     enum MHD_RequestTerminationCode toe)
+{
+    (void)cls;
+    (void)c;
+    (void)toe;
+    Req *q = *con_cls;
+    if (q) free(q->body);
+    free(q);
+    *con_cls = NULL;
+}
+
+static bool is_loopback(const struct sockaddr_storage *ss)
+{
+    if (ss->ss_family == AF_INET)
+        return (ntohl(((const struct sockaddr_in *)ss)->sin_addr.s_addr) >> 24) == 127;
+    const struct in6_addr *a = &((const struct sockaddr_in6 *)ss)->sin6_addr;
+    return IN6_IS_ADDR_LOOPBACK(a) ||
+           (IN6_IS_ADDR_V4MAPPED(a) && a->s6_addr[12] == 127); /* ::ffff:127.x.y.z */
+}
+
+static bool is_wildcard(const struct sockaddr_storage *ss)
+{
+    if (ss->ss_family == AF_INET)
+        return ((const struct sockaddr_in *)ss)->sin_addr.s_addr == htonl(INADDR_ANY);
+    return IN6_IS_ADDR_UNSPECIFIED(&((const struct sockaddr_in6 *)ss)->sin6_addr);
+}
+
+/* Is host (a Host header: NAME[:PORT]) this server? localhost, a loopback address, the bound
+ * address, or, bound to every address, any address literal, each with the bound port (80 when
+ * it has none). Any other name is refused: a name an attacker controls could be made to point
+ * here (DNS rebinding), while an address literal cannot. */
+static bool host_ok(const Serve *s, const char *host)
+{
+    char name[64];
+    const char *port = NULL;
+    if (host[0] == '[') {
+        const char *close = strchr(host, ']');
+        if (!close || (size_t)(close - host - 1) >= sizeof name) return false;
+        snprintf(name, sizeof name, "%.*s", (int)(close - host - 1), host + 1);
+        if (close[1] && close[1] != ':') return false;
+        port = close[1] ? close + 2 : NULL;
+    } else {
+        const char *colon = strchr(host, ':');
+        size_t len = colon ? (size_t)(colon - host) : strlen(host);
+        if (len >= sizeof name) return false;
+        snprintf(name, sizeof name, "%.*s", (int)len, host);
+        port = colon ? colon + 1 : NULL;
+    }
+    if (port) {
+        if (!*port || strlen(port) > 5 || strspn(port, "0123456789") != strlen(port) ||
+            atoi(port) != s->port)
+            return false;
+    } else if (s->port != 80) {
+        return false;
+    }
+    if (!strcasecmp(name, "localhost")) return true;
+    struct sockaddr_storage a = {0};
+    if (inet_pton(AF_INET, name, &((struct sockaddr_in *)&a)->sin_addr) == 1 && host[0] != '[')
+        a.ss_family = AF_INET;
+    else if (host[0] == '[' && inet_pton(AF_INET6, name, &((struct sockaddr_in6 *)&a)->sin6_addr))
+        a.ss_family = AF_INET6;
+    else
+        return false;
+    if (is_loopback(&a) || s->wildcard) return true;
+    if (a.ss_family != s->addr.ss_family) return false;
+    if (a.ss_family == AF_INET)
+        return ((struct sockaddr_in *)&a)->sin_addr.s_addr ==
+               ((const struct sockaddr_in *)&s->addr)->sin_addr.s_addr;
+    return !memcmp(&((struct sockaddr_in6 *)&a)->sin6_addr,
+                   &((const struct sockaddr_in6 *)&s->addr)->sin6_addr, sizeof(struct in6_addr));
+}
+
+/* Compare the token in constant time (its length is public). */
+static bool token_ok(const Serve *s, const char *token)
+{
+    if (!token || strlen(token) != sizeof s->token - 1) return false;
+    unsigned char diff = 0;
+    for (size_t i = 0; i < sizeof s->token - 1; i++)
+        diff |= (unsigned char)(token[i] ^ s->token[i]);
+    return diff == 0;
+}
+
+/* Was the request made by another site's page (Sec-Fetch-Site, sent by current browsers)? */
+static bool from_elsewhere(struct MHD_Connection *c)
+{
+    const char *site = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Sec-Fetch-Site");
+    return site && strcasecmp(site, "same-origin") && strcasecmp(site, "none");
+}
+
+/* The page, with the run's token; address_settings: whether it applies ?set= and ?play= of
+ * its address (not when another site sent the browser to it). */
+static enum MHD_Result page(Serve *s, struct MHD_Connection *c, bool address_settings)
+{
+    return respond_text(c, MHD_HTTP_OK, "text/html; charset=utf-8",
+                        s->page[address_settings ? 1 : 0]);
+}
+
+static enum MHD_Result refuse(struct MHD_Connection *c, unsigned status, const char *text)
+{
+    return respond_text(c, status, "text/plain", text);
+}
+
 static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *url,
                               const char *method, const char *version, const char *upload,
                               size_t *upload_size, void **con_cls)
 {
     (void)version;
-    (void)upload;
     Serve *s = cls;
-    static int started;
-    if (!*con_cls) { /* first call: headers only */
-        *con_cls = &started;
+    Req *q = *con_cls;
+    if (!q) return MHD_NO; /* out of memory */
+    if (!q->started) {     /* first call: headers only */
+        q->started = true;
         return MHD_YES;
     }
-    if (*upload_size) { /* a body is not used: POST /api/set takes the query string */
+    if (*upload_size) { /* the body, kept up to MAX_BODY bytes (only /api/set reads it) */
+        if (!q->body_too_big && q->body_size + *upload_size <= MAX_BODY) {
+            if (!q->body && !(q->body = malloc(MAX_BODY))) return MHD_NO;
+            memcpy(q->body + q->body_size, upload, *upload_size);
+            q->body_size += *upload_size;
+        } else {
+            q->body_too_big = true;
+        }
         *upload_size = 0;
         return MHD_YES;
     }
+    const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Host");
+    if (!host || !host_ok(s, host))
+        return refuse(c, MHD_HTTP_MISDIRECTED_REQUEST,
+                      "the Host header does not name this server (localhost or the address "
+                      "it listens on, with its port)\n");
+    if (q->nul) return refuse(c, MHD_HTTP_BAD_REQUEST, "the address has a NUL character (%00)\n");
+    const char *mode = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Sec-Fetch-Mode");
+    bool navigate = mode && !strcasecmp(mode, "navigate");
+    bool elsewhere = from_elsewhere(c);
+    if (elsewhere && !navigate)
+        return refuse(c, MHD_HTTP_FORBIDDEN, "requests from another site's page are refused\n");
     bool get = !strcmp(method, "GET") || !strcmp(method, "HEAD");
     bool post = !strcmp(method, "POST");
-    if (!get && !post)
-        return respond_text(c, MHD_HTTP_METHOD_NOT_ALLOWED, "text/plain", "method not allowed\n");
-    if (!strcmp(url, "/api/set")) return set(s, c);
-    if (!get) return not_found(c);
-    if (!strcmp(url, "/") || !strcmp(url, "/index.html"))
-        return respond_text(c, MHD_HTTP_OK, "text/html; charset=utf-8", serve_page);
+    if (!strcmp(url, "/api/set")) {
+        if (!post) {
+            struct MHD_Response *r = MHD_create_response_from_buffer(
+                strlen("/api/set takes POST\n"), "/api/set takes POST\n", MHD_RESPMEM_PERSISTENT);
+            if (!r) return MHD_NO;
+            MHD_add_response_header(r, "Allow", "POST");
+            MHD_add_response_header(r, "Content-Type", "text/plain");
+            enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_METHOD_NOT_ALLOWED, r);
+            MHD_destroy_response(r);
+            return ok;
+        }
+        /* a change comes from this server's own page: same origin, with the run's token */
+        const char *origin = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Origin");
+        if (elsewhere || (origin && (strncmp(origin, "http://", 7) || strcmp(origin + 7, host))))
+            return set_error(c, MHD_HTTP_FORBIDDEN, "changes from another site are refused");
+        if (!token_ok(s, MHD_lookup_connection_value(c, MHD_HEADER_KIND, TOKEN_HEADER)))
+            return set_error(c, MHD_HTTP_FORBIDDEN,
+                             "a missing or wrong " TOKEN_HEADER
+                             " header: changes come from the page this server serves");
+        return set(s, c, q);
+    }
+    if (!get) return refuse(c, MHD_HTTP_METHOD_NOT_ALLOWED, "method not allowed\n");
+    if (!strcmp(url, "/") || !strcmp(url, "/index.html")) return page(s, c, !elsewhere);
     if (!strcmp(url, "/api/state")) return state(s, c);
     if (!strcmp(url, "/events")) return events(s, c);
     if (!strcmp(url, "/graph.svg")) return graph_svg(s, c);
@@ -842,6 +1197,8 @@ static void serve_free(Serve *s)
     if (!s) return;
     if (s->efd >= 0) close(s->efd);
     free(s->file);
+    free(s->page[0]);
+    free(s->page[1]);
     free(s->params_json);
     free(s->times_json);
     free(s->sets_json);
@@ -919,6 +1276,42 @@ static int parse_spec(const char *spec, struct sockaddr_storage *ss, bool *v6, W
     return WG_OK;
 }
 
+/* The page with its placeholders filled: @TOKEN@ (the run's token) and @SETTINGS@ ("1" when it
+ * applies its address's settings); the caller owns the text. */
+static char *make_page(const char *token, bool address_settings)
+{
+    Mem m;
+    FILE *f = mem_open(&m);
+    if (!f) return NULL;
+    for (const char *p = serve_page; *p;) {
+        if (!strncmp(p, "@TOKEN@", 7)) {
+            fputs(token, f);
+            p += 7;
+        } else if (!strncmp(p, "@SETTINGS@", 10)) {
+            fputs(address_settings ? "1" : "0", f);
+            p += 10;
+        } else {
+            fputc(*p++, f);
+        }
+    }
+    return mem_take(&m);
+}
+
+/* A random token of 2 * (sizeof s->token / 2) hex digits from the kernel's generator. */
+static bool make_token(Serve *s)
+{
+    unsigned char raw[sizeof s->token / 2];
+    size_t got = 0;
+    while (got < sizeof raw) {
+        ssize_t n = getrandom(raw + got, sizeof raw - got, 0);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return false;
+        got += (size_t)n;
+    }
+    for (size_t i = 0; i < sizeof raw; i++) snprintf(s->token + 2 * i, 3, "%02x", raw[i]);
+    return true;
+}
+
 int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *err)
 {
     *out = NULL;
@@ -930,28 +1323,48 @@ int serve_start(const char *spec, const char *graph_file, Serve **out, WgError *
     if (!s) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->rendered, NULL);
+    s->addr = ss;
+    s->port =
+        ntohs(v6 ? ((struct sockaddr_in6 *)&ss)->sin6_port : ((struct sockaddr_in *)&ss)->sin_port);
+    s->wildcard = is_wildcard(&ss);
     s->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     s->file = strdup(graph_file);
-    if (s->efd < 0 || !s->file) {
+    if (!make_token(s)) {
+        int e = errno;
+        serve_free(s);
+        return wg_error_set(err, WG_ERR_IO, NULL, "--serve: cannot make a random token: %s",
+                            strerror(e));
+    }
+    s->page[0] = make_page(s->token, false);
+    s->page[1] = make_page(s->token, true);
+    if (s->efd < 0 || !s->file || !s->page[0] || !s->page[1]) {
         serve_free(s);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "--serve: cannot create the server");
     }
     /* no MHD_USE_ERROR_LOG: its messages would duplicate the error below (and call the port
-     * given with MHD_OPTION_SOCK_ADDR 0) */
-    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_THREAD_PER_CONNECTION;
+     * given with MHD_OPTION_SOCK_ADDR 0); poll, not select: CONNECTIONS may pass FD_SETSIZE */
+    unsigned flags = MHD_USE_POLL_INTERNAL_THREAD | MHD_USE_THREAD_PER_CONNECTION;
     if (v6) /* [::] also takes IPv4 connections (dual stack) */
         flags |= IN6_IS_ADDR_UNSPECIFIED(&((struct sockaddr_in6 *)&ss)->sin6_addr)
                      ? MHD_USE_DUAL_STACK
                      : MHD_USE_IPv6;
     s->d = MHD_start_daemon(flags, 0, NULL, NULL, handle, s, MHD_OPTION_SOCK_ADDR,
-                            (struct sockaddr *)&ss, MHD_OPTION_CONNECTION_LIMIT, 64u,
-                            MHD_OPTION_CONNECTION_TIMEOUT, 60u, MHD_OPTION_END);
+                            (struct sockaddr *)&ss, MHD_OPTION_CONNECTION_LIMIT,
+                            (unsigned)CONNECTIONS, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
+                            (unsigned)PER_ADDRESS, MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)IDLE_S,
+                            MHD_OPTION_URI_LOG_CALLBACK, req_new, NULL, MHD_OPTION_NOTIFY_COMPLETED,
+                            req_done, NULL, MHD_OPTION_END);
     if (!s->d) {
         int e = errno;
         serve_free(s);
         return wg_error_set(err, WG_ERR_IO, NULL, "--serve %s: cannot listen: %s", spec,
                             strerror(e));
     }
+    if (!is_loopback(&ss))
+        fprintf(stderr,
+                "wetgraph: warning: --serve %s: the page has no authentication: anyone who can "
+                "reach this address can see the outputs and change the parameters\n",
+                spec);
     *out = s;
     return WG_OK;
 }

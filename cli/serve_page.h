@@ -12,13 +12,16 @@
  * keeps serving only its previews. When the graph reads $time the page shows a time slider and
  * play/pause: playing sets $time, waits for that render and only then asks for the next frame
  * (one render in flight), advancing by the time that passed (at least 1/30 s) and wrapping at
- * the slider's end. A change is sent to /api/set; /events announces each finished render, and
+ * the slider's end. /events announces each finished render, and
  * the page then reloads the state and the images. The page address takes ?set=name=value
  * (repeatable; applied once on load), ?cmap=viridis|turbo (the page's colour map), ?big=OUTPUT
  * (shown enlarged), ?play=N (play N frames, then pause) and ?events=0 (leave /events closed
  * and, while playing, wait for each frame with /api/state?after=V: for headless browsers,
  * whose virtual clock stands still while a request is open, which an open /events would be
- * for ever). The page is kept here as one string, written line by line. */
+ * for ever). A change is POSTed to /api/set as a form, with the run's token (the server fills
+ * @TOKEN@ in) in the X-Wetgraph-Token header; ?set= and ?play= are applied only when the server
+ * fills @SETTINGS@ with 1 (not when another site's page sent the browser here). The page is
+ * kept here as one string, written line by line. */
 #ifndef WETGRAPH_CLI_SERVE_PAGE_H
 #define WETGRAPH_CLI_SERVE_PAGE_H
 
@@ -26,6 +29,8 @@
 static const char serve_page[] =
     "<!DOCTYPE html>\n"
     "<html><head><meta charset=\"utf-8\"><title>wetgraph watch</title>\n"
+    "<meta name=\"wetgraph-token\" content=\"@TOKEN@\">\n"
+    "<meta name=\"wetgraph-address-settings\" content=\"@SETTINGS@\">\n"
     "<style>\n"
     "[hidden]{display:none!important}\n"
     "body{font:14px sans-serif;margin:0;display:flex;background:#202124;color:#ddd}\n"
@@ -63,8 +68,10 @@ static const char serve_page[] =
     "const args=new URLSearchParams(location.search);\n"
     "function q(s){return s.includes(' ')||s.includes('\"')||s===''?\"'\"+s.replace(/'/g,\"'"
     "\\\\''\")+\"'\":s}\n"
-    "function send(name,value){return fetch('/api/set?'+encodeURIComponent(name)+'='+encodeURIC"
-    "omponent(value),{method:'POST'})}\n"
+    "// a change: POSTed as a form with the run's token, which only this page has\n"
+    "const token=document.querySelector('meta[name=wetgraph-token]').content;\n"
+    "function send(name,value){return fetch('/api/set',{method:'POST',headers:{'X-Wetgraph-Tok"
+    "en':token},body:new URLSearchParams([[name,value]])})}\n"
     "function toHex(v){if(/^#[0-9a-fA-F]{6}$/.test(v))return v;if(/^#[0-9a-fA-F]{3}$/.test(v))r"
     "eturn '#'+v[1]+v[1]+v[2]+v[2]+v[3]+v[3];if(/^#[0-9a-fA-F]{8}$/.test(v))return v.slice(0,7)"
     ";let n=v.trim().split(/\\s+/).map(Number);if(n.length===1)n=[n[0],n[0],n[0]];return '#'+n."
@@ -215,9 +222,11 @@ static const char serve_page[] =
     "document.getElementById('play').onclick=()=>setPlaying(!playing);\n"
     "document.getElementById('time').oninput=e=>{setPlaying(false);const t=+e.target.value;show"
     "Time(t);send('$time',t)};\n"
-    "const pending=args.getAll('set'),events=args.get('events')!=='0';\n"
+    "// ?set= and ?play= are applied unless another site sent the browser here\n"
+    "const own=document.querySelector('meta[name=wetgraph-address-settings]').content==='1';\n"
+    "const pending=own?args.getAll('set'):[],events=args.get('events')!=='0';\n"
     "refresh().then(()=>{for(const kv of pending){const k=kv.indexOf('=');if(k>0)send(kv.slice("
-    "0,k),kv.slice(k+1))}if(args.get('play'))setPlaying(true)});\n"
+    "0,k),kv.slice(k+1))}if(own&&args.get('play'))setPlaying(true)});\n"
     "if(events)new EventSource('/events').addEventListener('render',refresh);\n"
     "</script></body></html>\n";
 /* clang-format on */

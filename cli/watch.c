@@ -6,7 +6,11 @@
  * touched is recomputed. inotify watches the folders holding those files (editors often save
  * by writing a new file and renaming it over the old one, which a watch on the file itself
  * would lose) and events are matched by name. A burst of events (an editor's save) is
- * gathered until 50 ms pass without one (at most 1 s), then the render runs once. A graph that
+ * gathered until 50 ms pass without one (at most 1 s), then the render runs once. A file is
+ * compared with what stat said before it was read; a file that can only be stat'ed after it is
+ * read (a subgraph, or any file of a graph that did not load) and whose ctime falls during the
+ * read counts as changed, so a save that a render read half-written (an editor that truncates,
+ * then writes) is read again and the last save is always rendered. A graph that
  * does not load or check, or a render that fails, prints the error (file:line) and leaves the
  * last good outputs as they are (outputs are written all or none); the next change is tried
  * again. A change that arrives while a render runs (an event for a watched file, a queued change
@@ -54,7 +58,8 @@ static const char help[] =
     "  --serve [ADDR:]PORT    also serve a web view of the outputs with controls for the\n"
     "                         graph's parameters (and $time) on http://ADDR:PORT/ (ADDR:\n"
     "                         an IPv4 address, or an IPv6 one in brackets such as [::1];\n"
-    "                         default 127.0.0.1, this machine only)\n";
+    "                         default 127.0.0.1, this machine only: the page has no\n"
+    "                         authentication, only a token against other sites' pages)\n";
 #else
     "  --serve [ADDR:]PORT    not available: this wetgraph was built without libmicrohttpd\n";
 #endif
@@ -111,6 +116,36 @@ static bool files_changed(const FileSet *s)
         if (exists != s->f[i].exists || (exists && !same_stat(&st, &s->f[i].st))) return true;
     }
     return false;
+}
+
+/* The kernel's coarse real-time clock, which file timestamps are taken from. */
+static struct timespec file_clock(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_REALTIME_COARSE, &t);
+    return t;
+}
+
+static bool ts_before(struct timespec a, struct timespec b)
+{
+    return a.tv_sec < b.tv_sec || (a.tv_sec == b.tv_sec && a.tv_nsec < b.tv_nsec);
+}
+
+/* A file stat'ed after it was read (a subgraph, or any file of a graph that did not load) may
+ * have been saved after the read and before the stat: its inotify events came before the
+ * folders were watched again and the stat matches the new file, so that save would never be
+ * rendered (an editor that truncates and then writes makes a read in between see an empty or
+ * cut file). Each file whose ctime lies between from (taken before anything was read) and now
+ * is therefore recorded as unknown, so that it counts as changed and is read again; a ctime in
+ * the future (another machine's clock) is left alone, or it would be read again for ever. */
+static void files_forget_recent(FileSet *s, struct timespec from)
+{
+    struct timespec to = file_clock();
+    for (int i = 0; i < s->n; i++) {
+        File *f = &s->f[i];
+        if (f->exists && !ts_before(f->st.st_ctim, from) && !ts_before(to, f->st.st_ctim))
+            memset(&f->st, 0, sizeof f->st);
+    }
 }
 
 /* Add path; before: its stat from before it was read, or NULL to take it now. */
@@ -339,6 +374,7 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
     WgResult *res = NULL;
     WgError err = {0};
     double t0 = now_ms();
+    struct timespec read_from = file_clock(); /* before any file is stat'ed or read */
 #ifdef WG_HAVE_SERVE
     /* the parameter changes from the web view, read as the render starts: changes made since
      * the last render are applied together */
@@ -370,6 +406,7 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
         bool nomem = files_add(files, o->file, &before[0]);
         for (int i = 0; i < o->n_inputs; i++)
             nomem |= files_add(files, strchr(o->inputs[i], '=') + 1, &before[i + 1]);
+        files_forget_recent(files, read_from);
         if (nomem) wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         goto fail;
     }
@@ -378,6 +415,7 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
     for (int i = 0; !rc && i < o->n_inputs; i++)
         rc = files_add(files, strchr(o->inputs[i], '=') + 1, &before[i + 1]);
     if (!rc) rc = add_subgraphs(files, g, 0);
+    files_forget_recent(files, read_from);
     if (rc) {
         wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         goto fail;

@@ -11,7 +11,9 @@
  * output through the turbo colour map (the canvas pixel the page reads back is not gray),
  * plays three frames and pauses, and the command line it offers has --time; the last frame's
  * output file is the one `wetgraph render --time T` writes for the time the page shows. With
- * /events open (as a person's browser has it), ?play=3 renders three frames too. Fails with a
+ * /events open (as a person's browser has it), ?play=3 renders three frames too. A page from
+ * elsewhere (a file) that aims an image, fetches and a form at /api/set changes nothing, and the
+ * real page's change is then the only one. Fails with a
  * clear message when chromium is not installed (scripts/install-deps.sh installs it). chromium
  * runs under `timeout` with a virtual time budget (a harness limit, not a timing assertion).
  * Runs WETGRAPH_BIN. */
@@ -254,6 +256,55 @@ static void test_serve_page_plays_with_events(void **state)
     stop();
 }
 
+/* Another site's page cannot drive the session: a page from elsewhere (a file, so its origin is
+ * not the server's) that loads /api/set as an image, POSTs to it with fetch (with and without a
+ * made-up token) and submits a form to it, and tries to read /api/state, changes nothing and
+ * reads nothing; the real page then still applies its ?set=, and the next render's --set list
+ * (the command line the page offers) holds only that change. */
+static void test_serve_page_other_site_cannot_drive(void **state)
+{
+    (void)state;
+    need_chromium();
+    wgt_write_file(path("g.wetgraph"), graph);
+    int port = start("nobin", NULL);
+    wait_for("watch: waiting", 1);
+    char page[4096];
+    snprintf(page, sizeof page,
+             "<!DOCTYPE html><html><body>\n"
+             "<img src=\"http://127.0.0.1:%d/api/set?mode=b&amp;level=2\">\n"
+             "<iframe name=\"sink\"></iframe>\n"
+             "<form id=\"f\" method=\"POST\" target=\"sink\" "
+             "action=\"http://127.0.0.1:%d/api/set?level=1.5\">"
+             "<input name=\"mode\" value=\"b\"></form>\n"
+             "<script>\n"
+             "const u='http://127.0.0.1:%d';\n"
+             "fetch(u+'/api/set?mode=b&level=2',{method:'POST',mode:'no-cors',"
+             "body:new URLSearchParams([['mode','b']])}).catch(()=>{});\n"
+             "fetch(u+'/api/set?mode=b',{method:'POST',headers:{'X-Wetgraph-Token':'0'}})"
+             ".catch(()=>{});\n"
+             "fetch(u+'/api/state').then(r=>r.text()).then(t=>{document.body.dataset.read=t})"
+             ".catch(()=>{document.body.dataset.read='refused'});\n"
+             "document.getElementById('f').submit();\n"
+             "</script></body></html>\n",
+             port, port, port);
+    wgt_write_file(path("elsewhere.html"), page);
+    int st = wgt_shell(dir,
+                       "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
+                       "--user-data-dir=profile3 --virtual-time-budget=3000 "
+                       "--dump-dom 'file://%s' >dom3.html 2>chromium3.log",
+                       path("elsewhere.html"));
+    if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium3.log"));
+    if (count_in("dom3.html", "\"params\"")) fail_msg("the other page read the state");
+    /* the real page's change, and the page loaded again shows what the render used */
+    dump_dom(port, "?set=level=0.6&events=0");
+    wait_for("watch: waiting", 2);
+    dump_dom(port, "?events=0");
+    if (count_in("dom.html", "wetgraph render g.wetgraph --set level=0.6</textarea>") != 1)
+        fail_msg("the render used more than the page's change (%s)", path("dom.html"));
+    assert_int_equal(count_in("werr", "watch: rendered"), 2);
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
@@ -277,6 +328,7 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_page, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_false_colour_and_play, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_plays_with_events, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_page_other_site_cannot_drive, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

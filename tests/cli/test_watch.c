@@ -7,7 +7,9 @@
  * session survives 100 edits in a row with broken ones among them and its resident memory does
  * not grow; SIGINT ends it with exit 0. An edit saved while a long render runs cancels that
  * render ("superseded") and the edit's render follows, with the outputs a plain render gives;
- * SIGINT during a long render stops it and ends the session.
+ * SIGINT during a long render stops it and ends the session. Saves made in steps (truncate,
+ * pause, write) of a subgraph and of the graph, timed across the renders' reading of the files,
+ * always end with the last save rendered.
  * Each wait has a harness limit (no timing assertions). Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
@@ -299,12 +301,105 @@ static void test_watch_supersedes_a_running_render(void **state)
     assert_true(value_of("o/w_a.exr") == 0.75f); /* the outputs of the last complete render */
 }
 
+/* Save in place without care, as some editors and scripts do: truncate the file (and close
+ * it), wait, then write the new text. A read in between sees an empty file. */
+static void save_in_steps(const char *name, const char *text, int pause_ms)
+{
+    FILE *f = fopen(path(name), "w");
+    assert_non_null(f);
+    fclose(f);
+    if (pause_ms) wgt_sleep_ms(pause_ms);
+    f = fopen(path(name), "w");
+    assert_non_null(f);
+    assert_int_equal(fputs(text, f) >= 0, 1);
+    fclose(f);
+}
+
+/* Wait until the first pixel of file name is value (the render of the last save). */
+static void wait_for_value(const char *name, float value)
+{
+    float now = -1;
+    for (int waited = 0; waited < 8000; waited += 20) {
+        if (wgt_exists(path(name)) && (now = value_of(name)) == value) return;
+        wgt_sleep_ms(20);
+    }
+    fail_msg("%s holds %g, not %g, the value of the last save: it was not rendered", name, now,
+             value);
+}
+
+/* Saves made in steps while watch reads: the graph uses a large subgraph (slow to load) and,
+ * after it, a small one; the small one is saved in steps (truncate, pause, write) and saved
+ * again at a time that sweeps across the next render's reading of the files, with pauses of
+ * several lengths. Whatever a render read (an empty file, an error, an older text), the last
+ * save is always rendered. The main graph is saved in steps the same way. */
+static void test_watch_saves_in_steps(void **state)
+{
+    (void)state;
+    snprintf(dir, sizeof dir, "%s/watch_steps", wgt_tmpdir());
+    mkdir(dir, 0777);
+    char *big = malloc(1 << 21);
+    assert_non_null(big);
+    size_t len = (size_t)snprintf(big, 1 << 21, "<wetgraph version=\"1\" size=\"16\">\n");
+    for (int i = 0; i < 12000; i++)
+        len += (size_t)snprintf(big + len, (1 << 21) - len,
+                                "  <node id=\"u%d\" type=\"uniform\" value=\"%g\"/>\n", i,
+                                i / 12000.0);
+    snprintf(big + len, (1 << 21) - len, "  <output name=\"out\" from=\"u6000\"/>\n</wetgraph>\n");
+    wgt_write_file(path("big.wetgraph"), big);
+    free(big);
+    save("small.wetgraph", sub, "0.5");
+    static const char main_graph[] = "<wetgraph version=\"1\" size=\"16\">\n"
+                                     "  <node id=\"a\" type=\"big\"/>\n"
+                                     "  <node id=\"b\" type=\"small\"/>\n"
+                                     "  <node id=\"u\" type=\"uniform\" value=\"%s\"/>\n"
+                                     "  <output name=\"a\" from=\"a.out\" format=\"exr32\"/>\n"
+                                     "  <output name=\"b\" from=\"b.out\" format=\"exr32\"/>\n"
+                                     "  <output name=\"u\" from=\"u\" format=\"exr32\"/>\n"
+                                     "</wetgraph>\n";
+    save("w.wetgraph", main_graph, "0.25");
+    watcher = spawn_watch(NULL);
+    wait_for("watch: waiting", 1);
+    wait_for_value("o/w_b.exr", 0.5f);
+
+    static const int first_pause[] = {0, 40, 90, 140};
+    static const int small_pause[] = {0, 5, 15};
+    char text[1024];
+    int k = 0;
+    for (int gap = 40; gap <= 200; gap += 10, k++) {
+        float v1 = (float)(k * 2 + 1) / 64, v2 = (float)(k * 2 + 2) / 64;
+        char value[32];
+        snprintf(value, sizeof value, "%.9g", v1);
+        snprintf(text, sizeof text, sub, value);
+        save_in_steps("small.wetgraph", text, first_pause[k % 4]);
+        wgt_sleep_ms(gap); /* the next save lands across the render the first one started */
+        snprintf(value, sizeof value, "%.9g", v2);
+        snprintf(text, sizeof text, sub, value);
+        save_in_steps("small.wetgraph", text, small_pause[k % 3]);
+        wait_for_value("o/w_b.exr", v2);
+    }
+    for (int gap = 0; gap <= 120; gap += 20, k++) {
+        float v = (float)k / 64;
+        char value[32];
+        snprintf(value, sizeof value, "%.9g", v);
+        snprintf(text, sizeof text, main_graph, value);
+        save_in_steps("w.wetgraph", text, gap);
+        wait_for_value("o/w_u.exr", v);
+    }
+    print_message("%d renders, %d with an error, %d superseded\n",
+                  count_in("err", "watch: rendered"), count_in("err", "wetgraph: error:"),
+                  count_in("err", "superseded"));
+    int st = wgt_stop(watcher, SIGINT, LIMIT_MS);
+    assert_true(WIFEXITED(st));
+    assert_int_equal(WEXITSTATUS(st), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_watch_session, stop_watcher),
         cmocka_unit_test(test_watch_usage),
         cmocka_unit_test_teardown(test_watch_supersedes_a_running_render, stop_watcher),
+        cmocka_unit_test_teardown(test_watch_saves_in_steps, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
