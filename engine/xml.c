@@ -789,6 +789,58 @@ out:
     return rc;
 }
 
+/* ---- expansion --------------------------------------------------------------------------- */
+
+/* Instances one instantiation of g can make, from its subgraphs' counts (each file is counted
+ * once, when it is loaded, so this is linear in distinct files however often they are used).
+ * Saturates just above the limit: 40 files each using the next twice would overflow. */
+static uint64_t count_instances(const WgGraph *g)
+{
+    const uint64_t cap = (uint64_t)WG_MAX_INSTANCES + 1;
+    uint64_t total = 0;
+    for (int i = 0; i < g->n_nodes && total < cap; i++)
+        total += g->nodes[i].sub ? g->nodes[i].sub->instances : 1;
+    return total < cap ? total : cap;
+}
+
+/* Refuse a graph that expands beyond WG_MAX_INSTANCES. The chain named goes from g down
+ * through subgraphs that are over the limit themselves, to the one whose own uses of smaller
+ * subgraphs cross it: the file to change. */
+static int check_expansion(WgGraph *g, WgError *err)
+{
+    if (g->instances <= WG_MAX_INSTANCES) return WG_OK;
+    const char *names[66]; /* nesting stops at 64 files */
+    int n = 0;
+    for (const WgGraph *at = g; at && n < 66;) {
+        const char *b = strrchr(at->path, '/');
+        names[n++] = b ? b + 1 : at->path;
+        const WgGraph *next = NULL;
+        for (int i = 0; i < at->n_nodes && !next; i++)
+            if (at->nodes[i].sub && at->nodes[i].sub->instances > WG_MAX_INSTANCES)
+                next = at->nodes[i].sub;
+        at = next;
+    }
+    /* a chain too long for one message keeps its first and last files */
+    char chain[640] = "";
+    size_t len = 0;
+    for (int i = 0; i < n; i++) {
+        size_t room = sizeof chain - len;
+        bool last = i == n - 1;
+        int w;
+        if (!last && len + strlen(names[i]) > sizeof chain - 200) {
+            w = snprintf(chain + len, room, " -> ...");
+            i = n - 2;
+        } else {
+            w = snprintf(chain + len, room, "%s%s", i ? " -> " : "", names[i]);
+        }
+        len = w > 0 && (size_t)w < room ? len + (size_t)w : sizeof chain - 1;
+    }
+    return wg_error_set_at(err, WG_ERR_RANGE, g->path, 0, 0,
+                           "subgraphs expand to more than %d node instances (each use of a "
+                           "subgraph copies all its nodes): %s",
+                           WG_MAX_INSTANCES, chain);
+}
+
 /* ---- the document ------------------------------------------------------------------------ */
 
 static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out, WgError *err)
@@ -931,6 +983,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             ni->line = n->line;
         }
     }
+    if (!rc) g->instances = count_instances(g);
     wg__name_index_free(&d.subgraphs);
     if (rc) {
         wg_graph_free(g);
@@ -1055,6 +1108,10 @@ int wg_graph_load(const char *path, WgGraph **out, WgError *err)
     *out = NULL;
     int rc = wg__load_file(&lc, path, out, err);
     load_ctx_free(&lc);
+    if (!rc && (rc = check_expansion(*out, err))) {
+        wg_graph_free(*out);
+        *out = NULL;
+    }
     return rc;
 }
 
@@ -1066,5 +1123,9 @@ int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph 
     if (realpath(path, real)) lc.stack[lc.depth++] = real;
     int rc = parse_xml(&lc, path, xml, len, out, err);
     load_ctx_free(&lc);
+    if (!rc && (rc = check_expansion(*out, err))) {
+        wg_graph_free(*out);
+        *out = NULL;
+    }
     return rc;
 }
