@@ -637,6 +637,9 @@ static void test_numeric_options_are_strict(void **state)
         {"--set level=1e999", "'level' is infinite, not a finite number"},
         {"--set level==0x1", "--set level==0x1: unexpected letter after a number"},
         {"--set level=1.0000001", "--set level=1.0000001: 'level' = 1.0000001 is outside [0, 1]"},
+        {"--set 'level=0.5\n1'", "wetgraph: error: --set level=0.5\\n1: 'level' expects a number, "
+                                 "got '0.5\\n1'"},
+        {"--set 'level=\033[31m\r'", "--set level=\\x1b[31m\\r: 'level' expects"},
         {"--set level=-0.000000001", "'level' = -1e-09 is outside [0, 1]"},
         {"--set level=1.0000000000000002", "'level' = 1.0000000000000002 is outside [0, 1]"},
         {"--time 0x1", "bad --time '0x1' (a finite decimal number"},
