@@ -152,8 +152,8 @@ struct WgGraph {
     NodeDef *nodes;
     int n_nodes;
     WgGraphNodeInfo *node_info;
-    /* node instances one instantiation of this graph can make: its built-in nodes plus, per
-     * subgraph node, the subgraph's count (saturating at WG_MAX_INSTANCES + 1) */
+    /* instances one instantiation of this graph can make: its built-in nodes and inputs plus,
+     * per subgraph node, one and the subgraph's count (saturating at WG_MAX_INSTANCES + 1) */
     uint64_t instances;
     /* name lookups: node ids, input names, output names, param names */
     WgNameIndex node_index, input_index, output_index, param_index;

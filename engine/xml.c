@@ -815,9 +815,11 @@ out:
 static uint64_t count_instances(const WgGraph *g)
 {
     const uint64_t cap = (uint64_t)WG_MAX_INSTANCES + 1;
-    uint64_t total = 0;
+    /* an input's default is an instance per use, and a subgraph use is one more however few
+     * nodes it holds: subgraphs that only pass inputs on must not expand for free */
+    uint64_t total = (uint64_t)g->n_inputs;
     for (int i = 0; i < g->n_nodes && total < cap; i++)
-        total += g->nodes[i].sub ? g->nodes[i].sub->instances : 1;
+        total += g->nodes[i].sub ? 1 + g->nodes[i].sub->instances : 1;
     return total < cap ? total : cap;
 }
 

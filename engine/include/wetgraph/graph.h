@@ -58,9 +58,9 @@ typedef struct WgGraphNodeInfo {
     int line;
 } WgGraphNodeInfo;
 
-/* Most node instances a graph may expand to, each use of a subgraph counting all of the
- * subgraph's own (nested) nodes: far above real graphs, far below what subgraphs each using the
- * next several times can reach (2^40 for 40 small files). */
+/* Most instances a graph may expand to: each node and graph input counts one, each use of a
+ * subgraph one plus all that the subgraph holds (nested). Far above real graphs, far below what
+ * subgraphs each using the next several times can reach (2^40 for 40 small files). */
 #define WG_MAX_INSTANCES 1000000
 
 /* Load and validate a graph file and its subgraphs. The caller owns *out. Subgraph types are
