@@ -7,7 +7,9 @@
  * "inputs" (object of strings), "set" (object of strings, numbers or booleans; a number keeps
  * its text as written) and "out" (a string). The JSON parser is a small hand-written one limited
  * to this flat schema: it needs no library, and it can name the line and column of every
- * mistake. Errors name the LIST file, the line and the column where the mistake is. */
+ * mistake. Errors name the LIST file, the line and the column where the mistake is, and show
+ * the LIST's control characters escaped, so each is one line. batch_list_check_outs refuses
+ * rows that would write into one folder, compared as normalised absolute paths. */
 #include "batch_list.h"
 
 #include <errno.h>
