@@ -45,11 +45,12 @@ static int check_names(const char *list, const BatchList *l, const WgGraph *g, W
             for (int i = 0; i < n && !found; i++) found = !strcmp(names[i], f->name);
             if (found) continue;
             const char *near = wg_suggest(f->name, names, n);
-            char hint[300] = "";
+            char hint[300] = "", shown[300];
             if (near) snprintf(hint, sizeof hint, "; did you mean '%s'?", near);
             rc = wg_error_set_at(err, WG_ERR_USAGE, list, f->name_line, f->name_column,
                                  "the graph %s has no %s '%s'%s", wg_graph_name(g),
-                                 input ? "image input" : "parameter", f->name, hint);
+                                 input ? "image input" : "parameter",
+                                 batch_shown(f->name, shown, sizeof shown), hint);
         }
     }
     free(params);
@@ -69,10 +70,11 @@ static int row_request(const Options *o, const WgGraph *g, const char *list, con
             rc = wg_request_set(*r, f->name, f->value, err);
         } else {
             struct stat st;
+            char shown[600];
             if (stat(f->value, &st) != 0)
                 return wg_error_set_at(err, WG_ERR_IO, list, f->line, f->column,
-                                       "input '%s': cannot open %s: %s", f->name, f->value,
-                                       strerror(errno));
+                                       "input '%s': cannot open %s: %s", f->name,
+                                       batch_shown(f->value, shown, sizeof shown), strerror(errno));
             rc = wg_request_set_input_file(*r, f->name, f->value, err);
         }
         if (rc) {
@@ -112,7 +114,8 @@ int render_batch(const Options *o, const WgGraph *g)
     BatchList list;
     WgError err = {0};
     WgEngine *e = NULL;
-    if (batch_list_load(o->batch, &list, &err) || check_names(o->batch, &list, g, &err)) {
+    if (batch_list_load(o->batch, &list, &err) || check_names(o->batch, &list, g, &err) ||
+        batch_list_check_outs(o->batch, &list, o->out_dir, &err)) {
         cli_report(&err);
         batch_list_free(&list);
         return cli_exit_for(err.code);

@@ -7,13 +7,16 @@
  * "inputs" (object of strings), "set" (object of strings, numbers or booleans; a number keeps
  * its text as written) and "out" (a string). The JSON parser is a small hand-written one limited
  * to this flat schema: it needs no library, and it can name the line and column of every
- * mistake. Errors name the LIST file, the line and the column where the mistake is. */
+ * mistake. Errors name the LIST file, the line and the column where the mistake is, and show
+ * the LIST's control characters escaped, so each is one line. batch_list_check_outs refuses
+ * rows that would write into one folder, compared as normalised absolute paths. */
 #include "batch_list.h"
 
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 typedef struct {
     const char *path;
@@ -29,6 +32,27 @@ static char *dup_n(const char *s, size_t n)
         p[n] = '\0';
     }
     return p;
+}
+
+const char *batch_shown(const char *s, char *buf, size_t size)
+{
+    size_t n = 0;
+    for (; *s && n + 8 < size; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '\n')
+            n += (size_t)snprintf(buf + n, size - n, "\\n");
+        else if (c == '\r')
+            n += (size_t)snprintf(buf + n, size - n, "\\r");
+        else if (c == '\t')
+            n += (size_t)snprintf(buf + n, size - n, "\\t");
+        else if (c < 0x20 || c == 0x7f)
+            n += (size_t)snprintf(buf + n, size - n, "\\x%02x", c);
+        else
+            buf[n++] = (char)c;
+    }
+    if (*s) n += (size_t)snprintf(buf + n, size - n, "...");
+    buf[n] = '\0';
+    return buf;
 }
 
 static int nomem(Reader *rd)
@@ -159,11 +183,12 @@ static int csv_record(Reader *rd, const char **p, const char *end, int *line, Re
             if (s < end && *s != ',' && *s != '\n' &&
                 !(*s == '\r' && (s + 1 == end || s[1] == '\n'))) {
                 free(buf);
+                char c[2] = {*s, '\0'}, shown[16];
                 return wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, *line,
                                        (int)(s - line_start) + 1,
-                                       "unexpected '%c' after a quoted field (a comma or the end "
+                                       "unexpected '%s' after a quoted field (a comma or the end "
                                        "of the line must follow the closing \")",
-                                       *s);
+                                       batch_shown(c, shown, sizeof shown));
             }
         } else {
             while (s < end && *s != ',' && *s != '\n' &&
@@ -245,18 +270,21 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
         else if (!strcmp(t, "out") && !has_out)
             cols[i] = (Column){-1, NULL, c->line, c->column}, has_out = true;
         else {
+            char shown[300];
             rc = wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, c->line, c->column,
                                  !strcmp(t, "out") ? "the column 'out' appears twice"
                                                    : "unknown column '%s' (the header names "
                                                      "columns input:NAME, set:NAME and out)",
-                                 t);
+                                 batch_shown(t, shown, sizeof shown));
             goto out;
         }
         for (int j = 0; j < i; j++)
             if (cols[j].kind == cols[i].kind && cols[i].name &&
                 !strcmp(cols[j].name, cols[i].name)) {
+                char shown[300];
                 rc = wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, c->line, c->column,
-                                     "the column '%s' appears twice", t);
+                                     "the column '%s' appears twice",
+                                     batch_shown(t, shown, sizeof shown));
                 goto out;
             }
     }
@@ -616,19 +644,120 @@ int batch_list_load(const char *path, BatchList *out, WgError *err)
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the batch list");
     }
     text[size] = '\0';
+    int rc = batch_list_parse(path, text, size, out, err);
+    free(text);
+    return rc;
+}
+
+int batch_list_parse(const char *path, char *text, size_t size, BatchList *out, WgError *err)
+{
+    *out = (BatchList){0};
+    size_t n = strlen(path);
+    bool csv = n > 4 && !strcasecmp(path + n - 4, ".csv");
     Reader rd = {path, NULL, err};
     const char *slash = strrchr(path, '/');
     rd.folder = slash ? dup_n(path, (size_t)(slash - path) + 1) : strdup("");
     int rc;
     if (!rd.folder)
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    else if (jsonl && memchr(text, '\0', size))
+    else if (!csv && memchr(text, '\0', size))
         rc = wg_error_set_at(err, WG_ERR_PARSE, path, 0, 0, "a NUL byte in the file");
     else
         rc = csv ? read_csv(&rd, text, size, out) : read_jsonl(&rd, text, out);
     free(rd.folder);
-    free(text);
     if (rc) batch_list_free(out);
+    return rc;
+}
+
+/* ---- output folders ---- */
+
+/* `p` as an absolute path with no "." or ".." components, no repeated or trailing slash:
+ * two spellings of one folder become one string (symbolic links are not followed: the folders
+ * need not exist yet). Relative paths are taken from `cwd`. */
+static char *normal_path(const char *p, const char *cwd)
+{
+    size_t n = strlen(cwd) + strlen(p) + 3;
+    char *joined = malloc(n), *out = malloc(n);
+    if (!joined || !out) {
+        free(joined);
+        free(out);
+        return NULL;
+    }
+    snprintf(joined, n, "%s/%s", p[0] == '/' ? "" : cwd, p);
+    size_t len = 0;
+    for (char *s = joined; *s;) {
+        while (*s == '/') s++;
+        char *e = s;
+        while (*e && *e != '/') e++;
+        size_t k = (size_t)(e - s);
+        if (k == 1 && s[0] == '.') {
+        } else if (k == 2 && s[0] == '.' && s[1] == '.') {
+            while (len > 0 && out[len - 1] != '/') len--;
+            if (len > 0) len--; /* the slash before the dropped part */
+        } else if (k > 0) {
+            out[len++] = '/';
+            memcpy(out + len, s, k);
+            len += k;
+        }
+        s = e;
+    }
+    if (len == 0) out[len++] = '/';
+    out[len] = '\0';
+    free(joined);
+    return out;
+}
+
+typedef struct {
+    char *path;
+    int row;
+} OutKey;
+
+static int out_key_cmp(const void *a, const void *b)
+{
+    const OutKey *x = a, *y = b;
+    int c = strcmp(x->path, y->path);
+    return c ? c : (x->row > y->row) - (x->row < y->row);
+}
+
+int batch_list_check_outs(const char *path, const BatchList *l, const char *default_out,
+                          WgError *err)
+{
+    if (l->n_rows < 2) return WG_OK;
+    char cwd[4096];
+    if (!getcwd(cwd, sizeof cwd)) snprintf(cwd, sizeof cwd, "/");
+    OutKey *keys = calloc((size_t)l->n_rows, sizeof *keys);
+    int rc = keys ? WG_OK : wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; i < l->n_rows && !rc; i++) {
+        const char *o = l->rows[i].out ? l->rows[i].out : default_out ? default_out : ".";
+        keys[i] = (OutKey){normal_path(o, cwd), i};
+        if (!keys[i].path) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    if (!rc) {
+        qsort(keys, (size_t)l->n_rows, sizeof *keys, out_key_cmp);
+        /* of all rows sharing a folder with an earlier one, name the first in the LIST */
+        int best = -1;
+        for (int i = 1; i < l->n_rows; i++)
+            if (!strcmp(keys[i].path, keys[i - 1].path) &&
+                strcmp(i > 1 ? keys[i - 2].path : "", keys[i].path) &&
+                (best < 0 || keys[i].row < keys[best].row))
+                best = i;
+        if (best >= 0) {
+            const BatchRow *a = &l->rows[keys[best - 1].row], *b = &l->rows[keys[best].row];
+            const char *oa = a->out ? a->out : default_out ? default_out : ".";
+            const char *ob = b->out ? b->out : default_out ? default_out : ".";
+            char same[320] = "", sa[300], sb[300];
+            if (strcmp(oa, ob))
+                snprintf(same, sizeof same, " (as '%s')", batch_shown(ob, sb, sizeof sb));
+            rc = wg_error_set_at(err, WG_ERR_USAGE, path, b->line, 0,
+                                 "rows %d (line %d) and %d (line %d) write to the same output "
+                                 "folder '%s'%s%s: each row needs its own",
+                                 keys[best - 1].row, a->line, keys[best].row, b->line,
+                                 batch_shown(oa, sa, sizeof sa), same,
+                                 a->out && b->out ? "" : " (a row without out writes to -o)");
+        }
+    }
+    for (int i = 0; keys && i < l->n_rows; i++) free(keys[i].path);
+    free(keys);
     return rc;
 }
 

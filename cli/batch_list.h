@@ -32,6 +32,18 @@ typedef struct {
  * an empty CSV cell leaves that input or parameter as the command line or graph has it. A
  * malformed file is a WG_ERR_PARSE with the LIST's name, line and column. */
 int batch_list_load(const char *path, BatchList *out, WgError *err);
+/* The same from text already read: `text` holds `size` bytes and a NUL after them, and is
+ * changed while it is read; `path` chooses the format (.csv, or else JSON lines), names the
+ * file in errors and anchors relative paths. */
+int batch_list_parse(const char *path, char *text, size_t size, BatchList *out, WgError *err);
+/* Two rows writing to one folder would overwrite each other's files: a WG_ERR_USAGE naming both
+ * rows and their lines. A row without `out` writes to `default_out` (NULL: the current folder);
+ * folders are compared as absolute paths without ".", ".." and repeated or trailing slashes. */
+int batch_list_check_outs(const char *path, const BatchList *l, const char *default_out,
+                          WgError *err);
 void batch_list_free(BatchList *l);
+/* `s` for an error message of one line: control characters escaped (\n, \x1b, ...), cut
+ * with "..." to fit `size`. Returns buf. */
+const char *batch_shown(const char *s, char *buf, size_t size);
 
 #endif

@@ -24,7 +24,21 @@ void cli_report(const WgError *err)
 {
     char buf[4096];
     wg_error_format(err, buf, sizeof buf);
-    fprintf(stderr, "wetgraph: error: %s\n", buf);
+    /* messages quote what the user wrote (a --set value, a file name), which may hold a line
+     * break: one error stays one line */
+    fputs("wetgraph: error: ", stderr);
+    for (const char *s = buf; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '\n')
+            fputs("\\n", stderr);
+        else if (c == '\r')
+            fputs("\\r", stderr);
+        else if ((c < 0x20 && c != '\t') || c == 0x7f)
+            fprintf(stderr, "\\x%02x", c);
+        else
+            fputc(c, stderr);
+    }
+    fputc('\n', stderr);
 }
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)

@@ -57,6 +57,15 @@ static int mkdir_p(const char *path)
         *p = '/';
     }
     if (mkdir(buf, 0777) && errno != EEXIST) return -1;
+    /* an existing file (or /dev/null) is no folder, and one that cannot be written to would
+     * make every entry fail to be stored: either would leave the cache off without a word */
+    struct stat st;
+    if (stat(buf, &st)) return -1;
+    if (!S_ISDIR(st.st_mode)) {
+        errno = ENOTDIR;
+        return -1;
+    }
+    if (access(buf, W_OK | X_OK)) return -1;
     return 0;
 }
 
@@ -88,7 +97,9 @@ WgCache *wg__cache_new(const char *dir)
     if (dir) {
         c->dir = wg_strdup(dir);
         if (!c->dir || mkdir_p(dir)) {
+            int e = c->dir ? errno : ENOMEM;
             wg__cache_free(c);
+            errno = e; /* why, for the caller's message */
             return NULL;
         }
         remove_stale_temporaries(dir);

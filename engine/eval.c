@@ -8,6 +8,7 @@
  * token, which the scheduler, wg_parallel_rows' chunks and the fused bands already check. */
 #include "internal.h"
 
+#include <errno.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -218,13 +219,14 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     e->fuse = !opt->no_fuse;
     e->pool = wg__pool_new(threads);
     e->cache = wg__cache_new(opt->cache_dir);
+    int cache_errno = errno;
     e->mem = wg__mempool_new(e->budget);
     if (!e->pool || !e->cache || !e->mem) {
         int rc =
             !e->mem ? wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory")
             : opt->cache_dir && e->pool
-                ? wg_error_set(err, WG_ERR_IO, NULL, "cannot create the cache folder '%s'",
-                               opt->cache_dir)
+                ? wg_error_set(err, WG_ERR_IO, NULL, "cannot use '%s' as the cache folder: %s",
+                               opt->cache_dir, strerror(cache_errno))
                 : wg_error_set(err, WG_ERR_NOMEM, NULL, "cannot start %d worker threads", threads);
         wg_engine_free(e);
         return rc;

@@ -76,6 +76,9 @@ int wg__value_copy(WgValue *dst, const WgValue *src);
 void wg__value_clear(WgValue *v);
 /* Text form (for --set echo, info, dot). */
 void wg__value_format(const WgValue *v, char *buf, size_t size);
+/* The shortest text that reads back as exactly v (%.6g .. %.17g), for messages: a value just
+ * outside a range must not print as the bound itself. */
+void wg__number_text(double v, char *buf, size_t size);
 int wg__color_parse(const char *text, float out[4]);
 /* Length of the unsigned decimal number at s (digits, optional fraction, optional exponent;
  * no sign, no hex, no inf/nan), 0 when s does not start with one. */
@@ -149,6 +152,9 @@ struct WgGraph {
     NodeDef *nodes;
     int n_nodes;
     WgGraphNodeInfo *node_info;
+    /* instances one instantiation of this graph can make: its built-in nodes and inputs plus,
+     * per subgraph node, one and the subgraph's count (saturating at WG_MAX_INSTANCES + 1) */
+    uint64_t instances;
     /* name lookups: node ids, input names, output names, param names */
     WgNameIndex node_index, input_index, output_index, param_index;
 };

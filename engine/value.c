@@ -237,16 +237,29 @@ int wg__value_check(const WgParamDesc *d, WgValue *v, WgError *err)
     if (d->type == WG_PARAM_INT_T) v->num = floor(v->num + 0.5);
     if (d->type == WG_PARAM_BOOL_T) v->num = v->num != 0;
     if ((d->has_min && v->num < d->min) || (d->has_max && v->num > d->max)) {
+        char num[32], lo[32], hi[32];
+        wg__number_text(v->num, num, sizeof num);
+        wg__number_text(d->min, lo, sizeof lo);
+        wg__number_text(d->max, hi, sizeof hi);
         if (d->has_min && d->has_max)
-            return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is outside [%g, %g]", d->name,
-                                v->num, d->min, d->max);
+            return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %s is outside [%s, %s]", d->name,
+                                num, lo, hi);
         if (d->has_min)
-            return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is below its minimum %g",
-                                d->name, v->num, d->min);
-        return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %g is above its maximum %g", d->name,
-                            v->num, d->max);
+            return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %s is below its minimum %s",
+                                d->name, num, lo);
+        return wg_error_set(err, WG_ERR_RANGE, NULL, "'%s' = %s is above its maximum %s", d->name,
+                            num, hi);
     }
     return WG_OK;
+}
+
+void wg__number_text(double v, char *buf, size_t size)
+{
+    /* from %g's 6 digits up, so that 10 stays "10", not "1e+01" */
+    for (int digits = 6; digits <= 17; digits++) {
+        snprintf(buf, size, "%.*g", digits, v);
+        if (strtod(buf, NULL) == v || !isfinite(v)) return;
+    }
 }
 
 int wg__value_copy(WgValue *dst, const WgValue *src)

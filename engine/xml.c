@@ -106,6 +106,11 @@ static void scan_element(Scan *sc, xmlNodePtr e)
         int line = sc->line;
         while (sc->p < sc->end && *sc->p != '=' && !isspace((unsigned char)*sc->p)) sc->p++;
         size_t len = (size_t)(sc->p - name);
+        const char *colon = memchr(name, ':', len); /* libxml2 keeps a prefix apart */
+        if (colon) {
+            len -= (size_t)(colon + 1 - name);
+            name = colon + 1;
+        }
         for (xmlAttrPtr a = e->properties; a; a = a->next)
             if (strlen((const char *)a->name) == len && !memcmp(a->name, name, len))
                 a->_private = (void *)(intptr_t)line;
@@ -302,12 +307,22 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
             goto out;
         }
         int n = parse_enum_values(p, values);
+        int values_line = attr_line(xmlHasProp(x, (const xmlChar *)"values"), line);
         if (n <= 0) {
             rc = n < 0 ? nomem(d->err)
-                       : wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                       : wg_error_set_at(d->err, WG_ERR_PARSE, d->path, values_line, 0,
                                          "enum parameter '%s' has no values", p->info.name);
             goto out;
         }
+        /* a value listed twice could only ever select the first of its indices */
+        for (int i = 1; i < n; i++)
+            for (int k = 0; k < i; k++)
+                if (!strcmp(p->info.values[i], p->info.values[k])) {
+                    rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, values_line, 0,
+                                         "enum parameter '%s' lists the value '%s' twice",
+                                         p->info.name, p->info.values[i]);
+                    goto out;
+                }
         p->desc.values = p->info.values;
     }
     WgParamDesc bound = {.name = "min", .type = WG_PARAM_FLOAT_T};
@@ -324,8 +339,11 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
         p->info.max = p->desc.max = v.num;
     }
     if (min && max && p->info.min > p->info.max) {
+        char lo[32], hi[32];
+        wg__number_text(p->info.min, lo, sizeof lo);
+        wg__number_text(p->info.max, hi, sizeof hi);
         rc = wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line, 0,
-                             "min %g is greater than max %g", p->info.min, p->info.max);
+                             "min %s is greater than max %s", lo, hi);
         goto out;
     }
     if (!def) {
@@ -789,12 +807,102 @@ out:
     return rc;
 }
 
+/* ---- expansion --------------------------------------------------------------------------- */
+
+/* Instances one instantiation of g can make, from its subgraphs' counts (each file is counted
+ * once, when it is loaded, so this is linear in distinct files however often they are used).
+ * Saturates just above the limit: 40 files each using the next twice would overflow. */
+static uint64_t count_instances(const WgGraph *g)
+{
+    const uint64_t cap = (uint64_t)WG_MAX_INSTANCES + 1;
+    /* an input's default is an instance per use, and a subgraph use is one more however few
+     * nodes it holds: subgraphs that only pass inputs on must not expand for free */
+    uint64_t total = (uint64_t)g->n_inputs;
+    for (int i = 0; i < g->n_nodes && total < cap; i++)
+        total += g->nodes[i].sub ? 1 + g->nodes[i].sub->instances : 1;
+    return total < cap ? total : cap;
+}
+
+/* Refuse a graph that expands beyond WG_MAX_INSTANCES. The chain named goes from g down
+ * through subgraphs that are over the limit themselves, to the one whose own uses of smaller
+ * subgraphs cross it: the file to change. */
+static int check_expansion(WgGraph *g, WgError *err)
+{
+    if (g->instances <= WG_MAX_INSTANCES) return WG_OK;
+    const char *names[66]; /* nesting stops at 64 files */
+    int n = 0;
+    for (const WgGraph *at = g; at && n < 66;) {
+        const char *b = strrchr(at->path, '/');
+        names[n++] = b ? b + 1 : at->path;
+        const WgGraph *next = NULL;
+        for (int i = 0; i < at->n_nodes && !next; i++)
+            if (at->nodes[i].sub && at->nodes[i].sub->instances > WG_MAX_INSTANCES)
+                next = at->nodes[i].sub;
+        at = next;
+    }
+    /* a chain too long for one message keeps its first and last files */
+    char chain[640] = "";
+    size_t len = 0;
+    for (int i = 0; i < n; i++) {
+        size_t room = sizeof chain - len;
+        bool last = i == n - 1;
+        int w;
+        if (!last && len + strlen(names[i]) > sizeof chain - 200) {
+            w = snprintf(chain + len, room, " -> ...");
+            i = n - 2;
+        } else {
+            w = snprintf(chain + len, room, "%s%s", i ? " -> " : "", names[i]);
+        }
+        len = w > 0 && (size_t)w < room ? len + (size_t)w : sizeof chain - 1;
+    }
+    return wg_error_set_at(err, WG_ERR_RANGE, g->path, 0, 0,
+                           "subgraphs expand to more than %d node instances (each use of a "
+                           "subgraph copies all its nodes): %s",
+                           WG_MAX_INSTANCES, chain);
+}
+
 /* ---- the document ------------------------------------------------------------------------ */
+
+/* The format has no namespaces: <x:node xmlns:x="..."> or xmlns="..." would make an element or
+ * attribute that is read as if it had none, or one that is silently something else. */
+static int check_no_namespaces(Doc *d, xmlNodePtr root)
+{
+    for (xmlNodePtr e = root; e;) {
+        if (e->type == XML_ELEMENT_NODE) {
+            if (e->ns)
+                return wg_error_set_at(
+                    d->err, WG_ERR_PARSE, d->path, line_of(e), 0,
+                    "element <%s%s%s> is in the XML namespace '%s': wetgraph elements have none",
+                    e->ns->prefix ? (const char *)e->ns->prefix : "", e->ns->prefix ? ":" : "",
+                    (const char *)e->name, e->ns->href ? (const char *)e->ns->href : "");
+            for (xmlAttrPtr a = e->properties; a; a = a->next)
+                if (a->ns)
+                    return wg_error_set_at(
+                        d->err, WG_ERR_PARSE, d->path, attr_line(a, line_of(e)), 0,
+                        "attribute '%s:%s' on <%s> is in the XML namespace '%s': wetgraph "
+                        "attributes have none",
+                        a->ns->prefix ? (const char *)a->ns->prefix : "", (const char *)a->name,
+                        (const char *)e->name, a->ns->href ? (const char *)a->ns->href : "");
+        }
+        /* depth first without recursion: a deeply nested file costs no stack */
+        if (e->children && e->type == XML_ELEMENT_NODE) {
+            e = e->children;
+            continue;
+        }
+        while (e && e != root && !e->next) e = e->parent;
+        e = e && e != root ? e->next : NULL;
+    }
+    return WG_OK;
+}
 
 static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out, WgError *err)
 {
     Doc d = {path, err, {0}};
     xmlNodePtr root = xmlDocGetRootElement(doc);
+    if (root) {
+        int nrc = check_no_namespaces(&d, root);
+        if (nrc) return nrc;
+    }
     if (!root || strcmp((const char *)root->name, "wetgraph"))
         return wg_error_set_at(err, WG_ERR_PARSE, path, root ? line_of(root) : 1, 0,
                                "the root element must be <wetgraph>, not <%s>",
@@ -931,6 +1039,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             ni->line = n->line;
         }
     }
+    if (!rc) g->instances = count_instances(g);
     wg__name_index_free(&d.subgraphs);
     if (rc) {
         wg_graph_free(g);
@@ -963,6 +1072,10 @@ static int xml_error(const char *path, xmlParserCtxtPtr ctxt, const xmlError *fi
     snprintf(msg, sizeof msg, "%s", e->message ? e->message : "malformed XML");
     size_t l = strlen(msg);
     while (l && (msg[l - 1] == '\n' || msg[l - 1] == ' ')) msg[--l] = '\0';
+    /* some of libxml2's messages have a second line ("Bytes: 0xE9 0x22 ..." after an encoding
+     * error): one error is one line */
+    for (char *c = msg; *c; c++)
+        if (*c == '\n' || *c == '\r') *c = ' ';
     if (e->domain == XML_FROM_IO || e->code == XML_IO_LOAD_ERROR)
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the file: %s", msg);
     return wg_error_set_at(err, WG_ERR_PARSE, path, e->line, e->int2, "XML: %s", msg);
@@ -1055,6 +1168,10 @@ int wg_graph_load(const char *path, WgGraph **out, WgError *err)
     *out = NULL;
     int rc = wg__load_file(&lc, path, out, err);
     load_ctx_free(&lc);
+    if (!rc && (rc = check_expansion(*out, err))) {
+        wg_graph_free(*out);
+        *out = NULL;
+    }
     return rc;
 }
 
@@ -1066,5 +1183,9 @@ int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph 
     if (realpath(path, real)) lc.stack[lc.depth++] = real;
     int rc = parse_xml(&lc, path, xml, len, out, err);
     load_ctx_free(&lc);
+    if (!rc && (rc = check_expansion(*out, err))) {
+        wg_graph_free(*out);
+        *out = NULL;
+    }
     return rc;
 }

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Build the libFuzzer targets of tests/fuzz with clang (address and undefined sanitizers, a
 # static library instrumented for coverage) in build-fuzz/, and run each for a while.
-#   scripts/fuzz.sh [SECONDS] [TARGET...]   default: 60 seconds each for fuzz_graph and fuzz_image
+#   scripts/fuzz.sh [SECONDS] [TARGET...]
+# default: 60 seconds each for fuzz_graph, fuzz_image and fuzz_batch_list (the batch LIST reader).
 # Each run starts from the committed seeds in tests/fuzz/corpus/<target> plus what earlier runs
 # found (build-fuzz/corpus/<target>, not committed). A crash, sanitizer report, time-out (one
 # input taking over 30 s) or out-of-memory leaves its input in build-fuzz/crashes/ and fails the
@@ -12,7 +13,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -eq 0 ]] && targets=(fuzz_graph fuzz_image)
+[[ ${#targets[@]} -eq 0 ]] && targets=(fuzz_graph fuzz_image fuzz_batch_list)
 dir=build-fuzz
 
 if [[ ! -f $dir/build.ninja ]]; then

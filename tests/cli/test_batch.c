@@ -328,6 +328,72 @@ static void test_usage_errors(void **state)
     assert_true(contains("err", "does not combine with --layered"));
 }
 
+/* Rows writing to one folder, spelled alike or not, are refused before anything is rendered,
+ * naming both rows and their lines; rows without `out` write to -o, so they count too. */
+static void test_shared_output_folders(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name, *text, *options, *needle;
+    } bad[] = {
+        {"d1.csv", "set:level,out\n0.1,d/a\n0.2,d/b\n0.3,d/./a/\n", "",
+         "d1.csv:4: rows 0 (line 2) and 2 (line 4) write to the same output folder 'd/a' (as "
+         "'d/./a/')"},
+        {"d2.csv", "set:level,out\n\n0.1,d/x\n0.2,d//y\n\"0.3\",\"d/z/../y\"\n0.4,d/x2\n", "",
+         "d2.csv:5: rows 1 (line 4) and 2 (line 5) write to the same output folder 'd//y'"},
+        {"d3.jsonl",
+         "{\"out\": \"d/j\"}\n{\"out\": \"d/k\"}\n{\"out\": \"d/k\"}\n{\"out\": \"./d/j\"}\n", "",
+         "d3.jsonl:3: rows 1 (line 2) and 2 (line 3) write to the same output folder 'd/k':"},
+        {"d4.csv", "set:level,out\n0.1,\n0.2,d/n\n0.3,\n", "-o d/m",
+         "d4.csv:4: rows 0 (line 2) and 2 (line 4) write to the same output folder 'd/m' (a row "
+         "without out writes to -o)"},
+        {"d5.jsonl", "{\"set\": {\"level\": 0.1}}\n{\"out\": \"d/o/\"}\n", "-o ./d/o",
+         "d5.jsonl:2: rows 0 (line 1) and 1 (line 2) write to the same output folder './d/o' (as "
+         "'d/o/')"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        put_file(bad[i].name, bad[i].text);
+        assert_int_equal(
+            sh("\"$WG\" render g.wetgraph --batch %s %s --shard 0/2", bad[i].name, bad[i].options),
+            2);
+        assert_true(contains("err", bad[i].needle));
+        assert_int_equal(wgt_count_in(path("err"), "\n"), 1);
+        assert_false(wgt_exists(path("d")));
+    }
+    /* the same rows with folders of their own render */
+    put_file("d6.csv", "set:level,out\n0.1,d/a\n0.2,d/a/b\n0.3,d/./c/\n0.4,\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch d6.csv -o d/m -q"), 0);
+    assert_true(wgt_exists(path("d/a/b/g_a.exr")));
+    assert_true(wgt_exists(path("d/m/g_a.exr")));
+}
+
+/* Names and text from the LIST are shown with control characters escaped: one line. */
+static void test_errors_are_one_line(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *name, *text, *needle;
+    } bad[] = {
+        {"e1.csv", "\"colour\nx\",out\n0.1,e1\n", "e1.csv:1:1: unknown column 'colour\\nx'"},
+        {"e2.csv", "\"set:lev\r\nel\",out\n0.1,e2\n",
+         "e2.csv:1:1: the graph g has no parameter 'lev\\r\\nel'"},
+        {"e3.csv", "set:level,out\n\"0.1\"\x1b,e3\n",
+         "e3.csv:2:6: unexpected '\\x1b' after a quoted field"},
+        {"e4.jsonl", "{\"set\": {\"a\\tb\\u001b\": 1}}\n",
+         "e4.jsonl:1:10: the graph g has no parameter 'a\\tb\\x1b'"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        put_file(bad[i].name, bad[i].text);
+        assert_int_equal(sh("\"$WG\" render g.wetgraph --batch %s", bad[i].name), 2);
+        assert_true(contains("err", bad[i].needle));
+        assert_int_equal(wgt_count_in(path("err"), "\n"), 1);
+    }
+    put_file("e5.csv", "input:tex,out\n\"no\nsuch.png\",e5\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch e5.csv"), 1);
+    assert_true(contains("err", "e5.csv:2:1: row 0: input 'tex': cannot open no\\nsuch.png: No "
+                                "such file"));
+}
+
 /* The render options apply to every row: --output, --format, --size. */
 static void test_options_apply_to_rows(void **state)
 {
@@ -373,6 +439,8 @@ int main(void)
         cmocka_unit_test(test_shared_nodes_computed_once),
         cmocka_unit_test(test_concurrent_shards),
         cmocka_unit_test(test_usage_errors),
+        cmocka_unit_test(test_shared_output_folders),
+        cmocka_unit_test(test_errors_are_one_line),
         cmocka_unit_test(test_options_apply_to_rows),
         cmocka_unit_test(test_empty_shard),
     };

@@ -636,6 +636,12 @@ static void test_numeric_options_are_strict(void **state)
         {"--set level=-inf", "'level' is infinite, not a finite number"},
         {"--set level=1e999", "'level' is infinite, not a finite number"},
         {"--set level==0x1", "--set level==0x1: unexpected letter after a number"},
+        {"--set level=1.0000001", "--set level=1.0000001: 'level' = 1.0000001 is outside [0, 1]"},
+        {"--set 'level=0.5\n1'", "wetgraph: error: --set level=0.5\\n1: 'level' expects a number, "
+                                 "got '0.5\\n1'"},
+        {"--set 'level=\033[31m\r'", "--set level=\\x1b[31m\\r: 'level' expects"},
+        {"--set level=-0.000000001", "'level' = -1e-09 is outside [0, 1]"},
+        {"--set level=1.0000000000000002", "'level' = 1.0000000000000002 is outside [0, 1]"},
         {"--time 0x1", "bad --time '0x1' (a finite decimal number"},
         {"--time ' 1'", "bad --time ' 1'"},
         {"--time nan", "bad --time 'nan'"},
@@ -716,6 +722,46 @@ static void test_cache_option(void **state)
     free_batch(&edit, 1);
     rm_rf(at("cache"));
     rm_rf(at("c1"));
+}
+
+/* A --cache that is not a usable folder (a file, /dev/null, a path under a file, one that cannot
+ * be created) is one error naming the path and why, exit 1, nothing written; never a render
+ * that quietly keeps nothing. */
+static void test_cache_must_be_a_folder(void **state)
+{
+    (void)state;
+    wgt_write_file(at("plain.txt"), "not a folder\n");
+    static const struct {
+        const char *cache, *why;
+    } bad[] = {
+        {"plain.txt", "Not a directory"},
+        {"/dev/null", "Not a directory"},
+        {"plain.txt/sub", "Not a directory"},
+        {"plain.txt/a/b", "Not a directory"},
+        {"/proc/wetgraph-no-such/cache", "No such file or directory"},
+    };
+    enum { N = sizeof bad / sizeof bad[0] };
+    Cmd c[N];
+    char args[N][300];
+    for (int i = 0; i < N; i++) {
+        snprintf(args[i], sizeof args[i], "render g.wetgraph -o nocache%d --cache %s", i,
+                 bad[i].cache);
+        c[i] = (Cmd){args[i]};
+    }
+    run_batch(c, N);
+    for (int i = 0; i < N; i++) {
+        char msg[400], dir[64];
+        expect_status(&c[i], 1);
+        snprintf(msg, sizeof msg, "wetgraph: error: cannot use '%s' as the cache folder: %s\n",
+                 bad[i].cache, bad[i].why);
+        assert_string_equal(c[i].err, msg);
+        assert_string_equal(c[i].out, "");
+        snprintf(dir, sizeof dir, "nocache%d", i);
+        assert_false(exists(at(dir)));
+    }
+    assert_false(exists("/dev/null/objects"));
+    free_batch(c, N);
+    unlink(at("plain.txt"));
 }
 
 /* ---- check, info, nodes, dot ------------------------------------------------------------- */
@@ -861,6 +907,7 @@ int main(void)
         cmocka_unit_test(test_damaged_images_one_clear_line),
         cmocka_unit_test(test_numeric_options_are_strict),
         cmocka_unit_test(test_cache_option),
+        cmocka_unit_test(test_cache_must_be_a_folder),
         cmocka_unit_test(test_inspection_commands),
         cmocka_unit_test(test_wet_basecolor_alone),
     };

@@ -590,6 +590,152 @@ static void test_out_of_range_literals(void **state)
                WG_ERR_RANGE, 2, "'value' is NaN, not a finite number");
 }
 
+/* A value just outside its range is printed with the digits that make it differ from the
+ * bound (the shortest text that reads back as the same double), not rounded onto it. */
+static void test_range_errors_print_enough_digits(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *attrs, *needle;
+    } cases[] = {
+        {"min=\"0\" max=\"1\" default=\"1.0000001\"", "'a' = 1.0000001 is outside [0, 1]"},
+        {"min=\"0\" max=\"1\" default=\"1.00000000000001\"",
+         "'a' = 1.00000000000001 is outside [0, 1]"},
+        {"min=\"0\" max=\"1\" default=\"-1e-9\"", "'a' = -1e-09 is outside [0, 1]"},
+        {"min=\"0.1\" max=\"0.30000000000000004\" default=\"0.30000000000000009\"",
+         "'a' = 0.3000000000000001 is outside [0.1, 0.30000000000000004]"},
+        {"min=\"123456.7890123\" default=\"123456.7890122\"",
+         "'a' = 123456.7890122 is below its minimum 123456.7890123"},
+        {"max=\"2.5e-7\" default=\"2.5000001e-7\"",
+         "'a' = 2.5000001e-07 is above its maximum 2.5e-07"},
+        {"min=\"0.30000000000000004\" max=\"0.3\"",
+         "min 0.30000000000000004 is greater than max 0.3"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char xml[512];
+        snprintf(xml, sizeof xml,
+                 "<wetgraph version=\"1\">\n\n  <param name=\"a\" type=\"float\" %s/>\n"
+                 "</wetgraph>\n",
+                 cases[i].attrs);
+        load_fails(xml, WG_ERR_RANGE, 3, cases[i].needle);
+    }
+    /* a node parameter of a built-in node */
+    load_fails("<wetgraph version=\"1\">\n"
+               "  <node id=\"u\" type=\"uniform\"/>\n"
+               "  <node id=\"b\" type=\"blend\" opacity=\"1.000001\">\n"
+               "    <in name=\"foreground\" from=\"u\"/>\n"
+               "    <in name=\"background\" from=\"u\"/>\n"
+               "  </node>\n"
+               "  <output name=\"o\" from=\"b\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_RANGE, 3, "'opacity' = 1.000001 is outside [0, 1]");
+}
+
+/* An enum parameter listing one value twice is an error at the line of its values. */
+static void test_duplicate_enum_values(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *values, *twice;
+    } cases[] = {
+        {"a|a|b", "a"},     {"x|y|z|y", "y"},        {"b a b", "b"},
+        {"p,q, r ,q", "q"}, {"one||two|one", "one"}, {"m|n|o|p|q|r|s|t|u|m", "m"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char xml[512], needle[128];
+        snprintf(xml, sizeof xml,
+                 "<wetgraph version=\"1\">\n  <param name=\"e%zu\" type=\"enum\"\n"
+                 "         values=\"%s\"/>\n</wetgraph>\n",
+                 i, cases[i].values);
+        snprintf(needle, sizeof needle, "enum parameter 'e%zu' lists the value '%s' twice", i,
+                 cases[i].twice);
+        load_fails(xml, WG_ERR_PARSE, 3, needle);
+    }
+    /* values differing only in case are different values */
+    WgGraph *g = NULL;
+    WgError err = {0};
+    const char *ok = "<wetgraph version=\"1\">\n"
+                     "  <param name=\"e\" type=\"enum\" values=\"a|A|b\" default=\"A\"/>\n"
+                     "  <node id=\"u\" type=\"uniform\"/>\n"
+                     "  <output name=\"o\" from=\"u\"/>\n"
+                     "</wetgraph>\n";
+    assert_int_equal(wg_graph_load_memory(ok, strlen(ok), "ok.wetgraph", &g, &err), WG_OK);
+    wg_graph_free(g);
+}
+
+/* Elements and attributes in an XML namespace are refused, wherever they are. */
+static void test_namespaces(void **state)
+{
+    (void)state;
+    load_fails("<x:wetgraph xmlns:x=\"urn:x\" version=\"1\">\n"
+               "  <x:node id=\"u\" type=\"uniform\"/>\n"
+               "  <x:output name=\"o\" from=\"u\"/>\n"
+               "</x:wetgraph>\n",
+               WG_ERR_PARSE, 1, "element <x:wetgraph> is in the XML namespace 'urn:x'");
+    load_fails("<?xml version=\"1.0\"?>\n<wetgraph xmlns=\"urn:wetgraph\" version=\"1\">\n"
+               "  <node id=\"u\" type=\"uniform\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 2, "element <wetgraph> is in the XML namespace 'urn:wetgraph'");
+    load_fails("<wetgraph version=\"1\" xmlns:y=\"urn:y\">\n"
+               "  <node id=\"u\" type=\"uniform\"/>\n"
+               "  <node id=\"v\" type=\"invert\">\n"
+               "    <y:in name=\"source\" from=\"u\"/>\n"
+               "  </node>\n"
+               "  <output name=\"o\" from=\"v\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 4, "element <y:in> is in the XML namespace 'urn:y'");
+    load_fails("<wetgraph version=\"1\">\n"
+               "  <param name=\"a\" type=\"float\"/>\n"
+               "  <node xmlns=\"urn:z\" id=\"u\" type=\"uniform\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 3, "element <node> is in the XML namespace 'urn:z'");
+    load_fails("<wetgraph version=\"1\" xmlns:q=\"urn:q\">\n"
+               "  <node id=\"u\" type=\"uniform\"\n"
+               "        q:value=\"0.5\"/>\n"
+               "  <output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_PARSE, 3, "attribute 'q:value' on <node> is in the XML namespace 'urn:q'");
+    /* a namespace declared and not used changes nothing */
+    WgGraph *g = NULL;
+    WgError err = {0};
+    const char *ok = "<wetgraph version=\"1\" xmlns:q=\"urn:q\">\n"
+                     "  <node id=\"u\" type=\"uniform\"/>\n"
+                     "  <output name=\"o\" from=\"u\"/>\n"
+                     "</wetgraph>\n";
+    assert_int_equal(wg_graph_load_memory(ok, strlen(ok), "ok.wetgraph", &g, &err), WG_OK);
+    wg_graph_free(g);
+}
+
+/* Bytes that are not UTF-8 are one error of one line, at the line where they are. */
+static void test_invalid_utf8(void **state)
+{
+    (void)state;
+    static const char *const bad[] = {
+        "caf\xe9",      /* Latin-1 */
+        "\xff\xfe",     /* no UTF-8 lead byte */
+        "\xc0\xaf",     /* overlong */
+        "ab\xe2\x82",   /* cut short */
+        "\xed\xa0\x80", /* a UTF-16 surrogate */
+        "x\x80y",       /* a lone continuation byte */
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        for (int line = 2; line <= 4; line += 2) {
+            char xml[512];
+            snprintf(xml, sizeof xml,
+                     "<wetgraph version=\"1\">\n%s  <node id=\"u\" type=\"uniform\" "
+                     "label=\"%s\"/>\n  <output name=\"o\" from=\"u\"/>\n</wetgraph>\n",
+                     line == 4 ? "\n\n" : "", bad[i]);
+            WgError err;
+            assert_int_equal(wgt_load_error(xml, &err), WG_ERR_PARSE);
+            wgt_assert_error(&err, WG_ERR_PARSE, line, "XML: ");
+            if (strchr(err.message, '\n')) fail_msg("two lines: %s", err.message);
+            assert_true(ends_with(err.file, "test.wetgraph"));
+        }
+    }
+}
+
 /* ---- ids and declarations ---------------------------------------------------------------- */
 
 static void test_duplicates(void **state)
@@ -1236,6 +1382,10 @@ int main(void)
         cmocka_unit_test(test_malformed_literals),
         cmocka_unit_test(test_good_literals),
         cmocka_unit_test(test_out_of_range_literals),
+        cmocka_unit_test(test_range_errors_print_enough_digits),
+        cmocka_unit_test(test_duplicate_enum_values),
+        cmocka_unit_test(test_namespaces),
+        cmocka_unit_test(test_invalid_utf8),
         cmocka_unit_test(test_duplicates),
         cmocka_unit_test(test_bad_ids),
         cmocka_unit_test(test_other_declaration_errors),

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 /* ---- helpers ----------------------------------------------------------------------------- */
@@ -588,6 +589,134 @@ static void test_shared_subgraph_is_not_a_cycle(void **state)
     wg_graph_free(g);
 }
 
+/* ---- expansion limit --------------------------------------------------------------------- */
+
+/* Files <stem>0 .. <stem>{n-1}.wetgraph in d: each uses the next `fan` times and holds `extra`
+ * uniforms of its own (`first_extra` for the first file); the last holds `leaf` uniforms, or
+ * when `leaf` is 0 no node at all, only an input it passes on. counts[i] gets the instances
+ * file i expands to (each node and input one, each use of a subgraph one more than what it
+ * holds), saturating at 1e18. */
+static void write_fan_chain(const char *d, const char *stem, int n, int fan, int extra, int leaf,
+                            int first_extra, double *counts)
+{
+    for (int i = n - 1; i >= 0; i--) {
+        char *xml = NULL;
+        size_t size = 0;
+        FILE *f = open_memstream(&xml, &size);
+        assert_non_null(f);
+        fprintf(f, "<wetgraph version=\"1\" size=\"2\">\n");
+        int own = i == n - 1 ? leaf : i == 0 ? first_extra : extra;
+        bool pass_on = i == n - 1 && leaf == 0;
+        if (pass_on) fprintf(f, "  <input name=\"in\" type=\"gray\" default=\"0.1\"/>\n");
+        for (int k = 0; k < own; k++)
+            fprintf(f, "  <node id=\"u%d\" type=\"uniform\" value=\"0.%d\"/>\n", k, k + 1);
+        if (i < n - 1)
+            for (int k = 0; k < fan; k++)
+                fprintf(f, "  <node id=\"s%d\" type=\"%s%d\"/>\n", k, stem, i + 1);
+        fprintf(f, "  <output name=\"out\" from=\"%s\"/>\n",
+                i < n - 1 ? "s0"
+                : pass_on ? "$in"
+                          : "u0");
+        fprintf(f, "</wetgraph>\n");
+        fclose(f);
+        char name[64];
+        snprintf(name, sizeof name, "%s%d.wetgraph", stem, i);
+        write_in(d, name, xml);
+        free(xml);
+        counts[i] = own + pass_on + (i < n - 1 ? fan * (1 + counts[i + 1]) : 0);
+        if (counts[i] > 1e18) counts[i] = 1e18;
+    }
+}
+
+static void test_fan_out_is_refused_with_the_chain(void **state)
+{
+    (void)state;
+    /* each file using the next several times: 2^40 instances from 40 tiny files */
+    static const struct {
+        int n, fan, extra, leaf;
+    } cases[] = {{40, 2, 0, 1}, {25, 2, 1, 2}, {16, 3, 0, 1}, {12, 5, 2, 3}, {62, 2, 0, 1},
+                 {9, 7, 1, 1},  {30, 4, 3, 2}, {45, 2, 0, 0}, {21, 3, 0, 0}};
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        char folder[64], stem[16];
+        snprintf(folder, sizeof folder, "fan_out/%zu", c);
+        snprintf(stem, sizeof stem, "f%zu_", c);
+        const char *d = dir(folder);
+        double counts[64];
+        int n = cases[c].n;
+        write_fan_chain(d, stem, n, cases[c].fan, cases[c].extra, cases[c].leaf, cases[c].extra,
+                        counts);
+        assert_true(counts[0] > WG_MAX_INSTANCES);
+        /* the chain ends at the last file still over the limit by itself */
+        int last = 0;
+        while (last + 1 < n && counts[last + 1] > WG_MAX_INSTANCES) last++;
+        char top[64];
+        snprintf(top, sizeof top, "%s0.wetgraph", stem);
+        clock_t t0 = clock();
+        WgError err;
+        assert_int_equal(load_file_error(file_in(d, top), &err), WG_ERR_RANGE);
+        double ms = 1000.0 * (double)(clock() - t0) / CLOCKS_PER_SEC;
+        print_message("fan-out %d files x%d: refused in %.1f ms of CPU\n", n, cases[c].fan, ms);
+        assert_true(ends_with(err.file, top));
+        assert_non_null(strstr(err.message, "more than 1000000 node instances"));
+        char expect[1024] = "";
+        for (int i = 0; i <= last; i++) {
+            size_t l = strlen(expect);
+            snprintf(expect + l, sizeof expect - l, "%s%s%d.wetgraph", i ? " -> " : "", stem, i);
+        }
+        const char *chain = strstr(err.message, ": ");
+        assert_non_null(chain);
+        chain += 2;
+        if (strlen(expect) < 400 || !strcmp(chain, expect)) {
+            assert_string_equal(chain, expect);
+        } else {
+            /* too long for one message: the first and the last file, with ... between */
+            char first[64], end[64];
+            snprintf(first, sizeof first, "%s0.wetgraph -> %s1.wetgraph -> ", stem, stem);
+            snprintf(end, sizeof end, " -> ... -> %s%d.wetgraph", stem, last);
+            assert_memory_equal(chain, first, strlen(first));
+            if (!ends_with(chain, end)) fail_msg("'%s' does not end in '%s'", chain, end);
+        }
+        /* the file where the chain ends loads when the limit is not crossed below it */
+        if (last + 1 < n) {
+            char below[64];
+            snprintf(below, sizeof below, "%s%d.wetgraph", stem, last + 1);
+            WgGraph *g = load_file(file_in(d, below));
+            wg_graph_free(g);
+        }
+    }
+}
+
+static void test_fan_out_under_the_limit_works(void **state)
+{
+    (void)state;
+    /* exactly at the limit loads; one more node is refused, naming only the top file (ten
+     * uniforms and ten uses of e1, which holds 99,998 instances) */
+    const char *d = dir("fan_out/edge");
+    double counts[8];
+    write_fan_chain(d, "e", 6, 10, 8, 8, 10, counts);
+    assert_true(counts[0] == WG_MAX_INSTANCES);
+    WgGraph *g = load_file(file_in(d, "e0.wetgraph"));
+    wg_graph_free(g);
+    write_fan_chain(d, "e", 6, 10, 8, 8, 11, counts);
+    WgError err;
+    assert_int_equal(load_file_error(file_in(d, "e0.wetgraph"), &err), WG_ERR_RANGE);
+    assert_true(ends_with(err.message, "copies all its nodes): e0.wetgraph"));
+
+    /* small chains of several fan-outs render, with every instance merged into one */
+    for (int fan = 2; fan <= 4; fan++) {
+        char folder[64];
+        snprintf(folder, sizeof folder, "fan_out/small%d", fan);
+        const char *s = dir(folder);
+        double c[8];
+        write_fan_chain(s, "m", 6, fan, 1, fan == 3 ? 0 : 1, 0, c);
+        g = load_file(file_in(s, "m0.wetgraph"));
+        WgResult *r = render_with(g, NULL, NULL);
+        assert_constant(wgt_output(r, "out"), 1, 0.1);
+        wg_result_free(r);
+        wg_graph_free(g);
+    }
+}
+
 /* ---- recursion --------------------------------------------------------------------------- */
 
 static void test_direct_recursion(void **state)
@@ -850,6 +979,8 @@ int main(void)
         cmocka_unit_test(test_inputs_defaults_and_outputs),
         cmocka_unit_test(test_instances_are_independent_and_merged_when_equal),
         cmocka_unit_test(test_shared_subgraph_is_not_a_cycle),
+        cmocka_unit_test(test_fan_out_is_refused_with_the_chain),
+        cmocka_unit_test(test_fan_out_under_the_limit_works),
         cmocka_unit_test(test_direct_recursion),
         cmocka_unit_test(test_indirect_recursion),
         cmocka_unit_test(test_errors_located_in_the_subgraph_file),

@@ -58,9 +58,16 @@ typedef struct WgGraphNodeInfo {
     int line;
 } WgGraphNodeInfo;
 
+/* Most instances a graph may expand to: each node and graph input counts one, each use of a
+ * subgraph one plus all that the subgraph holds (nested). Far above real graphs, far below what
+ * subgraphs each using the next several times can reach (2^40 for 40 small files). */
+#define WG_MAX_INSTANCES 1000000
+
 /* Load and validate a graph file and its subgraphs. The caller owns *out. Subgraph types are
  * looked up as <type>.wetgraph in the including file's folder, then each folder of the
- * WETGRAPH_PATH environment variable (':'-separated), then the built-in graphs folder. */
+ * WETGRAPH_PATH environment variable (':'-separated), then the built-in graphs folder. A graph
+ * that would expand to more than WG_MAX_INSTANCES node instances is refused (WG_ERR_RANGE),
+ * naming the chain of files from this one to the subgraph that crosses the limit. */
 int wg_graph_load(const char *path, WgGraph **out, WgError *err);
 /* Same from memory; `path` names the source in messages and anchors relative paths. */
 int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph **out,
