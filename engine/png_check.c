@@ -262,6 +262,81 @@ static bool decodable(const PngInfo *info)
            !info->interlace;
 }
 
+/* What the chunks after IHDR have shown so far. */
+typedef struct ChunkOrder {
+    bool plte, idat;
+} ChunkOrder;
+
+/* The most libpng accepts in one chunk (png_check_chunk_length): 8,000,000 bytes
+ * (PNG_USER_CHUNK_MALLOC_MAX), or for IDAT what the whole image could take compressed at
+ * worst, whichever is larger. */
+static uint64_t chunk_limit(const PngInfo *h, const char *type)
+{
+    static const int channels[7] = {1, 0, 3, 1, 2, 0, 4};
+    uint64_t limit = 8000000;
+    if (strcmp(type, "IDAT")) return limit;
+    uint64_t factor =
+        (uint64_t)h->width * (uint64_t)channels[h->colour_type] * (h->depth > 8 ? 2 : 1) + 1 +
+        (h->interlace ? 6 : 0);
+    uint64_t idat = h->height > 0xffffffffu / factor ? 0x7fffffffu : h->height * factor;
+    if (factor > 32566) factor = 32566;
+    idat += 6 + 5 * (idat / factor + 1);
+    if (idat > 0x7fffffffu) idat = 0x7fffffffu;
+    return idat > limit ? idat : limit;
+}
+
+/* The chunk rules libpng enforces as errors (which it prints to stderr itself), and the PNG
+ * rule that a decoder must refuse a critical chunk it does not know (specification, 2nd
+ * edition, section 5.4: an uppercase first letter makes a chunk critical). */
+static int check_order(ChunkOrder *o, const PngInfo *h, const char *type, uint32_t len,
+                       long long at, char *msg, size_t size)
+{
+    bool critical = type[0] >= 'A' && type[0] <= 'Z';
+    if (!strcmp(type, "IHDR")) {
+        snprintf(msg, size, "the file is damaged: a second IHDR chunk at byte %lld", at);
+        return -1;
+    }
+    if (critical && strcmp(type, "PLTE") && strcmp(type, "IDAT") && strcmp(type, "IEND")) {
+        snprintf(msg, size,
+                 "its chunk %s at byte %lld is critical (its first letter is uppercase) and not "
+                 "one this reader knows, so the image cannot be decoded",
+                 type, at);
+        return -1;
+    }
+    if (len > chunk_limit(h, type)) {
+        snprintf(msg, size,
+                 "the file is damaged: its %s chunk at byte %lld declares %u bytes, more than "
+                 "this image can have (%llu)",
+                 type, at, len, (unsigned long long)chunk_limit(h, type));
+        return -1;
+    }
+    if (!strcmp(type, "PLTE")) {
+        if (o->plte) {
+            snprintf(msg, size, "the file is damaged: a second PLTE chunk at byte %lld", at);
+            return -1;
+        }
+        o->plte = true;
+        if (h->colour_type == 3 && (len == 0 || len > 768 || len % 3)) {
+            snprintf(msg, size,
+                     "the file is damaged: its PLTE chunk at byte %lld is %u bytes (3 per colour, "
+                     "1 to 256 colours)",
+                     at, len);
+            return -1;
+        }
+    }
+    if (!strcmp(type, "IDAT") && !o->idat) {
+        o->idat = true;
+        if (h->colour_type == 3 && !o->plte) {
+            snprintf(msg, size,
+                     "the file is damaged: it has a palette colour type but no PLTE chunk before "
+                     "its image data (IDAT at byte %lld)",
+                     at);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* 1: not a PNG (or, with a sink, not one decoded here: nothing was read); 0: fine; -1: damaged,
  * with msg. With a sink, the rows go to it as they are inflated. */
 static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *sink, char *msg,
@@ -276,6 +351,8 @@ static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *si
         return 1;
     }
     ImageData data = {0};
+    PngInfo hdr = {0};
+    ChunkOrder order = {0};
     int rc = 0;
     long long at = 8;
     bool ended = false;
@@ -308,6 +385,7 @@ static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *si
             rc = -1;
             break;
         }
+        if (index > 0 && (rc = check_order(&order, &hdr, type, len, at, msg, size))) break;
         if (!whole && !strcmp(type, "IDAT")) break;
         if (sink && !data.sink && !strcmp(type, "IDAT")) {
             /* the header and tRNS are known: decode here or leave the file to OpenImageIO */
@@ -367,6 +445,13 @@ static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *si
             break;
         }
         if (is_header && (rc = read_header(&data, header, len, msg, size))) break;
+        if (is_header) {
+            hdr.width = be32(header);
+            hdr.height = be32(header + 4);
+            hdr.depth = header[8];
+            hdr.colour_type = header[9];
+            hdr.interlace = header[12];
+        }
         if (is_header && info) {
             info->width = be32(header);
             info->height = be32(header + 4);
