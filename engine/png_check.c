@@ -30,8 +30,12 @@ static uint32_t be32(const unsigned char *p)
 typedef struct ImageData {
     bool have_header;
     uint64_t expected;  /* bytes of filtered rows */
-    uint64_t row_bytes; /* filter byte + one row, non-interlaced; 0: rows not checked */
+    uint64_t row_bytes; /* filter byte + one row, non-interlaced */
     uint64_t next_row;  /* offset of the next row's filter byte */
+    /* the rows of each pass (one pass when not interlaced, Adam7's seven when interlaced, empty
+     * ones left out), and the row next_row is in */
+    uint64_t pass_rows[7], pass_bytes[7], row_in_pass, row_number;
+    int passes, pass;
     uint64_t got;
     z_stream z;
     bool z_open, z_end;
@@ -179,6 +183,9 @@ static int read_header(ImageData *d, const unsigned char *h, uint32_t len, char 
     if (!interlace) {
         d->row_bytes = 1 + row_size(w, bpp);
         d->expected = (uint64_t)ht * d->row_bytes;
+        d->pass_rows[0] = ht;
+        d->pass_bytes[0] = d->row_bytes;
+        d->passes = 1;
     } else {
         static const int x0[7] = {0, 4, 0, 2, 0, 1, 0}, y0[7] = {0, 0, 4, 0, 2, 0, 1};
         static const int dx[7] = {8, 8, 4, 4, 2, 2, 1}, dy[7] = {8, 8, 8, 4, 4, 2, 2};
@@ -186,7 +193,10 @@ static int read_header(ImageData *d, const unsigned char *h, uint32_t len, char 
         for (int p = 0; p < 7; p++) {
             uint64_t pw = w > (uint32_t)x0[p] ? (w - x0[p] + dx[p] - 1) / dx[p] : 0;
             uint64_t ph = ht > (uint32_t)y0[p] ? (ht - y0[p] + dy[p] - 1) / dy[p] : 0;
-            if (pw && ph) d->expected += ph * (1 + row_size(pw, bpp));
+            if (!pw || !ph) continue;
+            d->expected += ph * (1 + row_size(pw, bpp));
+            d->pass_rows[d->passes] = ph;
+            d->pass_bytes[d->passes++] = 1 + row_size(pw, bpp);
         }
     }
     d->have_header = true;
@@ -216,15 +226,21 @@ static int inflate_piece(ImageData *d, const unsigned char *in, size_t n, char *
         d->z.avail_out = sizeof out;
         int r = inflate(&d->z, Z_NO_FLUSH);
         uint64_t produced = sizeof out - d->z.avail_out;
-        for (; d->row_bytes && d->next_row < d->got + produced && d->next_row < d->expected;
-             d->next_row += d->row_bytes) {
+        /* every row, of every pass, starts with its filter type: libpng refuses others */
+        while (d->pass < d->passes && d->next_row < d->got + produced) {
             unsigned char filter = out[d->next_row - d->got];
             if (filter > 4) {
                 snprintf(msg, size,
                          "the file is damaged: row %llu of its image data has filter type %d "
                          "(0 to 4 exist)",
-                         (unsigned long long)(d->next_row / d->row_bytes), filter);
+                         (unsigned long long)d->row_number, filter);
                 return -1;
+            }
+            d->next_row += d->pass_bytes[d->pass];
+            d->row_number++;
+            if (++d->row_in_pass == d->pass_rows[d->pass]) {
+                d->pass++;
+                d->row_in_pass = 0;
             }
         }
         if (d->sink) feed(d, out, (size_t)produced);

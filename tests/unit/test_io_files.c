@@ -656,6 +656,7 @@ enum {
     PNG_CRITICAL,
     PNG_TWO_IHDR,
     PNG_HUGE_TEXT,
+    PNG_INTERLACED_FILTER,
     PNG_KINDS
 };
 
@@ -668,8 +669,20 @@ static void flawed_png(const char *path, int kind, int w, int h, bool extra)
     size_t n = 0;
     memcpy(buf, "\x89PNG\r\n\x1a\n", 8);
     n = 8;
-    unsigned char ihdr[13] = {
-        0, 0, 0, (unsigned char)w, 0, 0, 0, (unsigned char)h, 8, (unsigned char)type, 0, 0, 0};
+    bool interlaced = kind == PNG_INTERLACED_FILTER;
+    unsigned char ihdr[13] = {0,
+                              0,
+                              0,
+                              (unsigned char)w,
+                              0,
+                              0,
+                              0,
+                              (unsigned char)h,
+                              8,
+                              (unsigned char)type,
+                              0,
+                              0,
+                              (unsigned char)interlaced};
     n += png_chunk(buf + n, "IHDR", ihdr, 13);
     if (kind == PNG_TWO_IHDR) n += png_chunk(buf + n, "IHDR", ihdr, 13);
     if (extra) n += png_chunk(buf + n, "teXt", "hello", 5);
@@ -686,13 +699,32 @@ static void flawed_png(const char *path, int kind, int w, int h, bool extra)
         memset(buf + n + 8, 'a', 4000);
         n += 8 + 4000;
     }
-    unsigned char raw[64 * 65], packed[8192];
-    for (int y = 0; y < h; y++) {
-        raw[y * (w + 1)] = 0;
-        for (int x = 0; x < w; x++) raw[y * (w + 1) + 1 + x] = (unsigned char)((x + y) % 4);
+    unsigned char raw[64 * 65 * 2], packed[8192];
+    size_t rn = 0;
+    if (!interlaced) {
+        for (int y = 0; y < h; y++) {
+            raw[rn++] = 0;
+            for (int x = 0; x < w; x++) raw[rn++] = (unsigned char)((x + y) % 4);
+        }
+    } else {
+        /* Adam7's passes, one row (the middle one) with filter type 7 */
+        static const int x0[7] = {0, 4, 0, 2, 0, 1, 0}, y0[7] = {0, 0, 4, 0, 2, 0, 1};
+        static const int dx[7] = {8, 8, 4, 4, 2, 2, 1}, dy[7] = {8, 8, 8, 4, 4, 2, 2};
+        int rows = 0;
+        for (int p = 0; p < 7; p++)
+            if (w > x0[p] && h > y0[p]) rows += (h - y0[p] + dy[p] - 1) / dy[p];
+        for (int p = 0, r = 0; p < 7; p++) {
+            if (w <= x0[p] || h <= y0[p]) continue;
+            int pw = (w - x0[p] + dx[p] - 1) / dx[p], ph = (h - y0[p] + dy[p] - 1) / dy[p];
+            for (int y = 0; y < ph; y++, r++) {
+                raw[rn++] = r == rows / 2 ? 7 : 0;
+                memset(raw + rn, 1, (size_t)pw);
+                rn += (size_t)pw;
+            }
+        }
     }
     uLongf plen = sizeof packed;
-    assert_int_equal(compress(packed, &plen, raw, (uLong)(h * (w + 1))), Z_OK);
+    assert_int_equal(compress(packed, &plen, raw, (uLong)rn), Z_OK);
     n += png_chunk(buf + n, "IDAT", packed, (uint32_t)plen);
     if (kind == PNG_PLTE_AFTER_IDAT) n += png_chunk(buf + n, "PLTE", plte, 12);
     n += png_chunk(buf + n, "IEND", NULL, 0);
@@ -725,7 +757,7 @@ static void test_flawed_png_is_one_line_without_libpng(void **state)
                    "  <output name=\"out\" from=\"$img\" format=\"exr32\"/>\n"
                    "</wetgraph>\n");
     static const char *const needles[PNG_KINDS] = {"PLTE", "PLTE", "PLTE", "PLTE",
-                                                   "ABCD", "IHDR", "tEXt"};
+                                                   "ABCD", "IHDR", "tEXt", "filter type 7"};
     for (int kind = 0; kind < PNG_KINDS; kind++)
         for (int v = 0; v < 3; v++) {
             int w = 1 + 13 * v + kind, h = 1 + 7 * v;
@@ -747,8 +779,12 @@ static void test_flawed_png_is_one_line_without_libpng(void **state)
         const char *path = wgt_join(dir, name);
         WgError err = {0};
         int w, h, c;
-        assert_int_not_equal(wg_image_probe(path, &w, &h, &c, &err), WG_OK);
-        wgt_assert_error(&err, WG_ERR_IO, 0, name);
+        /* the probe stops at the image data, whose rows only the read inflates */
+        int probe = wg_image_probe(path, &w, &h, &c, &err);
+        if (kind != PNG_INTERLACED_FILTER) {
+            assert_int_not_equal(probe, WG_OK);
+            wgt_assert_error(&err, WG_ERR_IO, 0, name);
+        }
         /* the read, on an image of the size the file declares */
         WgImage *dst = wg_image_new(1 + kind, 1, 4);
         memset(&err, 0, sizeof err);
