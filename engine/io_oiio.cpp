@@ -5,6 +5,10 @@
 // OpenImageIO and its hundreds of libraries. Alpha is kept unassociated both ways (OpenImageIO
 // would otherwise premultiply PNG alpha on read and divide on write), and no colour conversion
 // happens here: io.c does the sRGB transfer.
+// Tiled files (and MIP-mapped ones, of which the first level is read) are read a row of tiles
+// at a time, since OpenImageIO 2.4 cannot read them as scanlines (it divides by zero). The image
+// is the data window, except for OpenEXR, where it is the display window with the data
+// window's pixels in place and 0 around them, as in the native reader (io_exr.c).
 // A read that OpenImageIO completes but with errors recorded (libjpeg reports a truncated or
 // corrupt JPEG only as a warning and fills in the missing part) is a failure. Files are written
 // through an I/O proxy of our own that checks every write, because some encoders (PNG) ignore a
@@ -369,6 +373,8 @@ static int oiio_create(const char *path, const char *format_ext, int w, int h, i
         ImageSpec spec(w, h, c, file_type);
         if (c == 4) spec.alpha_channel = 3;
         spec.attribute("oiio:UnassociatedAlpha", 1);
+        /* OpenEXR's C++ writer, which OpenImageIO uses, stores a chunk that ZIP does not make
+         * smaller raw, so ZIP is safe here (unlike OpenEXR 3.1's C writer: io_exr.c) */
         if (!std::strcmp(format_ext, "exr")) spec.attribute("compression", "zip");
         if (!std::strcmp(format_ext, "tif")) spec.attribute("compression", "zip");
         /* zlib level 1: writing the wet material's 16 outputs at 2048² took 3.6 s instead of 8.4 s
