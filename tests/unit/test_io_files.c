@@ -631,6 +631,74 @@ static void test_hostile_exr_headers_keep_memory_bounded(void **state)
     }
 }
 
+/* A TIFF header (no pixels) of w x h with spp float samples per pixel in one strip. */
+static void tiff_header(const char *path, uint32_t w, uint32_t h, uint16_t spp)
+{
+    static const uint16_t tags[] = {256, 257, 258, 259, 262, 273, 277, 278, 279, 284, 339};
+    const uint32_t values[] = {w, h, 32, 1, spp < 3 ? 1 : 2, 8, spp, h, 16, 2, 3};
+    unsigned char buf[256] = {'I', 'I', 42, 0, 24, 0, 0, 0};
+    size_t n = 24;
+    uint16_t count = sizeof tags / sizeof tags[0];
+    memcpy(buf + n, &count, 2);
+    n += 2;
+    for (int i = 0; i < count; i++) {
+        bool is_long =
+            tags[i] == 256 || tags[i] == 257 || tags[i] == 273 || tags[i] == 278 || tags[i] == 279;
+        uint16_t type = is_long ? 4 : 3;
+        uint32_t one = 1;
+        memcpy(buf + n, &tags[i], 2);
+        memcpy(buf + n + 2, &type, 2);
+        memcpy(buf + n + 4, &one, 4);
+        memset(buf + n + 8, 0, 4);
+        if (is_long)
+            memcpy(buf + n + 8, &values[i], 4);
+        else
+            memcpy(buf + n + 8, &(uint16_t){(uint16_t)values[i]}, 2);
+        n += 12;
+    }
+    memset(buf + n, 0, 4);
+    n += 4;
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(buf, 1, n, f), n);
+    fclose(f);
+}
+
+/* OpenImageIO itself refuses a header claiming more pixel data than the largest image the
+ * engine takes (16384 squared, four float channels: 4 GiB). */
+static void test_openimageio_refuses_oversized_headers(void **state)
+{
+    (void)state;
+    static const struct {
+        uint32_t w, h;
+        uint16_t spp;
+        bool refused;
+    } files[] = {{16384, 16384, 8, true},
+                 {16384, 16384, 5, true},
+                 {12000, 16384, 16, true},
+                 {64, 48, 8, false},
+                 {16384, 16384, 4, false}};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        const char *path = wgt_path("claims.tif");
+        tiff_header(path, files[i].w, files[i].h, files[i].spp);
+        int w, h, c;
+        WgError err = {0};
+        int rc = wg_image_probe(path, &w, &h, &c, &err);
+        if (files[i].refused) {
+            if (rc == WG_OK)
+                fail_msg("a TIFF claiming %ux%u x %u floats was accepted", files[i].w, files[i].h,
+                         files[i].spp);
+            wgt_assert_error(&err, WG_ERR_IO, 0, "claims.tif|exceeds");
+        } else {
+            if (rc)
+                fail_msg("%ux%u x %u floats: %s", files[i].w, files[i].h, files[i].spp,
+                         err.message);
+            assert_int_equal(w, (int)files[i].w);
+            assert_int_equal(c, files[i].spp);
+        }
+    }
+}
+
 /* ---- PNG files libpng complains about ---------------------------------------------------- */
 
 static size_t png_chunk(unsigned char *p, const char *type, const void *data, uint32_t len)
@@ -958,6 +1026,7 @@ int main(void)
         cmocka_unit_test(test_openimageio_exr_writes_read_back_exactly),
         cmocka_unit_test(test_data_window_is_placed_in_the_display_window),
         cmocka_unit_test(test_hostile_exr_headers_keep_memory_bounded),
+        cmocka_unit_test(test_openimageio_refuses_oversized_headers),
         cmocka_unit_test(test_flawed_png_is_one_line_without_libpng),
         cmocka_unit_test(test_unknown_critical_png_chunk_is_refused),
         cmocka_unit_test(test_channel_mapping_rules),
