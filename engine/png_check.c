@@ -284,7 +284,7 @@ static bool decodable(const PngInfo *info)
 
 /* What the chunks after IHDR have shown so far. */
 typedef struct ChunkOrder {
-    bool plte, idat;
+    bool plte, idat, after_idat;
 } ChunkOrder;
 
 /* The most libpng accepts in one chunk (png_check_chunk_length): 8,000,000 bytes
@@ -343,6 +343,16 @@ static int check_order(ChunkOrder *o, const PngInfo *h, const char *type, uint32
                      at, len);
             return -1;
         }
+    }
+    /* the image data is one run of IDAT chunks (section 5.6): libpng stops at the first other
+     * chunk and finds the data short */
+    if (strcmp(type, "IDAT") && o->idat) o->after_idat = true;
+    if (!strcmp(type, "IDAT") && o->after_idat) {
+        snprintf(msg, size,
+                 "the file is damaged: its image data is interrupted (an IDAT chunk at byte %lld "
+                 "follows another chunk after the first IDAT; they must be consecutive)",
+                 at);
+        return -1;
     }
     if (!strcmp(type, "IDAT") && !o->idat) {
         o->idat = true;

@@ -281,8 +281,20 @@ static void write_and_check(int content, int w, int h, int c, bool alpha, bool h
     WgImage *img = content_image(content, w, h, c, alpha, half);
     WgError err = {0};
     const char *path = wgt_path("sweep.exr");
-    if (wg_image_write(path, img, half ? WG_FORMAT_EXR : WG_FORMAT_EXR32, WG_LINEAR, &err))
-        fail_msg("write %dx%d: %s", w, h, err.message);
+    /* Every tenth file through wg_image_write, the others through its encoder straight to the
+     * file (the same channels: RGB when every alpha is 1): the write set's fsyncs of a
+     * thousand files would make the test wait on the disk. */
+    int rc;
+    if (*files % 10 == 0) {
+        rc = wg_image_write(path, img, half ? WG_FORMAT_EXR : WG_FORMAT_EXR32, WG_LINEAR, &err);
+    } else {
+        int fc = c == 4 ? 3 : 1;
+        for (int y = 0; y < h && c == 4; y++)
+            for (int x = 0; x < w; x++)
+                if (wgt_px(img, x, y, 3) != 1.0f) fc = 4;
+        rc = wg__exr_write_image(path, path, img, fc, half, &err);
+    }
+    if (rc) fail_msg("write %dx%d: %s", w, h, err.message);
     expect_exr_holds(path, img, half, names[content]);
     (*files)++;
     wg_image_unref(img);
@@ -725,6 +737,7 @@ enum {
     PNG_TWO_IHDR,
     PNG_HUGE_TEXT,
     PNG_INTERLACED_FILTER,
+    PNG_SPLIT_IDAT,
     PNG_KINDS
 };
 
@@ -793,7 +806,15 @@ static void flawed_png(const char *path, int kind, int w, int h, bool extra)
     }
     uLongf plen = sizeof packed;
     assert_int_equal(compress(packed, &plen, raw, (uLong)rn), Z_OK);
-    n += png_chunk(buf + n, "IDAT", packed, (uint32_t)plen);
+    if (kind == PNG_SPLIT_IDAT) {
+        /* the data in two IDAT chunks with a text chunk between them */
+        uint32_t half = (uint32_t)plen / 2;
+        n += png_chunk(buf + n, "IDAT", packed, half);
+        n += png_chunk(buf + n, "tEXt", "a\0b", 3);
+        n += png_chunk(buf + n, "IDAT", packed + half, (uint32_t)plen - half);
+    } else {
+        n += png_chunk(buf + n, "IDAT", packed, (uint32_t)plen);
+    }
     if (kind == PNG_PLTE_AFTER_IDAT) n += png_chunk(buf + n, "PLTE", plte, 12);
     n += png_chunk(buf + n, "IEND", NULL, 0);
     FILE *f = fopen(path, "wb");
@@ -824,8 +845,8 @@ static void test_flawed_png_is_one_line_without_libpng(void **state)
                    "  <input name=\"img\" type=\"color\"/>\n"
                    "  <output name=\"out\" from=\"$img\" format=\"exr32\"/>\n"
                    "</wetgraph>\n");
-    static const char *const needles[PNG_KINDS] = {"PLTE", "PLTE", "PLTE", "PLTE",
-                                                   "ABCD", "IHDR", "tEXt", "filter type 7"};
+    static const char *const needles[PNG_KINDS] = {
+        "PLTE", "PLTE", "PLTE", "PLTE", "ABCD", "IHDR", "tEXt", "filter type 7", "consecutive"};
     for (int kind = 0; kind < PNG_KINDS; kind++)
         for (int v = 0; v < 3; v++) {
             int w = 1 + 13 * v + kind, h = 1 + 7 * v;
@@ -849,7 +870,7 @@ static void test_flawed_png_is_one_line_without_libpng(void **state)
         int w, h, c;
         /* the probe stops at the image data, whose rows only the read inflates */
         int probe = wg_image_probe(path, &w, &h, &c, &err);
-        if (kind != PNG_INTERLACED_FILTER) {
+        if (kind != PNG_INTERLACED_FILTER && kind != PNG_SPLIT_IDAT) {
             assert_int_not_equal(probe, WG_OK);
             wgt_assert_error(&err, WG_ERR_IO, 0, name);
         }
