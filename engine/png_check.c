@@ -7,16 +7,15 @@
  * IDAT chunk when probing (which also reads the size and channels from the IHDR and tRNS
  * chunks, so that checking a graph needs no OpenImageIO) and to IEND when reading; the IHDR
  * values; the chunk rules libpng enforces as errors (one IHDR, at most one PLTE of 1 to 256
- * colours, a PLTE before the image data of a palette image, no chunk longer than libpng's
- * limit) and the PNG rule that an unknown critical chunk (uppercase first letter) makes the
- * file undecodable; and, when reading, the zlib stream of the IDAT chunks, inflated into a
- * small window: it must decode (zlib's own checks, with its Adler-32), give at least the bytes
- * the IHDR promises, and every row (of every Adam7 pass when interlaced) must start with a
- * filter type 0..4.
- * Decoding (wg__png_read: 8- and 16-bit gray, gray-alpha, RGB and RGBA, not interlaced, no
- * tRNS) happens in the same pass: each row of the window is unfiltered (section 9) and handed
- * over as soon as it is complete, so a PNG is inflated once, with two rows of memory. Other PNGs
- * are only checked (one inflate thrown away) and then read by OpenImageIO. */
+ * colours, a PLTE before the image data of a palette image, the IDAT chunks consecutive, no
+ * chunk longer than libpng's limit) and the PNG rule that an unknown critical chunk (uppercase
+ * first letter) makes the file undecodable; and, when reading, the zlib stream of the IDAT chunks,
+ * inflated into a small window: it must decode (zlib's own checks, with its Adler-32), give at
+ * least the bytes the IHDR promises, and every row (of every Adam7 pass when interlaced) must start
+ * with a filter type 0..4. Decoding (wg__png_read: 8- and 16-bit gray, gray-alpha, RGB and RGBA,
+ * not interlaced, no tRNS) happens in the same pass: each row of the window is unfiltered (section
+ * 9) and handed over as soon as it is complete, so a PNG is inflated once, with two rows of memory.
+ * Other PNGs are only checked (one inflate thrown away) and then read by OpenImageIO. */
 #include "internal.h"
 
 #include <stdio.h>
