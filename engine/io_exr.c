@@ -573,7 +573,7 @@ static int read_windowed(WgExrIn *in, int y0, int y1, int cb, int ce, float *dat
     if (r1 > in->dh) r1 = in->dh;
     if (r0 >= r1) return 0;
     size_t plane = (size_t)in->dw * (size_t)in->lines;
-    if (!in->chunk && !(in->chunk = malloc(plane * 4 * sizeof(float)))) {
+    if (!in->chunk && !(in->chunk = malloc(plane * (size_t)in->c * sizeof(float)))) {
         snprintf(msg, msg_size, "out of memory");
         return -1;
     }

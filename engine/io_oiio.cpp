@@ -148,6 +148,12 @@ static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, i
         std::string fmt = in->format_name();
         bool exr = fmt == "openexr";
         int64_t iw = exr ? spec.full_width : spec.width, ih = exr ? spec.full_height : spec.height;
+        if (spec.depth > 1) {
+            set_msg(msg, msg_size,
+                    "the file holds a volume (" + std::to_string(spec.depth) +
+                        " slices); only flat images are read");
+            return -1;
+        }
         if (iw < 1 || ih < 1 || iw > INT32_MAX || ih > INT32_MAX || spec.width < 1 ||
             spec.height < 1 || spec.nchannels < 1) {
             set_msg(msg, msg_size,
@@ -218,7 +224,7 @@ static int data_rows(WgOiioIn *r, int r0, int r1, int cb, int ce, int bits, char
             r->in->read_scanlines(0, 0, s.y + r0, s.y + r1, s.z, cb, ce, type, r->rows.data());
         return ok && !r->in->has_error() ? 0 : read_failed(r, ok, msg, msg_size);
     }
-    int th = s.tile_height;
+    int th = s.tile_height > 0 ? s.tile_height : s.height;
     for (int y = r0; y < r1;) {
         int by = y - y % th, bn = std::min(th, s.height - by);
         if (by != r->band_y || cb != r->band_cb || ce != r->band_ce || bits != r->band_bits) {
