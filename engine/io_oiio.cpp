@@ -21,8 +21,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cstdint>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
@@ -129,7 +129,7 @@ struct WgOiioIn {
     int64_t x0, y0;
     bool direct;
     std::vector<unsigned char> band, rows;
-    int band_y = -1, band_rows = 0, band_cb = -1, band_ce = -1, band_bits = -1;
+    int band_y = -1, band_cb = -1, band_ce = -1, band_bits = -1; /* what `band` holds */
 };
 
 static TypeDesc sample_type(int bits)
@@ -161,7 +161,7 @@ static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, i
                         ", " + std::to_string(spec.nchannels) + " channels)");
             return -1;
         }
-        WgOiioIn *r = new WgOiioIn;
+        std::unique_ptr<WgOiioIn> r(new WgOiioIn);
         r->spec = spec;
         r->c = spec.nchannels;
         r->w = (int)iw;
@@ -191,7 +191,7 @@ static int oiio_open(const char *path, WgOiioIn **out, int *w, int *h, int *c, i
         if (spec.channelformats.empty() && spec.format == TypeDesc::UINT16) *bits = 16;
         r->path = path;
         r->in = std::move(in);
-        *out = r;
+        *out = r.release();
         return 0;
     } catch (const std::exception &e) {
         set_msg(msg, msg_size, e.what());
@@ -234,7 +234,6 @@ static int data_rows(WgOiioIn *r, int r0, int r1, int cb, int ce, int bits, char
                                         s.z + std::max(1, s.depth), cb, ce, type, r->band.data());
             if (!ok || r->in->has_error()) return read_failed(r, ok, msg, msg_size);
             r->band_y = by;
-            r->band_rows = bn;
             r->band_cb = cb;
             r->band_ce = ce;
             r->band_bits = bits;
