@@ -467,13 +467,14 @@ static void test_data_window_is_placed_in_the_display_window(void **state)
     static const int channels[] = {3, 4, 1};
     int index = 0;
     for (size_t i = 0; i < sizeof windows / sizeof windows[0]; i++)
-        for (int tiled = 0; tiled < 2; tiled++)
+        for (int layout = 0; layout < 3; layout++)
             for (int half = 0; half < 2; half++) {
-                /* scanline files are read natively, tiled ones through OpenImageIO */
+                /* scanline files of 1, 3 or 4 channels are read natively; tiled ones, and five
+                 * channels (the first four are RGBA), through OpenImageIO's tiles or scanlines */
+                int c = layout == 2 ? 5 : channels[(i + half) % 3];
                 check_window(windows[i].dx, windows[i].dy, windows[i].dw, windows[i].dh,
-                             windows[i].fx, windows[i].fy, windows[i].fw, windows[i].fh,
-                             channels[(i + half) % 3], tiled ? 4 : 0, half ? "half" : "float",
-                             index++);
+                             windows[i].fx, windows[i].fy, windows[i].fw, windows[i].fh, c,
+                             layout == 1 ? 4 : 0, half ? "half" : "float", index++);
             }
 }
 
