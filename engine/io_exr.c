@@ -326,7 +326,7 @@ int wg__exr_check(const char *path, char *msg, size_t size)
             } else if (!strcmp(name, "compression") && n == 1) {
                 p->compression = v[0];
             } else if (!strcmp(name, "type") && !strcmp(type, "string")) {
-                p->tiled = n == 9 && !memcmp(v, "tiledimage", 9);
+                p->tiled = n == 10 && !memcmp(v, "tiledimage", 10);
                 p->deep = n >= 4 && !memcmp(v, "deep", 4);
             }
             attrs++;

@@ -78,6 +78,26 @@ extern "C" int wgt_oiio_write(const char *path, const WgtOiioSpec *s, const floa
     bool mip = s->mipmap && s->tile_w > 0;
     /* OpenImageIO's EXR writer makes a MIP-mapped file only for a texture */
     if (mip) spec.attribute("textureformat", "Plain Texture");
+    if (s->parts > 1) {
+        /* every part alike, each holding the data plus its index */
+        std::vector<ImageSpec> specs((size_t)s->parts, spec);
+        size_t n = (size_t)s->w * (size_t)s->h * (size_t)s->c;
+        std::vector<float> part(data, data + n);
+        for (int k = 0; k < s->parts; k++) {
+            if ((k == 0 && !out->open(path, s->parts, specs.data())) ||
+                (k > 0 && !out->open(path, spec, ImageOutput::AppendSubimage)) ||
+                !out->write_image(TypeDesc::FLOAT, part.data())) {
+                say(msg, msg_size, out->geterror());
+                return -1;
+            }
+            for (float &v : part) v += 1.0f;
+        }
+        if (!out->close()) {
+            say(msg, msg_size, out->geterror());
+            return -1;
+        }
+        return 0;
+    }
     if (!out->open(path, spec, ImageOutput::Create)) {
         say(msg, msg_size, out->geterror());
         return -1;

@@ -19,10 +19,12 @@ typedef struct WgtOiioSpec {
     int tile_w, tile_h;                 /* 0: scanlines */
     bool mipmap;                        /* all MIP levels (tiled files only) */
     const char *type;                   /* "float", "half", "uint8", "uint16" (NULL: float) */
+    int parts;                          /* > 1: that many parts (subimages), all alike */
 } WgtOiioSpec;
 
 /* Write `data` (w*h*c floats, row-major) with the layout of `spec`; the format follows the
- * file name's extension. 0, or -1 with the library's message in msg. */
+ * file name's extension. Part k > 0 of a multi-part file holds data + k. 0, or -1 with the
+ * library's message in msg. */
 int wgt_oiio_write(const char *path, const WgtOiioSpec *spec, const float *data, char *msg,
                    int msg_size);
 /* ImageInput::read_image of subimage 0, level 0, as floats (the data window); *spec gets its
