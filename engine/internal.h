@@ -385,11 +385,19 @@ int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size);
 int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
                    int bits, char *msg, size_t msg_size);
 /* Single-layer EXR read natively (io_exr.c): 1 when `path` starts with the EXR magic number. A
- * file is read natively when it is one scanline part whose data window starts at 0,0 with the
- * half or float channels Y, Y+A, R+G+B or R+G+B+A (the layouts OpenImageIO gives in that order);
- * wg__exr_open returns 1 (and opens nothing) for other EXR files, which go to OpenImageIO. */
+ * file is read natively when it is one scanline part with the half or float channels Y, Y+A,
+ * R+G+B or R+G+B+A (the layouts OpenImageIO gives in that order); the image is its display
+ * window, pixels outside the data window 0. wg__exr_open returns 1 (and opens nothing) for
+ * other EXR files, which go to OpenImageIO. */
 int wg__exr_is_exr(const char *path);
 typedef struct WgExrIn WgExrIn;
+/* The header of an EXR file walked before any library reads it: 0 when its structure holds
+ * (every attribute's declared size within the file, both windows' sides 1..WG_MAX_SIDE, the
+ * offset tables the windows call for within the file), -1 with a one-line message. */
+int wg__exr_check(const char *path, char *msg, size_t size);
+/* Bytes the reader holds beside the decoder's own chunk (a data window that is not the image
+ * is decoded through one chunk of its own). */
+size_t wg__exr_chunk_bytes(const WgExrIn *in);
 int wg__exr_open(const char *path, WgExrIn **in, int *w, int *h, int *c, int *strip_rows, char *msg,
                  size_t msg_size);
 /* Rows [y0, y1) (y0 a multiple of the strip height, y1 too or the height), channels [cb, ce),

@@ -316,6 +316,8 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     /* PNG, EXR and JPEG headers are read here: checking a graph needs no OpenImageIO */
     rc = wg__png_probe(path, width, height, channels, msg, sizeof msg);
+    if (rc > 0 && wg__exr_is_exr(path) && wg__exr_check(path, msg, sizeof msg))
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (rc > 0 && wg__exr_is_exr(path)) {
         WgExrIn *in;
         int strip;
@@ -346,10 +348,15 @@ static int reader_open(const char *path, Reader *r, size_t *decoder, char *msg, 
 {
     memset(r, 0, sizeof *r);
     r->strip = STRIP_ROWS;
-    if (wg__exr_is_exr(path) &&
-        !wg__exr_open(path, &r->exr, &r->w, &r->h, &r->c, &r->strip, msg, msg_size)) {
-        /* one chunk compressed and unpacked */
-        if (decoder) *decoder = 2 * (size_t)r->w * (size_t)r->strip * (size_t)r->c * sizeof(float);
+    /* the EXR header is walked first: OpenEXR and OpenImageIO allocate what it declares */
+    bool exr = wg__exr_is_exr(path);
+    if (exr && wg__exr_check(path, msg, msg_size)) return -1;
+    if (exr && !wg__exr_open(path, &r->exr, &r->w, &r->h, &r->c, &r->strip, msg, msg_size)) {
+        /* one chunk compressed and unpacked, and one of the data window when it is not the
+         * image */
+        if (decoder)
+            *decoder = 2 * (size_t)r->w * (size_t)r->strip * (size_t)r->c * sizeof(float) +
+                       wg__exr_chunk_bytes(r->exr);
         return 0;
     }
     return wg__oiio_open(path, &r->oiio, &r->w, &r->h, &r->c, &r->bits, decoder, msg, msg_size);
@@ -385,9 +392,10 @@ size_t wg_image_read_scratch(const char *path)
     return decoder + (size_t)r.w * (size_t)r.strip * (size_t)r.c * sizeof(float);
 }
 
-/* One decoded row (c file channels) to the destination's channels: gray files and 1-2 channel
- * files are gray, 3-4 channel files colour, then gray to colour copies the value with alpha 1
- * and colour to gray takes the luminance, exactly as wg_image_convert does. */
+/* One decoded row (c file channels) to the destination's channels. The channel count says what
+ * a file holds: 1 gray, 2 gray and alpha, 3 RGB, 4 (or more: the first four) RGBA. To colour:
+ * gray is copied to R, G and B, alpha is the file's or 1; to gray: gray as it is, colour as its
+ * luminance (as wg_image_convert does), alpha dropped. */
 static void convert_row(const float *src, int c, WgColorspace cs, float *dst, int w, int channels)
 {
     int native = c <= 2 ? 1 : 4;
@@ -404,7 +412,7 @@ static void convert_row(const float *src, int c, WgColorspace cs, float *dst, in
             dst[x] = native == 1 ? px[0] : wg__luminance(px);
         } else if (native == 1) {
             dst[4 * x] = dst[4 * x + 1] = dst[4 * x + 2] = px[0];
-            dst[4 * x + 3] = 1.0f;
+            dst[4 * x + 3] = c == 2 ? p[1] : 1.0f;
         } else {
             memcpy(dst + 4 * x, px, sizeof px);
         }
@@ -514,7 +522,7 @@ static void code_tables_build(void)
                 dst[x] = v;                                                                        \
             } else {                                                                               \
                 dst[4 * x] = dst[4 * x + 1] = dst[4 * x + 2] = v;                                  \
-                dst[4 * x + 3] = 1.0f;                                                             \
+                dst[4 * x + 3] = c == 2 ? lin[p[1]] : 1.0f;                                        \
             }                                                                                      \
         } else {                                                                                   \
             float px[4] = {col[p[0]], col[p[1]], col[p[2]], c >= 4 ? lin[p[3]] : 1.0f};            \

@@ -4,13 +4,23 @@
  * channels OpenImageIO gives such images (Y for gray, R G B or R G B A for colour) or several
  * layers whose channels are "<layer>.Y" for gray images and "<layer>.R/G/B/A" for colour ones.
  * The library converts our float rows to half while encoding (round to nearest even, as
- * OpenImageIO does). The file is written as a temporary of a write set (io.c) and renamed over
- * the target when complete.
+ * OpenImageIO does); a chunk that ZIP does not make smaller is stored raw (compress_or_store:
+ * OpenEXR 3.1 would store one that comes out exactly as long as it was compressed, which every
+ * reader then takes for raw pixels). The file is written as a temporary of a write set (io.c)
+ * and renamed over the target when complete.
+ * Checking: before any library reads an EXR, wg__exr_check walks its header (the OpenEXR file
+ * layout: magic, version, attributes as name, type, size, value) and refuses a declared size
+ * beyond the end of the file, windows whose sides are outside 1..WG_MAX_SIDE, and windows that
+ * call for more chunk offsets than the file has bytes: OpenEXR and OpenImageIO allocate what a
+ * header declares before they read it.
  * Reading: single-part scanline files with the channels Y, Y A, R G B or R G B A (half or
  * float) are decoded here, chunk by chunk straight into the caller's rows with the caller's
- * strides, in the channel order OpenImageIO gives; any other EXR (tiled, multi-part, layers,
- * integer channels, subsampled, a data window not at 0,0, or a header this reader refuses) is
- * left to OpenImageIO, so those files read exactly as before. */
+ * strides, in the channel order OpenImageIO gives. The image is the display window; when the
+ * data window differs (shifted, smaller, larger, partly or wholly outside), chunks are decoded
+ * into a buffer of their own and their part inside the display window copied, the rest being 0.
+ * Any other EXR (tiled, multi-part, layers, integer channels, subsampled, or a header this
+ * reader refuses) is left to OpenImageIO (io_oiio.cpp), which places the data window the same
+ * way. */
 #include "internal.h"
 
 #include <errno.h>
@@ -34,6 +44,30 @@ static int exr_fail(WgError *err, const char *path, exr_result_t rv, const char 
                                what, cause, exr_get_default_error_message(rv));
     return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the EXR (%s): %s", what,
                            exr_get_default_error_message(rv));
+}
+
+/* OpenEXR 3.1's ZIP compressor keeps its output when it is exactly as long as the raw chunk,
+ * but a chunk whose stored size equals its raw size is raw by the file format's rule, so every
+ * reader (OpenEXR's own, OpenImageIO's) takes those compressed bytes for pixels. This runs the
+ * library's compressor and then stores such a chunk raw, as the rule says: the file stays ZIP
+ * (which compresses our noise and gradients to about half, where the unaffected NONE would
+ * store everything raw and RLE barely compresses float data) and costs nothing, since a chunk
+ * that does not get smaller gains nothing from compression. */
+typedef exr_result_t (*CompressFn)(exr_encode_pipeline_t *);
+_Static_assert(sizeof(CompressFn) == sizeof(void *), "the compressor is kept in a void *");
+
+static exr_result_t compress_or_store(exr_encode_pipeline_t *enc)
+{
+    CompressFn compress;
+    memcpy(&compress, &enc->encoding_user_data, sizeof compress);
+    exr_result_t rv = compress(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes >= enc->packed_bytes &&
+        enc->compressed_buffer != enc->packed_buffer) {
+        /* the compressor's buffer holds at least packed_bytes (it allocates 110% + 64 KiB) */
+        memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+        enc->compressed_bytes = enc->packed_bytes;
+    }
+    return rv;
 }
 
 /* Encode every scanline chunk of `part` from `images`. With layer names, channel "name.X" comes
@@ -89,10 +123,15 @@ static int encode_chunks(exr_context_t ctx, int part, const char *path, int h, i
             ci->encode_from_ptr = (const uint8_t *)(wg_image_row(im, cinfo.start_y) + comp);
         }
         if (rc) break;
-        if (!enc.convert_and_pack_fn &&
-            (rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
-            rc = exr_fail(err, path, rv, "encoder");
-            break;
+        if (!enc.convert_and_pack_fn) {
+            if ((rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
+                rc = exr_fail(err, path, rv, "encoder");
+                break;
+            }
+            if (enc.compress_fn) {
+                memcpy(&enc.encoding_user_data, &enc.compress_fn, sizeof(CompressFn));
+                enc.compress_fn = compress_or_store;
+            }
         }
         if ((rv = exr_encoding_run(ctx, part, &enc))) rc = exr_fail(err, path, rv, "encoding");
     }
@@ -174,6 +213,184 @@ int wg_exr_write_layers(const char *path, int count, const char *const *names,
     return rc;
 }
 
+/* ---- checking the header ----------------------------------------------------------------- */
+
+/* What the header walk keeps of one part: the windows, the chunking and the part's type. */
+typedef struct {
+    bool have_data, have_display, tiled, deep;
+    int32_t data[4], display[4]; /* xmin ymin xmax ymax */
+    uint32_t tile_w, tile_h;
+    int compression;
+} PartHeader;
+
+static int32_t le32(const unsigned char *p)
+{
+    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+                     (uint32_t)p[3] << 24);
+}
+
+/* A NUL-terminated name of 1..255 bytes at the file's position; false at the end of the
+ * file or when it is longer. An empty name (a lone NUL) ends a header. */
+static bool read_name(FILE *f, char name[256], long long *at)
+{
+    for (int i = 0; i < 256; i++) {
+        int ch = fgetc(f);
+        if (ch == EOF) return false;
+        (*at)++;
+        name[i] = (char)ch;
+        if (!ch) return true;
+    }
+    return false;
+}
+
+/* The scanlines one chunk holds for each compression (OpenEXR file layout); 256 (the most any
+ * has) for a compression this table does not know, so the chunk count below stays a lower
+ * bound. */
+static int lines_per_chunk(int compression)
+{
+    static const int lines[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+    return compression >= 0 && compression < 10 ? lines[compression] : 256;
+}
+
+static int64_t side(const int32_t box[4], int axis)
+{
+    return (int64_t)box[axis + 2] - (int64_t)box[axis] + 1;
+}
+
+int wg__exr_check(const char *path, char *msg, size_t size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0; /* the reader reports it */
+    int rc = -1;
+    long long at = 8, file_size = -1;
+    unsigned char head[8];
+    PartHeader parts[64];
+    int nparts = 0;
+    if (fseek(f, 0, SEEK_END) == 0) file_size = ftell(f);
+    rewind(f);
+    if (fread(head, 1, 8, f) != 8) {
+        snprintf(msg, size, "the EXR file is truncated: it ends at byte %lld, inside its header",
+                 file_size);
+        goto out;
+    }
+    uint32_t version = (uint32_t)le32(head + 4);
+    bool multipart = version & 0x1000;
+    if ((version & 0xff) != 2 || (version & ~0x1effu)) {
+        snprintf(msg, size,
+                 "an OpenEXR file of version %u (flags 0x%x), where version 2 (flags 0x200 to "
+                 "0x1000) exists",
+                 version & 0xff, version & ~0xffu);
+        goto out;
+    }
+    for (;;) {
+        PartHeader *p = &parts[nparts];
+        memset(p, 0, sizeof *p);
+        p->compression = -1;
+        p->tiled = !multipart && (version & 0x200);
+        p->deep = !multipart && (version & 0x800);
+        int attrs = 0;
+        char name[256], type[256];
+        for (;;) {
+            long long name_at = at;
+            if (!read_name(f, name, &at)) goto bad_name;
+            if (!name[0]) break;
+            if (!read_name(f, type, &at) || !type[0]) goto bad_name;
+            unsigned char sz[4];
+            if (fread(sz, 1, 4, f) != 4) goto truncated;
+            at += 4;
+            int32_t n = le32(sz);
+            /* a declared size is allocated by the readers before the bytes are read: it must
+             * fit in what the file has left */
+            if (n < 0 || n > file_size - at) {
+                snprintf(msg, size,
+                         "the EXR header is damaged: its attribute '%s' at byte %lld declares "
+                         "%d bytes but the file has %lld left",
+                         name, name_at, n, file_size - at);
+                goto out;
+            }
+            unsigned char v[16] = {0};
+            size_t keep = n < 16 ? (size_t)n : 16;
+            if (fread(v, 1, keep, f) != keep || fseek(f, n - (long)keep, SEEK_CUR) != 0)
+                goto truncated;
+            at += n;
+            bool box = !strcmp(type, "box2i") && n == 16;
+            if (!strcmp(name, "dataWindow") && box) {
+                for (int k = 0; k < 4; k++) p->data[k] = le32(v + 4 * k);
+                p->have_data = true;
+            } else if (!strcmp(name, "displayWindow") && box) {
+                for (int k = 0; k < 4; k++) p->display[k] = le32(v + 4 * k);
+                p->have_display = true;
+            } else if (!strcmp(name, "tiles") && !strcmp(type, "tiledesc") && n == 9) {
+                p->tile_w = (uint32_t)le32(v);
+                p->tile_h = (uint32_t)le32(v + 4);
+            } else if (!strcmp(name, "compression") && n == 1) {
+                p->compression = v[0];
+            } else if (!strcmp(name, "type") && !strcmp(type, "string")) {
+                p->tiled = n == 10 && !memcmp(v, "tiledimage", 10);
+                p->deep = n >= 4 && !memcmp(v, "deep", 4);
+            }
+            attrs++;
+        }
+        if (!attrs) {
+            if (multipart && nparts > 0) break; /* the empty header that ends the list */
+            snprintf(msg, size, "the EXR header is damaged: it has no attributes");
+            goto out;
+        }
+        for (int w = 0; w < 2; w++) {
+            const int32_t *b = w ? p->display : p->data;
+            if (!(w ? p->have_display : p->have_data)) continue;
+            int64_t bw = side(b, 0), bh = side(b, 1);
+            if (bw < 1 || bh < 1 || bw > WG_MAX_SIDE || bh > WG_MAX_SIDE) {
+                snprintf(msg, size,
+                         "its %s window (%d,%d)-(%d,%d) is %lldx%lld; sides must be 1..%d",
+                         w ? "display" : "data", b[0], b[1], b[2], b[3], (long long)bw,
+                         (long long)bh, WG_MAX_SIDE);
+                goto out;
+            }
+        }
+        if (++nparts == (int)(sizeof parts / sizeof parts[0]) || !multipart) break;
+    }
+    /* Every chunk has an 8-byte entry in the offset tables after the headers, so the chunks the
+     * windows call for (at least those of the first level of a tiled part) must fit in the rest
+     * of the file: the readers allocate those tables before reading them. */
+    long long chunks = 0;
+    for (int i = 0; i < nparts; i++) {
+        const PartHeader *p = &parts[i];
+        if (!p->have_data || p->deep) continue;
+        int64_t w = side(p->data, 0), h = side(p->data, 1);
+        if (p->tiled) {
+            if (p->tile_w < 1 || p->tile_h < 1) continue; /* the readers refuse it */
+            chunks += ((w + p->tile_w - 1) / p->tile_w) * ((h + p->tile_h - 1) / p->tile_h);
+        } else {
+            int lines = lines_per_chunk(p->compression);
+            chunks += (h + lines - 1) / lines;
+        }
+    }
+    if (chunks * 8 > file_size - at) {
+        snprintf(msg, size,
+                 "the EXR file is truncated or damaged: its header calls for %lld chunks, whose "
+                 "offsets alone take %lld bytes, but the file has %lld bytes after its header",
+                 chunks, chunks * 8, file_size - at);
+        goto out;
+    }
+    rc = 0;
+    goto out;
+bad_name:
+    if (!feof(f)) {
+        snprintf(msg, size,
+                 "the EXR header is damaged: an attribute name at byte %lld is longer than 255 "
+                 "bytes or empty",
+                 at);
+        goto out;
+    }
+truncated:
+    snprintf(msg, size, "the EXR file is truncated: it ends at byte %lld, inside its header",
+             file_size);
+out:
+    fclose(f);
+    return rc;
+}
+
 /* ---- single-layer files ------------------------------------------------------------------ */
 
 int wg__exr_is_exr(const char *path)
@@ -194,6 +411,15 @@ struct WgExrIn {
     exr_decode_pipeline_t dec;
     bool dec_ready;
     float *alpha; /* one chunk of the fourth channel (see wg__exr_read_rows) */
+    /* The image is the display window. The data window (dw x dh pixels, its first row at
+     * data_y in the file's coordinates) starts at (x0, y0) of it; when the two differ
+     * (`windowed`) each chunk is decoded into `chunk` (one plane per channel) and its part
+     * inside the display window copied over pixels set to 0. */
+    bool windowed;
+    int64_t x0, y0;
+    int dw, dh;
+    int32_t data_y;
+    float *chunk;
 };
 
 void wg__exr_close(WgExrIn *in)
@@ -202,6 +428,7 @@ void wg__exr_close(WgExrIn *in)
     if (in->dec_ready) exr_decoding_destroy(in->ctx, &in->dec);
     exr_finish(&in->ctx);
     free(in->alpha);
+    free(in->chunk);
     free(in);
 }
 
@@ -246,21 +473,33 @@ int wg__exr_open(const char *path, WgExrIn **out, int *w, int *h, int *c, int *s
     init.error_handler_fn = quiet;
     int parts = 0;
     exr_storage_t storage;
-    exr_attr_box2i_t dw;
+    exr_attr_box2i_t dw, disp;
     const exr_attr_chlist_t *cl = NULL;
     int32_t lines = 0;
+    /* wg__exr_check has bounded both windows' sides to 1..WG_MAX_SIDE */
     if (exr_start_read(&in->ctx, path, &init) || exr_get_count(in->ctx, &parts) || parts != 1 ||
         exr_get_storage(in->ctx, 0, &storage) || storage != EXR_STORAGE_SCANLINE ||
-        exr_get_data_window(in->ctx, 0, &dw) || dw.min.x != 0 || dw.min.y != 0 || dw.max.x < 0 ||
-        dw.max.y < 0 || exr_get_channels(in->ctx, 0, &cl) || !cl ||
-        !native_channels(cl, &in->c, in->file_index) ||
+        exr_get_data_window(in->ctx, 0, &dw) || exr_get_display_window(in->ctx, 0, &disp) ||
+        (int64_t)dw.max.x - dw.min.x + 1 < 1 || (int64_t)dw.max.x - dw.min.x + 1 > WG_MAX_SIDE ||
+        (int64_t)dw.max.y - dw.min.y + 1 < 1 || (int64_t)dw.max.y - dw.min.y + 1 > WG_MAX_SIDE ||
+        (int64_t)disp.max.x - disp.min.x + 1 < 1 ||
+        (int64_t)disp.max.x - disp.min.x + 1 > WG_MAX_SIDE ||
+        (int64_t)disp.max.y - disp.min.y + 1 < 1 ||
+        (int64_t)disp.max.y - disp.min.y + 1 > WG_MAX_SIDE || exr_get_channels(in->ctx, 0, &cl) ||
+        !cl || !native_channels(cl, &in->c, in->file_index) ||
         exr_get_scanlines_per_chunk(in->ctx, 0, &lines) || lines < 1 || lines > 256) {
         if (in->ctx) exr_finish(&in->ctx);
         free(in);
         return 1;
     }
-    in->w = dw.max.x + 1;
-    in->h = dw.max.y + 1;
+    in->w = (int)((int64_t)disp.max.x - disp.min.x + 1);
+    in->h = (int)((int64_t)disp.max.y - disp.min.y + 1);
+    in->dw = (int)((int64_t)dw.max.x - dw.min.x + 1);
+    in->dh = (int)((int64_t)dw.max.y - dw.min.y + 1);
+    in->x0 = (int64_t)dw.min.x - disp.min.x;
+    in->y0 = (int64_t)dw.min.y - disp.min.y;
+    in->data_y = dw.min.y;
+    in->windowed = in->x0 || in->y0 || in->dw != in->w || in->dh != in->h;
     in->lines = lines;
     *w = in->w;
     *h = in->h;
@@ -271,6 +510,94 @@ int wg__exr_open(const char *path, WgExrIn **out, int *w, int *h, int *c, int *s
     return 0;
 }
 
+size_t wg__exr_chunk_bytes(const WgExrIn *in)
+{
+    return in->windowed ? (size_t)in->dw * (size_t)in->lines * (size_t)in->c * sizeof(float) : 0;
+}
+
+/* Set up the decoder for the chunk holding file row y; channel k of [cb, ce) is decoded to
+ * `to(k)`: base + (k - cb) * kstep, pixels xstride and rows ystride bytes apart. */
+static exr_result_t decode_chunk(WgExrIn *in, int32_t y, int cb, int ce, uint8_t *base,
+                                 ptrdiff_t kstep, ptrdiff_t xstride, ptrdiff_t ystride,
+                                 bool split_alpha, exr_chunk_info_t *ci)
+{
+    exr_result_t rv = exr_read_scanline_chunk_info(in->ctx, 0, y, ci);
+    if (!rv)
+        rv = in->dec_ready ? exr_decoding_update(in->ctx, 0, ci, &in->dec)
+                           : exr_decoding_initialize(in->ctx, 0, ci, &in->dec);
+    if (rv) return rv;
+    in->dec_ready = true;
+    for (int i = 0; i < in->dec.channel_count; i++) {
+        exr_coding_channel_info_t *ch = &in->dec.channels[i];
+        ch->decode_to_ptr = NULL; /* channels outside [cb, ce) are skipped */
+        ch->user_pixel_stride = (int32_t)xstride;
+        ch->user_line_stride = (int32_t)ystride;
+        for (int k = cb; k < ce; k++) {
+            if (in->file_index[k] != i) continue;
+            ch->decode_to_ptr = base + (ptrdiff_t)(k - cb) * kstep;
+            if (split_alpha && k == cb + 3) {
+                ch->decode_to_ptr = (uint8_t *)in->alpha;
+                ch->user_pixel_stride = (int32_t)sizeof(float);
+                ch->user_line_stride = (int32_t)((size_t)in->w * sizeof(float));
+            }
+        }
+        ch->user_bytes_per_element = 4;
+        ch->user_data_type = EXR_PIXEL_FLOAT;
+    }
+    rv = exr_decoding_choose_default_routines(in->ctx, 0, &in->dec);
+    if (!rv) rv = exr_decoding_run(in->ctx, 0, &in->dec);
+    return rv;
+}
+
+static int damaged(WgExrIn *in, int64_t r, exr_result_t rv, char *msg, size_t msg_size)
+{
+    int64_t last = r + in->lines - 1 < in->dh ? r + in->lines - 1 : in->dh - 1;
+    snprintf(msg, msg_size, "the EXR data is damaged: rows %lld to %lld: %s",
+             (long long)(r + in->data_y), (long long)(last + in->data_y),
+             exr_get_default_error_message(rv));
+    return -1;
+}
+
+/* Rows of a file whose data window is not the display window: zeros, then the chunks that
+ * cross [y0, y1) decoded one at a time into planes and their part inside the image copied. */
+static int read_windowed(WgExrIn *in, int y0, int y1, int cb, int ce, float *data,
+                         ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size)
+{
+    for (int y = y0; y < y1; y++)
+        for (int x = 0; x < in->w; x++)
+            memset((uint8_t *)data + (ptrdiff_t)(y - y0) * ystride + x * xstride, 0,
+                   (size_t)(ce - cb) * sizeof(float));
+    /* the data rows (from the data window's top) that land in [y0, y1) */
+    int64_t r0 = y0 - in->y0, r1 = y1 - in->y0;
+    if (r0 < 0) r0 = 0;
+    if (r1 > in->dh) r1 = in->dh;
+    if (r0 >= r1) return 0;
+    size_t plane = (size_t)in->dw * (size_t)in->lines;
+    if (!in->chunk && !(in->chunk = malloc(plane * (size_t)in->c * sizeof(float)))) {
+        snprintf(msg, msg_size, "out of memory");
+        return -1;
+    }
+    int64_t xa = in->x0 < 0 ? -in->x0 : 0, xb = in->w - in->x0 < in->dw ? in->w - in->x0 : in->dw;
+    for (int64_t r = r0 - r0 % in->lines; r < r1; r += in->lines) {
+        exr_chunk_info_t ci;
+        exr_result_t rv = decode_chunk(in, (int32_t)(in->data_y + r), cb, ce, (uint8_t *)in->chunk,
+                                       (ptrdiff_t)(plane * sizeof(float)), sizeof(float),
+                                       (ptrdiff_t)in->dw * sizeof(float), false, &ci);
+        if (rv) return damaged(in, r, rv, msg, msg_size);
+        for (int rr = 0; rr < ci.height; rr++) {
+            int64_t row = r + rr;
+            if (row < r0 || row >= r1) continue;
+            uint8_t *dst = (uint8_t *)data + (ptrdiff_t)(in->y0 + row - y0) * ystride;
+            for (int64_t x = xa; x < xb; x++)
+                for (int k = 0; k < ce - cb; k++)
+                    memcpy(dst + (ptrdiff_t)(in->x0 + x) * xstride + k * (ptrdiff_t)sizeof(float),
+                           in->chunk + (size_t)k * plane + (size_t)rr * (size_t)in->dw + (size_t)x,
+                           sizeof(float));
+        }
+    }
+    return 0;
+}
+
 /* Four channels decoded into one interleaved buffer take a fast path in OpenEXR 3.1 that puts
  * them in the wrong places for half data (alpha lands in red). Decoding the fourth channel into
  * a buffer of its own makes the layout non-interleaved, which the general routine handles; it is
@@ -278,6 +605,8 @@ int wg__exr_open(const char *path, WgExrIn **out, int *w, int *h, int *c, int *s
 int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
                       ptrdiff_t ystride, char *msg, size_t msg_size)
 {
+    if (in->windowed)
+        return read_windowed(in, y0, y1, cb, ce, data, xstride, ystride, msg, msg_size);
     bool split = ce - cb == 4;
     if (split && !in->alpha) {
         in->alpha = malloc((size_t)in->w * (size_t)in->lines * sizeof(float));
@@ -287,45 +616,17 @@ int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, 
         }
     }
     for (int y = y0; y < y1; y += in->lines) {
+        /* y is the first row of a chunk: strips are whole chunks */
         exr_chunk_info_t ci;
-        exr_result_t rv = exr_read_scanline_chunk_info(in->ctx, 0, y, &ci);
-        if (!rv)
-            rv = in->dec_ready ? exr_decoding_update(in->ctx, 0, &ci, &in->dec)
-                               : exr_decoding_initialize(in->ctx, 0, &ci, &in->dec);
-        if (!rv) {
-            in->dec_ready = true;
-            for (int i = 0; i < in->dec.channel_count; i++) {
-                exr_coding_channel_info_t *ch = &in->dec.channels[i];
-                ch->decode_to_ptr = NULL; /* channels outside [cb, ce) are skipped */
-                ch->user_pixel_stride = (int32_t)xstride;
-                ch->user_line_stride = (int32_t)ystride;
-                for (int k = cb; k < ce; k++) {
-                    if (in->file_index[k] != i) continue;
-                    ch->decode_to_ptr = (uint8_t *)data + (ptrdiff_t)(ci.start_y - y0) * ystride +
-                                        (ptrdiff_t)(k - cb) * (ptrdiff_t)sizeof(float);
-                    if (split && k == cb + 3) {
-                        ch->decode_to_ptr = (uint8_t *)in->alpha;
-                        ch->user_pixel_stride = (int32_t)sizeof(float);
-                        ch->user_line_stride = (int32_t)((size_t)in->w * sizeof(float));
-                    }
-                }
-                ch->user_bytes_per_element = 4;
-                ch->user_data_type = EXR_PIXEL_FLOAT;
-            }
-            rv = exr_decoding_choose_default_routines(in->ctx, 0, &in->dec);
-        }
-        if (!rv) rv = exr_decoding_run(in->ctx, 0, &in->dec);
+        exr_result_t rv = decode_chunk(in, in->data_y + y, cb, ce,
+                                       (uint8_t *)data + (ptrdiff_t)(y - y0) * ystride,
+                                       (ptrdiff_t)sizeof(float), xstride, ystride, split, &ci);
         for (int r = 0; !rv && split && r < ci.height; r++) {
-            uint8_t *row = (uint8_t *)data + (ptrdiff_t)(ci.start_y - y0 + r) * ystride;
+            uint8_t *row = (uint8_t *)data + (ptrdiff_t)(y - y0 + r) * ystride;
             const float *a = in->alpha + (size_t)r * (size_t)in->w;
             for (int x = 0; x < in->w; x++) memcpy(row + x * xstride + 3 * sizeof(float), a + x, 4);
         }
-        if (rv) {
-            snprintf(msg, msg_size, "the EXR data is damaged: rows %d to %d: %s", y,
-                     y + in->lines - 1 < in->h ? y + in->lines - 1 : in->h - 1,
-                     exr_get_default_error_message(rv));
-            return -1;
-        }
+        if (rv) return damaged(in, y, rv, msg, msg_size);
     }
     return 0;
 }

@@ -6,13 +6,16 @@
  * structure (lengths, the CRC-32 of every chunk, IHDR first, IEND present) up to the first
  * IDAT chunk when probing (which also reads the size and channels from the IHDR and tRNS
  * chunks, so that checking a graph needs no OpenImageIO) and to IEND when reading; the IHDR
- * values; and, when reading, the zlib stream of the IDAT chunks, inflated into a small window:
- * it must decode (zlib's own checks, with its Adler-32), give at least the bytes the IHDR
- * promises, and every row of a non-interlaced image must start with a filter type 0..4.
- * Decoding (wg__png_read: 8- and 16-bit gray, gray-alpha, RGB and RGBA, not interlaced, no
- * tRNS) happens in the same pass: each row of the window is unfiltered (section 9) and handed
- * over as soon as it is complete, so a PNG is inflated once, with two rows of memory. Other PNGs
- * are only checked (one inflate thrown away) and then read by OpenImageIO. */
+ * values; the chunk rules libpng enforces as errors (one IHDR, at most one PLTE of 1 to 256
+ * colours, a PLTE before the image data of a palette image, the IDAT chunks consecutive, no
+ * chunk longer than libpng's limit) and the PNG rule that an unknown critical chunk (uppercase
+ * first letter) makes the file undecodable; and, when reading, the zlib stream of the IDAT chunks,
+ * inflated into a small window: it must decode (zlib's own checks, with its Adler-32), give at
+ * least the bytes the IHDR promises, and every row (of every Adam7 pass when interlaced) must start
+ * with a filter type 0..4. Decoding (wg__png_read: 8- and 16-bit gray, gray-alpha, RGB and RGBA,
+ * not interlaced, no tRNS) happens in the same pass: each row of the window is unfiltered (section
+ * 9) and handed over as soon as it is complete, so a PNG is inflated once, with two rows of memory.
+ * Other PNGs are only checked (one inflate thrown away) and then read by OpenImageIO. */
 #include "internal.h"
 
 #include <stdio.h>
@@ -30,8 +33,12 @@ static uint32_t be32(const unsigned char *p)
 typedef struct ImageData {
     bool have_header;
     uint64_t expected;  /* bytes of filtered rows */
-    uint64_t row_bytes; /* filter byte + one row, non-interlaced; 0: rows not checked */
+    uint64_t row_bytes; /* filter byte + one row, non-interlaced */
     uint64_t next_row;  /* offset of the next row's filter byte */
+    /* the rows of each pass (one pass when not interlaced, Adam7's seven when interlaced, empty
+     * ones left out), and the row next_row is in */
+    uint64_t pass_rows[7], pass_bytes[7], row_in_pass, row_number;
+    int passes, pass;
     uint64_t got;
     z_stream z;
     bool z_open, z_end;
@@ -179,6 +186,9 @@ static int read_header(ImageData *d, const unsigned char *h, uint32_t len, char 
     if (!interlace) {
         d->row_bytes = 1 + row_size(w, bpp);
         d->expected = (uint64_t)ht * d->row_bytes;
+        d->pass_rows[0] = ht;
+        d->pass_bytes[0] = d->row_bytes;
+        d->passes = 1;
     } else {
         static const int x0[7] = {0, 4, 0, 2, 0, 1, 0}, y0[7] = {0, 0, 4, 0, 2, 0, 1};
         static const int dx[7] = {8, 8, 4, 4, 2, 2, 1}, dy[7] = {8, 8, 8, 4, 4, 2, 2};
@@ -186,7 +196,10 @@ static int read_header(ImageData *d, const unsigned char *h, uint32_t len, char 
         for (int p = 0; p < 7; p++) {
             uint64_t pw = w > (uint32_t)x0[p] ? (w - x0[p] + dx[p] - 1) / dx[p] : 0;
             uint64_t ph = ht > (uint32_t)y0[p] ? (ht - y0[p] + dy[p] - 1) / dy[p] : 0;
-            if (pw && ph) d->expected += ph * (1 + row_size(pw, bpp));
+            if (!pw || !ph) continue;
+            d->expected += ph * (1 + row_size(pw, bpp));
+            d->pass_rows[d->passes] = ph;
+            d->pass_bytes[d->passes++] = 1 + row_size(pw, bpp);
         }
     }
     d->have_header = true;
@@ -216,15 +229,21 @@ static int inflate_piece(ImageData *d, const unsigned char *in, size_t n, char *
         d->z.avail_out = sizeof out;
         int r = inflate(&d->z, Z_NO_FLUSH);
         uint64_t produced = sizeof out - d->z.avail_out;
-        for (; d->row_bytes && d->next_row < d->got + produced && d->next_row < d->expected;
-             d->next_row += d->row_bytes) {
+        /* every row, of every pass, starts with its filter type: libpng refuses others */
+        while (d->pass < d->passes && d->next_row < d->got + produced) {
             unsigned char filter = out[d->next_row - d->got];
             if (filter > 4) {
                 snprintf(msg, size,
                          "the file is damaged: row %llu of its image data has filter type %d "
                          "(0 to 4 exist)",
-                         (unsigned long long)(d->next_row / d->row_bytes), filter);
+                         (unsigned long long)d->row_number, filter);
                 return -1;
+            }
+            d->next_row += d->pass_bytes[d->pass];
+            d->row_number++;
+            if (++d->row_in_pass == d->pass_rows[d->pass]) {
+                d->pass++;
+                d->row_in_pass = 0;
             }
         }
         if (d->sink) feed(d, out, (size_t)produced);
@@ -262,6 +281,91 @@ static bool decodable(const PngInfo *info)
            !info->interlace;
 }
 
+/* What the chunks after IHDR have shown so far. */
+typedef struct ChunkOrder {
+    bool plte, idat, after_idat;
+} ChunkOrder;
+
+/* The most libpng accepts in one chunk (png_check_chunk_length): 8,000,000 bytes
+ * (PNG_USER_CHUNK_MALLOC_MAX), or for IDAT what the whole image could take compressed at
+ * worst, whichever is larger. */
+static uint64_t chunk_limit(const PngInfo *h, const char *type)
+{
+    static const int channels[7] = {1, 0, 3, 1, 2, 0, 4};
+    uint64_t limit = 8000000;
+    if (strcmp(type, "IDAT")) return limit;
+    uint64_t factor =
+        (uint64_t)h->width * (uint64_t)channels[h->colour_type] * (h->depth > 8 ? 2 : 1) + 1 +
+        (h->interlace ? 6 : 0);
+    uint64_t idat = h->height > 0xffffffffu / factor ? 0x7fffffffu : h->height * factor;
+    if (factor > 32566) factor = 32566;
+    idat += 6 + 5 * (idat / factor + 1);
+    if (idat > 0x7fffffffu) idat = 0x7fffffffu;
+    return idat > limit ? idat : limit;
+}
+
+/* The chunk rules libpng enforces as errors (which it prints to stderr itself), and the PNG
+ * rule that a decoder must refuse a critical chunk it does not know (specification, 2nd
+ * edition, section 5.4: an uppercase first letter makes a chunk critical). */
+static int check_order(ChunkOrder *o, const PngInfo *h, const char *type, uint32_t len,
+                       long long at, char *msg, size_t size)
+{
+    bool critical = type[0] >= 'A' && type[0] <= 'Z';
+    if (!strcmp(type, "IHDR")) {
+        snprintf(msg, size, "the file is damaged: a second IHDR chunk at byte %lld", at);
+        return -1;
+    }
+    if (critical && strcmp(type, "PLTE") && strcmp(type, "IDAT") && strcmp(type, "IEND")) {
+        snprintf(msg, size,
+                 "its chunk %s at byte %lld is critical (its first letter is uppercase) and not "
+                 "one this reader knows, so the image cannot be decoded",
+                 type, at);
+        return -1;
+    }
+    if (len > chunk_limit(h, type)) {
+        snprintf(msg, size,
+                 "the file is damaged: its %s chunk at byte %lld declares %u bytes, more than "
+                 "this image can have (%llu)",
+                 type, at, len, (unsigned long long)chunk_limit(h, type));
+        return -1;
+    }
+    if (!strcmp(type, "PLTE")) {
+        if (o->plte) {
+            snprintf(msg, size, "the file is damaged: a second PLTE chunk at byte %lld", at);
+            return -1;
+        }
+        o->plte = true;
+        if (h->colour_type == 3 && (len == 0 || len > 768 || len % 3)) {
+            snprintf(msg, size,
+                     "the file is damaged: its PLTE chunk at byte %lld is %u bytes (3 per colour, "
+                     "1 to 256 colours)",
+                     at, len);
+            return -1;
+        }
+    }
+    /* the image data is one run of IDAT chunks (section 5.6): libpng stops at the first other
+     * chunk and finds the data short */
+    if (strcmp(type, "IDAT") && o->idat) o->after_idat = true;
+    if (!strcmp(type, "IDAT") && o->after_idat) {
+        snprintf(msg, size,
+                 "the file is damaged: its image data is interrupted (an IDAT chunk at byte %lld "
+                 "follows another chunk after the first IDAT; they must be consecutive)",
+                 at);
+        return -1;
+    }
+    if (!strcmp(type, "IDAT") && !o->idat) {
+        o->idat = true;
+        if (h->colour_type == 3 && !o->plte) {
+            snprintf(msg, size,
+                     "the file is damaged: it has a palette colour type but no PLTE chunk before "
+                     "its image data (IDAT at byte %lld)",
+                     at);
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* 1: not a PNG (or, with a sink, not one decoded here: nothing was read); 0: fine; -1: damaged,
  * with msg. With a sink, the rows go to it as they are inflated. */
 static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *sink, char *msg,
@@ -276,6 +380,8 @@ static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *si
         return 1;
     }
     ImageData data = {0};
+    PngInfo hdr = {0};
+    ChunkOrder order = {0};
     int rc = 0;
     long long at = 8;
     bool ended = false;
@@ -308,6 +414,7 @@ static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *si
             rc = -1;
             break;
         }
+        if (index > 0 && (rc = check_order(&order, &hdr, type, len, at, msg, size))) break;
         if (!whole && !strcmp(type, "IDAT")) break;
         if (sink && !data.sink && !strcmp(type, "IDAT")) {
             /* the header and tRNS are known: decode here or leave the file to OpenImageIO */
@@ -367,6 +474,13 @@ static int walk(const char *path, bool whole, PngInfo *info, const WgPngSink *si
             break;
         }
         if (is_header && (rc = read_header(&data, header, len, msg, size))) break;
+        if (is_header) {
+            hdr.width = be32(header);
+            hdr.height = be32(header + 4);
+            hdr.depth = header[8];
+            hdr.colour_type = header[9];
+            hdr.interlace = header[12];
+        }
         if (is_header && info) {
             info->width = be32(header);
             info->height = be32(header + 4);

@@ -432,7 +432,8 @@ static void test_colour_file_maps_to_rgba_or_luminance(void **state)
     wg_image_unref(img);
 }
 
-static void test_gray_alpha_file_reads_as_gray(void **state)
+/* Into gray: the gray channel; into colour: gray in R, G and B and the file's alpha. */
+static void test_gray_alpha_file_reads_as_gray_or_gray_and_alpha(void **state)
 {
     (void)state;
     /* a 2-channel (gray + alpha) PNG, written through the bridge directly */
@@ -448,7 +449,7 @@ static void test_gray_alpha_file_reads_as_gray(void **state)
     assert_int_equal(c->channels, 4);
     for (int x = 0; x < 4; x++) {
         assert_float_equal(wgt_px(c, x, 0, 1) * 255.0, data[2 * x], 1e-4);
-        assert_true(wgt_px(c, x, 0, 3) == 1.0f);
+        assert_float_equal(wgt_px(c, x, 0, 3) * 255.0, data[2 * x + 1], 1e-4);
     }
     wg_image_unref(c);
     wg_image_unref(g);
@@ -1703,7 +1704,7 @@ static void test_integer_files_read_as_openimageio_floats(void **state)
                         for (int k = 0; k < colour; k++)
                             want[k] = cs ? wg_srgb_to_linear(r[k]) : r[k];
                         if (colour == 1) want[1] = want[2] = want[0];
-                        want[3] = c == 4 ? r[3] : 1.0f;
+                        want[3] = c == 4 ? r[3] : c == 2 ? r[1] : 1.0f;
                         float lum = wg__luminance(want);
                         for (int k = 0; k < channels; k++) {
                             float e = channels == 1 ? (colour == 1 ? want[0] : lum) : want[k];
@@ -1845,7 +1846,7 @@ int main(void)
         cmocka_unit_test(test_srgb_decode_table_is_exact),
         cmocka_unit_test(test_gray_file_maps_to_gray_or_rgba),
         cmocka_unit_test(test_colour_file_maps_to_rgba_or_luminance),
-        cmocka_unit_test(test_gray_alpha_file_reads_as_gray),
+        cmocka_unit_test(test_gray_alpha_file_reads_as_gray_or_gray_and_alpha),
         cmocka_unit_test(test_alpha_stays_unassociated_in_png),
         cmocka_unit_test(test_rgb_written_when_alpha_is_one),
         cmocka_unit_test(test_default_format_is_png16_for_gray_png8_for_colour),
