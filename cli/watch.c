@@ -118,11 +118,21 @@ static bool files_changed(const FileSet *s)
     return false;
 }
 
-/* The kernel's coarse real-time clock, which file timestamps are taken from. */
-static struct timespec file_clock(void)
+/* Bounds on the file timestamps of changes made from now on (before) or up to now (after).
+ * File systems stamp a change from the kernel's coarse clock, or (multigrain timestamps, Linux
+ * 6.13 and later) from the fine one when the file's times were looked at since, which can be
+ * ahead of the coarse clock: the coarse clock is a lower bound, the fine one an upper bound. */
+static struct timespec file_clock_before(void)
 {
     struct timespec t;
     clock_gettime(CLOCK_REALTIME_COARSE, &t);
+    return t;
+}
+
+static struct timespec file_clock_after(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_REALTIME, &t);
     return t;
 }
 
@@ -140,7 +150,7 @@ static bool ts_before(struct timespec a, struct timespec b)
  * the future (another machine's clock) is left alone, or it would be read again for ever. */
 static void files_forget_recent(FileSet *s, struct timespec from)
 {
-    struct timespec to = file_clock();
+    struct timespec to = file_clock_after();
     for (int i = 0; i < s->n; i++) {
         File *f = &s->f[i];
         if (f->exists && !ts_before(f->st.st_ctim, from) && !ts_before(to, f->st.st_ctim))
@@ -374,7 +384,7 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
     WgResult *res = NULL;
     WgError err = {0};
     double t0 = now_ms();
-    struct timespec read_from = file_clock(); /* before any file is stat'ed or read */
+    struct timespec read_from = file_clock_before(); /* before any file is stat'ed or read */
 #ifdef WG_HAVE_SERVE
     /* the parameter changes from the web view, read as the render starts: changes made since
      * the last render are applied together */
