@@ -222,7 +222,8 @@ enum { S = 128 }; /* the scene's maps, the atlas and both renders */
 /* The scene: a sky, its env_prefilter atlas, a relief (heights exactly 0..1), normals from the
  * `normal` node, colour, roughness 0.15..0.45 (the prefiltered levels the GPU's mip chain keeps
  * sharp), a metallic band, ao, water standing at height 0.45 over the low half with a soft mask,
- * and the preview node's render of it all (linear radiance, no tone mapping). */
+ * and the preview node's render of it all (linear radiance, no tone mapping; the environment
+ * turned 30 degrees and the exposure at -0.5 stops, so both conventions are compared too). */
 static const char scene_xml[] =
     "<wetgraph version=\"1\" size=\"128\">\n"
     "  <param name=\"sun\" type=\"bool\" default=\"false\"/>\n"
@@ -249,7 +250,8 @@ static const char scene_xml[] =
     "from=\"water_height\"/></node>\n"
     "  <node id=\"water_roughness\" type=\"pixel\" expr=\"0.05\"/>\n"
     "  <node id=\"water_specular\" type=\"pixel\" expr=\"0.02\"/>\n"
-    "  <node id=\"preview\" type=\"preview\" elevation=\"50\" azimuth=\"20\" zoom=\"2.5\"\n"
+    "  <node id=\"preview\" type=\"preview\" elevation=\"50\" azimuth=\"20\" zoom=\"2.5\" "
+    "env_rotation=\"30\" exposure=\"-0.5\"\n"
     "        tonemap=\"none\" encoding=\"linear\" sun=\"=sun\" sun_elevation=\"35\" "
     "sun_azimuth=\"120\"\n"
     "        sun_intensity=\"3\" sun_color=\"1 0.95 0.9\" water_tint=\"0.3 0.7 0.6\" "
@@ -264,7 +266,8 @@ static const char scene_xml[] =
     "    <in name=\"water_specular\" from=\"water_specular\"/><in name=\"water_mask\" "
     "from=\"water_mask\"/>\n"
     "  </node>\n"
-    "  <node id=\"dry\" type=\"preview\" elevation=\"50\" azimuth=\"20\" zoom=\"2.5\"\n"
+    "  <node id=\"dry\" type=\"preview\" elevation=\"50\" azimuth=\"20\" zoom=\"2.5\" "
+    "env_rotation=\"30\" exposure=\"-0.5\"\n"
     "        tonemap=\"none\" encoding=\"linear\" sun=\"=sun\" sun_elevation=\"35\" "
     "sun_azimuth=\"120\"\n"
     "        sun_intensity=\"3\" sun_color=\"1 0.95 0.9\">\n"
@@ -414,8 +417,8 @@ static LayeredStats run_layered(bool sun)
     wgt_gl_set1f(prog, "prefiltered_levels", 5);
     wgt_gl_set1f(prog, "height_scale", 0.04f);
     wgt_gl_set1i(prog, "pom_steps", 48);
-    wgt_gl_set1f(prog, "env_rotation", 0);
-    wgt_gl_set1f(prog, "exposure", 0);
+    wgt_gl_set1f(prog, "env_rotation", 30 * deg);
+    wgt_gl_set1f(prog, "exposure", -0.5f);
     wgt_gl_set1i(prog, "sun", sun);
     float se = 35 * deg, sa = 120 * deg;
     wgt_gl_set3f(prog, "sun_dir", cosf(se) * cosf(sa), cosf(se) * sinf(sa), sinf(se));
