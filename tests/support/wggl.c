@@ -14,6 +14,7 @@
 #include <EGL/eglext.h>
 #include <GL/glcorearb.h>
 #include <dlfcn.h>
+#include <link.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -131,6 +132,19 @@ static EGLDisplay open_display(char *why, size_t n)
     return EGL_NO_DISPLAY;
 }
 
+/* Keep every library the driver loaded mapped until the process ends (RTLD_NODELETE): GLVND
+ * unloads the vendor library at exit, and LeakSanitizer, which reports after that, could then
+ * neither name nor suppress the allocations Mesa keeps for the process's life. */
+static int pin_library(struct dl_phdr_info *info, size_t size, void *user)
+{
+    (void)size, (void)user;
+    const char *name = info->dlpi_name;
+    if (name && (strstr(name, "_dri.so") || strstr(name, "libEGL_mesa") ||
+                 strstr(name, "libglapi") || strstr(name, "libgallium")))
+        dlopen(name, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    return 0;
+}
+
 bool wgt_gl_open(char *why, size_t n)
 {
     /* llvmpipe: the same rasteriser on every machine, and no GPU device files needed */
@@ -169,6 +183,7 @@ bool wgt_gl_open(char *why, size_t n)
         return give_up(why, n, "%s", "no OpenGL 3.3 core context on the EGL display");
     if (!p_eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
         return give_up(why, n, "%s", "cannot make the OpenGL context current without a surface");
+    dl_iterate_phdr(pin_library, NULL);
 #define LOAD_GL(type, name)                                                                        \
     if (!(p_##name = (type)p_eglGetProcAddress(#name)))                                            \
         return give_up(why, n, "the GL driver has no %s", #name);
