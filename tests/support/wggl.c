@@ -94,6 +94,7 @@ GL_FUNCS(DECLARE)
 static void *egl_lib;
 static EGLDisplay display = EGL_NO_DISPLAY;
 static EGLContext context = EGL_NO_CONTEXT;
+static const char *display_kind = "";
 
 static bool give_up(char *why, size_t n, const char *fmt, const char *arg)
 {
@@ -110,7 +111,10 @@ static EGLDisplay open_display(char *why, size_t n)
     EGLint major, minor;
     if (ext && get_platform && strstr(ext, "EGL_MESA_platform_surfaceless")) {
         EGLDisplay d = get_platform(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
-        if (d != EGL_NO_DISPLAY && p_eglInitialize(d, &major, &minor)) return d;
+        if (d != EGL_NO_DISPLAY && p_eglInitialize(d, &major, &minor)) {
+            display_kind = "surfaceless platform";
+            return d;
+        }
     }
     PFNEGLQUERYDEVICESEXTPROC query_devices =
         (PFNEGLQUERYDEVICESEXTPROC)p_eglGetProcAddress("eglQueryDevicesEXT");
@@ -120,11 +124,17 @@ static EGLDisplay open_display(char *why, size_t n)
         if (query_devices(16, devices, &count))
             for (EGLint i = 0; i < count; i++) {
                 EGLDisplay d = get_platform(EGL_PLATFORM_DEVICE_EXT, devices[i], NULL);
-                if (d != EGL_NO_DISPLAY && p_eglInitialize(d, &major, &minor)) return d;
+                if (d != EGL_NO_DISPLAY && p_eglInitialize(d, &major, &minor)) {
+                    display_kind = "EGL device";
+                    return d;
+                }
             }
     }
     EGLDisplay d = p_eglGetDisplay(EGL_DEFAULT_DISPLAY);
-    if (d != EGL_NO_DISPLAY && p_eglInitialize(d, &major, &minor)) return d;
+    if (d != EGL_NO_DISPLAY && p_eglInitialize(d, &major, &minor)) {
+        display_kind = "default display";
+        return d;
+    }
     snprintf(why, n,
              "no EGL display (surfaceless, device or default) could be initialised "
              "(EGL error 0x%x): no GL driver; install libegl-mesa0 and libgl1-mesa-dri",
@@ -208,8 +218,8 @@ void wgt_gl_close(void)
 const char *wgt_gl_describe(void)
 {
     static char text[256];
-    snprintf(text, sizeof text, "%s, %s", (const char *)p_glGetString(GL_RENDERER),
-             (const char *)p_glGetString(GL_VERSION));
+    snprintf(text, sizeof text, "%s, %s (EGL %s)", (const char *)p_glGetString(GL_RENDERER),
+             (const char *)p_glGetString(GL_VERSION), display_kind);
     return text;
 }
 
