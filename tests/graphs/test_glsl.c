@@ -311,15 +311,15 @@ static const char layered_vs[] =
 
 static const float tile[] = {0, 0, 1, 0, 1, 1, 0, 0, 1, 1, 0, 1};
 
-/* One block of the env_prefilter atlas (2 across, 4 down), box-filtered down by 2^level. */
-static WgImage *atlas_block(const WgImage *atlas, int block, int level, int x0, int w0, int h0)
+/* The top-left w0 x h0 pixels of block `block` of the env_prefilter atlas (2 across, 4 down),
+ * box-filtered down by 2^level (to at least 1 x 1), as a GL mip level. */
+static WgImage *atlas_block(const WgImage *atlas, int block, int level, int w0, int h0)
 {
     int bw = atlas->width / 2, bh = atlas->height / 4;
-    int k = 1 << level, w = w0 >> level, h = h0 >> level;
+    int w = w0 >> level, h = h0 >> level;
     if (w < 1) w = 1;
     if (h < 1) h = 1;
     int kx = w0 / w, ky = h0 / h;
-    (void)k;
     WgImage *out = wg_image_new(w, h, 4);
     assert_non_null(out);
     for (int y = 0; y < h; y++)
@@ -328,8 +328,8 @@ static WgImage *atlas_block(const WgImage *atlas, int block, int level, int x0, 
                 double s = 0;
                 for (int j = 0; j < ky; j++)
                     for (int i = 0; i < kx; i++)
-                        s += wgt_px(atlas, block % 2 * bw + x0 + x * kx + i,
-                                    block / 2 * bh + y * ky + j, c);
+                        s += wgt_px(atlas, block % 2 * bw + x * kx + i, block / 2 * bh + y * ky + j,
+                                    c);
                 wg_image_row(out, y)[4 * x + c] = (float)(s / (kx * ky));
             }
     return out;
@@ -339,6 +339,10 @@ typedef struct {
     double mean_abs, mean_cpu, wet_effect;
     int covered;
 } LayeredStats;
+
+/* Set a uniform of the layered shader: one it no longer has is an error, not a silent default. */
+#define NEED(set, name, ...)                                                                       \
+    if (!set(prog, name, __VA_ARGS__)) fail_msg("wet_layered.frag has no uniform %s", name)
 
 static LayeredStats run_layered(bool sun)
 {
@@ -356,13 +360,13 @@ static LayeredStats run_layered(bool sun)
      * roughness from the top row: not flipped) */
     int bw = atlas->width / 2, bh = atlas->height / 4;
     WgImage *lv[6];
-    for (int l = 0; l < 6; l++) lv[l] = atlas_block(atlas, l, l, 0, bw, bh);
+    for (int l = 0; l < 6; l++) lv[l] = atlas_block(atlas, l, l, bw, bh);
     unsigned tex[16];
     int nt = 0;
     tex[nt++] =
         wgt_gl_texture(lv[0], WGT_GL_FLIP | WGT_GL_CLAMP_T, (const WgImage *const *)lv + 1, 5);
     wgt_gl_bind(prog, "prefiltered", 0, tex[0]);
-    WgImage *irr = atlas_block(atlas, 6, 0, 0, bw, bh), *lut = atlas_block(atlas, 7, 0, 0, bh, bh);
+    WgImage *irr = atlas_block(atlas, 6, 0, bw, bh), *lut = atlas_block(atlas, 7, 0, bh, bh);
     tex[nt] = wgt_gl_texture(irr, WGT_GL_FLIP | WGT_GL_CLAMP_T, NULL, 0);
     wgt_gl_bind(prog, "irradiance", 1, tex[nt++]);
     tex[nt] = wgt_gl_texture(lut, WGT_GL_CLAMP, NULL, 0);
@@ -408,24 +412,24 @@ static LayeredStats run_layered(bool sun)
                    back[0] * right[1] - back[1] * right[0]};
     float ul = sqrtf(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
     float dist = 0.5f / 2.5f / tan_half; /* span 1, zoom 2.5 */
-    wgt_gl_set3f(prog, "cam", 0.5f + back[0] * dist, 0.5f + back[1] * dist, back[2] * dist);
-    wgt_gl_set3f(prog, "right", right[0], right[1], right[2]);
-    wgt_gl_set3f(prog, "up", up[0] / ul, up[1] / ul, up[2] / ul);
-    wgt_gl_set3f(prog, "fwd", -back[0], -back[1], -back[2]);
-    wgt_gl_set1f(prog, "tan_half", tan_half);
-    wgt_gl_set1f(prog, "aspect", 1);
-    wgt_gl_set1f(prog, "prefiltered_levels", 5);
-    wgt_gl_set1f(prog, "height_scale", 0.04f);
-    wgt_gl_set1i(prog, "pom_steps", 48);
-    wgt_gl_set1f(prog, "env_rotation", 30 * deg);
-    wgt_gl_set1f(prog, "exposure", -0.5f);
-    wgt_gl_set1i(prog, "sun", sun);
+    NEED(wgt_gl_set3f, "cam", 0.5f + back[0] * dist, 0.5f + back[1] * dist, back[2] * dist);
+    NEED(wgt_gl_set3f, "right", right[0], right[1], right[2]);
+    NEED(wgt_gl_set3f, "up", up[0] / ul, up[1] / ul, up[2] / ul);
+    NEED(wgt_gl_set3f, "fwd", -back[0], -back[1], -back[2]);
+    NEED(wgt_gl_set1f, "tan_half", tan_half);
+    NEED(wgt_gl_set1f, "aspect", 1);
+    NEED(wgt_gl_set1f, "prefiltered_levels", 5);
+    NEED(wgt_gl_set1f, "height_scale", 0.04f);
+    NEED(wgt_gl_set1i, "pom_steps", 48);
+    NEED(wgt_gl_set1f, "env_rotation", 30 * deg);
+    NEED(wgt_gl_set1f, "exposure", -0.5f);
+    NEED(wgt_gl_set1i, "sun", sun);
     float se = 35 * deg, sa = 120 * deg;
-    wgt_gl_set3f(prog, "sun_dir", cosf(se) * cosf(sa), cosf(se) * sinf(sa), sinf(se));
-    wgt_gl_set3f(prog, "sun_radiance", 3, 3 * 0.95f, 3 * 0.9f);
-    wgt_gl_set1f(prog, "water_ior", 1.33f);
-    wgt_gl_set3f(prog, "water_tint", 0.3f, 0.7f, 0.6f);
-    wgt_gl_set1f(prog, "absorption_depth", 0.3f);
+    NEED(wgt_gl_set3f, "sun_dir", cosf(se) * cosf(sa), cosf(se) * sinf(sa), sinf(se));
+    NEED(wgt_gl_set3f, "sun_radiance", 3, 3 * 0.95f, 3 * 0.9f);
+    NEED(wgt_gl_set1f, "water_ior", 1.33f);
+    NEED(wgt_gl_set3f, "water_tint", 0.3f, 0.7f, 0.6f);
+    NEED(wgt_gl_set1f, "absorption_depth", 0.3f);
 
     WgImage *gl = wgt_gl_draw(prog, tile, 6, S, S, true);
     const WgImage *cpu = wgt_output(res, "preview"), *dry = wgt_output(res, "dry");
