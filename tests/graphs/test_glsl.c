@@ -220,8 +220,9 @@ static void test_foam_short_loop(void **state)
 enum { S = 128 }; /* the scene's maps, the atlas and both renders */
 
 /* The scene: a sky, its env_prefilter atlas, a relief (heights exactly 0..1), normals from the
- * `normal` node, colour, roughness 0.05..0.95, a metallic band, ao, and water standing at height
- * 0.55 over the low half with a soft mask. The preview node renders it (PREVIEW_ATTRS: linear
+ * `normal` node, colour, roughness 0.05..0.95, a metallic band, ao, a specular level map (used
+ * where the node and the shader take one), and water standing at height 0.55 over the low half
+ * with a soft mask. The preview node renders it (PREVIEW_ATTRS: linear
  * radiance, no tone mapping; the environment turned 30 degrees and the exposure at -0.5 stops, so
  * both conventions are compared too). */
 #define PREVIEW_ATTRS                                                                              \
@@ -252,6 +253,7 @@ static const char scene_xml[] =
     "  <node id=\"water_normal\" type=\"normal\" intensity=\"12\"><in name=\"height\" "
     "from=\"water_height\"/></node>\n"
     "  <node id=\"water_roughness\" type=\"pixel\" expr=\"0.05\"/>\n"
+    "  <node id=\"specular\" type=\"pixel\" expr=\"0.1 + 0.9 * (1 - u) * (1 - v)\"/>\n"
     "  <node id=\"water_specular\" type=\"pixel\" expr=\"0.02\"/>\n"
     "  <output name=\"atlas\" from=\"atlas\" format=\"exr32\"/>\n"
     "  <output name=\"basecolor\" from=\"basecolor\"/><output name=\"normal\" from=\"normal\"/>\n"
@@ -261,7 +263,8 @@ static const char scene_xml[] =
     "from=\"water_normal\"/>\n"
     "  <output name=\"water_roughness\" from=\"water_roughness\"/><output name=\"water_specular\" "
     "from=\"water_specular\"/>\n"
-    "  <output name=\"water_mask\" from=\"water_mask\"/>\n"
+    "  <output name=\"water_mask\" from=\"water_mask\"/><output name=\"specular\" "
+    "from=\"specular\"/>\n"
     "</wetgraph>\n";
 
 /* The plane z = 0 of the tile through the preview node's camera (preview_eval in
@@ -368,24 +371,39 @@ static LayeredStats run_layered(bool sun)
                 bilinear(lv[l], (x + 0.5) / bw, (y + 0.5) / bh, o);
                 memcpy(wg_image_row(gpu_atlas, l / 2 * bh + y) + 4 * (l % 2 * bw + x), o, sizeof o);
             }
+    /* A specular level map (F0 = 0.08 x specular) is compared when both the node (an input
+     * port `specular`) and the shader (a sampler `specular`) take one; otherwise each side uses
+     * its default 0.5, the shader's sampler (if any) reading a constant 0.5. */
+    const char *names[64];
+    int ns = wgt_gl_samplers(prog, names, 64);
+    bool shader_spec = false, node_spec = false;
+    for (int i = 0; i < ns; i++) shader_spec |= !strcmp(names[i], "specular");
+    for (const WgPortSpec *ps = wg_node_type_find("preview")->inputs; ps->name; ps++)
+        node_spec |= !strcmp(ps->name, "specular");
+    bool with_spec = shader_spec && node_spec;
+
+    /* the maps, material first (the dry render takes those alone), then the water's */
+    static const char *const maps[] = {
+        "basecolor",    "normal",          "roughness",      "height",
+        "ao",           "metallic",        "specular",       "water_height",
+        "water_normal", "water_roughness", "water_specular", "water_mask"};
     const char *in_names[13] = {"environment"};
     const WgImage *in_images[13] = {gpu_atlas};
-    int n_in = 1;
-    static const char *const map_ports[] = {"basecolor",      "normal",       "roughness",
-                                            "height",         "ao",           "metallic",
-                                            "water_height",   "water_normal", "water_roughness",
-                                            "water_specular", "water_mask"};
-    for (int i = 0; i < 11; i++, n_in++)
-        in_names[n_in] = map_ports[i], in_images[n_in] = wgt_output(res, map_ports[i]);
+    int n_in = 1, n_dry = 0;
+    for (int i = 0; i < 12; i++) {
+        if (!strcmp(maps[i], "specular") && !with_spec) continue;
+        if (!strcmp(maps[i], "water_height")) n_dry = n_in;
+        in_names[n_in] = maps[i], in_images[n_in++] = wgt_output(res, maps[i]);
+    }
     char attrs[1024];
     snprintf(attrs, sizeof attrs, PREVIEW_ATTRS "sun=\"%s\"", sun ? "true" : "false");
-    WgImage *dry = wgt_node("preview", attrs, S, S, 7, in_names, in_images, 0, 2);
+    WgImage *dry = wgt_node("preview", attrs, S, S, n_dry, in_names, in_images, 0, 2);
     snprintf(attrs, sizeof attrs,
              PREVIEW_ATTRS "sun=\"%s\" water_tint=\"0.3 0.7 0.6\" absorption_depth=\"0.3\"",
              sun ? "true" : "false");
     WgImage *cpu = wgt_node("preview", attrs, S, S, n_in, in_names, in_images, 0, 2);
 
-    unsigned tex[16];
+    unsigned tex[20];
     int nt = 0;
     tex[nt++] =
         wgt_gl_texture(lv[0], WGT_GL_FLIP | WGT_GL_CLAMP_T, (const WgImage *const *)lv + 1, 5);
@@ -396,37 +414,35 @@ static LayeredStats run_layered(bool sun)
     tex[nt] = wgt_gl_texture(lut, WGT_GL_CLAMP, NULL, 0);
     wgt_gl_bind(prog, "brdf_lut", 2, tex[nt++]);
     /* the maps: tile y up, so the image's top row goes to t = 1 */
-    static const char *const maps[] = {"basecolor",      "normal",       "roughness",
-                                       "height",         "ao",           "metallic",
-                                       "water_height",   "water_normal", "water_roughness",
-                                       "water_specular", "water_mask"};
-    for (int i = 0; i < 11; i++) {
+    for (int i = 0; i < 12; i++) {
         const char *sampler = strcmp(maps[i], "normal") ? maps[i] : "normal_map";
+        if (!strcmp(maps[i], "specular")) {
+            if (!shader_spec) continue;
+            if (!with_spec) {
+                float half[4] = {0.5f, 0.5f, 0.5f, 1};
+                WgImage *sp = wgt_image(1, 1, 4, half);
+                tex[nt] = wgt_gl_texture(sp, 0, NULL, 0);
+                wg_image_unref(sp);
+                wgt_gl_bind(prog, sampler, 3 + i, tex[nt++]);
+                continue;
+            }
+            wgt_gl_set1i(prog, "specular_from_map", 1); /* where the shader has the switch */
+        }
         tex[nt] = wgt_gl_texture(wgt_output(res, maps[i]), WGT_GL_FLIP, NULL, 0);
         wgt_gl_bind(prog, sampler, 3 + i, tex[nt++]);
     }
     /* every sampler the shader reads must be one bound here: a new map in the shader needs its
-     * counterpart in this test (and in the preview node). A `specular` map (the material's
-     * specular level) is bound at its default 0.5, the preview node's value where its port is
-     * not connected. */
-    const char *names[64];
-    int ns = wgt_gl_samplers(prog, names, 64);
+     * counterpart in this test (and in the preview node) */
     for (int i = 0; i < ns; i++) {
-        if (!strcmp(names[i], "specular")) {
-            float half[4] = {0.5f, 0.5f, 0.5f, 1};
-            WgImage *sp = wgt_image(1, 1, 4, half);
-            tex[nt] = wgt_gl_texture(sp, 0, NULL, 0);
-            wg_image_unref(sp);
-            wgt_gl_bind(prog, "specular", 3 + 11, tex[nt++]);
-            continue;
-        }
         bool known = !strcmp(names[i], "prefiltered") || !strcmp(names[i], "irradiance") ||
                      !strcmp(names[i], "brdf_lut") || !strcmp(names[i], "normal_map");
-        for (int k = 0; k < 11; k++) known |= !strcmp(names[i], maps[k]);
+        for (int k = 0; k < 12; k++) known |= !strcmp(names[i], maps[k]);
         if (!known)
             fail_msg("wet_layered.frag samples %s, which tests/graphs/test_glsl.c does not bind",
                      names[i]);
     }
+    print_message("wet_layered.frag: specular level map %s\n",
+                  with_spec ? "compared" : "not taken by both (each side at 0.5)");
     /* the preview node's parameters (its defaults where the scene leaves them) */
     const float deg = (float)(M_PI / 180);
     float el = 50 * deg, az = 20 * deg, tan_half = tanf(35 * deg / 2);
