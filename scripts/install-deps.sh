@@ -9,6 +9,9 @@ pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libope
       libmicrohttpd-dev  # `wetgraph watch --serve` (optional: built without it when missing)
       chromium  # the headless-browser test of the --serve page (tests/cli/test_serve_page.c)
       glslang-tools  # the tests validate the GLSL shaders in docs/shaders
+      # ... and execute them headless (tests/graphs/test_glsl.c): EGL and desktop GL headers,
+      # Mesa's EGL and its software rasteriser llvmpipe
+      libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks

@@ -48,6 +48,16 @@ for line in open(sys.argv[1]):
             bad=$((bad - 1))
         fi
     done
+    # a skipped test (exit 77, e.g. the GLSL tests without a GL driver) is neither: name it
+    local skipped
+    skipped=$(python3 -c '
+import json, sys
+for line in open(sys.argv[1]):
+    t = json.loads(line)
+    if t["result"] == "SKIP":
+        print(t["name"].split(" / ")[-1])
+' "$log")
+    [[ -n $skipped ]] && echo "test.sh: $dir: skipped: $(echo $skipped)" >&2
     passed=$((passed + ok))
     failed=$((failed + bad))
 }

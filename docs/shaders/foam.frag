@@ -13,8 +13,8 @@
 //
 // Differences from the graph: the anti-aliasing width is fwidth() of the mix (the graph uses
 // half its Sobel gradient magnitude per pixel), so edges may differ by a pixel; with a float
-// `maps` texture the rest agrees with the graph to float rounding (tests/graphs/test_foam.c
-// evaluates this formula on the CPU against the graph at three times).
+// `maps` texture the rest agrees with the graph to float rounding (tests/graphs/test_glsl.c runs
+// this shader on Mesa's llvmpipe and compares it with the graph at several times).
 #version 330 core
 
 uniform sampler2D maps;
@@ -46,10 +46,14 @@ out vec4 foam_out;
 
 const float TAU = 6.283185307179586;
 
-// A speed snapped to a whole number of units per loop when the animation loops.
+// A speed snapped, when the animation loops, to the nearest whole number of units per loop that
+// is not zero, keeping its sign (0 stays 0), so a short loop never freezes. floor(x + 0.5), not
+// round(): GLSL lets round(0.5) go either way (Mesa rounds halves to even), the graph rounds
+// halves up.
 float snapped(float s)
 {
-    return loop_seconds > 0.0 ? round(s * loop_seconds) / loop_seconds : s;
+    return loop_seconds > 0.0 ? sign(s) * max(1.0, floor(abs(s) * loop_seconds + 0.5)) / loop_seconds
+                              : s;
 }
 
 void main()
@@ -62,7 +66,7 @@ void main()
     float ty = fract(snapped(tex_speed_y) * time);
     float l2 = fract(snapped(layer2_speed) * time);
     float sp = fract(snapped(speed) * time);
-    float cg_freq = loop_seconds > 0.0 ? max(1.0, round(loop_seconds / come_go_period)) / loop_seconds
+    float cg_freq = loop_seconds > 0.0 ? max(1.0, floor(loop_seconds / come_go_period + 0.5)) / loop_seconds
                                        : 1.0 / come_go_period;
     float cg = sin(TAU * fract(cg_freq * time));
 

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /* graphs/foam.wetgraph and graphs/foam_pattern.wetgraph on a synthetic periodic shore that
  * crosses the tile edges: the foam is seamless at every frame (v exactly: a rolled shore gives
- * the rolled v); a looping setting gives frame N equal to frame 0; a higher threshold never adds
+ * the rolled v); a looping setting gives frame N equal to frame 0, a one-second loop still moves
+ * and every speed snaps to the nearest non-zero whole number of cycles per loop with its sign (0
+ * stays 0); a higher threshold never adds
  * foam; no foam beyond the band's sea-side edge nor inland beyond the inland reach; the nodes
  * that do not depend on $time are computed once for a sequence; T tiles and merges its two
  * layers with max; everything is finite and in range. */
@@ -147,6 +149,55 @@ static void test_loop(void **state)
     wg_result_free(a);
     wg_result_free(b);
     wg_result_free(c);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* A one-second loop at 24 fps with the default speeds, all well below one wave or tile per
+ * second: each snaps to one whole cycle per loop rather than to none, so frame 12 (t = 0.5)
+ * differs from frame 0 and frame 24 (t = 1) equals it. */
+static void test_short_loop_moves(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const sets[] = {"loop_seconds=1", NULL};
+    WgResult *f0 = render(e, shore, 0, sets), *f12 = render(e, shore, 12 / 24.0, sets),
+             *f24 = render(e, shore, 24 / 24.0, sets);
+    double moved = wgt_max_abs_diff(wgt_output(f0, "foam"), wgt_output(f12, "foam"));
+    double same = wgt_max_abs_diff(wgt_output(f0, "foam"), wgt_output(f24, "foam"));
+    if (!(moved > 0.5)) fail_msg("frame 12 of a 1 s loop differs from frame 0 by only %g", moved);
+    if (!(same <= 1e-4)) fail_msg("frame 24 of a 1 s loop differs from frame 0 by %g", same);
+    wg_result_free(f0);
+    wg_result_free(f12);
+    wg_result_free(f24);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* The snapping rule, speed by speed: with a 1 s loop, -0.2 becomes -1 (sign kept), 0.3 becomes
+ * 1, 1.4 stays 1, 2.5 becomes 3 (halves round up, as foam.frag's floor(x + 0.5)), 0 stays 0 and
+ * a 0.45 s come-and-go period becomes 2 cycles per loop: the loop renders exactly what the
+ * unlooped graph renders with those speeds set by hand, at several times. */
+static void test_snapping_rule(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const looped[] = {"loop_seconds=1",  "speed=-0.2",          "tex_speed_x=0.3",
+                                  "tex_speed_y=2.5", "warp_speed=1.4",      "layer2_speed=0",
+                                  "come_go=0.3",     "come_go_period=0.45", NULL};
+    const char *const snapped[] = {
+        "speed=-1",       "tex_speed_x=1", "tex_speed_y=3",      "warp_speed=1",
+        "layer2_speed=0", "come_go=0.3",   "come_go_period=0.5", NULL};
+    const double times[] = {0.3, 0.55, 7.2};
+    for (int i = 0; i < 3; i++) {
+        WgResult *a = render(e, shore, times[i], looped), *b = render(e, shore, times[i], snapped);
+        double d = wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(b, "foam"));
+        if (!(d <= 1e-4)) fail_msg("t=%g: snapped speeds differ from the rule by %g", times[i], d);
+        wg_result_free(a);
+        wg_result_free(b);
+    }
     wg_engine_free(e);
     wg_image_unref(shore);
 }
@@ -339,6 +390,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_seamless_at_every_frame),
         cmocka_unit_test(test_loop),
+        cmocka_unit_test(test_short_loop_moves),
+        cmocka_unit_test(test_snapping_rule),
         cmocka_unit_test(test_threshold_and_band),
         cmocka_unit_test(test_untimed_nodes_once),
         cmocka_unit_test(test_pattern),
