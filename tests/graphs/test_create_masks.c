@@ -7,7 +7,9 @@
  * the water; slopes steeper than slope_limit are never wet; the zones partition every pixel;
  * every output is finite and in range for default and extreme parameters; an affine change of
  * the height (a map using part of 0..1) changes nothing; a cyclic shift of the inputs shifts the
- * outputs; renders at two resolutions agree up to filtering. */
+ * outputs; renders at two resolutions agree up to filtering; the moist zone's reach follows the
+ * porosity (the parameter and the map, pixel by pixel), and a porosity of 0 has no moist zone,
+ * in the masks nor in the zones view. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -736,6 +738,90 @@ static void test_resolution_independence(void **state)
 
 /* The optional noise input: a constant 0.5 moves nothing (the same zones as noise_intensity 0),
  * and another noise image moves the wet edge. */
+/* Sum of a mask's values over the pixels where keep(x) holds (all pixels when keep is NULL). */
+static double mask_sum(const WgImage *m, bool (*keep)(int x))
+{
+    double s = 0;
+    for (int y = 0; y < m->height; y++)
+        for (int x = 0; x < m->width; x++)
+            if (!keep || keep(x)) s += px(m, x, y);
+    return s;
+}
+static bool left_half(int x)
+{
+    return x < 128;
+}
+static bool right_half(int x)
+{
+    return x >= 128;
+}
+/* Porosity 1 on the left half of a 256-wide map, 0 on the right. */
+static double half_porous(int x, int y, int k)
+{
+    (void)y;
+    (void)k;
+    return x < 128 ? 1 : 0;
+}
+
+/* Capillary rise needs pores: porosity 0 gives no moist zone at all (and no blue in the zones
+ * view) while the wet film stays; a lower porosity shortens the moist reach; a porosity map
+ * moves it pixel by pixel. */
+static void test_moist_follows_porosity(void **state)
+{
+    (void)state;
+    WgImage *maps[] = {bricks, wood};
+    for (int i = 0; i < 2; i++) {
+        Masks full = render(maps[i], NULL, "water_level=0.55");
+        Masks half = render(maps[i], NULL, "water_level=0.55 porosity=0.5");
+        Masks none = render(maps[i], NULL, "water_level=0.55 porosity=0");
+        double mf = mask_sum(full.moist, NULL), mh = mask_sum(half.moist, NULL);
+        assert_true(mf > 200);
+        assert_true(mh > 0.05 * mf && mh < 0.8 * mf);
+        assert_all(none.moist, 0, "moist at porosity 0");
+        /* the film does not depend on the pores */
+        wgt_assert_near(none.wet, full.wet, 1e-6);
+        wgt_assert_near(none.imm, full.imm, 0);
+
+        WgError err = {0};
+        WgRequest *r = wg_request_new(graph);
+        WgImage *pm = wgt_image_fn(256, 128, 1, half_porous);
+        if (wg_request_set_input_image(r, "height", maps[i], &err) ||
+            wg_request_set_input_image(r, "porosity_map", pm, &err) ||
+            wg_request_set(r, "water_level", "0.55", &err))
+            fail_msg("%s", err.message);
+        WgResult *res = wgt_render_request(engine, r);
+        const WgImage *moist = wgt_output(res, "moist");
+        /* where the map is 0 nothing is moist; where it is 1 the moist zone is as without it */
+        assert_true(mask_sum(moist, right_half) == 0);
+        assert_true(fabs(mask_sum(moist, left_half) - mask_sum(full.moist, left_half)) < 1e-3);
+        assert_true(mask_sum(full.moist, right_half) > 50);
+        wg_result_free(res);
+        wg_request_free(r);
+
+        /* the zones view of a non-porous material shows no moist (blue) zone */
+        r = wg_request_new(graph);
+        if (wg_request_set_input_image(r, "height", maps[i], &err) ||
+            wg_request_set(r, "water_level", "0.55", &err) ||
+            wg_request_set(r, "porosity", "0", &err) || wg_request_add_output(r, "zones", &err))
+            fail_msg("%s", err.message);
+        res = wgt_render_request(engine, r);
+        const WgImage *z = wgt_output(res, "zones");
+        for (int y = 0; y < z->height; y++)
+            for (int x = 0; x < z->width; x++) {
+                const float *p = wg_image_row(z, y) + 4 * x;
+                if (p[2] > fminf(p[0], p[1]) + 1e-6)
+                    fail_msg("zones view at (%d, %d) is blue (%g %g %g) at porosity 0", x, y, p[0],
+                             p[1], p[2]);
+            }
+        wg_result_free(res);
+        wg_request_free(r);
+        wg_image_unref(pm);
+        masks_free(&full);
+        masks_free(&half);
+        masks_free(&none);
+    }
+}
+
 static void test_noise_input(void **state)
 {
     (void)state;
@@ -775,6 +861,7 @@ int main(void)
         cmocka_unit_test(test_tiling),
         cmocka_unit_test(test_resolution_independence),
         cmocka_unit_test(test_noise_input),
+        cmocka_unit_test(test_moist_follows_porosity),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

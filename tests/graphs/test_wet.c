@@ -443,6 +443,513 @@ static void test_custom_masks_example(void **state)
     wg_graph_free(g);
 }
 
+/* ---- the darkening against Lekner & Dorf, on real materials ------------------------------- */
+
+static double luminance(const float *p)
+{
+    return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+}
+
+/* Lekner & Dorf's wet/dry albedo ratio for albedo a under a liquid of index n: (1 - r_e)(1 -
+ * r_i) / (1 - r_i a), r_i the diffuse internal reflectance (the Egan & Hilgeman fit), (1 - r_e) =
+ * n^2 (1 - r_i). */
+static double lekner_dorf_ratio(double a, double n)
+{
+    double ri = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+    return n * n * (1 - ri) * (1 - ri) / (1 - ri * a);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static WgImage *load_shared(const char *rel, int channels, WgColorspace cs, int w, int h)
+{
+    char path[2048];
+    const char *shared = getenv("WETGRAPH_SHARED");
+    if (!shared) fail_msg("WETGRAPH_SHARED is not set (run through meson test)");
+    snprintf(path, sizeof path, "%s/materials/%s", shared, rel);
+    WgError err = {0};
+    WgImage *img = NULL;
+    if (wg_image_read(path, channels, cs, &img, &err)) fail_msg("%s: %s", path, err.message);
+    WgImage *small = wg_image_convert(img, w, h, channels);
+    assert_non_null(small);
+    wg_image_unref(img);
+    return small;
+}
+
+/* With the defaults (water, porosity 1), the median per-pixel wet/dry ratio of the linear
+ * luminance, divided by Lekner & Dorf's ratio for that pixel's dry albedo, lies in [0.8, 1.25]
+ * in the wet and the immersed zones; the moist zone darkens, but less than the model. Two real
+ * materials at two water levels. */
+static void test_darkening_follows_lekner_dorf(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *color, *height;
+        int w, h;
+    } mats[] = {
+        {"bricks102_stonewall_1k/Bricks102_1K-JPG_Color.jpg",
+         "bricks102_stonewall_1k/Bricks102_1K-JPG_Displacement.jpg", 384, 192},
+        {"pavingstones130_1k/PavingStones130_1K_Color.jpg",
+         "pavingstones130_1k/PavingStones130_1K_Displacement.jpg", 256, 256},
+    };
+    const char *levels[] = {"0.5", "0.6"};
+    WgGraph *g = load_builtin("wet_material");
+    for (int mi = 0; mi < 2; mi++) {
+        WgImage *base = load_shared(mats[mi].color, 4, WG_SRGB, mats[mi].w, mats[mi].h);
+        WgImage *hgt = load_shared(mats[mi].height, 1, WG_LINEAR, mats[mi].w, mats[mi].h);
+        for (int li = 0; li < 2; li++) {
+            WgRequest *r = wg_request_new(g);
+            set_input(r, "basecolor", base);
+            set_input(r, "height", hgt);
+            set_param(r, "water_level", levels[li]);
+            WgEngine *e = wgt_engine(2, 0, NULL);
+            WgResult *res = wgt_render_request(e, r);
+            const WgImage *wet = wgt_output(res, "basecolor"), *zi = wgt_output(res, "immersed");
+            const WgImage *zw = wgt_output(res, "wet"), *zm = wgt_output(res, "moist");
+            size_t n = (size_t)base->width * base->height;
+            double *qi = malloc(n * sizeof *qi), *qw = malloc(n * sizeof *qw),
+                   *um = malloc(n * sizeof *um);
+            int ni = 0, nw = 0, nm = 0;
+            for (int y = 0; y < base->height; y++)
+                for (int x = 0; x < base->width; x++) {
+                    double a = luminance(wg_image_row(base, y) + 4 * x);
+                    if (a < 0.01) continue;
+                    double t = luminance(wg_image_row(wet, y) + 4 * x) / a;
+                    double ld = lekner_dorf_ratio(a, 1.333);
+                    if (wgt_px(zi, x, y, 0) >= 0.99) qi[ni++] = t / ld;
+                    if (wgt_px(zw, x, y, 0) >= 0.99) qw[nw++] = t / ld;
+                    if (wgt_px(zm, x, y, 0) >= 0.5) um[nm++] = (1 - t) / (1 - ld);
+                }
+            if (ni < 200 || nw < 200 || nm < 100)
+                fail_msg("%s at %s: too few pixels in a zone (%d immersed, %d wet, %d moist)",
+                         mats[mi].color, levels[li], ni, nw, nm);
+            double mi_ = median(qi, ni), mw = median(qw, nw), mm = median(um, nm);
+            if (!(mi_ >= 0.8 && mi_ <= 1.25 && mw >= 0.8 && mw <= 1.25))
+                fail_msg("%s at %s: median wet/dry over Lekner & Dorf is %.3f immersed, %.3f wet",
+                         mats[mi].color, levels[li], mi_, mw);
+            /* moist: darker than dry, lighter than fully wet (u: the share of the darkening) */
+            if (!(mm > 0.05 && mm < 1))
+                fail_msg("%s at %s: moist zone has %.3f of the model's darkening", mats[mi].color,
+                         levels[li], mm);
+            free(qi);
+            free(qw);
+            free(um);
+            wg_result_free(res);
+            wg_engine_free(e);
+            wg_request_free(r);
+        }
+        wg_image_unref(base);
+        wg_image_unref(hgt);
+    }
+    wg_graph_free(g);
+}
+
+/* ---- depths are lengths: the units of the height map do not matter ------------------------ */
+
+static double srgb_encode(double v)
+{
+    v = fmin(fmax(v, 0), 1);
+    return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1 / 2.4) - 0.055;
+}
+static double max_srgb_diff(const WgImage *a, const WgImage *b)
+{
+    double d = 0;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++)
+            for (int k = 0; k < 3; k++)
+                d = fmax(d,
+                         fabs(srgb_encode(wgt_px(a, x, y, k)) - srgb_encode(wgt_px(b, x, y, k))));
+    return d;
+}
+static double height_x1000(int x, int y, int k)
+{
+    return 1000 * height_fn(x, y, k);
+}
+
+/* A height map and the same map x1000, both float EXR files: for every liquid the same base
+ * colour (within 2/255 encoded), the same meniscus (water normals) and the same surface
+ * relative to the map. */
+static void test_depths_free_of_height_units(void **state)
+{
+    (void)state;
+    int w = 160, h = 96;
+    Material m = material(w, h);
+    WgImage *big = wgt_image_fn(w, h, 1, height_x1000);
+    const char *p1 = wgt_path("height_1.exr"), *p1000 = wgt_path("height_1000.exr");
+    WgError err = {0};
+    if (wg_image_write(p1, m.height, WG_FORMAT_EXR32, WG_LINEAR, &err) ||
+        wg_image_write(p1000, big, WG_FORMAT_EXR32, WG_LINEAR, &err))
+        fail_msg("%s", err.message);
+    WgGraph *g = load_builtin("wet_material");
+    const char *liquids[] = {"water", "muddy_water", "tea", "milk", "blood", "oil"};
+    for (int i = 0; i < 6; i++) {
+        WgResult *res[2];
+        for (int s = 0; s < 2; s++) {
+            WgRequest *r = wg_request_new(g);
+            set_input(r, "basecolor", m.base);
+            set_input(r, "normal", m.normal);
+            if (wg_request_set_input_file(r, "height", s ? p1000 : p1, &err))
+                fail_msg("%s", err.message);
+            set_param(r, "water_level", "0.6");
+            set_param(r, "liquid", liquids[i]);
+            set_param(r, "meniscus_width", "12");
+            WgEngine *e = wgt_engine(2, 0, NULL);
+            res[s] = wgt_render_request(e, r);
+            wg_engine_free(e);
+            wg_request_free(r);
+        }
+        double d = max_srgb_diff(wgt_output(res[0], "basecolor"), wgt_output(res[1], "basecolor"));
+        if (d > 2.0 / 255)
+            fail_msg("%s: base colour differs by %.1f/255 at x1000", liquids[i], 255 * d);
+        const WgImage *wn0 = wgt_output(res[0], "water_normal"),
+                      *wn1 = wgt_output(res[1], "water_normal");
+        wgt_assert_near(wn0, wn1, 1e-3);
+        double bent = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) bent = fmax(bent, fabs(wgt_px(wn0, x, y, 0) - 0.5));
+        assert_true(bent > 0.02); /* there is a meniscus to compare */
+        const WgImage *s0 = wgt_output(res[0], "water_height"),
+                      *s1 = wgt_output(res[1], "water_height");
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++)
+                assert_float_equal(wgt_px(s1, x, y, 0) / 1000, wgt_px(s0, x, y, 0), 1e-4);
+        wg_result_free(res[0]);
+        wg_result_free(res[1]);
+    }
+    wg_image_unref(big);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
+/* ---- water_level is a fraction of the height map's range in every graph ------------------- */
+
+static double image_min(const WgImage *img, double *hi)
+{
+    double lo = INFINITY;
+    *hi = -INFINITY;
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++) {
+            lo = fmin(lo, wgt_px(img, x, y, 0));
+            *hi = fmax(*hi, wgt_px(img, x, y, 0));
+        }
+    return lo;
+}
+static double mean_of(const WgImage *img)
+{
+    double s = 0;
+    for (int y = 0; y < img->height; y++)
+        for (int x = 0; x < img->width; x++) s += wgt_px(img, x, y, 0);
+    return s / ((double)img->width * img->height);
+}
+
+/* The test height uses part of 0..1 (about 0.2 to 0.8). texturing without a water height
+ * flattens the immersed part at lo + water_level (hi - lo); custom_masks immerses the same share
+ * of the map as create_masks at the same water_level, for the map and the map x1000. */
+static void test_water_level_same_everywhere(void **state)
+{
+    (void)state;
+    Material m = material(W, H);
+    double hi, lo = image_min(m.height, &hi);
+    WgGraph *g = load_builtin("texturing");
+    WgRequest *r = wg_request_new(g);
+    set_input(r, "basecolor", m.base);
+    set_input(r, "height", m.height);
+    set_input(r, "immersed", m.imm);
+    set_param(r, "water_level", "0.4");
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    const WgImage *surf = wgt_output(res, "height");
+    double level = lo + 0.4 * (hi - lo);
+    int below = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            if (disc_r(x, y) > 40 - 8) continue; /* away from the meniscus */
+            double hh = height_fn(x, y, 0);
+            assert_float_equal(wgt_px(surf, x, y, 0), fmax(hh, level), 1e-5);
+            below += hh < level - 0.01;
+        }
+    assert_true(below > 100);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+
+    WgImage *big = wgt_image_fn(W, H, 1, height_x1000);
+    WgGraph *gc = load_builtin("examples/custom_masks"), *gm = load_builtin("create_masks");
+    for (int s = 0; s < 2; s++) {
+        const WgImage *hm = s ? big : m.height;
+        for (int li = 0; li < 3; li++) {
+            const char *lv = li == 0 ? "0.25" : li == 1 ? "0.4" : "0.7";
+            r = wg_request_new(gc);
+            set_input(r, "basecolor", m.base);
+            set_input(r, "height", hm);
+            set_param(r, "water_level", lv);
+            res = wgt_render_request(e, r);
+            double custom = mean_of(wgt_output(res, "immersed"));
+            wg_result_free(res);
+            wg_request_free(r);
+            r = wg_request_new(gm);
+            set_input(r, "height", hm);
+            set_param(r, "water_level", lv);
+            res = wgt_render_request(e, r);
+            double masks = mean_of(wgt_output(res, "immersed"));
+            wg_result_free(res);
+            wg_request_free(r);
+            if (!(fabs(custom - masks) < 0.03 && masks > 0.02))
+                fail_msg("water_level %s (x%d): custom_masks immerses %.3f, create_masks %.3f", lv,
+                         s ? 1000 : 1, custom, masks);
+        }
+    }
+    wg_graph_free(gc);
+    wg_graph_free(gm);
+    wg_image_unref(big);
+    wg_engine_free(e);
+    material_free(&m);
+}
+
+/* ---- the liquid's colour in the film and the moist zone ----------------------------------- */
+
+static double dark_fn(int x, int y, int k)
+{
+    (void)x;
+    (void)y;
+    return k == 3 ? 1.0 : 0.02 + 0.01 * k;
+}
+
+/* Tea and blood stain the wet film (no standing liquid there) and, weaker, the moist zone; the
+ * dry part is untouched; milk lightens a dark material's film. */
+static void test_liquid_stains_film(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("texturing");
+    Material m = material(W, H);
+    /* film and moist rings only: no immersed part, no puddles */
+    WgImage *none = wgt_image(W, H, 1, NULL);
+    WgImage *saved_imm = m.imm, *saved_pud = m.pud;
+    m.imm = none;
+    m.pud = none;
+    const char *liq[] = {"water", "tea", "blood", "milk"};
+    WgResult *res[4];
+    for (int i = 0; i < 4; i++) {
+        const char *p[] = {"liquid", liq[i], NULL};
+        res[i] = render_texturing(g, &m, true, p, NULL);
+    }
+    const WgImage *water = wgt_output(res[0], "basecolor"), *tea = wgt_output(res[1], "basecolor");
+    const WgImage *blood = wgt_output(res[2], "basecolor");
+    int nwet = 0, nmoist = 0;
+    double tea_wet = 0, tea_moist = 0, blood_wet = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double w = wet_fn(x, y, 0), mo = moist_fn(x, y, 0);
+            const float *pw = wg_image_row(water, y) + 4 * x, *pt = wg_image_row(tea, y) + 4 * x;
+            const float *pb = wg_image_row(blood, y) + 4 * x;
+            if (pw[2] < 0.02 || pw[0] < 0.02) continue;
+            /* blue over red, relative to water: below 1 where stained amber */
+            double amber = (pt[2] / pw[2]) / (pt[0] / pw[0]);
+            if (w == 1) {
+                tea_wet += amber;
+                blood_wet += (pb[1] / pw[1]) / (pb[0] / pw[0]);
+                nwet++;
+            } else if (mo >= 0.7 && w == 0) {
+                tea_moist += amber;
+                nmoist++;
+            } else if (w == 0 && mo == 0 && disc_r(x, y) > 40) {
+                for (int k = 0; k < 3; k++) assert_float_equal(pt[k], pw[k], 1e-6);
+            }
+        }
+    if (nwet < 100 || nmoist < 100) fail_msg("%d film and %d moist pixels", nwet, nmoist);
+    tea_wet /= nwet;
+    tea_moist /= nmoist;
+    blood_wet /= nwet;
+    if (!(tea_wet < 0.8))
+        fail_msg("tea does not stain the film: blue/red %.3f of water's", tea_wet);
+    if (!(tea_moist < 0.97 && tea_moist > tea_wet))
+        fail_msg("tea in the moist zone: blue/red %.3f of water's (film %.3f)", tea_moist, tea_wet);
+    if (!(blood_wet < 0.5)) fail_msg("blood does not stain the film: green/red %.3f", blood_wet);
+    for (int i = 0; i < 4; i++) wg_result_free(res[i]);
+
+    /* milk lightens a dark material's film */
+    WgImage *dark = wgt_image_fn(W, H, 4, dark_fn), *saved_base = m.base;
+    m.base = dark;
+    const char *milk[] = {"liquid", "milk", NULL};
+    WgResult *rm = render_texturing(g, &m, true, milk, NULL);
+    const WgImage *b = wgt_output(rm, "basecolor");
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            if (wet_fn(x, y, 0) == 1) assert_true(wgt_px(b, x, y, 1) > 2 * 0.03);
+    wg_result_free(rm);
+    m.base = saved_base;
+    wg_image_unref(dark);
+    m.imm = saved_imm;
+    m.pud = saved_pud;
+    wg_image_unref(none);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
+/* ---- layer maps and the specular level ---------------------------------------------------- */
+
+static double gold_fn(int x, int y, int k)
+{
+    (void)x;
+    (void)y;
+    static const double c[4] = {0.9, 0.6, 0.15, 1};
+    return c[k];
+}
+/* metallic 1 in a coin of radius 20 inside the immersed disc, 0 elsewhere */
+static double coin_fn(int x, int y, int k)
+{
+    (void)k;
+    return disc_r(x, y) < 20 ? 1 : 0;
+}
+static double spec_fn(int x, int y, int k)
+{
+    (void)k;
+    return 0.2 + 0.6 * x / (double)W + 0.0 * y;
+}
+static double raised_level_fn(int x, int y, int k)
+{
+    return immersed_fn(x, y, k) > 0 ? fmax(height_fn(x, y, k), 0.75) : height_fn(x, y, k);
+}
+
+/* The material under the liquid keeps its own metallic, normal, specular and (under standing
+ * liquid) roughness, and is darkened only by the liquid in its pores: its colour does not
+ * depend on the liquid's depth, and a metal coin keeps its colour. The single-layer maps take
+ * the liquid's dielectric top (metallic 0, the liquid's F0) only where the liquid covers. Each
+ * path counts the liquid's absorption once: basecolor = under_basecolor x the transmission of
+ * the standing liquid. */
+static void test_layer_maps(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("texturing");
+    Material m = material(W, H);
+    WgImage *gold = wgt_image_fn(W, H, 4, gold_fn), *coin = wgt_image_fn(W, H, 1, coin_fn);
+    WgImage *spec = wgt_image_fn(W, H, 1, spec_fn), *deep = wgt_image_fn(W, H, 1, raised_level_fn);
+    WgResult *res[2];
+    for (int s = 0; s < 2; s++) {
+        WgRequest *r = wg_request_new(g);
+        set_input(r, "basecolor", gold);
+        set_input(r, "height", m.height);
+        set_input(r, "normal", m.normal);
+        set_input(r, "roughness", m.rough);
+        set_input(r, "metallic", coin);
+        set_input(r, "specular", spec);
+        set_input(r, "immersed", m.imm);
+        set_input(r, "wet", m.wet);
+        set_input(r, "moist", m.moist);
+        set_input(r, "puddles", m.pud);
+        set_input(r, "water_height", s ? deep : m.wh);
+        set_param(r, "liquid", "tea");
+        WgEngine *e = wgt_engine(2, 0, NULL);
+        res[s] = wgt_render_request(e, r);
+        wg_engine_free(e);
+        wg_request_free(r);
+    }
+    const WgResult *rr = res[0];
+    wgt_assert_near(wgt_output(rr, "under_metallic"), coin, 0);
+    wgt_assert_near(wgt_output(rr, "under_specular"), spec, 0);
+    wgt_assert_near(wgt_output(rr, "under_normal"), m.normal, 0);
+    /* deeper standing liquid: the same material under it, a darker single-layer colour */
+    wgt_assert_near(wgt_output(res[1], "under_basecolor"), wgt_output(rr, "under_basecolor"), 1e-6);
+    const WgImage *mask = wgt_output(rr, "water_mask"), *met = wgt_output(rr, "metallic");
+    const WgImage *sp = wgt_output(rr, "specular"), *ur = wgt_output(rr, "under_roughness");
+    const WgImage *ub = wgt_output(rr, "under_basecolor"), *bc = wgt_output(rr, "basecolor");
+    const WgImage *bc_deep = wgt_output(res[1], "basecolor");
+    double f0 = pow((1.334 - 1) / (1.334 + 1), 2) / 0.08;
+    int covered = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double wm = wgt_px(mask, x, y, 0);
+            if (wm == 0) {
+                assert_float_equal(wgt_px(met, x, y, 0), coin_fn(x, y, 0), 1e-6);
+                assert_float_equal(wgt_px(sp, x, y, 0), spec_fn(x, y, 0), 1e-6);
+                for (int k = 0; k < 3; k++)
+                    assert_float_equal(wgt_px(bc, x, y, k), wgt_px(ub, x, y, k), 1e-6);
+            } else if (wm == 1) {
+                covered++;
+                assert_float_equal(wgt_px(met, x, y, 0), 0, 1e-6);
+                assert_float_equal(wgt_px(sp, x, y, 0), f0, 1e-4);
+                assert_float_equal(wgt_px(ur, x, y, 0), rough_fn(x, y, 0), 1e-6);
+                for (int k = 0; k < 3; k++) {
+                    /* absorbed once: the single-layer colour is the layer's times a
+                       transmission below 1, darker where the liquid is deeper */
+                    assert_true(wgt_px(bc, x, y, k) <= wgt_px(ub, x, y, k) + 1e-6);
+                    assert_true(wgt_px(bc_deep, x, y, k) <= wgt_px(bc, x, y, k) + 1e-6);
+                }
+                if (coin_fn(x, y, 0) == 1) /* the metal coin has no pores: its own colour */
+                    for (int k = 0; k < 3; k++)
+                        assert_float_equal(wgt_px(ub, x, y, k), gold_fn(x, y, k), 1e-6);
+            }
+        }
+    assert_true(covered > 1000);
+    wg_result_free(res[0]);
+    wg_result_free(res[1]);
+    wg_image_unref(gold);
+    wg_image_unref(coin);
+    wg_image_unref(spec);
+    wg_image_unref(deep);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
+/* ---- wet_preview: clear water is clear ----------------------------------------------------- */
+
+static double white_fn(int x, int y, int k)
+{
+    (void)x;
+    (void)y;
+    return k == 3 ? 1 : 0.8;
+}
+static double grey_env(int x, int y, int k)
+{
+    (void)x;
+    (void)y;
+    return k == 3 ? 1 : 0.5;
+}
+
+/* A white material wet with water under a uniform grey sky stays neutral: the preview is given
+ * water's (clear) absorption, r, g, b within 3 %. */
+static void test_preview_clear_water_neutral(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("wet_preview");
+    WgImage *white = wgt_image_fn(96, 48, 4, white_fn), *env = wgt_image_fn(64, 32, 4, grey_env);
+    WgImage *hgt = wgt_image_fn(W, H, 1, height_fn);
+    WgRequest *r = wg_request_new(g);
+    set_input(r, "environment", env);
+    set_input(r, "basecolor", white);
+    set_input(r, "height", hgt);
+    set_param(r, "water_level", "0.6");
+    wg_request_set_size(r, 48, 48);
+    WgError err = {0};
+    if (wg_request_add_output(r, "preview_wet", &err)) fail_msg("%s", err.message);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    const WgImage *p = wgt_output(res, "preview_wet");
+    for (int y = 0; y < p->height; y++)
+        for (int x = 0; x < p->width; x++) {
+            const float *c = wg_image_row(p, y) + 4 * x;
+            double mx = fmax(c[0], fmax(c[1], c[2])), mn = fmin(c[0], fmin(c[1], c[2]));
+            if (mx > 0.01 && mn < 0.97 * mx)
+                fail_msg("(%d, %d) is not neutral: %g %g %g", x, y, c[0], c[1], c[2]);
+        }
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_image_unref(white);
+    wg_image_unref(env);
+    wg_image_unref(hgt);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -455,6 +962,12 @@ int main(void)
         cmocka_unit_test(test_wet_material_dry_at_level_0),
         cmocka_unit_test(test_wet_material_wet),
         cmocka_unit_test(test_custom_masks_example),
+        cmocka_unit_test(test_darkening_follows_lekner_dorf),
+        cmocka_unit_test(test_depths_free_of_height_units),
+        cmocka_unit_test(test_water_level_same_everywhere),
+        cmocka_unit_test(test_liquid_stains_film),
+        cmocka_unit_test(test_layer_maps),
+        cmocka_unit_test(test_preview_clear_water_neutral),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
