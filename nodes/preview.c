@@ -23,23 +23,30 @@
  * at `elevation`/`azimuth` degrees, the relief carved by parallax occlusion mapping below the
  * tile's plane (a height of 1 is the plane, 0 lies `height_scale` tile widths below it: a
  * linear search of `pom_steps` steps, then one secant step). Shading is metallic/roughness PBR:
- * F0 = mix(0.04, basecolor, metallic), diffuse colour basecolor · (1 − metallic), GGX with
- * height-correlated Smith visibility and Schlick's Fresnel for the sun, Lambert diffuse.
- * Ambient light is image-based: specular = prefiltered(reflection, roughness) · (F0·A + B),
- * diffuse = diffuse colour · irradiance · (1 − (F0·A + B)) (what the lobe reflects is not
- * available to the diffuse layer, so a white dielectric in a white environment returns exactly
- * white), both times AO. The optional sun is a directional light of irradiance `sun_intensity`.
+ * F0 = mix(0.08 · specular, basecolor, metallic) (`specular` 0.5 where not connected: F0 0.04),
+ * diffuse colour basecolor · (1 − metallic), GGX with height-correlated Smith visibility and
+ * Schlick's Fresnel for the sun, Lambert diffuse. Ambient light is image-based, the split sum
+ * with multiple scattering restored (Fdez-Agüera 2019): specular = prefiltered(reflection,
+ * roughness) · Fss (Fss = F0·A + B) + irradiance · Ems·Fms (Ems = 1 − A − B, what a white lobe
+ * loses to single scattering, Fms = Fss·F_avg / (1 − Ems·F_avg)), diffuse = diffuse colour ·
+ * irradiance · (1 − Fss − Ems·Fms) (what the lobe reflects is not available to the diffuse
+ * layer, so a white dielectric, and a white metal, in a white environment return exactly
+ * white), all times AO. The optional sun is a directional light of irradiance `sun_intensity`
+ * (single scattering only).
  * Water: with a `water_mask` input, the camera ray is also marched against `water_height`; at
  * its hit, the surface (normal `water_normal`, roughness `water_roughness`, F0 `water_specular`
- * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the split-sum weight
- * E = F0·A + B (for a smooth surface this is Fresnel's F(n·v); using the lobe's own albedo keeps
- * reflection plus transmission ≤ 1 when rough). The ray is refracted (Snell, `water_ior`)
+ * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the same compensated
+ * weights, E = Fss + Ems·Fms in all (for a smooth surface this is Fresnel's F(n·v); using the
+ * lobe's own albedo keeps reflection plus transmission ≤ 1 when rough). The ray is refracted
+ * (Snell, `water_ior`)
  * and marched again, from the water surface, against `height`, where the material is shaded
- * as seen from below the water: the view direction is the refracted ray, ambient light enters
+ * as seen from below the water, with its own metallic and specular level (a metal stays a metal):
+ * the view direction is the refracted ray, ambient light enters
  * scaled by 1 − F_avg (F_avg = F0 + (1 − F0)/21, Schlick's hemispherical average) and the sun
  * along its refracted direction scaled by 1 − F(l·n); the light leaves scaled by 1 − E.
  * Beer–Lambert absorption: the light crosses the view path in the water plus the vertical depth
- * (both in height units), and is multiplied by water_tint^(path / absorption_depth). The result
+ * (both in height units), and is multiplied by water_tint^(path / absorption_depth) (default
+ * 1 1 1: clear water; the maps of the material under the water carry no absorption). The result
  * is mix(dry, wet, water_mask); where the mask is 0 (or not connected) the dry render is
  * returned untouched, bit for bit. Rays that miss the tile see the environment.
  * Output: radiance · 2^exposure, through the filmic curve of Narkowicz 2015 ("ACES filmic tone
@@ -478,7 +485,7 @@ static const WgParamSpec preview_params[] = {
     WG_PARAM_COLOR(PreviewParams, sun_color, "Sun colour (linear)", "1 0.95 0.9"),
     WG_PARAM_FLOAT(PreviewParams, water_ior, "Index of refraction of the water", 1.33, 1, 3),
     WG_PARAM_COLOR(PreviewParams, water_tint, "Water transmittance over absorption_depth (linear)",
-                   "0.75 0.9 0.88"),
+                   "1 1 1"),
     WG_PARAM_FLOAT_UI(PreviewParams, absorption_depth,
                       "Path length in the water, height units, over which water_tint applies", 1,
                       1e-4, 1e6, 0.05, 10),
@@ -499,6 +506,7 @@ enum {
     IN_HEIGHT,
     IN_AO,
     IN_METAL,
+    IN_SPEC,
     IN_WH,
     IN_WN,
     IN_WR,
@@ -507,19 +515,13 @@ enum {
     N_IN
 };
 static const WgPortSpec preview_in[] = {
-    WG_PORT("environment", WG_COLOR),
-    WG_PORT("basecolor", WG_COLOR),
-    WG_PORT_OPT("normal", WG_COLOR),
-    WG_PORT_OPT("roughness", WG_GRAY),
-    WG_PORT_OPT("height", WG_GRAY),
-    WG_PORT_OPT("ao", WG_GRAY),
-    WG_PORT_OPT("metallic", WG_GRAY),
-    WG_PORT_OPT("water_height", WG_GRAY),
-    WG_PORT_OPT("water_normal", WG_COLOR),
-    WG_PORT_OPT("water_roughness", WG_GRAY),
-    WG_PORT_OPT("water_specular", WG_GRAY),
-    WG_PORT_OPT("water_mask", WG_GRAY),
-    WG_PORT_END,
+    WG_PORT("environment", WG_COLOR),        WG_PORT("basecolor", WG_COLOR),
+    WG_PORT_OPT("normal", WG_COLOR),         WG_PORT_OPT("roughness", WG_GRAY),
+    WG_PORT_OPT("height", WG_GRAY),          WG_PORT_OPT("ao", WG_GRAY),
+    WG_PORT_OPT("metallic", WG_GRAY),        WG_PORT_OPT("specular", WG_GRAY),
+    WG_PORT_OPT("water_height", WG_GRAY),    WG_PORT_OPT("water_normal", WG_COLOR),
+    WG_PORT_OPT("water_roughness", WG_GRAY), WG_PORT_OPT("water_specular", WG_GRAY),
+    WG_PORT_OPT("water_mask", WG_GRAY),      WG_PORT_END,
 };
 static const WgPortSpec preview_out[] = {WG_PORT("image", WG_COLOR), WG_PORT_END};
 
@@ -638,21 +640,40 @@ static float schlick(float f0, float c)
     return f0 + (1 - f0) * m2 * m2 * m;
 }
 
+/* The ambient weights of a lobe of reflectance f0 at n·v with split-sum terms A, B, with the
+ * energy that single scattering loses restored (Fdez-Agüera 2019): fss = f0·A + B is what the
+ * lobe reflects once, ems = 1 − (A + B) what a white lobe loses to masking, returned as
+ * ms = fss·F_avg / (1 − ems·F_avg) · ems (F_avg = f0 + (1 − f0)/21), light scattered between
+ * the microfacets and leaving about as diffusely as the irradiance. fss + ms ≤ 1, equal to 1
+ * for f0 = 1. */
+static float ms_weights(float f0, float A, float B, float *ms)
+{
+    float ems = 1 - (A + B), fss = f0 * A + B, favg = f0 + (1 - f0) / 21;
+    *ms = fss * favg / (1 - ems * favg) * ems;
+    return fss;
+}
+
 /* Radiance leaving a material point towards v (before exposure). amb: factor on the ambient
- * light reaching the point; sun_rad: the sun's irradiance arriving along sun_l. */
-static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float metal, float ao,
-                V3 amb, V3 sun_l, V3 sun_rad)
+ * light reaching the point; sun_rad: the sun's irradiance arriving along sun_l. spec is the
+ * specular level: F0 = 0.08 · spec for the dielectric part. */
+static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float metal, float spec,
+                float ao, V3 amb, V3 sun_l, V3 sun_rad)
 {
     float nv = clampf(dot(n, v), 1e-4f, 1);
-    V3 f0 = add(scale(v3(0.04f, 0.04f, 0.04f), 1 - metal), scale(base, metal));
+    float fd = 0.08f * spec;
+    V3 f0 = add(scale(v3(fd, fd, fd), 1 - metal), scale(base, metal));
     V3 dc = scale(base, 1 - metal);
     float A, B;
     brdf_lut(j, nv, rough, &A, &B);
-    V3 e = v3(f0.x * A + B, f0.y * A + B, f0.z * A + B);
-    V3 spec = mul(env_spec(j, reflect(scale(v, -1), n), rough), e);
+    V3 fss, ms;
+    fss.x = ms_weights(f0.x, A, B, &ms.x);
+    fss.y = ms_weights(f0.y, A, B, &ms.y);
+    fss.z = ms_weights(f0.z, A, B, &ms.z);
+    V3 e = add(fss, ms); /* what the lobe reflects is not available to the diffuse layer */
     V3 irr = env_irr(j, n);
-    V3 diff = mul(mul(dc, irr), v3(1 - e.x, 1 - e.y, 1 - e.z));
-    V3 out = mul(scale(add(spec, diff), ao), amb);
+    V3 sp = mul(env_spec(j, reflect(scale(v, -1), n), rough), fss);
+    V3 diff = mul(irr, add(ms, mul(dc, v3(1 - e.x, 1 - e.y, 1 - e.z))));
+    V3 out = mul(scale(add(sp, diff), ao), amb);
     if (j->p->sun) {
         float nl = dot(n, sun_l);
         if (nl > 0) {
@@ -715,7 +736,7 @@ static bool inside(const PreviewJob *j, V3 p)
 
 /* Material parameters at a point of the tile. */
 static void material_at(const PreviewJob *j, V3 p, V3 *base, V3 *n, float *rough, float *metal,
-                        float *ao)
+                        float *spec, float *ao)
 {
     V3 b = tex_color(j->in[IN_BASE], p.x, p.y, v3(0.5f, 0.5f, 0.5f));
     *base = v3(clampf(b.x, 0, 1), clampf(b.y, 0, 1), clampf(b.z, 0, 1));
@@ -723,6 +744,7 @@ static void material_at(const PreviewJob *j, V3 p, V3 *base, V3 *n, float *rough
     if (n->z < 1e-3f) *n = normalize(v3(n->x, n->y, 1e-3f));
     *rough = clampf(tex_gray(j->in[IN_ROUGH], p.x, p.y, 0.5f), 0, 1);
     *metal = clampf(tex_gray(j->in[IN_METAL], p.x, p.y, 0), 0, 1);
+    *spec = clampf(tex_gray(j->in[IN_SPEC], p.x, p.y, 0.5f), 0, 1);
     *ao = clampf(tex_gray(j->in[IN_AO], p.x, p.y, 1), 0, 1);
 }
 
@@ -737,9 +759,10 @@ static V3 render_dry(const PreviewJob *j, V3 d)
     V3 p = march(j, j->in[IN_HEIGHT], j->cam, d, hs * (j->hmax - 1), hs * (j->hmin - 1), 1);
     if (!inside(j, p)) return background(j, d);
     V3 base, n;
-    float rough, metal, ao;
-    material_at(j, p, &base, &n, &rough, &metal, &ao);
-    return shade(j, scale(d, -1), n, base, rough, metal, ao, v3(1, 1, 1), j->sun_dir, j->sun_rad);
+    float rough, metal, spec, ao;
+    material_at(j, p, &base, &n, &rough, &metal, &spec, &ao);
+    return shade(j, scale(d, -1), n, base, rough, metal, spec, ao, v3(1, 1, 1), j->sun_dir,
+                 j->sun_rad);
 }
 
 /* The water layer where its mask is above 0; returns false where the dry render stands. */
@@ -759,8 +782,9 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     float nv = clampf(dot(nw, v), 1e-4f, 1);
     float A, B;
     brdf_lut(j, nv, rw, &A, &B);
-    float e = f0 * A + B;
-    V3 top = scale(env_spec(j, reflect(d, nw), rw), e);
+    float ms, fss = ms_weights(f0, A, B, &ms);
+    float e = fss + ms; /* what the surface reflects; 1 − e crosses it */
+    V3 top = add(scale(env_spec(j, reflect(d, nw), rw), fss), scale(env_irr(j, nw), ms));
     V3 sun_under = v3(0, 0, 0), sun_l = j->sun_dir;
     if (p->sun) {
         /* the water's own highlight: a dielectric of F0 f0 without diffuse part */
@@ -785,11 +809,11 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     if (!refract(d, nw, 1 / p->water_ior, &t) || t.z >= 0) t = d;
     V3 pu = march(j, j->in[IN_HEIGHT], pw, t, pw.z, hs * (j->hmin - 1), 1);
     V3 base, n;
-    float rough, metal, ao;
-    material_at(j, pu, &base, &n, &rough, &metal, &ao);
+    float rough, metal, spec, ao;
+    material_at(j, pu, &base, &n, &rough, &metal, &spec, &ao);
     float f_avg = f0 + (1 - f0) / 21;
     V3 amb = v3(1 - f_avg, 1 - f_avg, 1 - f_avg);
-    V3 under = shade(j, scale(t, -1), n, base, rough, metal, ao, amb, sun_l, sun_under);
+    V3 under = shade(j, scale(t, -1), n, base, rough, metal, spec, ao, amb, sun_l, sun_under);
     float path = 0;
     if (hs > 0) {
         V3 dp = sub(pw, pu);
@@ -902,10 +926,13 @@ const WgNodeType wg_node_preview = {
     .doc = "Renders the tile (2 x 2 with repeat) from a perspective camera, the relief by "
            "parallax occlusion mapping of height (1 is the tile's plane, 0 lies height_scale "
            "tile widths below), GGX/Smith/Schlick specular and Lambert diffuse lit by an "
-           "env_prefilter atlas (environment input) and an optional sun. With water_mask, a "
+           "env_prefilter atlas (environment input, split sum with multiple scattering restored) "
+           "and an optional sun; F0 = 0.08 x specular (0.5 unconnected) for dielectrics. With "
+           "water_mask, a "
            "water layer (water_height, water_normal, water_roughness, water_specular as F0) "
            "reflects, refracts the view ray into the material below and absorbs along the path "
-           "(water_tint over absorption_depth); where the mask is 0 the result is the dry render "
+           "(water_tint over absorption_depth, clear by default); where the mask is 0 the result "
+           "is the dry render "
            "exactly. Filmic curve: Narkowicz's ACES fit. docs/preview.md describes the model.",
     .params = preview_params,
     .params_size = sizeof(PreviewParams),
