@@ -4,13 +4,18 @@
 // roughness and F0) lies over a metallic/roughness PBR material; the water reflects the
 // environment, the view ray is refracted into it before the parallax search of the material
 // below, which receives and returns light scaled by 1 − F and is seen through Beer–Lambert
-// absorption. Where water_mask is 0 the result is the one-layer shading of the material.
+// absorption (clear by default). Where water_mask is 0 the result is the one-layer shading of
+// the material. The material under the water is shaded with its own metallic and specular
+// level, a metal staying a metal. Ambient light is the split sum with multiple scattering
+// restored (Fdez-Agüera 2019), for the material and the water alike, as in the preview.
 //
 // Material maps (GL_REPEAT, GL_LINEAR; uv in tiles, +v towards the top of the image):
 //   basecolor (sRGB texture, so it samples linear), normal_map (OpenGL, green up, linear),
 //   roughness, height (0..1, 1 is the tile plane), ao, metallic: the maps of wet_material
 //   (`basecolor`, `ao`, `metallic`), with `under_height` as `height` and the material's own
-//   normal and roughness under the water.
+//   normal and roughness under the water; specular (the specular level, F0 = 0.08 × specular
+//   for dielectrics), read only where specular_from_map is true, else specular_level (0.5:
+//   F0 0.04).
 // Layer maps (wet_material's outputs of the same names): water_height (0..1), water_normal
 //   (OpenGL), water_roughness, water_specular (F0, linear), water_mask (0..1).
 // Lighting: prefiltered (an equirectangular map with a mip chain, level = roughness ×
@@ -30,6 +35,7 @@ uniform sampler2D roughness;
 uniform sampler2D height;
 uniform sampler2D ao;
 uniform sampler2D metallic;
+uniform sampler2D specular;
 uniform sampler2D water_height;
 uniform sampler2D water_normal;
 uniform sampler2D water_roughness;
@@ -48,7 +54,9 @@ uniform bool sun = false;
 uniform vec3 sun_dir = vec3(0.0, 0.57, 0.82); // towards the sun, tangent space
 uniform vec3 sun_radiance = vec3(3.0);        // irradiance on a surface facing the sun
 uniform float water_ior = 1.33;
-uniform vec3 water_tint = vec3(0.75, 0.9, 0.88); // transmittance over absorption_depth
+uniform bool specular_from_map = false; // else specular_level everywhere
+uniform float specular_level = 0.5;     // F0 = 0.08 × specular for dielectrics
+uniform vec3 water_tint = vec3(1.0);    // transmittance over absorption_depth (clear)
 uniform float absorption_depth = 1.0;           // height units
 
 in vec2 uv;
@@ -94,6 +102,16 @@ float ggx(float nh, float a)
     return a2 / (PI * d * d);
 }
 
+// Ambient weights of a lobe of reflectance f0 with split-sum terms ab: single scattering
+// fss = f0·A + B, and ms, the light a white lobe loses to masking (1 − A − B) returned after
+// scattering between microfacets, leaving about as diffusely as the irradiance.
+vec3 ms_term(vec3 f0, vec2 ab, vec3 fss)
+{
+    float ems = 1.0 - ab.x - ab.y;
+    vec3 favg = f0 + (1.0 - f0) / 21.0;
+    return fss * favg / (1.0 - ems * favg) * ems;
+}
+
 vec3 decode_normal(vec3 c)
 {
     vec3 n = normalize(c * 2.0 - 1.0);
@@ -133,12 +151,15 @@ vec3 shade(vec2 st, vec3 v, vec3 amb, vec3 sun_l, vec3 sun_rad)
     float r = clamp(texture(roughness, st).r, 0.0, 1.0);
     float metal = clamp(texture(metallic, st).r, 0.0, 1.0);
     float occ = clamp(texture(ao, st).r, 0.0, 1.0);
+    float level = specular_from_map ? clamp(texture(specular, st).r, 0.0, 1.0) : specular_level;
     float nv = clamp(dot(n, v), 1e-4, 1.0);
-    vec3 f0 = mix(vec3(0.04), base, metal);
+    vec3 f0 = mix(vec3(0.08 * level), base, metal);
     vec3 dc = base * (1.0 - metal);
     vec2 ab = lut(nv, r);
-    vec3 e = f0 * ab.x + ab.y;
-    vec3 color = (env_spec(reflect(-v, n), r) * e + dc * env_irr(n) * (1.0 - e)) * occ * amb;
+    vec3 fss = f0 * ab.x + ab.y;
+    vec3 ms = ms_term(f0, ab, fss);
+    vec3 e = fss + ms;
+    vec3 color = (env_spec(reflect(-v, n), r) * fss + env_irr(n) * (ms + dc * (1.0 - e))) * occ * amb;
     float nl = dot(n, sun_l);
     if (sun && nl > 0.0) {
         vec3 h = normalize(v + sun_l);
@@ -167,8 +188,10 @@ void main()
         float f0 = clamp(texture(water_specular, pw.xy).r, 0.0, 1.0);
         float nv = clamp(dot(nw, v), 1e-4, 1.0);
         vec2 ab = lut(nv, rw);
-        float e = f0 * ab.x + ab.y; // the lobe's albedo: Fresnel's F(n·v) when smooth
-        vec3 top = env_spec(reflect(d, nw), rw) * e;
+        float fss = f0 * ab.x + ab.y;
+        float ms = ms_term(vec3(f0), ab, vec3(fss)).x;
+        float e = fss + ms; // the lobe's albedo: Fresnel's F(n·v) when smooth
+        vec3 top = env_spec(reflect(d, nw), rw) * fss + env_irr(nw) * ms;
         vec3 sun_l = sun_dir, sun_under = vec3(0.0);
         float nl = dot(nw, sun_dir);
         if (sun && nl > 0.0) {
