@@ -69,7 +69,7 @@
 enum { LEVELS = 6, BLOCKS = LEVELS + 2, IRR_BLOCK = LEVELS, LUT_BLOCK = LEVELS + 1 };
 /* blocks are laid out 2 across, 4 down: block b at column b % 2, row b / 2 */
 enum { COLS = 2, ROWS = 4 };
-enum { SPEC_SAMPLES = 64, LUT_SAMPLES = 128, IRR_W = 32, IRR_H = 16 };
+enum { SPEC_SAMPLES = 64, LUT_SAMPLES = 128, IRR_W = 32, IRR_H = 16, UW_SAMPLES = 16 };
 
 typedef struct {
     float x, y, z;
@@ -535,6 +535,7 @@ typedef struct {
     float hmin, hmax, wmin, wmax;
     V3 sun_dir, sun_rad;
     float water_f0;
+    float uw_dirs[UW_SAMPLES][3]; /* cosine-weighted directions around +z */
 } PreviewJob;
 
 /* bilinear, wrapping, tile coordinates: x right, y up, [0, 1) is the tile */
@@ -653,11 +654,12 @@ static float ms_weights(float f0, float A, float B, float *ms)
     return fss;
 }
 
-/* Radiance leaving a material point towards v (before exposure). amb: factor on the ambient
- * light reaching the point; sun_rad: the sun's irradiance arriving along sun_l. spec is the
- * specular level: F0 = 0.08 · spec for the dielectric part. */
+/* Radiance leaving a material point towards v (before exposure). irr: the ambient irradiance
+ * over π reaching the point, rad: the prefiltered radiance arriving along the reflection;
+ * sun_rad: the sun's irradiance arriving along sun_l. spec is the specular level: F0 = 0.08 ·
+ * spec for the dielectric part. */
 static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float metal, float spec,
-                float ao, V3 amb, V3 sun_l, V3 sun_rad)
+                float ao, V3 irr, V3 rad, V3 sun_l, V3 sun_rad)
 {
     float nv = clampf(dot(n, v), 1e-4f, 1);
     float fd = 0.08f * spec;
@@ -670,10 +672,9 @@ static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float met
     fss.y = ms_weights(f0.y, A, B, &ms.y);
     fss.z = ms_weights(f0.z, A, B, &ms.z);
     V3 e = add(fss, ms); /* what the lobe reflects is not available to the diffuse layer */
-    V3 irr = env_irr(j, n);
-    V3 sp = mul(env_spec(j, reflect(scale(v, -1), n), rough), fss);
+    V3 sp = mul(rad, fss);
     V3 diff = mul(irr, add(ms, mul(dc, v3(1 - e.x, 1 - e.y, 1 - e.z))));
-    V3 out = mul(scale(add(sp, diff), ao), amb);
+    V3 out = scale(add(sp, diff), ao);
     if (j->p->sun) {
         float nl = dot(n, sun_l);
         if (nl > 0) {
@@ -753,6 +754,17 @@ static V3 background(const PreviewJob *j, V3 d)
     return env_spec(j, d, 0);
 }
 
+/* The direction to read the prefiltered environment in for the lobe of roughness rough around
+ * the mirror direction r of normal n: the split sum prefilters around r as if the lobe were
+ * centred there (N = V = R), so a rough lobe would gather the light below the surface's horizon;
+ * its energy in fact leans towards the normal as it widens. Frostbite's dominant direction
+ * (Lagarde & de Rousiers 2014, 4.9.3): lerp(n, r, (1 − α)(√(1 − α) + α)), α = rough². */
+static V3 dominant_dir(V3 n, V3 r, float rough)
+{
+    float a = rough * rough, f = (1 - a) * (sqrtf(1 - a) + a);
+    return normalize(add(scale(n, 1 - f), scale(r, f)));
+}
+
 static V3 render_dry(const PreviewJob *j, V3 d)
 {
     float hs = j->p->height_scale;
@@ -761,8 +773,37 @@ static V3 render_dry(const PreviewJob *j, V3 d)
     V3 base, n;
     float rough, metal, spec, ao;
     material_at(j, p, &base, &n, &rough, &metal, &spec, &ao);
-    return shade(j, scale(d, -1), n, base, rough, metal, spec, ao, v3(1, 1, 1), j->sun_dir,
-                 j->sun_rad);
+    V3 v = scale(d, -1);
+    return shade(j, v, n, base, rough, metal, spec, ao, env_irr(j, n),
+                 env_spec(j, dominant_dir(n, reflect(d, n), rough), rough), j->sun_dir, j->sun_rad);
+}
+
+/* Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
+ * f0: the environment enters only through the surface, each direction l_a of the hemisphere
+ * above it refracted to l_w and scaled by 1 − F(l_a·nw), so it reaches the point from the cone
+ * of the refracted directions (a low sun arrives steeper and weakened, a face turned away from
+ * the cone gets little). E/π = (1/π) ∫ (1 − F) L(l_a) cos θ_a · max(0, n·l_w) / cos θ_w dω_a
+ * (the radiance gained by entering the denser water, n², cancels the solid angle it is
+ * squeezed into), estimated with UW_SAMPLES cosine-weighted directions fixed in the surface's
+ * frame, L read from the prefiltered level of roughness 0.8 (a blur matching the samples'
+ * spacing). A uniform environment L under a flat surface gives L · (1 − F_avg) at n = nw. */
+static V3 under_irradiance(const PreviewJob *j, V3 n, V3 nw, float f0)
+{
+    V3 up = fabsf(nw.z) < 0.999f ? v3(0, 0, 1) : v3(1, 0, 0);
+    V3 tx = normalize(cross(up, nw)), ty = cross(nw, tx);
+    float eta = 1 / j->p->water_ior;
+    V3 acc = v3(0, 0, 0);
+    for (int k = 0; k < UW_SAMPLES; k++) {
+        const float *s = j->uw_dirs[k];
+        V3 la = add(add(scale(tx, s[0]), scale(ty, s[1])), scale(nw, s[2]));
+        V3 t;
+        if (!refract(scale(la, -1), nw, eta, &t)) continue; /* cannot happen entering water */
+        float cw = -dot(t, nw), nl = -dot(t, n);
+        if (!(nl > 0) || !(cw > 1e-4f)) continue;
+        float w = (1 - schlick(f0, s[2])) * nl / cw;
+        acc = add(acc, scale(env_spec(j, la, 0.8f), w));
+    }
+    return scale(acc, 1.0f / UW_SAMPLES);
 }
 
 /* The water layer where its mask is above 0; returns false where the dry render stands. */
@@ -784,7 +825,8 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     brdf_lut(j, nv, rw, &A, &B);
     float ms, fss = ms_weights(f0, A, B, &ms);
     float e = fss + ms; /* what the surface reflects; 1 − e crosses it */
-    V3 top = add(scale(env_spec(j, reflect(d, nw), rw), fss), scale(env_irr(j, nw), ms));
+    V3 top = add(scale(env_spec(j, dominant_dir(nw, reflect(d, nw), rw), rw), fss),
+                 scale(env_irr(j, nw), ms));
     V3 sun_under = v3(0, 0, 0), sun_l = j->sun_dir;
     if (p->sun) {
         /* the water's own highlight: a dielectric of F0 f0 without diffuse part */
@@ -811,9 +853,16 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     V3 base, n;
     float rough, metal, spec, ao;
     material_at(j, pu, &base, &n, &rough, &metal, &spec, &ao);
-    float f_avg = f0 + (1 - f0) / 21;
-    V3 amb = v3(1 - f_avg, 1 - f_avg, 1 - f_avg);
-    V3 under = shade(j, scale(t, -1), n, base, rough, metal, spec, ao, amb, sun_l, sun_under);
+    /* under the surface: the ambient light that crosses it, and the reflection, which leaves
+     * through the surface (scaled by 1 − F) or, beyond the critical angle, is reflected back
+     * down and sees the submerged floor, taken as this point's own diffuse radiance */
+    V3 irr = under_irradiance(j, n, nw, f0), rad;
+    V3 rw_dir = dominant_dir(n, reflect(t, n), rough), ra;
+    if (dot(rw_dir, nw) > 0 && refract(rw_dir, scale(nw, -1), p->water_ior, &ra))
+        rad = scale(env_spec(j, ra, rough), 1 - schlick(f0, dot(ra, nw)));
+    else
+        rad = mul(irr, scale(base, 1 - metal));
+    V3 under = shade(j, scale(t, -1), n, base, rough, metal, spec, ao, irr, rad, sun_l, sun_under);
     float path = 0;
     if (hs > 0) {
         V3 dp = sub(pw, pu);
@@ -916,6 +965,13 @@ static int preview_eval(WgNodeContext *ctx, WgError *err)
     j.sun_rad = scale(v3(p->sun_color[0], p->sun_color[1], p->sun_color[2]), p->sun_intensity);
     float r = (p->water_ior - 1) / (p->water_ior + 1);
     j.water_f0 = r * r;
+    for (int k = 0; k < UW_SAMPLES; k++) {
+        /* Hammersley points, cosine-weighted: r = √u1, φ = 2π u2 */
+        double u1 = (k + 0.5) / UW_SAMPLES, u2 = radical_inverse((unsigned)k);
+        double rr = sqrt(u1), ph = 2 * M_PI * u2;
+        j.uw_dirs[k][0] = (float)(rr * cos(ph)), j.uw_dirs[k][1] = (float)(rr * sin(ph));
+        j.uw_dirs[k][2] = (float)sqrt(1 - u1);
+    }
     return wg_parallel_rows(ctx, ctx->height, preview_rows, &j);
 }
 

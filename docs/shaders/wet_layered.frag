@@ -142,9 +142,51 @@ vec3 march(sampler2D hmap, vec3 p, vec3 d, float z_top, float z_bot)
     return p + d * t1;
 }
 
-// Radiance leaving the material at uv towards v; amb scales the ambient light reaching it,
-// sun_l / sun_rad the sun's direction and irradiance there.
-vec3 shade(vec2 st, vec3 v, vec3 amb, vec3 sun_l, vec3 sun_rad)
+// The direction to read the prefiltered environment in for a lobe of roughness r around the
+// mirror direction rd: Frostbite's dominant direction, leaning to the normal as the lobe widens.
+vec3 dominant_dir(vec3 n, vec3 rd, float r)
+{
+    float a = r * r, f = (1.0 - a) * (sqrt(1.0 - a) + a);
+    return normalize(mix(n, rd, f));
+}
+
+float radical_inverse(uint i)
+{
+    i = (i << 16u) | (i >> 16u);
+    i = ((i & 0x55555555u) << 1u) | ((i & 0xAAAAAAAAu) >> 1u);
+    i = ((i & 0x33333333u) << 2u) | ((i & 0xCCCCCCCCu) >> 2u);
+    i = ((i & 0x0F0F0F0Fu) << 4u) | ((i & 0xF0F0F0F0u) >> 4u);
+    i = ((i & 0x00FF00FFu) << 8u) | ((i & 0xFF00FF00u) >> 8u);
+    return float(i) * 2.3283064365386963e-10;
+}
+
+// Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
+// f0w: each direction la above the surface, refracted to the water, scaled by 1 − F, reaching
+// the point from the cone of refracted directions; 16 cosine-weighted Hammersley directions in
+// the surface's frame, the light read from the prefiltered level of roughness 0.8.
+const int UW_SAMPLES = 16;
+vec3 under_irradiance(vec3 n, vec3 nw, float f0w)
+{
+    vec3 up = abs(nw.z) < 0.999 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0);
+    vec3 tx = normalize(cross(up, nw)), ty = cross(nw, tx);
+    vec3 acc = vec3(0.0);
+    for (int k = 0; k < UW_SAMPLES; k++) {
+        float u1 = (float(k) + 0.5) / float(UW_SAMPLES), u2 = radical_inverse(uint(k));
+        float rr = sqrt(u1), ph = 2.0 * PI * u2, cz = sqrt(1.0 - u1);
+        vec3 la = tx * (rr * cos(ph)) + ty * (rr * sin(ph)) + nw * cz;
+        vec3 t = refract(-la, nw, 1.0 / water_ior);
+        float cw = -dot(t, nw), nl = -dot(t, n);
+        if (nl > 0.0 && cw > 1e-4)
+            acc += env_spec(la, 0.8) * ((1.0 - schlick(f0w, cz)) * nl / cw);
+    }
+    return acc / float(UW_SAMPLES);
+}
+
+// Radiance leaving the material at uv towards v; sun_l / sun_rad the sun's direction and
+// irradiance there. Under the water (submerged), the ambient light is what crosses the surface
+// of normal nw and F0 f0w, and the reflection leaves through it scaled by 1 − F or, beyond the
+// critical angle, sees the submerged floor (this point's own diffuse radiance).
+vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3 sun_rad)
 {
     vec3 base = clamp(texture(basecolor, st).rgb, 0.0, 1.0);
     vec3 n = decode_normal(texture(normal_map, st).rgb);
@@ -159,7 +201,20 @@ vec3 shade(vec2 st, vec3 v, vec3 amb, vec3 sun_l, vec3 sun_rad)
     vec3 fss = f0 * ab.x + ab.y;
     vec3 ms = ms_term(f0, ab, fss);
     vec3 e = fss + ms;
-    vec3 color = (env_spec(reflect(-v, n), r) * fss + env_irr(n) * (ms + dc * (1.0 - e))) * occ * amb;
+    vec3 rd = dominant_dir(n, reflect(-v, n), r);
+    vec3 irr, rad;
+    if (!submerged) {
+        irr = env_irr(n);
+        rad = env_spec(rd, r);
+    } else {
+        irr = under_irradiance(n, nw, f0w);
+        vec3 ra = dot(rd, nw) > 0.0 ? refract(rd, -nw, water_ior) : vec3(0.0);
+        if (ra != vec3(0.0))
+            rad = env_spec(ra, r) * (1.0 - schlick(f0w, dot(ra, nw)));
+        else
+            rad = irr * dc;
+    }
+    vec3 color = (rad * fss + irr * (ms + dc * (1.0 - e))) * occ;
     float nl = dot(n, sun_l);
     if (sun && nl > 0.0) {
         vec3 h = normalize(v + sun_l);
@@ -178,7 +233,7 @@ void main()
     vec3 p = vec3(uv, 0.0);
     // the dry material (one layer)
     vec3 pd = march(height, p, d, 0.0, -height_scale);
-    vec3 color = shade(pd.xy, v, vec3(1.0), sun_dir, sun_radiance);
+    vec3 color = shade(pd.xy, v, false, vec3(0.0, 0.0, 1.0), 0.0, sun_dir, sun_radiance);
 
     vec3 pw = march(water_height, p, d, 0.0, -height_scale);
     float m = clamp(texture(water_mask, pw.xy).r, 0.0, 1.0);
@@ -191,7 +246,7 @@ void main()
         float fss = f0 * ab.x + ab.y;
         float ms = ms_term(vec3(f0), ab, vec3(fss)).x;
         float e = fss + ms; // the lobe's albedo: Fresnel's F(n·v) when smooth
-        vec3 top = env_spec(reflect(d, nw), rw) * fss + env_irr(nw) * ms;
+        vec3 top = env_spec(dominant_dir(nw, reflect(d, nw), rw), rw) * fss + env_irr(nw) * ms;
         vec3 sun_l = sun_dir, sun_under = vec3(0.0);
         float nl = dot(nw, sun_dir);
         if (sun && nl > 0.0) {
@@ -205,8 +260,7 @@ void main()
         vec3 t = refract(d, nw, 1.0 / water_ior);
         if (t.z >= 0.0) t = d;
         vec3 pu = march(height, pw, t, pw.z, -height_scale);
-        float f_avg = f0 + (1.0 - f0) / 21.0;
-        vec3 under = shade(pu.xy, -t, vec3(1.0 - f_avg), sun_l, sun_under);
+        vec3 under = shade(pu.xy, -t, true, nw, f0, sun_l, sun_under);
         float path = height_scale > 0.0 ? (length(pw - pu) + max(pw.z - pu.z, 0.0)) / height_scale : 0.0;
         vec3 tr = pow(clamp(water_tint, 0.0, 1.0), vec3(path / absorption_depth));
         vec3 wet = top + under * tr * (1.0 - e);
