@@ -38,12 +38,14 @@
  * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the same compensated
  * weights, E = Fss + Ems·Fms in all (for a smooth surface this is Fresnel's F(n·v); using the
  * lobe's own albedo keeps reflection plus transmission ≤ 1 when rough). The ray is refracted
- * (Snell, `water_ior`)
- * and marched again, from the water surface, against `height`, where the material is shaded
- * as seen from below the water, with its own metallic and specular level (a metal stays a metal):
- * the view direction is the refracted ray, ambient light enters
- * scaled by 1 − F_avg (F_avg = F0 + (1 − F0)/21, Schlick's hemispherical average) and the sun
- * along its refracted direction scaled by 1 − F(l·n); the light leaves scaled by 1 − E.
+ * (Snell, `water_ior`) and marched again, from the water surface, against `height`, where the
+ * material is shaded as seen from below the water, with its own metallic and specular level (a
+ * metal stays a metal): the view direction is the refracted ray; ambient light arrives only
+ * through the surface, each direction above it refracted and scaled by 1 − F (under_irradiance);
+ * the reflection leaves through the surface scaled by 1 − F or, beyond the critical angle, sees
+ * the submerged floor; the sun arrives along its refracted direction scaled by 1 − F(l·n); the
+ * light leaves scaled by 1 − E. Rough lobes read the prefiltered environment along Frostbite's
+ * dominant direction (dominant_dir), dry and under water.
  * Beer–Lambert absorption: the light crosses the view path in the water plus the vertical depth
  * (both in height units), and is multiplied by water_tint^(path / absorption_depth) (default
  * 1 1 1: clear water; the maps of the material under the water carry no absorption). The result
