@@ -7,8 +7,10 @@
  * the reference integrates the full-resolution environment (the HDR file at 1024 × 512, read
  * through the `image` node, bilinear) against GGX with height-correlated Smith visibility and
  * Schlick's Fresnel, S importance samples of the half vector (Hammersley, rotated per pixel),
- * plus the diffuse colour · (1 − E) · irradiance/π with E the lobe's directional albedo (the
- * preview's energy split) and the irradiance from S cosine-distributed samples. Prints the
+ * plus the multiple-scattering term the preview adds, Ems·Fms · irradiance/π (Fdez-Agüera 2019,
+ * from this lobe's own albedo), and the diffuse colour · (1 − E − Ems·Fms) · irradiance/π with E
+ * the lobe's directional albedo (the preview's energy split) and the irradiance from S
+ * cosine-distributed samples. Prints the
  * mean and maximum relative error (|preview − reference| summed over RGB, over the reference's
  * sum) and the error relative to the mean radiance of the tile.
  *
@@ -187,8 +189,12 @@ int main(int argc, char **argv)
             }
             double ref_sum = 0, got_err = 0;
             for (int k = 0; k < 3; k++) {
-                double e_k = (f0[k] * ea + eb) / samples;
-                double ref = spec[k] / samples + dc[k] * (1 - e_k) * irr[k] / samples;
+                /* multiple scattering as the preview models it (Fdez-Agüera 2019): what a white
+                 * lobe loses, ems, returned as fms · ems, leaving like the irradiance */
+                double e_k = (f0[k] * ea + eb) / samples, ems = 1 - (ea + eb) / samples;
+                double favg = f0[k] + (1 - f0[k]) / 21;
+                double ms = e_k * favg / (1 - ems * favg) * ems;
+                double ref = spec[k] / samples + (ms + dc[k] * (1 - e_k - ms)) * irr[k] / samples;
                 double got = wg_image_row(view, py)[4 * px + k];
                 ref_sum += ref, got_err += fabs(got - ref);
             }
