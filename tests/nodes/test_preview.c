@@ -7,7 +7,8 @@
  * for bit, refraction making a submerged stripe look less deep than an unrefracted view does,
  * bit-identical results for 1, 2 and 3 threads, the 2 x 2 repeat showing four equal quarters,
  * NaN-free output on non-finite and huge inputs, and the atlas size check. The multiple-scattering
- * compensation: a white metal of any roughness in a white environment returns white. The
+ * compensation: a white metal of any roughness in a white environment returns white; a rough
+ * white metal under a sky over black ground reflects the sky (the dominant direction). The
  * specular level: F0 = 0.08 x specular at normal incidence, 0.5 where the port is not connected,
  * and it acts under the water too. Under clear water (the default tint): a gold disc sunk in a
  * pit keeps its hue, is not brighter than dry and still reflects as a metal; a white material in
