@@ -230,7 +230,7 @@ else:
     A, B = sep.outputs[0], sep.outputs[1]
     fss = node_math("ADD", node_math("MULTIPLY", A, 0.04), B)  # the dielectric's F0 0.04
     ems = node_math("SUBTRACT", 1.0, node_math("ADD", A, B))
-    favg = 0.04 + 0.96 / 21
+    favg = 0.04 + 0.96 * 0.0539354  # the preview's F_avg (nodes/preview.c, W_AVG)
     fms = node_math("DIVIDE", node_math("MULTIPLY", fss, favg),
                node_math("SUBTRACT", 1.0, node_math("MULTIPLY", ems, favg)))
     e = node_math("ADD", fss, node_math("MULTIPLY", fms, ems))

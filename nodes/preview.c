@@ -15,7 +15,8 @@
  * integral over a 32 × 16 reduction of the environment, normalised by the integral of the
  * weights so a uniform environment gives exactly its value); block 7 the split-sum BRDF table
  * in its left half (u = n·v, v = roughness; R = A, G = B, with F0·A + B the directional albedo
- * of the GGX lobe with height-correlated Smith visibility, 128 samples per texel, A + B ≤ 1).
+ * of the GGX lobe with height-correlated Smith visibility and the Fresnel term
+ * F0 + (1 − F0)·w(v·h) of fresnel_w, 128 samples per texel, A + B ≤ 1).
  * A size of 512 (blocks of 256 × 128) is a good default; any square side, a multiple of 4 and
  * at least 16, works.
  * Negative and non-finite radiances read as 0, larger than 1e6 as 1e6.
@@ -25,7 +26,8 @@
  * linear search of `pom_steps` steps, then one secant step). Shading is metallic/roughness PBR:
  * F0 = mix(0.08 · specular, basecolor, metallic) (`specular` 0.5 where not connected: F0 0.04),
  * diffuse colour basecolor · (1 − metallic), GGX with height-correlated Smith visibility and
- * Schlick's Fresnel for the sun, Lambert diffuse. Ambient light is image-based, the split sum
+ * the Fresnel term F0 + (1 − F0)·w(c) (fresnel_w: the exact curve of a dielectric of index 1.5,
+ * rescaled) for the sun, Lambert diffuse. Ambient light is image-based, the split sum
  * with multiple scattering restored (Fdez-Agüera 2019): specular = prefiltered(reflection,
  * roughness) · Fss (Fss = F0·A + B) + irradiance · Ems·Fms (Ems = 1 − A − B, what a white lobe
  * loses to single scattering, Fms = Fss·F_avg / (1 − Ems·F_avg)), diffuse = diffuse colour ·
@@ -153,6 +155,24 @@ static double vis_smith(double nv, double nl, double a)
     double gv = nl * sqrt(nv * nv * (1 - a2) + a2), gl = nv * sqrt(nl * nl * (1 - a2) + a2);
     return 0.5 / (gv + gl);
 }
+
+/* The shape of the Fresnel reflectance, from 0 at normal incidence (c = cos θ = 1) to 1 at
+ * grazing: the exact Fresnel reflectance F(c) of a dielectric of index 1.5 (F0 = 0.04, the
+ * usual specular level), rescaled, w = (F − 0.04)/0.96. Reflectance is f0 + (1 − f0) w(c),
+ * linear in f0 as Schlick's (1 − c)⁵ is, so the split-sum table still splits F0 out, but
+ * following the real curve, which rises earlier: Schlick's is 11 % low at 40° and 21 % at 50°
+ * to 60° for F0 0.04. For other dielectrics (water: F0 0.02) it is still much closer than
+ * Schlick's; for metals it is an approximation as Schlick's is. */
+static double fresnel_w(double c)
+{
+    c = c > 0 ? (c < 1 ? c : 1) : 0;
+    double g = sqrt(1.25 + c * c); /* n² − 1 + c², n = 1.5 */
+    double a = (g - c) / (g + c), b = (c * (g + c) - 1) / (c * (g - c) + 1);
+    return (0.5 * a * a * (1 + b * b) - 0.04) / 0.96;
+}
+/* The cosine-weighted hemispherical average of fresnel_w, 2 ∫ w(c) c dc: the diffuse
+ * reflectance of a surface of F0 f0 is f0 + (1 − f0) W_AVG. */
+#define W_AVG 0.0539354f
 
 static V3 dir_of(double u, double v)
 {
@@ -301,7 +321,7 @@ static void prefilter_rows(void *user, int y0, int y1)
                     double lz = 2 * vh * h[2] - vz;
                     if (lz <= 0 || vh <= 0) continue;
                     double g = vis_smith(nv, lz, a) * 4 * lz * vh / h[2];
-                    double fc = pow(1 - vh, 5);
+                    double fc = fresnel_w(vh);
                     A += (1 - fc) * g, B += fc * g;
                 }
                 A /= LUT_SAMPLES, B /= LUT_SAMPLES;
@@ -637,21 +657,20 @@ static void brdf_lut(const PreviewJob *j, float nv, float rough, float *A, float
     *A = clampf(c.x, 0, 1), *B = clampf(c.y, 0, 1 - *A);
 }
 
-static float schlick(float f0, float c)
+static float fresnel(float f0, float c)
 {
-    float m = clampf(1 - c, 0, 1), m2 = m * m;
-    return f0 + (1 - f0) * m2 * m2 * m;
+    return f0 + (1 - f0) * (float)fresnel_w(c);
 }
 
 /* The ambient weights of a lobe of reflectance f0 at n·v with split-sum terms A, B, with the
  * energy that single scattering loses restored (Fdez-Agüera 2019): fss = f0·A + B is what the
  * lobe reflects once, ems = 1 − (A + B) what a white lobe loses to masking, returned as
- * ms = fss·F_avg / (1 − ems·F_avg) · ems (F_avg = f0 + (1 − f0)/21), light scattered between
+ * ms = fss·F_avg / (1 − ems·F_avg) · ems (F_avg = f0 + (1 − f0)·W_AVG), light scattered between
  * the microfacets and leaving about as diffusely as the irradiance. fss + ms ≤ 1, equal to 1
  * for f0 = 1. */
 static float ms_weights(float f0, float A, float B, float *ms)
 {
-    float ems = 1 - (A + B), fss = f0 * A + B, favg = f0 + (1 - f0) / 21;
+    float ems = 1 - (A + B), fss = f0 * A + B, favg = f0 + (1 - f0) * W_AVG;
     *ms = fss * favg / (1 - ems * favg) * ems;
     return fss;
 }
@@ -687,7 +706,7 @@ static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float met
             float a2 = a * a, dd = nh * nh * (a2 - 1) + 1;
             float D = a2 / ((float)M_PI * dd * dd);
             float vis = (float)vis_smith(nv, nl, a);
-            V3 f = v3(schlick(f0.x, vh), schlick(f0.y, vh), schlick(f0.z, vh));
+            V3 f = v3(fresnel(f0.x, vh), fresnel(f0.y, vh), fresnel(f0.z, vh));
             V3 s = scale(f, D * vis);
             V3 d = scale(mul(dc, v3(1 - f.x, 1 - f.y, 1 - f.z)), (float)(1 / M_PI));
             out = add(out, scale(mul(add(s, d), sun_rad), nl));
@@ -802,7 +821,7 @@ static V3 under_irradiance(const PreviewJob *j, V3 n, V3 nw, float f0)
         if (!refract(scale(la, -1), nw, eta, &t)) continue; /* cannot happen entering water */
         float cw = -dot(t, nw), nl = -dot(t, n);
         if (!(nl > 0) || !(cw > 1e-4f)) continue;
-        float w = (1 - schlick(f0, s[2])) * nl / cw;
+        float w = (1 - fresnel(f0, s[2])) * nl / cw;
         acc = add(acc, scale(env_spec(j, la, 0.8f), w));
     }
     return scale(acc, 1.0f / UW_SAMPLES);
@@ -840,12 +859,12 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
             if (a < 2e-3f) a = 2e-3f;
             float a2 = a * a, dd = nh * nh * (a2 - 1) + 1;
             float D = a2 / ((float)M_PI * dd * dd);
-            float s = D * (float)vis_smith(nv, nl, a) * schlick(f0, vh) * nl;
+            float s = D * (float)vis_smith(nv, nl, a) * fresnel(f0, vh) * nl;
             top = add(top, scale(j->sun_rad, s));
             V3 t;
             if (refract(scale(j->sun_dir, -1), nw, 1 / p->water_ior, &t)) {
                 sun_l = scale(t, -1);
-                sun_under = scale(j->sun_rad, 1 - schlick(f0, nl));
+                sun_under = scale(j->sun_rad, 1 - fresnel(f0, nl));
             }
         }
     }
@@ -861,7 +880,7 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     V3 irr = under_irradiance(j, n, nw, f0), rad;
     V3 rw_dir = dominant_dir(n, reflect(t, n), rough), ra;
     if (dot(rw_dir, nw) > 0 && refract(rw_dir, scale(nw, -1), p->water_ior, &ra))
-        rad = scale(env_spec(j, ra, rough), 1 - schlick(f0, dot(ra, nw)));
+        rad = scale(env_spec(j, ra, rough), 1 - fresnel(f0, dot(ra, nw)));
     else
         rad = mul(irr, scale(base, 1 - metal));
     V3 under = shade(j, scale(t, -1), n, base, rough, metal, spec, ao, irr, rad, sun_l, sun_under);
@@ -983,7 +1002,7 @@ const WgNodeType wg_node_preview = {
     .category = "render",
     .doc = "Renders the tile (2 x 2 with repeat) from a perspective camera, the relief by "
            "parallax occlusion mapping of height (1 is the tile's plane, 0 lies height_scale "
-           "tile widths below), GGX/Smith/Schlick specular and Lambert diffuse lit by an "
+           "tile widths below), GGX/Smith/Fresnel specular and Lambert diffuse lit by an "
            "env_prefilter atlas (environment input, split sum with multiple scattering restored) "
            "and an optional sun; F0 = 0.08 x specular (0.5 unconnected) for dielectrics. With "
            "water_mask, a "

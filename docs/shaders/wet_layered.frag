@@ -77,16 +77,19 @@ vec3 env_spec(vec3 d, float r) { return textureLod(prefiltered, equirect(d), r *
 vec3 env_irr(vec3 n) { return texture(irradiance, equirect(n)).rgb; }
 vec2 lut(float nv, float r) { return texture(brdf_lut, vec2(nv, r)).rg; }
 
-float schlick(float f0, float c)
+// Fresnel reflectance f0 + (1 − f0)·w(c): w is the exact Fresnel curve of a dielectric of
+// index 1.5 rescaled from 0 (normal incidence) to 1 (grazing), linear in f0 like Schlick's but
+// rising as the real curve does (as the preview node, and its split-sum table, do).
+float fresnel_w(float c)
 {
-    float m = clamp(1.0 - c, 0.0, 1.0);
-    return f0 + (1.0 - f0) * m * m * m * m * m;
+    c = clamp(c, 0.0, 1.0);
+    float g = sqrt(1.25 + c * c);
+    float a = (g - c) / (g + c), b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return (0.5 * a * a * (1.0 + b * b) - 0.04) / 0.96;
 }
-vec3 schlick3(vec3 f0, float c)
-{
-    float m = clamp(1.0 - c, 0.0, 1.0);
-    return f0 + (1.0 - f0) * (m * m * m * m * m);
-}
+const float W_AVG = 0.0539354; // 2 ∫ w(c) c dc: F_avg = f0 + (1 − f0)·W_AVG
+float fresnel(float f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
+vec3 fresnel3(vec3 f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
 
 float vis_smith(float nv, float nl, float a)
 {
@@ -108,7 +111,7 @@ float ggx(float nh, float a)
 vec3 ms_term(vec3 f0, vec2 ab, vec3 fss)
 {
     float ems = 1.0 - ab.x - ab.y;
-    vec3 favg = f0 + (1.0 - f0) / 21.0;
+    vec3 favg = f0 + (1.0 - f0) * W_AVG;
     return fss * favg / (1.0 - ems * favg) * ems;
 }
 
@@ -177,7 +180,7 @@ vec3 under_irradiance(vec3 n, vec3 nw, float f0w)
         vec3 t = refract(-la, nw, 1.0 / water_ior);
         float cw = -dot(t, nw), nl = -dot(t, n);
         if (nl > 0.0 && cw > 1e-4)
-            acc += env_spec(la, 0.8) * ((1.0 - schlick(f0w, cz)) * nl / cw);
+            acc += env_spec(la, 0.8) * ((1.0 - fresnel(f0w, cz)) * nl / cw);
     }
     return acc / float(UW_SAMPLES);
 }
@@ -210,7 +213,7 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
         irr = under_irradiance(n, nw, f0w);
         vec3 ra = dot(rd, nw) > 0.0 ? refract(rd, -nw, water_ior) : vec3(0.0);
         if (ra != vec3(0.0))
-            rad = env_spec(ra, r) * (1.0 - schlick(f0w, dot(ra, nw)));
+            rad = env_spec(ra, r) * (1.0 - fresnel(f0w, dot(ra, nw)));
         else
             rad = irr * dc;
     }
@@ -219,7 +222,7 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
     if (sun && nl > 0.0) {
         vec3 h = normalize(v + sun_l);
         float a = max(r * r, 2e-3);
-        vec3 f = schlick3(f0, clamp(dot(v, h), 0.0, 1.0));
+        vec3 f = fresnel3(f0, clamp(dot(v, h), 0.0, 1.0));
         vec3 spec = f * ggx(clamp(dot(n, h), 0.0, 1.0), a) * vis_smith(nv, nl, a);
         color += (spec + dc * (1.0 - f) / PI) * sun_rad * nl;
     }
@@ -253,9 +256,9 @@ void main()
             vec3 h = normalize(v + sun_dir);
             float a = max(rw * rw, 2e-3);
             top += sun_radiance * ggx(clamp(dot(nw, h), 0.0, 1.0), a) * vis_smith(nv, nl, a)
-                   * schlick(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
+                   * fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
             sun_l = -refract(-sun_dir, nw, 1.0 / water_ior);
-            sun_under = sun_radiance * (1.0 - schlick(f0, nl));
+            sun_under = sun_radiance * (1.0 - fresnel(f0, nl));
         }
         vec3 t = refract(d, nw, 1.0 / water_ior);
         if (t.z >= 0.0) t = d;
