@@ -19,8 +19,8 @@
 #   OUT      folder kept with the maps, both pictures and side_by_side_<layers>_<elevation>.png
 #            (default: a temporary folder, removed)
 # Needs Blender (scripts/install-deps.sh --bench: Debian's blender and python3-numpy). Cycles
-# takes about 30 s per 64 samples at 512² on 2 cores for the one-surface scene, twice that with
-# the water layer; the host and its load are printed with the results.
+# takes tens of seconds per 64 samples at 512² on 2 cores, more with the water layer; the host
+# and its load are printed with the results.
 # Usage: bench/run_cycles.sh [BUILD_DIR]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
