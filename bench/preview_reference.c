@@ -6,9 +6,12 @@
  * so it reaches the preview as it is); for every (N/64)th pixel of each axis that sees the tile
  * the reference integrates the full-resolution environment (the HDR file at 1024 × 512, read
  * through the `image` node, bilinear) against GGX with height-correlated Smith visibility and
- * Schlick's Fresnel, S importance samples of the half vector (Hammersley, rotated per pixel),
- * plus the diffuse colour · (1 − E) · irradiance/π with E the lobe's directional albedo (the
- * preview's energy split) and the irradiance from S cosine-distributed samples. Prints the
+ * the preview's Fresnel term (f0 + (1 − f0)·w, w the exact curve of a dielectric of index 1.5
+ * rescaled), S importance samples of the half vector (Hammersley, rotated per pixel),
+ * plus the multiple-scattering term the preview adds, Ems·Fms · irradiance/π (Fdez-Agüera 2019,
+ * from this lobe's own albedo), and the diffuse colour · (1 − E − Ems·Fms) · irradiance/π with E
+ * the lobe's directional albedo (the preview's energy split) and the irradiance from S
+ * cosine-distributed samples. Prints the
  * mean and maximum relative error (|preview − reference| summed over RGB, over the reference's
  * sum) and the error relative to the mean radiance of the tile.
  *
@@ -94,6 +97,16 @@ static double radical_inverse(unsigned i)
     return i * 2.3283064365386963e-10;
 }
 
+/* The preview's Fresnel shape (nodes/preview.c, fresnel_w): the exact reflectance of a
+ * dielectric of index 1.5, rescaled from 0 at normal incidence to 1 at grazing. */
+static double fresnel_w(double c)
+{
+    c = c > 0 ? (c < 1 ? c : 1) : 0;
+    double g = sqrt(1.25 + c * c);
+    double a = (g - c) / (g + c), b = (c * (g + c) - 1) / (c * (g - c) + 1);
+    return (0.5 * a * a * (1 + b * b) - 0.04) / 0.96;
+}
+
 static double vis_smith(double nv, double nl, double a)
 {
     double a2 = a * a;
@@ -174,7 +187,7 @@ int main(int argc, char **argv)
                                 2 * vh * h[2] - vv[2]};
                 if (ld[2] > 0 && vh > 0) {
                     double gw = vis_smith(nv, ld[2], a) * 4 * ld[2] * vh / h[2];
-                    double fc = pow(1 - vh, 5), c[3];
+                    double fc = fresnel_w(vh), c[3];
                     env_at(env, ld, c);
                     for (int k = 0; k < 3; k++) spec[k] += c[k] * (f0[k] + (1 - f0[k]) * fc) * gw;
                     ea += (1 - fc) * gw, eb += fc * gw;
@@ -187,8 +200,12 @@ int main(int argc, char **argv)
             }
             double ref_sum = 0, got_err = 0;
             for (int k = 0; k < 3; k++) {
-                double e_k = (f0[k] * ea + eb) / samples;
-                double ref = spec[k] / samples + dc[k] * (1 - e_k) * irr[k] / samples;
+                /* multiple scattering as the preview models it (Fdez-Agüera 2019): what a white
+                 * lobe loses, ems, returned as fms · ems, leaving like the irradiance */
+                double e_k = (f0[k] * ea + eb) / samples, ems = 1 - (ea + eb) / samples;
+                double favg = f0[k] + (1 - f0[k]) * 0.0539354; /* the preview's W_AVG */
+                double ms = e_k * favg / (1 - ems * favg) * ems;
+                double ref = spec[k] / samples + (ms + dc[k] * (1 - e_k - ms)) * irr[k] / samples;
                 double got = wg_image_row(view, py)[4 * px + k];
                 ref_sum += ref, got_err += fabs(got - ref);
             }

@@ -15,7 +15,8 @@
  * integral over a 32 × 16 reduction of the environment, normalised by the integral of the
  * weights so a uniform environment gives exactly its value); block 7 the split-sum BRDF table
  * in its left half (u = n·v, v = roughness; R = A, G = B, with F0·A + B the directional albedo
- * of the GGX lobe with height-correlated Smith visibility, 128 samples per texel, A + B ≤ 1).
+ * of the GGX lobe with height-correlated Smith visibility and the Fresnel term
+ * F0 + (1 − F0)·w(v·h) of fresnel_w, 128 samples per texel, A + B ≤ 1).
  * A size of 512 (blocks of 256 × 128) is a good default; any square side, a multiple of 4 and
  * at least 16, works.
  * Negative and non-finite radiances read as 0, larger than 1e6 as 1e6.
@@ -23,23 +24,33 @@
  * at `elevation`/`azimuth` degrees, the relief carved by parallax occlusion mapping below the
  * tile's plane (a height of 1 is the plane, 0 lies `height_scale` tile widths below it: a
  * linear search of `pom_steps` steps, then one secant step). Shading is metallic/roughness PBR:
- * F0 = mix(0.04, basecolor, metallic), diffuse colour basecolor · (1 − metallic), GGX with
- * height-correlated Smith visibility and Schlick's Fresnel for the sun, Lambert diffuse.
- * Ambient light is image-based: specular = prefiltered(reflection, roughness) · (F0·A + B),
- * diffuse = diffuse colour · irradiance · (1 − (F0·A + B)) (what the lobe reflects is not
- * available to the diffuse layer, so a white dielectric in a white environment returns exactly
- * white), both times AO. The optional sun is a directional light of irradiance `sun_intensity`.
+ * F0 = mix(0.08 · specular, basecolor, metallic) (`specular` 0.5 where not connected: F0 0.04),
+ * diffuse colour basecolor · (1 − metallic), GGX with height-correlated Smith visibility and
+ * the Fresnel term F0 + (1 − F0)·w(c) (fresnel_w: the exact curve of a dielectric of index 1.5,
+ * rescaled) for the sun, Lambert diffuse. Ambient light is image-based, the split sum
+ * with multiple scattering restored (Fdez-Agüera 2019): specular = prefiltered(reflection,
+ * roughness) · Fss (Fss = F0·A + B) + irradiance · Ems·Fms (Ems = 1 − A − B, what a white lobe
+ * loses to single scattering, Fms = Fss·F_avg / (1 − Ems·F_avg)), diffuse = diffuse colour ·
+ * irradiance · (1 − Fss − Ems·Fms) (what the lobe reflects is not available to the diffuse
+ * layer, so a white dielectric, and a white metal, in a white environment return exactly
+ * white), all times AO. The optional sun is a directional light of irradiance `sun_intensity`
+ * (single scattering only).
  * Water: with a `water_mask` input, the camera ray is also marched against `water_height`; at
  * its hit, the surface (normal `water_normal`, roughness `water_roughness`, F0 `water_specular`
- * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the split-sum weight
- * E = F0·A + B (for a smooth surface this is Fresnel's F(n·v); using the lobe's own albedo keeps
- * reflection plus transmission ≤ 1 when rough). The ray is refracted (Snell, `water_ior`)
- * and marched again, from the water surface, against `height`, where the material is shaded
- * as seen from below the water: the view direction is the refracted ray, ambient light enters
- * scaled by 1 − F_avg (F_avg = F0 + (1 − F0)/21, Schlick's hemispherical average) and the sun
- * along its refracted direction scaled by 1 − F(l·n); the light leaves scaled by 1 − E.
+ * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the same compensated
+ * weights, E = Fss + Ems·Fms in all (for a smooth surface this is Fresnel's F(n·v); using the
+ * lobe's own albedo keeps reflection plus transmission ≤ 1 when rough). The ray is refracted
+ * (Snell, `water_ior`) and marched again, from the water surface, against `height`, where the
+ * material is shaded as seen from below the water, with its own metallic and specular level (a
+ * metal stays a metal): the view direction is the refracted ray; ambient light arrives only
+ * through the surface, each direction above it refracted and scaled by 1 − F (under_irradiance);
+ * the reflection leaves through the surface scaled by 1 − F or, beyond the critical angle, sees
+ * the submerged floor; the sun arrives along its refracted direction scaled by 1 − F(l·n); the
+ * light leaves scaled by 1 − E. Rough lobes read the prefiltered environment along Frostbite's
+ * dominant direction (dominant_dir), dry and under water.
  * Beer–Lambert absorption: the light crosses the view path in the water plus the vertical depth
- * (both in height units), and is multiplied by water_tint^(path / absorption_depth). The result
+ * (both in height units), and is multiplied by water_tint^(path / absorption_depth) (default
+ * 1 1 1: clear water; the maps of the material under the water carry no absorption). The result
  * is mix(dry, wet, water_mask); where the mask is 0 (or not connected) the dry render is
  * returned untouched, bit for bit. Rays that miss the tile see the environment.
  * Output: radiance · 2^exposure, through the filmic curve of Narkowicz 2015 ("ACES filmic tone
@@ -62,7 +73,7 @@
 enum { LEVELS = 6, BLOCKS = LEVELS + 2, IRR_BLOCK = LEVELS, LUT_BLOCK = LEVELS + 1 };
 /* blocks are laid out 2 across, 4 down: block b at column b % 2, row b / 2 */
 enum { COLS = 2, ROWS = 4 };
-enum { SPEC_SAMPLES = 64, LUT_SAMPLES = 128, IRR_W = 32, IRR_H = 16 };
+enum { SPEC_SAMPLES = 64, LUT_SAMPLES = 128, IRR_W = 32, IRR_H = 16, UW_SAMPLES = 16 };
 
 typedef struct {
     float x, y, z;
@@ -144,6 +155,24 @@ static double vis_smith(double nv, double nl, double a)
     double gv = nl * sqrt(nv * nv * (1 - a2) + a2), gl = nv * sqrt(nl * nl * (1 - a2) + a2);
     return 0.5 / (gv + gl);
 }
+
+/* The shape of the Fresnel reflectance, from 0 at normal incidence (c = cos θ = 1) to 1 at
+ * grazing: the exact Fresnel reflectance F(c) of a dielectric of index 1.5 (F0 = 0.04, the
+ * usual specular level), rescaled, w = (F − 0.04)/0.96. Reflectance is f0 + (1 − f0) w(c),
+ * linear in f0 as Schlick's (1 − c)⁵ is, so the split-sum table still splits F0 out, but
+ * following the real curve, which rises earlier: Schlick's is 11 % low at 40° and 21 % at 50°
+ * to 60° for F0 0.04. For other dielectrics (water: F0 0.02) it is still much closer than
+ * Schlick's; for metals it is an approximation as Schlick's is. */
+static double fresnel_w(double c)
+{
+    c = c > 0 ? (c < 1 ? c : 1) : 0;
+    double g = sqrt(1.25 + c * c); /* n² − 1 + c², n = 1.5 */
+    double a = (g - c) / (g + c), b = (c * (g + c) - 1) / (c * (g - c) + 1);
+    return (0.5 * a * a * (1 + b * b) - 0.04) / 0.96;
+}
+/* The cosine-weighted hemispherical average of fresnel_w, 2 ∫ w(c) c dc: the diffuse
+ * reflectance of a surface of F0 f0 is f0 + (1 − f0) W_AVG. */
+#define W_AVG 0.0539354f
 
 static V3 dir_of(double u, double v)
 {
@@ -292,7 +321,7 @@ static void prefilter_rows(void *user, int y0, int y1)
                     double lz = 2 * vh * h[2] - vz;
                     if (lz <= 0 || vh <= 0) continue;
                     double g = vis_smith(nv, lz, a) * 4 * lz * vh / h[2];
-                    double fc = pow(1 - vh, 5);
+                    double fc = fresnel_w(vh);
                     A += (1 - fc) * g, B += fc * g;
                 }
                 A /= LUT_SAMPLES, B /= LUT_SAMPLES;
@@ -478,7 +507,7 @@ static const WgParamSpec preview_params[] = {
     WG_PARAM_COLOR(PreviewParams, sun_color, "Sun colour (linear)", "1 0.95 0.9"),
     WG_PARAM_FLOAT(PreviewParams, water_ior, "Index of refraction of the water", 1.33, 1, 3),
     WG_PARAM_COLOR(PreviewParams, water_tint, "Water transmittance over absorption_depth (linear)",
-                   "0.75 0.9 0.88"),
+                   "1 1 1"),
     WG_PARAM_FLOAT_UI(PreviewParams, absorption_depth,
                       "Path length in the water, height units, over which water_tint applies", 1,
                       1e-4, 1e6, 0.05, 10),
@@ -499,6 +528,7 @@ enum {
     IN_HEIGHT,
     IN_AO,
     IN_METAL,
+    IN_SPEC,
     IN_WH,
     IN_WN,
     IN_WR,
@@ -507,19 +537,13 @@ enum {
     N_IN
 };
 static const WgPortSpec preview_in[] = {
-    WG_PORT("environment", WG_COLOR),
-    WG_PORT("basecolor", WG_COLOR),
-    WG_PORT_OPT("normal", WG_COLOR),
-    WG_PORT_OPT("roughness", WG_GRAY),
-    WG_PORT_OPT("height", WG_GRAY),
-    WG_PORT_OPT("ao", WG_GRAY),
-    WG_PORT_OPT("metallic", WG_GRAY),
-    WG_PORT_OPT("water_height", WG_GRAY),
-    WG_PORT_OPT("water_normal", WG_COLOR),
-    WG_PORT_OPT("water_roughness", WG_GRAY),
-    WG_PORT_OPT("water_specular", WG_GRAY),
-    WG_PORT_OPT("water_mask", WG_GRAY),
-    WG_PORT_END,
+    WG_PORT("environment", WG_COLOR),        WG_PORT("basecolor", WG_COLOR),
+    WG_PORT_OPT("normal", WG_COLOR),         WG_PORT_OPT("roughness", WG_GRAY),
+    WG_PORT_OPT("height", WG_GRAY),          WG_PORT_OPT("ao", WG_GRAY),
+    WG_PORT_OPT("metallic", WG_GRAY),        WG_PORT_OPT("specular", WG_GRAY),
+    WG_PORT_OPT("water_height", WG_GRAY),    WG_PORT_OPT("water_normal", WG_COLOR),
+    WG_PORT_OPT("water_roughness", WG_GRAY), WG_PORT_OPT("water_specular", WG_GRAY),
+    WG_PORT_OPT("water_mask", WG_GRAY),      WG_PORT_END,
 };
 static const WgPortSpec preview_out[] = {WG_PORT("image", WG_COLOR), WG_PORT_END};
 
@@ -533,6 +557,7 @@ typedef struct {
     float hmin, hmax, wmin, wmax;
     V3 sun_dir, sun_rad;
     float water_f0;
+    float uw_dirs[UW_SAMPLES][3]; /* cosine-weighted directions around +z */
 } PreviewJob;
 
 /* bilinear, wrapping, tile coordinates: x right, y up, [0, 1) is the tile */
@@ -632,27 +657,45 @@ static void brdf_lut(const PreviewJob *j, float nv, float rough, float *A, float
     *A = clampf(c.x, 0, 1), *B = clampf(c.y, 0, 1 - *A);
 }
 
-static float schlick(float f0, float c)
+static float fresnel(float f0, float c)
 {
-    float m = clampf(1 - c, 0, 1), m2 = m * m;
-    return f0 + (1 - f0) * m2 * m2 * m;
+    return f0 + (1 - f0) * (float)fresnel_w(c);
 }
 
-/* Radiance leaving a material point towards v (before exposure). amb: factor on the ambient
- * light reaching the point; sun_rad: the sun's irradiance arriving along sun_l. */
-static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float metal, float ao,
-                V3 amb, V3 sun_l, V3 sun_rad)
+/* The ambient weights of a lobe of reflectance f0 at n·v with split-sum terms A, B, with the
+ * energy that single scattering loses restored (Fdez-Agüera 2019): fss = f0·A + B is what the
+ * lobe reflects once, ems = 1 − (A + B) what a white lobe loses to masking, returned as
+ * ms = fss·F_avg / (1 − ems·F_avg) · ems (F_avg = f0 + (1 − f0)·W_AVG), light scattered between
+ * the microfacets and leaving about as diffusely as the irradiance. fss + ms ≤ 1, equal to 1
+ * for f0 = 1. */
+static float ms_weights(float f0, float A, float B, float *ms)
+{
+    float ems = 1 - (A + B), fss = f0 * A + B, favg = f0 + (1 - f0) * W_AVG;
+    *ms = fss * favg / (1 - ems * favg) * ems;
+    return fss;
+}
+
+/* Radiance leaving a material point towards v (before exposure). irr: the ambient irradiance
+ * over π reaching the point, rad: the prefiltered radiance arriving along the reflection;
+ * sun_rad: the sun's irradiance arriving along sun_l. spec is the specular level: F0 = 0.08 ·
+ * spec for the dielectric part. */
+static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float metal, float spec,
+                float ao, V3 irr, V3 rad, V3 sun_l, V3 sun_rad)
 {
     float nv = clampf(dot(n, v), 1e-4f, 1);
-    V3 f0 = add(scale(v3(0.04f, 0.04f, 0.04f), 1 - metal), scale(base, metal));
+    float fd = 0.08f * spec;
+    V3 f0 = add(scale(v3(fd, fd, fd), 1 - metal), scale(base, metal));
     V3 dc = scale(base, 1 - metal);
     float A, B;
     brdf_lut(j, nv, rough, &A, &B);
-    V3 e = v3(f0.x * A + B, f0.y * A + B, f0.z * A + B);
-    V3 spec = mul(env_spec(j, reflect(scale(v, -1), n), rough), e);
-    V3 irr = env_irr(j, n);
-    V3 diff = mul(mul(dc, irr), v3(1 - e.x, 1 - e.y, 1 - e.z));
-    V3 out = mul(scale(add(spec, diff), ao), amb);
+    V3 fss, ms;
+    fss.x = ms_weights(f0.x, A, B, &ms.x);
+    fss.y = ms_weights(f0.y, A, B, &ms.y);
+    fss.z = ms_weights(f0.z, A, B, &ms.z);
+    V3 e = add(fss, ms); /* what the lobe reflects is not available to the diffuse layer */
+    V3 sp = mul(rad, fss);
+    V3 diff = mul(irr, add(ms, mul(dc, v3(1 - e.x, 1 - e.y, 1 - e.z))));
+    V3 out = scale(add(sp, diff), ao);
     if (j->p->sun) {
         float nl = dot(n, sun_l);
         if (nl > 0) {
@@ -663,7 +706,7 @@ static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float met
             float a2 = a * a, dd = nh * nh * (a2 - 1) + 1;
             float D = a2 / ((float)M_PI * dd * dd);
             float vis = (float)vis_smith(nv, nl, a);
-            V3 f = v3(schlick(f0.x, vh), schlick(f0.y, vh), schlick(f0.z, vh));
+            V3 f = v3(fresnel(f0.x, vh), fresnel(f0.y, vh), fresnel(f0.z, vh));
             V3 s = scale(f, D * vis);
             V3 d = scale(mul(dc, v3(1 - f.x, 1 - f.y, 1 - f.z)), (float)(1 / M_PI));
             out = add(out, scale(mul(add(s, d), sun_rad), nl));
@@ -715,7 +758,7 @@ static bool inside(const PreviewJob *j, V3 p)
 
 /* Material parameters at a point of the tile. */
 static void material_at(const PreviewJob *j, V3 p, V3 *base, V3 *n, float *rough, float *metal,
-                        float *ao)
+                        float *spec, float *ao)
 {
     V3 b = tex_color(j->in[IN_BASE], p.x, p.y, v3(0.5f, 0.5f, 0.5f));
     *base = v3(clampf(b.x, 0, 1), clampf(b.y, 0, 1), clampf(b.z, 0, 1));
@@ -723,6 +766,7 @@ static void material_at(const PreviewJob *j, V3 p, V3 *base, V3 *n, float *rough
     if (n->z < 1e-3f) *n = normalize(v3(n->x, n->y, 1e-3f));
     *rough = clampf(tex_gray(j->in[IN_ROUGH], p.x, p.y, 0.5f), 0, 1);
     *metal = clampf(tex_gray(j->in[IN_METAL], p.x, p.y, 0), 0, 1);
+    *spec = clampf(tex_gray(j->in[IN_SPEC], p.x, p.y, 0.5f), 0, 1);
     *ao = clampf(tex_gray(j->in[IN_AO], p.x, p.y, 1), 0, 1);
 }
 
@@ -731,15 +775,56 @@ static V3 background(const PreviewJob *j, V3 d)
     return env_spec(j, d, 0);
 }
 
+/* The direction to read the prefiltered environment in for the lobe of roughness rough around
+ * the mirror direction r of normal n: the split sum prefilters around r as if the lobe were
+ * centred there (N = V = R), so a rough lobe would gather the light below the surface's horizon;
+ * its energy in fact leans towards the normal as it widens. Frostbite's dominant direction
+ * (Lagarde & de Rousiers 2014, 4.9.3): lerp(n, r, (1 − α)(√(1 − α) + α)), α = rough². */
+static V3 dominant_dir(V3 n, V3 r, float rough)
+{
+    float a = rough * rough, f = (1 - a) * (sqrtf(1 - a) + a);
+    return normalize(add(scale(n, 1 - f), scale(r, f)));
+}
+
 static V3 render_dry(const PreviewJob *j, V3 d)
 {
     float hs = j->p->height_scale;
     V3 p = march(j, j->in[IN_HEIGHT], j->cam, d, hs * (j->hmax - 1), hs * (j->hmin - 1), 1);
     if (!inside(j, p)) return background(j, d);
     V3 base, n;
-    float rough, metal, ao;
-    material_at(j, p, &base, &n, &rough, &metal, &ao);
-    return shade(j, scale(d, -1), n, base, rough, metal, ao, v3(1, 1, 1), j->sun_dir, j->sun_rad);
+    float rough, metal, spec, ao;
+    material_at(j, p, &base, &n, &rough, &metal, &spec, &ao);
+    V3 v = scale(d, -1);
+    return shade(j, v, n, base, rough, metal, spec, ao, env_irr(j, n),
+                 env_spec(j, dominant_dir(n, reflect(d, n), rough), rough), j->sun_dir, j->sun_rad);
+}
+
+/* Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
+ * f0: the environment enters only through the surface, each direction l_a of the hemisphere
+ * above it refracted to l_w and scaled by 1 − F(l_a·nw), so it reaches the point from the cone
+ * of the refracted directions (a low sun arrives steeper and weakened, a face turned away from
+ * the cone gets little). E/π = (1/π) ∫ (1 − F) L(l_a) cos θ_a · max(0, n·l_w) / cos θ_w dω_a
+ * (the radiance gained by entering the denser water, n², cancels the solid angle it is
+ * squeezed into), estimated with UW_SAMPLES cosine-weighted directions fixed in the surface's
+ * frame, L read from the prefiltered level of roughness 0.8 (a blur matching the samples'
+ * spacing). A uniform environment L under a flat surface gives L · (1 − F_avg) at n = nw. */
+static V3 under_irradiance(const PreviewJob *j, V3 n, V3 nw, float f0)
+{
+    V3 up = fabsf(nw.z) < 0.999f ? v3(0, 0, 1) : v3(1, 0, 0);
+    V3 tx = normalize(cross(up, nw)), ty = cross(nw, tx);
+    float eta = 1 / j->p->water_ior;
+    V3 acc = v3(0, 0, 0);
+    for (int k = 0; k < UW_SAMPLES; k++) {
+        const float *s = j->uw_dirs[k];
+        V3 la = add(add(scale(tx, s[0]), scale(ty, s[1])), scale(nw, s[2]));
+        V3 t;
+        if (!refract(scale(la, -1), nw, eta, &t)) continue; /* cannot happen entering water */
+        float cw = -dot(t, nw), nl = -dot(t, n);
+        if (!(nl > 0) || !(cw > 1e-4f)) continue;
+        float w = (1 - fresnel(f0, s[2])) * nl / cw;
+        acc = add(acc, scale(env_spec(j, la, 0.8f), w));
+    }
+    return scale(acc, 1.0f / UW_SAMPLES);
 }
 
 /* The water layer where its mask is above 0; returns false where the dry render stands. */
@@ -759,8 +844,10 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     float nv = clampf(dot(nw, v), 1e-4f, 1);
     float A, B;
     brdf_lut(j, nv, rw, &A, &B);
-    float e = f0 * A + B;
-    V3 top = scale(env_spec(j, reflect(d, nw), rw), e);
+    float ms, fss = ms_weights(f0, A, B, &ms);
+    float e = fss + ms; /* what the surface reflects; 1 − e crosses it */
+    V3 top = add(scale(env_spec(j, dominant_dir(nw, reflect(d, nw), rw), rw), fss),
+                 scale(env_irr(j, nw), ms));
     V3 sun_under = v3(0, 0, 0), sun_l = j->sun_dir;
     if (p->sun) {
         /* the water's own highlight: a dielectric of F0 f0 without diffuse part */
@@ -772,12 +859,12 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
             if (a < 2e-3f) a = 2e-3f;
             float a2 = a * a, dd = nh * nh * (a2 - 1) + 1;
             float D = a2 / ((float)M_PI * dd * dd);
-            float s = D * (float)vis_smith(nv, nl, a) * schlick(f0, vh) * nl;
+            float s = D * (float)vis_smith(nv, nl, a) * fresnel(f0, vh) * nl;
             top = add(top, scale(j->sun_rad, s));
             V3 t;
             if (refract(scale(j->sun_dir, -1), nw, 1 / p->water_ior, &t)) {
                 sun_l = scale(t, -1);
-                sun_under = scale(j->sun_rad, 1 - schlick(f0, nl));
+                sun_under = scale(j->sun_rad, 1 - fresnel(f0, nl));
             }
         }
     }
@@ -785,11 +872,18 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     if (!refract(d, nw, 1 / p->water_ior, &t) || t.z >= 0) t = d;
     V3 pu = march(j, j->in[IN_HEIGHT], pw, t, pw.z, hs * (j->hmin - 1), 1);
     V3 base, n;
-    float rough, metal, ao;
-    material_at(j, pu, &base, &n, &rough, &metal, &ao);
-    float f_avg = f0 + (1 - f0) / 21;
-    V3 amb = v3(1 - f_avg, 1 - f_avg, 1 - f_avg);
-    V3 under = shade(j, scale(t, -1), n, base, rough, metal, ao, amb, sun_l, sun_under);
+    float rough, metal, spec, ao;
+    material_at(j, pu, &base, &n, &rough, &metal, &spec, &ao);
+    /* under the surface: the ambient light that crosses it, and the reflection, which leaves
+     * through the surface (scaled by 1 − F) or, beyond the critical angle, is reflected back
+     * down and sees the submerged floor, taken as this point's own diffuse radiance */
+    V3 irr = under_irradiance(j, n, nw, f0), rad;
+    V3 rw_dir = dominant_dir(n, reflect(t, n), rough), ra;
+    if (dot(rw_dir, nw) > 0 && refract(rw_dir, scale(nw, -1), p->water_ior, &ra))
+        rad = scale(env_spec(j, ra, rough), 1 - fresnel(f0, dot(ra, nw)));
+    else
+        rad = mul(irr, scale(base, 1 - metal));
+    V3 under = shade(j, scale(t, -1), n, base, rough, metal, spec, ao, irr, rad, sun_l, sun_under);
     float path = 0;
     if (hs > 0) {
         V3 dp = sub(pw, pu);
@@ -892,6 +986,13 @@ static int preview_eval(WgNodeContext *ctx, WgError *err)
     j.sun_rad = scale(v3(p->sun_color[0], p->sun_color[1], p->sun_color[2]), p->sun_intensity);
     float r = (p->water_ior - 1) / (p->water_ior + 1);
     j.water_f0 = r * r;
+    for (int k = 0; k < UW_SAMPLES; k++) {
+        /* Hammersley points, cosine-weighted: r = √u1, φ = 2π u2 */
+        double u1 = (k + 0.5) / UW_SAMPLES, u2 = radical_inverse((unsigned)k);
+        double rr = sqrt(u1), ph = 2 * M_PI * u2;
+        j.uw_dirs[k][0] = (float)(rr * cos(ph)), j.uw_dirs[k][1] = (float)(rr * sin(ph));
+        j.uw_dirs[k][2] = (float)sqrt(1 - u1);
+    }
     return wg_parallel_rows(ctx, ctx->height, preview_rows, &j);
 }
 
@@ -901,11 +1002,14 @@ const WgNodeType wg_node_preview = {
     .category = "render",
     .doc = "Renders the tile (2 x 2 with repeat) from a perspective camera, the relief by "
            "parallax occlusion mapping of height (1 is the tile's plane, 0 lies height_scale "
-           "tile widths below), GGX/Smith/Schlick specular and Lambert diffuse lit by an "
-           "env_prefilter atlas (environment input) and an optional sun. With water_mask, a "
+           "tile widths below), GGX/Smith/Fresnel specular and Lambert diffuse lit by an "
+           "env_prefilter atlas (environment input, split sum with multiple scattering restored) "
+           "and an optional sun; F0 = 0.08 x specular (0.5 unconnected) for dielectrics. With "
+           "water_mask, a "
            "water layer (water_height, water_normal, water_roughness, water_specular as F0) "
            "reflects, refracts the view ray into the material below and absorbs along the path "
-           "(water_tint over absorption_depth); where the mask is 0 the result is the dry render "
+           "(water_tint over absorption_depth, clear by default); where the mask is 0 the result "
+           "is the dry render "
            "exactly. Filmic curve: Narkowicz's ACES fit. docs/preview.md describes the model.",
     .params = preview_params,
     .params_size = sizeof(PreviewParams),

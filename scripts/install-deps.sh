@@ -16,7 +16,8 @@ pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libope
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks
            libopencv-dev python3-numpy python3-scipy  # blur and distance peers (bench/run_peers.sh)
-           openimageio-tools)  # oiiotool, the image-reading peer (bench/run_io.sh)
+           openimageio-tools  # oiiotool, the image-reading peer (bench/run_io.sh)
+           blender)  # Cycles, the path tracer the preview is held against (bench/run_cycles.sh)
 fi
 if [[ "${1:-}" == "--docs" ]]; then
     pkgs+=(openimageio-tools)

@@ -4,13 +4,18 @@
 // roughness and F0) lies over a metallic/roughness PBR material; the water reflects the
 // environment, the view ray is refracted into it before the parallax search of the material
 // below, which receives and returns light scaled by 1 − F and is seen through Beer–Lambert
-// absorption. Where water_mask is 0 the result is the one-layer shading of the material.
+// absorption (clear by default). Where water_mask is 0 the result is the one-layer shading of
+// the material. The material under the water is shaded with its own metallic and specular
+// level, a metal staying a metal. Ambient light is the split sum with multiple scattering
+// restored (Fdez-Agüera 2019), for the material and the water alike, as in the preview.
 //
 // Material maps (GL_REPEAT, GL_LINEAR; uv in tiles, +v towards the top of the image):
 //   basecolor (sRGB texture, so it samples linear), normal_map (OpenGL, green up, linear),
 //   roughness, height (0..1, 1 is the tile plane), ao, metallic: the maps of wet_material
 //   (`basecolor`, `ao`, `metallic`), with `under_height` as `height` and the material's own
-//   normal and roughness under the water.
+//   normal and roughness under the water; specular (the specular level, F0 = 0.08 × specular
+//   for dielectrics), read only where specular_from_map is true, else specular_level (0.5:
+//   F0 0.04).
 // Layer maps (wet_material's outputs of the same names): water_height (0..1), water_normal
 //   (OpenGL), water_roughness, water_specular (F0, linear), water_mask (0..1).
 // Lighting: prefiltered (an equirectangular map with a mip chain, level = roughness ×
@@ -30,6 +35,7 @@ uniform sampler2D roughness;
 uniform sampler2D height;
 uniform sampler2D ao;
 uniform sampler2D metallic;
+uniform sampler2D specular;
 uniform sampler2D water_height;
 uniform sampler2D water_normal;
 uniform sampler2D water_roughness;
@@ -48,7 +54,9 @@ uniform bool sun = false;
 uniform vec3 sun_dir = vec3(0.0, 0.57, 0.82); // towards the sun, tangent space
 uniform vec3 sun_radiance = vec3(3.0);        // irradiance on a surface facing the sun
 uniform float water_ior = 1.33;
-uniform vec3 water_tint = vec3(0.75, 0.9, 0.88); // transmittance over absorption_depth
+uniform bool specular_from_map = false; // else specular_level everywhere
+uniform float specular_level = 0.5;     // F0 = 0.08 × specular for dielectrics
+uniform vec3 water_tint = vec3(1.0);    // transmittance over absorption_depth (clear)
 uniform float absorption_depth = 1.0;           // height units
 
 in vec2 uv;
@@ -69,16 +77,19 @@ vec3 env_spec(vec3 d, float r) { return textureLod(prefiltered, equirect(d), r *
 vec3 env_irr(vec3 n) { return texture(irradiance, equirect(n)).rgb; }
 vec2 lut(float nv, float r) { return texture(brdf_lut, vec2(nv, r)).rg; }
 
-float schlick(float f0, float c)
+// Fresnel reflectance f0 + (1 − f0)·w(c): w is the exact Fresnel curve of a dielectric of
+// index 1.5 rescaled from 0 (normal incidence) to 1 (grazing), linear in f0 like Schlick's but
+// rising as the real curve does (as the preview node, and its split-sum table, do).
+float fresnel_w(float c)
 {
-    float m = clamp(1.0 - c, 0.0, 1.0);
-    return f0 + (1.0 - f0) * m * m * m * m * m;
+    c = clamp(c, 0.0, 1.0);
+    float g = sqrt(1.25 + c * c);
+    float a = (g - c) / (g + c), b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return (0.5 * a * a * (1.0 + b * b) - 0.04) / 0.96;
 }
-vec3 schlick3(vec3 f0, float c)
-{
-    float m = clamp(1.0 - c, 0.0, 1.0);
-    return f0 + (1.0 - f0) * (m * m * m * m * m);
-}
+const float W_AVG = 0.0539354; // 2 ∫ w(c) c dc: F_avg = f0 + (1 − f0)·W_AVG
+float fresnel(float f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
+vec3 fresnel3(vec3 f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
 
 float vis_smith(float nv, float nl, float a)
 {
@@ -92,6 +103,16 @@ float ggx(float nh, float a)
 {
     float a2 = a * a, d = nh * nh * (a2 - 1.0) + 1.0;
     return a2 / (PI * d * d);
+}
+
+// Ambient weights of a lobe of reflectance f0 with split-sum terms ab: single scattering
+// fss = f0·A + B, and ms, the light a white lobe loses to masking (1 − A − B) returned after
+// scattering between microfacets, leaving about as diffusely as the irradiance.
+vec3 ms_term(vec3 f0, vec2 ab, vec3 fss)
+{
+    float ems = 1.0 - ab.x - ab.y;
+    vec3 favg = f0 + (1.0 - f0) * W_AVG;
+    return fss * favg / (1.0 - ems * favg) * ems;
 }
 
 vec3 decode_normal(vec3 c)
@@ -124,26 +145,84 @@ vec3 march(sampler2D hmap, vec3 p, vec3 d, float z_top, float z_bot)
     return p + d * t1;
 }
 
-// Radiance leaving the material at uv towards v; amb scales the ambient light reaching it,
-// sun_l / sun_rad the sun's direction and irradiance there.
-vec3 shade(vec2 st, vec3 v, vec3 amb, vec3 sun_l, vec3 sun_rad)
+// The direction to read the prefiltered environment in for a lobe of roughness r around the
+// mirror direction rd: Frostbite's dominant direction, leaning to the normal as the lobe widens.
+vec3 dominant_dir(vec3 n, vec3 rd, float r)
+{
+    float a = r * r, f = (1.0 - a) * (sqrt(1.0 - a) + a);
+    return normalize(mix(n, rd, f));
+}
+
+float radical_inverse(uint i)
+{
+    i = (i << 16u) | (i >> 16u);
+    i = ((i & 0x55555555u) << 1u) | ((i & 0xAAAAAAAAu) >> 1u);
+    i = ((i & 0x33333333u) << 2u) | ((i & 0xCCCCCCCCu) >> 2u);
+    i = ((i & 0x0F0F0F0Fu) << 4u) | ((i & 0xF0F0F0F0u) >> 4u);
+    i = ((i & 0x00FF00FFu) << 8u) | ((i & 0xFF00FF00u) >> 8u);
+    return float(i) * 2.3283064365386963e-10;
+}
+
+// Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
+// f0w: each direction la above the surface, refracted to the water, scaled by 1 − F, reaching
+// the point from the cone of refracted directions; 16 cosine-weighted Hammersley directions in
+// the surface's frame, the light read from the prefiltered level of roughness 0.8.
+const int UW_SAMPLES = 16;
+vec3 under_irradiance(vec3 n, vec3 nw, float f0w)
+{
+    vec3 up = abs(nw.z) < 0.999 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0);
+    vec3 tx = normalize(cross(up, nw)), ty = cross(nw, tx);
+    vec3 acc = vec3(0.0);
+    for (int k = 0; k < UW_SAMPLES; k++) {
+        float u1 = (float(k) + 0.5) / float(UW_SAMPLES), u2 = radical_inverse(uint(k));
+        float rr = sqrt(u1), ph = 2.0 * PI * u2, cz = sqrt(1.0 - u1);
+        vec3 la = tx * (rr * cos(ph)) + ty * (rr * sin(ph)) + nw * cz;
+        vec3 t = refract(-la, nw, 1.0 / water_ior);
+        float cw = -dot(t, nw), nl = -dot(t, n);
+        if (nl > 0.0 && cw > 1e-4)
+            acc += env_spec(la, 0.8) * ((1.0 - fresnel(f0w, cz)) * nl / cw);
+    }
+    return acc / float(UW_SAMPLES);
+}
+
+// Radiance leaving the material at uv towards v; sun_l / sun_rad the sun's direction and
+// irradiance there. Under the water (submerged), the ambient light is what crosses the surface
+// of normal nw and F0 f0w, and the reflection leaves through it scaled by 1 − F or, beyond the
+// critical angle, sees the submerged floor (this point's own diffuse radiance).
+vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3 sun_rad)
 {
     vec3 base = clamp(texture(basecolor, st).rgb, 0.0, 1.0);
     vec3 n = decode_normal(texture(normal_map, st).rgb);
     float r = clamp(texture(roughness, st).r, 0.0, 1.0);
     float metal = clamp(texture(metallic, st).r, 0.0, 1.0);
     float occ = clamp(texture(ao, st).r, 0.0, 1.0);
+    float level = specular_from_map ? clamp(texture(specular, st).r, 0.0, 1.0) : specular_level;
     float nv = clamp(dot(n, v), 1e-4, 1.0);
-    vec3 f0 = mix(vec3(0.04), base, metal);
+    vec3 f0 = mix(vec3(0.08 * level), base, metal);
     vec3 dc = base * (1.0 - metal);
     vec2 ab = lut(nv, r);
-    vec3 e = f0 * ab.x + ab.y;
-    vec3 color = (env_spec(reflect(-v, n), r) * e + dc * env_irr(n) * (1.0 - e)) * occ * amb;
+    vec3 fss = f0 * ab.x + ab.y;
+    vec3 ms = ms_term(f0, ab, fss);
+    vec3 e = fss + ms;
+    vec3 rd = dominant_dir(n, reflect(-v, n), r);
+    vec3 irr, rad;
+    if (!submerged) {
+        irr = env_irr(n);
+        rad = env_spec(rd, r);
+    } else {
+        irr = under_irradiance(n, nw, f0w);
+        vec3 ra = dot(rd, nw) > 0.0 ? refract(rd, -nw, water_ior) : vec3(0.0);
+        if (ra != vec3(0.0))
+            rad = env_spec(ra, r) * (1.0 - fresnel(f0w, dot(ra, nw)));
+        else
+            rad = irr * dc;
+    }
+    vec3 color = (rad * fss + irr * (ms + dc * (1.0 - e))) * occ;
     float nl = dot(n, sun_l);
     if (sun && nl > 0.0) {
         vec3 h = normalize(v + sun_l);
         float a = max(r * r, 2e-3);
-        vec3 f = schlick3(f0, clamp(dot(v, h), 0.0, 1.0));
+        vec3 f = fresnel3(f0, clamp(dot(v, h), 0.0, 1.0));
         vec3 spec = f * ggx(clamp(dot(n, h), 0.0, 1.0), a) * vis_smith(nv, nl, a);
         color += (spec + dc * (1.0 - f) / PI) * sun_rad * nl;
     }
@@ -157,7 +236,7 @@ void main()
     vec3 p = vec3(uv, 0.0);
     // the dry material (one layer)
     vec3 pd = march(height, p, d, 0.0, -height_scale);
-    vec3 color = shade(pd.xy, v, vec3(1.0), sun_dir, sun_radiance);
+    vec3 color = shade(pd.xy, v, false, vec3(0.0, 0.0, 1.0), 0.0, sun_dir, sun_radiance);
 
     vec3 pw = march(water_height, p, d, 0.0, -height_scale);
     float m = clamp(texture(water_mask, pw.xy).r, 0.0, 1.0);
@@ -167,23 +246,24 @@ void main()
         float f0 = clamp(texture(water_specular, pw.xy).r, 0.0, 1.0);
         float nv = clamp(dot(nw, v), 1e-4, 1.0);
         vec2 ab = lut(nv, rw);
-        float e = f0 * ab.x + ab.y; // the lobe's albedo: Fresnel's F(n·v) when smooth
-        vec3 top = env_spec(reflect(d, nw), rw) * e;
+        float fss = f0 * ab.x + ab.y;
+        float ms = ms_term(vec3(f0), ab, vec3(fss)).x;
+        float e = fss + ms; // the lobe's albedo: Fresnel's F(n·v) when smooth
+        vec3 top = env_spec(dominant_dir(nw, reflect(d, nw), rw), rw) * fss + env_irr(nw) * ms;
         vec3 sun_l = sun_dir, sun_under = vec3(0.0);
         float nl = dot(nw, sun_dir);
         if (sun && nl > 0.0) {
             vec3 h = normalize(v + sun_dir);
             float a = max(rw * rw, 2e-3);
             top += sun_radiance * ggx(clamp(dot(nw, h), 0.0, 1.0), a) * vis_smith(nv, nl, a)
-                   * schlick(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
+                   * fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
             sun_l = -refract(-sun_dir, nw, 1.0 / water_ior);
-            sun_under = sun_radiance * (1.0 - schlick(f0, nl));
+            sun_under = sun_radiance * (1.0 - fresnel(f0, nl));
         }
         vec3 t = refract(d, nw, 1.0 / water_ior);
         if (t.z >= 0.0) t = d;
         vec3 pu = march(height, pw, t, pw.z, -height_scale);
-        float f_avg = f0 + (1.0 - f0) / 21.0;
-        vec3 under = shade(pu.xy, -t, vec3(1.0 - f_avg), sun_l, sun_under);
+        vec3 under = shade(pu.xy, -t, true, nw, f0, sun_l, sun_under);
         float path = height_scale > 0.0 ? (length(pw - pu) + max(pw.z - pu.z, 0.0)) / height_scale : 0.0;
         vec3 tr = pow(clamp(water_tint, 0.0, 1.0), vec3(path / absorption_depth));
         vec3 wet = top + under * tr * (1.0 - e);
