@@ -49,8 +49,10 @@
  * light leaves scaled by 1 − E. Rough lobes read the prefiltered environment along Frostbite's
  * dominant direction (dominant_dir), dry and under water.
  * Beer–Lambert absorption: the light crosses the view path in the water plus the vertical depth
- * (both in height units), and is multiplied by water_tint^(path / absorption_depth) (default
- * 1 1 1: clear water; the maps of the material under the water carry no absorption). The result
+ * (both in height units), and is multiplied by tint^(path / absorption_depth), tint the
+ * `water_tint` input where connected (read where the ray enters the water, so a graph can give
+ * a liquid's tint from its preset or paint it) and else the parameter (default 1 1 1: clear
+ * water; the maps of the material under the water carry no absorption). The result
  * is mix(dry, wet, water_mask); where the mask is 0 (or not connected) the dry render is
  * returned untouched, bit for bit. Rays that miss the tile see the environment.
  * Output: radiance · 2^exposure, through the filmic curve of Narkowicz 2015 ("ACES filmic tone
@@ -534,16 +536,25 @@ enum {
     IN_WR,
     IN_WS,
     IN_WM,
+    IN_WT,
     N_IN
 };
 static const WgPortSpec preview_in[] = {
-    WG_PORT("environment", WG_COLOR),        WG_PORT("basecolor", WG_COLOR),
-    WG_PORT_OPT("normal", WG_COLOR),         WG_PORT_OPT("roughness", WG_GRAY),
-    WG_PORT_OPT("height", WG_GRAY),          WG_PORT_OPT("ao", WG_GRAY),
-    WG_PORT_OPT("metallic", WG_GRAY),        WG_PORT_OPT("specular", WG_GRAY),
-    WG_PORT_OPT("water_height", WG_GRAY),    WG_PORT_OPT("water_normal", WG_COLOR),
-    WG_PORT_OPT("water_roughness", WG_GRAY), WG_PORT_OPT("water_specular", WG_GRAY),
-    WG_PORT_OPT("water_mask", WG_GRAY),      WG_PORT_END,
+    WG_PORT("environment", WG_COLOR),
+    WG_PORT("basecolor", WG_COLOR),
+    WG_PORT_OPT("normal", WG_COLOR),
+    WG_PORT_OPT("roughness", WG_GRAY),
+    WG_PORT_OPT("height", WG_GRAY),
+    WG_PORT_OPT("ao", WG_GRAY),
+    WG_PORT_OPT("metallic", WG_GRAY),
+    WG_PORT_OPT("specular", WG_GRAY),
+    WG_PORT_OPT("water_height", WG_GRAY),
+    WG_PORT_OPT("water_normal", WG_COLOR),
+    WG_PORT_OPT("water_roughness", WG_GRAY),
+    WG_PORT_OPT("water_specular", WG_GRAY),
+    WG_PORT_OPT("water_mask", WG_GRAY),
+    WG_PORT_OPT("water_tint", WG_COLOR),
+    WG_PORT_END,
 };
 static const WgPortSpec preview_out[] = {WG_PORT("image", WG_COLOR), WG_PORT_END};
 
@@ -890,8 +901,10 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
         path = (sqrtf(dot(dp, dp)) + fmaxf(pw.z - pu.z, 0)) / hs;
     }
     float k = path / p->absorption_depth;
-    V3 tr = v3(powf(clampf(p->water_tint[0], 0, 1), k), powf(clampf(p->water_tint[1], 0, 1), k),
-               powf(clampf(p->water_tint[2], 0, 1), k));
+    V3 tint = j->in[IN_WT] ? tex_color(j->in[IN_WT], pw.x, pw.y, v3(1, 1, 1))
+                           : v3(p->water_tint[0], p->water_tint[1], p->water_tint[2]);
+    V3 tr = v3(powf(clampf(tint.x, 0, 1), k), powf(clampf(tint.y, 0, 1), k),
+               powf(clampf(tint.z, 0, 1), k));
     V3 wet = add(top, scale(mul(under, tr), 1 - e));
     *out = m >= 1 ? wet : add(scale(dry, 1 - m), scale(wet, m));
     return true;
@@ -1008,7 +1021,8 @@ const WgNodeType wg_node_preview = {
            "water_mask, a "
            "water layer (water_height, water_normal, water_roughness, water_specular as F0) "
            "reflects, refracts the view ray into the material below and absorbs along the path "
-           "(water_tint over absorption_depth, clear by default); where the mask is 0 the result "
+           "(water_tint over absorption_depth: the water_tint input where connected, else the "
+           "parameter, clear by default); where the mask is 0 the result "
            "is the dry render "
            "exactly. Filmic curve: Narkowicz's ACES fit. docs/preview.md describes the model.",
     .params = preview_params,

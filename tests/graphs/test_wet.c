@@ -950,6 +950,114 @@ static void test_preview_clear_water_neutral(void **state)
     wg_graph_free(g);
 }
 
+/* ---- wet_preview: a gold coin under water stays a gold metal -------------------------------- */
+
+enum { COIN = 64 };
+static double coin_r(int x, int y)
+{
+    double dx = (x + 0.5) / COIN - 0.5, dy = (y + 0.5) / COIN - 0.5;
+    return sqrt(dx * dx + dy * dy);
+}
+/* a pit (height 0.1) of radius 0.3 in a plateau (1) */
+static double pit_fn(int x, int y, int k)
+{
+    (void)k;
+    double r = coin_r(x, y);
+    return r < 0.25 ? 0.1 : r < 0.3 ? 0.1 + 0.9 * (r - 0.25) / 0.05 : 1;
+}
+/* a gold disc (sRGB encoded, as the basecolor input is) in grey stone */
+static double coin_color_fn(int x, int y, int k)
+{
+    static const double gold[4] = {1.0, 0.89, 0.61, 1}, stone[4] = {0.5, 0.5, 0.5, 1};
+    return coin_r(x, y) < 0.2 ? gold[k] : stone[k];
+}
+static double coin_metal_fn(int x, int y, int k)
+{
+    (void)k;
+    return coin_r(x, y) < 0.2 ? 1 : 0;
+}
+static double zero_fn(int x, int y, int k)
+{
+    (void)x, (void)y, (void)k;
+    return 0;
+}
+static double sky_fn(int x, int y, int k)
+{
+    double u = (x + 0.5) / 64, v = (y + 0.5) / 32;
+    if (k == 3) return 1;
+    return v < 0.5 ? 1.5 - 0.5 * u * (k == 0) : 0.05; /* a bright sky over a dark ground */
+}
+static double one_fn(int x, int y, int k)
+{
+    (void)x, (void)y, (void)k;
+    return 1;
+}
+
+/* the mean linear colour of the 9 x 9 pixels at the centre of preview output `name` */
+static void coin_view(const WgImage *env, double (*metal)(int, int, int), const char *name,
+                      double c[3])
+{
+    WgGraph *g = load_builtin("wet_preview");
+    WgImage *col = wgt_image_fn(COIN, COIN, 4, coin_color_fn);
+    WgImage *hgt = wgt_image_fn(COIN, COIN, 1, pit_fn), *mt = wgt_image_fn(COIN, COIN, 1, metal);
+    WgRequest *r = wg_request_new(g);
+    set_input(r, "environment", env);
+    set_input(r, "basecolor", col);
+    set_input(r, "height", hgt);
+    set_input(r, "metallic", mt);
+    set_param(r, "water_level", "0.5");
+    set_param(r, "elevation", "70");
+    set_param(r, "zoom", "2");
+    set_param(r, "exposure", "-1.5"); /* away from the tone curve's shoulder */
+    wg_request_set_size(r, COIN, COIN);
+    WgError err = {0};
+    if (wg_request_add_output(r, name, &err)) fail_msg("%s", err.message);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    const WgImage *p = wgt_output(res, name);
+    c[0] = c[1] = c[2] = 0;
+    for (int y = p->height / 2 - 4; y <= p->height / 2 + 4; y++)
+        for (int x = p->width / 2 - 4; x <= p->width / 2 + 4; x++)
+            for (int k = 0; k < 3; k++) c[k] += wgt_px(p, x, y, k) / 81;
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_image_unref(mt);
+    wg_image_unref(hgt);
+    wg_image_unref(col);
+    wg_graph_free(g);
+}
+
+/* The coin under clear water, in a white environment: not brighter than dry, its hue kept
+ * (chromaticity within 0.02). In a sky over dark ground it still reflects as a metal: unlike
+ * the same disc painted (metallic 0) under the same water. */
+static void test_preview_gold_under_water(void **state)
+{
+    (void)state;
+    WgImage *white = wgt_image_fn(64, 32, 4, one_fn), *sky = wgt_image_fn(64, 32, 4, sky_fn);
+    double d[3], w[3], m[3], p[3];
+    coin_view(white, coin_metal_fn, "preview_dry", d);
+    coin_view(white, coin_metal_fn, "preview_wet", w);
+    coin_view(sky, coin_metal_fn, "preview_wet", m);
+    coin_view(sky, zero_fn, "preview_wet", p);
+    print_message("gold coin dry (%.3f %.3f %.3f), under water (%.3f %.3f %.3f); in the sky: "
+                  "metal (%.3f %.3f %.3f), painted (%.3f %.3f %.3f)\n",
+                  d[0], d[1], d[2], w[0], w[1], w[2], m[0], m[1], m[2], p[0], p[1], p[2]);
+    double sd = d[0] + d[1] + d[2], sw = w[0] + w[1] + w[2];
+    if (!(d[0] > 1.5 * d[2])) fail_msg("the dry coin (%g %g %g) is not gold", d[0], d[1], d[2]);
+    double lum_d = 0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2];
+    double lum_w = 0.2126 * w[0] + 0.7152 * w[1] + 0.0722 * w[2];
+    if (lum_w > lum_d) fail_msg("under water %g, brighter than dry %g", lum_w, lum_d);
+    for (int k = 0; k < 3; k++)
+        if (fabs(w[k] / sw - d[k] / sd) > 0.02)
+            fail_msg("channel %d: chromaticity %g under water, %g dry", k, w[k] / sw, d[k] / sd);
+    double sm = m[0] + m[1] + m[2], sp = p[0] + p[1] + p[2];
+    if (!(fabs(sm - sp) > 0.05 * sm))
+        fail_msg("metal %g and paint %g under water look alike: the metal is lost", sm, sp);
+    wg_image_unref(sky);
+    wg_image_unref(white);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -968,6 +1076,7 @@ int main(void)
         cmocka_unit_test(test_liquid_stains_film),
         cmocka_unit_test(test_layer_maps),
         cmocka_unit_test(test_preview_clear_water_neutral),
+        cmocka_unit_test(test_preview_gold_under_water),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -745,6 +745,62 @@ static void test_specular_under_water(void **state)
     wg_image_unref(env);
 }
 
+/* The water_tint input, where connected, is the tint: a uniform tint image gives the same
+ * pixels (to float rounding) as the same colour in the parameter (which it overrides), and tea's
+ * tint darkens the blue of a white floor under the water far more than its red. */
+static WgImage *render_tinted(const WgImage *atlas, const char *tint_attr, const WgImage *tint)
+{
+    WgImage *white = const_image(PT, PT, 4, 1), *height = pit_map(1, 0.3f, 1, 0.3f);
+    WgImage *wh = pit_map(1, 0.85f, 1, 0.3f), *mask = pit_map(1, 1, 0, 0.3f);
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", white);
+    in_add(&in, "height", height);
+    in_add(&in, "water_height", wh);
+    in_add(&in, "water_mask", mask);
+    if (tint) in_add(&in, "water_tint", tint);
+    char attrs[256];
+    snprintf(attrs, sizeof attrs,
+             LINEAR "azimuth=\"0\" fov=\"30\" height_scale=\"0.1\" elevation=\"65\" "
+                    "zoom=\"2\" absorption_depth=\"1\" %s",
+             tint_attr);
+    WgImage *out = preview(attrs, AW, AH, &in, 2);
+    wg_image_unref(mask);
+    wg_image_unref(wh);
+    wg_image_unref(height);
+    wg_image_unref(white);
+    return out;
+}
+
+static void test_tint_input(void **state)
+{
+    (void)state;
+    WgImage *grey = const_image(AW, AH, 4, 0.5f), *atlas = prefilter(grey, 2);
+    WgImage *tea = wgt_image(PT, PT, 4, NULL);
+    for (int y = 0; y < PT; y++) {
+        float *r = wg_image_row(tea, y);
+        for (int x = 0; x < PT; x++)
+            r[4 * x] = 0.8f, r[4 * x + 1] = 0.4f, r[4 * x + 2] = 0.1f, r[4 * x + 3] = 1;
+    }
+    WgImage *by_param = render_tinted(atlas, "water_tint=\"0.8 0.4 0.1\"", NULL);
+    /* the input wins over a different parameter */
+    WgImage *by_input = render_tinted(atlas, "water_tint=\"1 1 1\"", tea);
+    WgImage *clear = render_tinted(atlas, "", NULL);
+    wgt_assert_near(by_param, by_input, 1e-6); /* bilinear weights of a uniform image */
+    double t[3], c[3];
+    centre_mean(by_input, t), centre_mean(clear, c);
+    print_message("white floor under clear water (%.3f %.3f %.3f), under tea (%.3f %.3f %.3f)\n",
+                  c[0], c[1], c[2], t[0], t[1], t[2]);
+    if (!(t[2] < 0.5 * c[2] && t[0] > t[2] * 2))
+        fail_msg("tea's tint is not applied: blue %g (clear %g), red %g", t[2], c[2], t[0]);
+    wg_image_unref(clear);
+    wg_image_unref(by_input);
+    wg_image_unref(by_param);
+    wg_image_unref(tea);
+    wg_image_unref(atlas);
+    wg_image_unref(grey);
+}
+
 static void test_atlas_size_error(void **state)
 {
     (void)state;
@@ -778,6 +834,7 @@ int main(void)
         cmocka_unit_test(test_specular_under_water),
         cmocka_unit_test(test_rough_lobe_horizon),
         cmocka_unit_test(test_fresnel_exact),
+        cmocka_unit_test(test_tint_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
