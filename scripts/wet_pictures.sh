@@ -48,18 +48,21 @@ gpanel() { # gray file crop out
 }
 crop=400x300+300+100
 
-# water levels: base colour (dry first) and zones
+# water levels: base colour (dry first) and zones, at full size: 512 x 384 of the 1K maps each
 render dry "${bricks[@]}" --set water_level=0 --output basecolor --output zones
 levels=(0.5 0.6 0.7)
 for l in "${levels[@]}"; do render "l$l" "${bricks[@]}" --set water_level=$l; done
-panel "$tmp/dry/wet_material_basecolor.png" $crop "$tmp/b0.png"
-panel "$tmp/dry/wet_material_zones.png" $crop "$tmp/z0.png"
+big=512x384+250+80
+oiiotool "$tmp/dry/wet_material_basecolor.png" --ch R,G,B --cut $big -o "$tmp/b0.png"
+oiiotool "$tmp/dry/wet_material_zones.png" --ch R,G,B --cut $big -o "$tmp/z0.png"
 for l in "${levels[@]}"; do
-    panel "$tmp/l$l/wet_material_basecolor.png" $crop "$tmp/b$l.png"
-    panel "$tmp/l$l/wet_material_zones.png" $crop "$tmp/z$l.png"
+    oiiotool "$tmp/l$l/wet_material_basecolor.png" --ch R,G,B --cut $big -o "$tmp/b$l.png"
+    oiiotool "$tmp/l$l/wet_material_zones.png" --ch R,G,B --cut $big -o "$tmp/z$l.png"
 done
-oiiotool "$tmp/b0.png" "$tmp/b0.5.png" "$tmp/b0.6.png" "$tmp/b0.7.png" --mosaic 4x1 -o $img/wet_levels.png
-oiiotool "$tmp/z0.png" "$tmp/z0.5.png" "$tmp/z0.6.png" "$tmp/z0.7.png" --mosaic 4x1 -o $img/wet_zones.png
+oiiotool "$tmp/b0.png" "$tmp/b0.5.png" --mosaic 2x1 -o $img/wet_levels.png
+oiiotool "$tmp/b0.6.png" "$tmp/b0.7.png" --mosaic 2x1 -o $img/wet_levels_high.png
+oiiotool "$tmp/z0.png" "$tmp/z0.5.png" "$tmp/z0.6.png" "$tmp/z0.7.png" --mosaic 4x1 --resize 50% \
+    -o $img/wet_zones.png
 
 # dry and wet roughness and normal at level 0.6
 render drymaps "${bricks[@]}" --set water_level=0 --output roughness --output normal
