@@ -99,8 +99,13 @@ static void json_row(const Options *o, const WgGraph *g, int index, const BatchR
         if (i) printf(", ");
         cli_json_string(stdout, p);
     }
-    printf("], \"computed\": %d, \"ms\": %.3f, \"error\": ",
+    printf("], \"computed\": %d, \"ms\": %.3f, \"warnings\": [",
            res ? wg_result_evaluated_count(res) : 0, ms);
+    for (int i = 0; !error && res && i < wg_result_warning_count(res); i++) {
+        if (i) printf(", ");
+        cli_json_warning(stdout, wg_result_warning(res, i));
+    }
+    printf("], \"error\": ");
     if (error)
         cli_json_string(stdout, error);
     else
@@ -145,6 +150,13 @@ int render_batch(const Options *o, const WgGraph *g)
         int rc = row_request(&ro, g, o->batch, row, &r, &err);
         if (!rc) rc = wg_render(e, r, &res, &err);
         if (progress) fprintf(stderr, "\r%*s\r", 60, ""); /* the paths go to the same terminal */
+        if (!rc && !o->quiet) {
+            /* the row first, as for errors: the same warning may apply to some rows only */
+            char row_at[4096 + 64];
+            snprintf(row_at, sizeof row_at, "%s:%d: row %d: ", o->batch, row->line, i);
+            for (int k = 0; k < wg_result_warning_count(res); k++)
+                cli_warning(wg_result_warning(res, k), row_at);
+        }
         if (!rc) rc = write_outputs(&ro, g, res, -1, &err);
         double ms = now_ms() - t0;
         char text[sizeof err.message + 4096] = "";

@@ -10,7 +10,9 @@ static const char help[] =
     "\n"
     "Validate graph files: syntax, node types, parameters, connections, types, cycles,\n"
     "subgraphs, and every value with the defaults (inputs without a default get a placeholder\n"
-    "image). Nothing is evaluated. Prints 'FILE: ok' per valid file; exit 2 if any is not.\n";
+    "image). Nothing is evaluated. Prints 'FILE: ok' per valid file; exit 2 if any is not.\n"
+    "The graph's warnings that apply with the defaults are printed on stderr (they do not\n"
+    "make a file invalid).\n";
 
 int cmd_check(int argc, char **argv)
 {
@@ -32,13 +34,17 @@ int cmd_check(int argc, char **argv)
         if (!rc && !(r = wg_request_new(g)))
             rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         if (!rc) rc = cli_fill_placeholders(g, r, &err);
-        if (!rc) rc = wg_request_check(r, &err);
+        WgWarning *warnings = NULL;
+        int n_warnings = 0;
+        if (!rc) rc = wg_request_warnings(r, &warnings, &n_warnings, &err);
         if (rc) {
             cli_report(&err);
             bad++;
         } else {
+            for (int k = 0; k < n_warnings; k++) cli_warning(&warnings[k], NULL);
             printf("%s: ok\n", argv[i]);
         }
+        wg_warnings_free(warnings, n_warnings);
         wg_request_free(r);
         wg_graph_free(g);
     }

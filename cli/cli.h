@@ -26,6 +26,11 @@ int cli_usage_error(const char *cmd, const char *fmt, ...) __attribute__((format
 bool cli_is_help(const char *arg);
 /* JSON string literal. */
 void cli_json_string(FILE *f, const char *s);
+/* One graph warning on stderr: "wetgraph: warning: [prefix]FILE:LINE: [node 'id': ]message"
+ * (prefix: NULL or text such as "list.txt:3: row 2: "). */
+void cli_warning(const WgWarning *w, const char *prefix);
+/* A warning as a JSON object: {"file": ..., "line": ..., "node": ... or null, "message": ...}. */
+void cli_json_warning(FILE *f, const WgWarning *w);
 /* Make a graph runnable for checking: placeholder images for inputs without a default. */
 int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err);
 

@@ -4,7 +4,9 @@
  * on $time (their cache keys do not contain it) and only the timed part of the graph is
  * recomputed. Each frame's files are written all or none before the next frame starts; a failed
  * frame stops the sequence with the frames before it complete. --stats sums the sequence up per
- * node: how many frames computed it and the time it took in all. */
+ * node: how many frames computed it and the time it took in all. A graph warning is printed once
+ * for the sequence, when a frame first gives it (the same place and message in later frames is
+ * not repeated). */
 #include "contact_sheet.h"
 #include "render.h"
 
@@ -24,6 +26,49 @@ typedef struct {
     double ms;
     size_t peak;
 } Totals;
+
+/* The distinct warnings of the sequence so far (own copies). */
+typedef struct {
+    WgWarning *w;
+    int n;
+} Seen;
+
+static bool same_warning(const WgWarning *a, const WgWarning *b)
+{
+    return a->line == b->line && !strcmp(a->file, b->file) && !strcmp(a->message, b->message) &&
+           (a->node && b->node ? !strcmp(a->node, b->node) : a->node == b->node);
+}
+
+/* Prints (unless quiet) and keeps the warnings of res not given by an earlier frame. */
+static int seen_add(Seen *s, const WgResult *res, bool quiet)
+{
+    for (int i = 0; i < wg_result_warning_count(res); i++) {
+        const WgWarning *w = wg_result_warning(res, i);
+        bool old = false;
+        for (int k = 0; k < s->n && !old; k++) old = same_warning(&s->w[k], w);
+        if (old) continue;
+        WgWarning *grown = realloc(s->w, sizeof *grown * (size_t)(s->n + 1));
+        if (!grown) return WG_ERR_NOMEM;
+        s->w = grown;
+        WgWarning *c = &s->w[s->n];
+        *c = (WgWarning){strdup(w->file), w->line, w->node ? strdup(w->node) : NULL,
+                         strdup(w->message)};
+        s->n++;
+        if (!c->file || !c->message || (w->node && !c->node)) return WG_ERR_NOMEM;
+        if (!quiet) cli_warning(c, NULL);
+    }
+    return WG_OK;
+}
+
+static void seen_free(Seen *s)
+{
+    for (int i = 0; i < s->n; i++) {
+        free((char *)s->w[i].file);
+        free((char *)s->w[i].node);
+        free((char *)s->w[i].message);
+    }
+    free(s->w);
+}
 
 static int totals_add(Totals *t, const WgResult *res)
 {
@@ -58,7 +103,7 @@ static int totals_add(Totals *t, const WgResult *res)
     return WG_OK;
 }
 
-static void totals_print(const Totals *t, bool json)
+static void totals_print(const Totals *t, const Seen *seen, bool json)
 {
     if (json) {
         printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"nodes\": "
@@ -73,7 +118,12 @@ static void totals_print(const Totals *t, bool json)
             printf(", \"computed\": %d, \"reused\": %d, \"ms\": %.3f}%s\n", n->computed, n->reused,
                    n->ms, i + 1 < t->n ? "," : "");
         }
-        printf("  ]\n}\n");
+        printf("  ],\n  \"warnings\": [");
+        for (int k = 0; k < seen->n; k++) {
+            printf("%s\n    ", k ? "," : "");
+            cli_json_warning(stdout, &seen->w[k]);
+        }
+        printf("\n  ]\n}\n");
         return;
     }
     fprintf(stderr, "%-32s %-12s %9s %9s %10s\n", "node", "type", "computed", "reused", "ms");
@@ -107,6 +157,7 @@ static int write_sheet(const Options *o, const ContactSheet *cs, WgColorspace cs
 int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e, WgError *err)
 {
     Totals totals = {0};
+    Seen seen = {0};
     ContactSheet *sheet = NULL;
     WgColorspace sheet_space = WG_LINEAR;
     int count = o->frame_last - o->frame_first + 1, rc = WG_OK;
@@ -115,6 +166,8 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
         WgResult *res = NULL;
         wg_request_set_time(r, t);
         rc = wg_render(e, r, &res, err);
+        if (!rc && seen_add(&seen, res, o->quiet))
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         if (!rc) rc = write_outputs(o, g, res, f, err);
         if (!rc && o->contact_sheet && wg_result_output_count(res) > 0) {
             const WgImage *img = wg_result_output_image(res, 0);
@@ -135,8 +188,9 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
         wg_result_free(res);
     }
     if (!rc && sheet) rc = write_sheet(o, sheet, sheet_space, err);
-    if (!rc && o->stats) totals_print(&totals, o->stats_json);
+    if (!rc && o->stats) totals_print(&totals, &seen, o->stats_json);
     contact_sheet_free(sheet);
+    seen_free(&seen);
     totals_free(&totals);
     return rc;
 }

@@ -47,7 +47,7 @@ static const char help[] =
     "  --stats[=json]         per-node time, cache outcome and size, fused groups, and peak\n"
     "                         memory (table on stderr, or JSON on stdout)\n"
     "  --no-fuse              evaluate every node whole: no point operations fused into bands\n"
-    "  -q, --quiet            print nothing but errors\n";
+    "  -q, --quiet            print nothing but errors (no warnings either)\n";
 
 static int mkdir_p(const char *path)
 {
@@ -343,6 +343,11 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             cli_json_string(stdout, wg_result_stat(res, groups[k].last)->id);
             printf("}");
         }
+        printf("\n  ],\n  \"warnings\": [");
+        for (int k = 0; k < wg_result_warning_count(res); k++) {
+            printf("%s\n    ", k ? "," : "");
+            cli_json_warning(stdout, wg_result_warning(res, k));
+        }
         printf("\n  ]\n}\n");
         free(groups);
         return;
@@ -552,6 +557,9 @@ int cmd_render(int argc, char **argv)
         if (render_frames(&o, g, r, e, &err)) goto fail;
     } else {
         if (wg_render(e, r, &res, &err)) goto fail;
+        if (!o.quiet)
+            for (int i = 0; i < wg_result_warning_count(res); i++)
+                cli_warning(wg_result_warning(res, i), NULL);
         if (write_outputs(&o, g, res, -1, &err)) goto fail;
         if (o.stats) print_stats(e, res, o.stats_json);
     }

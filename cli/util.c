@@ -76,6 +76,27 @@ void cli_json_string(FILE *f, const char *s)
     fputc('"', f);
 }
 
+void cli_warning(const WgWarning *w, const char *prefix)
+{
+    fprintf(stderr, "wetgraph: warning: %s%s:%d: ", prefix ? prefix : "", w->file, w->line);
+    if (w->node) fprintf(stderr, "node '%s': ", w->node);
+    fprintf(stderr, "%s\n", w->message);
+}
+
+void cli_json_warning(FILE *f, const WgWarning *w)
+{
+    fprintf(f, "{\"file\": ");
+    cli_json_string(f, w->file);
+    fprintf(f, ", \"line\": %d, \"node\": ", w->line);
+    if (w->node)
+        cli_json_string(f, w->node);
+    else
+        fprintf(f, "null");
+    fprintf(f, ", \"message\": ");
+    cli_json_string(f, w->message);
+    fprintf(f, "}");
+}
+
 int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err)
 {
     const char *size = wg_graph_size_text(g);

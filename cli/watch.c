@@ -447,6 +447,9 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
         goto out;
     }
     if (rc) goto fail;
+    if (!o->quiet)
+        for (int i = 0; i < wg_result_warning_count(res); i++)
+            cli_warning(wg_result_warning(res, i), NULL);
 #ifdef WG_HAVE_SERVE
     /* the page first: the files follow (a failure to write them is published then) */
     if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);

@@ -102,6 +102,8 @@ struct WgResult {
     int evaluated;
     size_t peak;
     double total_ms;
+    WgWarning *warnings; /* taken over from the plan */
+    int n_warnings;
 };
 
 double wg__now_ms(void)
@@ -829,6 +831,7 @@ void wg_result_free(WgResult *r)
     wg_free(r->colorspaces);
     for (int i = 0; i < r->n_stats; i++) wg_free((char *)r->stats[i].id);
     wg_free(r->stats);
+    wg_warnings_free(r->warnings, r->n_warnings);
     wg_free(r);
 }
 
@@ -876,6 +879,10 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     }
     r->peak = run->peak;
     r->total_ms = wg__now_ms() - t0;
+    r->warnings = p->warnings;
+    r->n_warnings = p->n_warnings;
+    p->warnings = NULL;
+    p->n_warnings = 0;
     *out = r;
     return WG_OK;
 }
@@ -1085,4 +1092,12 @@ size_t wg_result_peak_bytes(const WgResult *r)
 double wg_result_total_ms(const WgResult *r)
 {
     return r->total_ms;
+}
+int wg_result_warning_count(const WgResult *r)
+{
+    return r->n_warnings;
+}
+const WgWarning *wg_result_warning(const WgResult *r, int i)
+{
+    return &r->warnings[i];
 }

@@ -99,6 +99,17 @@ void wg_graph_free(WgGraph *g)
         wg_graph_free(n->sub);
     }
     wg_free(g->nodes);
+    for (int i = 0; i < g->n_warnings; i++) {
+        WarningDef *w = &g->warnings[i];
+        wg_free(w->when_text);
+        wg_expr_free(w->when);
+        for (int k = 0; k < w->n_parts; k++) {
+            wg_free(w->parts[k].text);
+            wg_expr_free(w->parts[k].expr);
+        }
+        wg_free(w->parts);
+    }
+    wg_free(g->warnings);
     wg_free(g->node_info);
     wg__name_index_free(&g->node_index);
     wg__name_index_free(&g->input_index);

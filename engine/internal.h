@@ -131,6 +131,22 @@ typedef struct ParamDef {
     char **value_storage; /* enum values */
 } ParamDef;
 
+/* A <warning>: `when` and the message's {…} parts are parsed at load time, evaluated per
+ * instance of the graph once its parameters are known. */
+typedef struct WarnPart {
+    char *text;   /* literal text, or NULL */
+    WgExpr *expr; /* {=expression}, or NULL */
+    int param;    /* {name}: graph parameter index, else -1 */
+} WarnPart;
+
+typedef struct WarningDef {
+    int line;
+    char *when_text;
+    WgExpr *when;
+    WarnPart *parts;
+    int n_parts;
+} WarningDef;
+
 typedef struct InputDef {
     WgGraphInputInfo info;
     float def[4];
@@ -151,6 +167,8 @@ struct WgGraph {
     int n_outputs;
     NodeDef *nodes;
     int n_nodes;
+    WarningDef *warnings;
+    int n_warnings;
     WgGraphNodeInfo *node_info;
     /* instances one instantiation of this graph can make: its built-in nodes and inputs plus,
      * per subgraph node, one and the subgraph's count (saturating at WG_MAX_INSTANCES + 1) */
@@ -217,7 +235,9 @@ typedef struct WgPlan {
     int n_insts, cap_insts;
     WgPlanOutput *outputs;
     int n_outputs;
-    bool reads_time; /* an instance reads $time (a timed node, an expression, a node's scope) */
+    bool reads_time;     /* an instance reads $time (a timed node, an expression, a node's scope) */
+    WgWarning *warnings; /* the <warning>s that apply, in instantiation order (owned strings) */
+    int n_warnings;
 } WgPlan;
 
 struct WgRequest {

@@ -43,6 +43,7 @@ typedef struct Builder {
 
 static int resolve_ref(Builder *b, Frame *f, int node, int port, int input, int line, WgRef *out);
 static int input_default(Builder *b, Frame *f, int input, int line, WgRef *out);
+static int frame_warnings(Builder *b, const Frame *f);
 
 /* ---- frames ------------------------------------------------------------------------------ */
 
@@ -135,6 +136,7 @@ void wg__plan_free(WgPlan *plan)
     wg_free(plan->insts);
     for (int i = 0; i < plan->n_outputs; i++) wg_free(plan->outputs[i].name);
     wg_free(plan->outputs);
+    wg_warnings_free(plan->warnings, plan->n_warnings);
     memset(plan, 0, sizeof *plan);
 }
 
@@ -757,7 +759,121 @@ static int inst_sub(Builder *b, Frame *f, int idx, Frame **out)
         wg_free(slots);
     }
     wg_free(refs);
+    if (!rc) rc = frame_warnings(b, c);
     if (!rc) *out = c;
+    return rc;
+}
+
+/* ---- warnings ---------------------------------------------------------------------------- */
+
+void wg_warnings_free(WgWarning *w, int count)
+{
+    if (!w) return;
+    for (int i = 0; i < count; i++) {
+        wg_free((char *)w[i].file);
+        wg_free((char *)w[i].node);
+        wg_free((char *)w[i].message);
+    }
+    wg_free(w);
+}
+
+/* Appends `s` to the growing message *buf (length *len). */
+static int append(char **buf, size_t *len, const char *s)
+{
+    size_t n = strlen(s);
+    char *p = wg_realloc_array(*buf, *buf ? *len + 1 : 0, *len + n + 1, 1);
+    if (!p) return WG_ERR_NOMEM;
+    memcpy(p + *len, s, n + 1);
+    *buf = p;
+    *len += n;
+    return WG_OK;
+}
+
+static int warning_value(Builder *b, const Frame *f, const WarningDef *w, const WgExpr *e,
+                         const char *what, const double *slots, double *out)
+{
+    *out = wg_expr_eval(e, slots);
+    if (isfinite(*out)) return WG_OK;
+    char id[512] = "";
+    if (f->prefix[0])
+        snprintf(id, sizeof id, "node '%.*s': ", (int)strlen(f->prefix) - 1, f->prefix);
+    return wg_error_set_at(b->err, WG_ERR_RANGE, f->g->path, w->line, 0,
+                           "%swarning: %s gives %g, not a finite number", id, what, *out);
+}
+
+/* The frame's <warning>s whose `when` is non-zero, with their messages filled in, added to the
+ * plan. Evaluated once the frame's parameters, size and seed are known. */
+static int frame_warnings(Builder *b, const Frame *f)
+{
+    const WgGraph *g = f->g;
+    if (!g->n_warnings) return WG_OK;
+    double *slots = wg_calloc((size_t)g->n_params + WG_SCOPE_COUNT_, sizeof(double));
+    if (!slots) return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
+    fill_scope(f, slots, f->seed, f->width, f->height);
+    WgPlan *p = b->plan;
+    int rc = WG_OK;
+    for (int i = 0; i < g->n_warnings && !rc; i++) {
+        const WarningDef *w = &g->warnings[i];
+        double v;
+        char what[300];
+        snprintf(what, sizeof what, "'when' expression '%.200s'", w->when_text + 1);
+        if ((rc = warning_value(b, f, w, w->when, what, slots, &v)) || v == 0) continue;
+        char *msg = NULL;
+        size_t len = 0;
+        rc = append(&msg, &len, "");
+        for (int k = 0; k < w->n_parts && !rc; k++) {
+            const WarnPart *part = &w->parts[k];
+            char num[128];
+            if (part->text) {
+                rc = append(&msg, &len, part->text);
+                continue;
+            }
+            if (part->expr) {
+                if ((rc = warning_value(b, f, w, part->expr, "an expression in its message", slots,
+                                        &v)))
+                    break;
+                snprintf(num, sizeof num, "%.6g", v);
+                rc = append(&msg, &len, num);
+                continue;
+            }
+            const WgValue *pv = &f->values[part->param];
+            if (pv->type == WG_PARAM_FLOAT_T)
+                wg__number_text(pv->num, num, sizeof num);
+            else
+                wg__value_format(pv, num, sizeof num);
+            rc = append(&msg, &len, pv->type == WG_PARAM_STRING_T && pv->str ? pv->str : num);
+        }
+        if (!rc) {
+            WgWarning *nw = wg_realloc_array(p->warnings, (size_t)p->n_warnings,
+                                             (size_t)p->n_warnings + 1, sizeof *nw);
+            if (!nw)
+                rc = WG_ERR_NOMEM;
+            else {
+                p->warnings = nw;
+                nw = &p->warnings[p->n_warnings];
+                memset(nw, 0, sizeof *nw);
+                nw->line = w->line;
+                nw->message = msg;
+                msg = NULL;
+                p->n_warnings++;
+                nw->file = wg_strdup(g->path);
+                if (f->prefix[0]) {
+                    size_t pl = strlen(f->prefix) - 1; /* without the trailing '/' */
+                    char *node = wg_malloc(pl + 1);
+                    if (node) {
+                        memcpy(node, f->prefix, pl);
+                        node[pl] = '\0';
+                    }
+                    nw->node = node;
+                    if (!node) rc = WG_ERR_NOMEM;
+                }
+                if (!nw->file) rc = WG_ERR_NOMEM;
+            }
+        }
+        wg_free(msg);
+        if (rc == WG_ERR_NOMEM) rc = wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    wg_free(slots);
     return rc;
 }
 
@@ -995,6 +1111,7 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
         wg__value_clear(&top->values[i]);
         if ((rc = wg__value_copy(&top->values[i], &r->values[i]))) goto out;
     }
+    if ((rc = frame_warnings(&b, top))) goto out;
     for (int i = 0; i < g->n_inputs; i++) {
         const InputDef *d = &g->inputs[i];
         char id[300];
@@ -1066,6 +1183,21 @@ int wg_request_reads_time(const WgRequest *r, bool *out, WgError *err)
     int rc = wg__plan_build(r, &plan, err);
     if (rc) return rc;
     *out = plan.reads_time;
+    wg__plan_free(&plan);
+    return WG_OK;
+}
+
+int wg_request_warnings(const WgRequest *r, WgWarning **out, int *count, WgError *err)
+{
+    WgPlan plan;
+    *out = NULL;
+    *count = 0;
+    int rc = wg__plan_build(r, &plan, err);
+    if (rc) return rc;
+    *out = plan.warnings;
+    *count = plan.n_warnings;
+    plan.warnings = NULL;
+    plan.n_warnings = 0;
     wg__plan_free(&plan);
     return WG_OK;
 }

@@ -511,6 +511,39 @@ static bool resolve_scope(void *user, const char *name, size_t len, int *slot)
     return true;
 }
 
+/* A numeric expression over the graph's scope (its numeric parameters, $time, $seed, $width,
+ * $height); errors name `what` and the column, with a suggestion for a misspelt name. */
+static int parse_scope_expr(Doc *d, const WgGraph *g, const char *src, int line, const char *what,
+                            WgExpr **out)
+{
+    ScopeResolve sr = {g, NULL};
+    WgExprOptions opt = {resolve_scope, &sr, false};
+    WgError e = {0};
+    int rc = wg_expr_parse(src, &opt, out, &e);
+    if (rc == WG_ERR_NOMEM) return nomem(d->err);
+    if (!rc) return WG_OK;
+    char extra[160] = "";
+    if (sr.bad) {
+        snprintf(extra, sizeof extra, " (it is %s %s parameter, not a number)", article(sr.bad),
+                 sr.bad);
+    } else if (!strncmp(e.message, "unknown name '", 14)) {
+        char name[128];
+        snprintf(name, sizeof name, "%s", e.message + 14);
+        char *q = strchr(name, '\'');
+        if (q) *q = '\0';
+        const char *names[260];
+        int count = 0;
+        static const char *const specials[] = {"$time", "$seed", "$width", "$height"};
+        for (int i = 0; i < 4; i++) names[count++] = specials[i];
+        for (int i = 0; i < g->n_params && count < 260; i++)
+            names[count++] = g->params[i].info.name;
+        const char *sug = wg_suggest(name, names, count);
+        if (sug) snprintf(extra, sizeof extra, "; did you mean '%s'?", sug);
+    }
+    return wg_error_set_at(d->err, rc, d->path, line, e.column + 1, "%s, column %d: %s%s", what,
+                           e.column + 1, e.message, extra);
+}
+
 /* Parse an attribute value against the descriptor of its parameter. */
 static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
                             const WgParamDesc *desc)
@@ -535,35 +568,9 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
             a->ref_param = p;
             return WG_OK;
         }
-        ScopeResolve sr = {g, NULL};
-        WgExprOptions opt = {resolve_scope, &sr, false};
-        WgError e = {0};
-        int rc = wg_expr_parse(src, &opt, &a->expr, &e);
-        if (rc == WG_ERR_NOMEM) return nomem(d->err);
-        if (rc) {
-            char extra[160] = "";
-            if (sr.bad) {
-                snprintf(extra, sizeof extra, " (it is %s %s parameter, not a number)",
-                         article(sr.bad), sr.bad);
-            } else if (!strncmp(e.message, "unknown name '", 14)) {
-                char name[128];
-                snprintf(name, sizeof name, "%s", e.message + 14);
-                char *q = strchr(name, '\'');
-                if (q) *q = '\0';
-                const char *names[260];
-                int count = 0;
-                static const char *const specials[] = {"$time", "$seed", "$width", "$height"};
-                for (int i = 0; i < 4; i++) names[count++] = specials[i];
-                for (int i = 0; i < g->n_params && count < 260; i++)
-                    names[count++] = g->params[i].info.name;
-                const char *sug = wg_suggest(name, names, count);
-                if (sug) snprintf(extra, sizeof extra, "; did you mean '%s'?", sug);
-            }
-            return wg_error_set_at(d->err, rc, d->path, a->line, e.column + 1,
-                                   "node '%s', attribute '%s', column %d: %s%s", n->id, a->name,
-                                   e.column + 1, e.message, extra);
-        }
-        return WG_OK;
+        char what[512];
+        snprintf(what, sizeof what, "node '%s', attribute '%s'", n->id, a->name);
+        return parse_scope_expr(d, g, src, a->line, what, &a->expr);
     }
     WgParamDesc numeric = {.name = a->name, .type = WG_PARAM_FLOAT_T};
     int rc = wg__value_parse(desc ? desc : &numeric, a->text, &a->literal, d->err);
@@ -807,6 +814,139 @@ out:
     return rc;
 }
 
+/* ---- <warning> --------------------------------------------------------------------------- */
+
+static int add_part(Doc *d, WarningDef *w, const char *text, size_t len, WgExpr *expr, int param)
+{
+    WarnPart *p = wg_realloc_array(w->parts, (size_t)w->n_parts, (size_t)w->n_parts + 1, sizeof *p);
+    if (!p) {
+        wg_expr_free(expr);
+        return nomem(d->err);
+    }
+    w->parts = p;
+    p = &w->parts[w->n_parts];
+    *p = (WarnPart){NULL, expr, param};
+    if (text && !(p->text = wg_malloc(len + 1))) return nomem(d->err);
+    if (text) {
+        memcpy(p->text, text, len);
+        p->text[len] = '\0';
+    }
+    w->n_parts++;
+    return WG_OK;
+}
+
+/* The message: literal text with {name} (a graph parameter's value) and {=expression} (its
+ * value); {{ and }} are literal braces. */
+static int parse_message(Doc *d, const WgGraph *g, WarningDef *w, const char *msg, int line)
+{
+    char *lit = wg_malloc(strlen(msg) + 1);
+    if (!lit) return nomem(d->err);
+    size_t n = 0;
+    int rc = WG_OK;
+    for (const char *s = msg; *s && !rc;) {
+        if ((s[0] == '{' && s[1] == '{') || (s[0] == '}' && s[1] == '}')) {
+            lit[n++] = s[0];
+            s += 2;
+            continue;
+        }
+        if (s[0] == '}') {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, (int)(s - msg) + 1,
+                                 "warning, attribute 'message', column %d: '}' without '{' "
+                                 "(write '}}' for a brace)",
+                                 (int)(s - msg) + 1);
+            break;
+        }
+        if (s[0] != '{') {
+            lit[n++] = *s++;
+            continue;
+        }
+        const char *end = strchr(s, '}');
+        if (!end) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, (int)(s - msg) + 1,
+                                 "warning, attribute 'message', column %d: '{' without '}' "
+                                 "(write '{{' for a brace)",
+                                 (int)(s - msg) + 1);
+            break;
+        }
+        if (n && (rc = add_part(d, w, lit, n, NULL, -1))) break;
+        n = 0;
+        size_t len = (size_t)(end - s - 1);
+        char *inner = wg_malloc(len + 1);
+        if (!inner) {
+            rc = nomem(d->err);
+            break;
+        }
+        memcpy(inner, s + 1, len);
+        inner[len] = '\0';
+        if (inner[0] == '=') {
+            char what[64];
+            snprintf(what, sizeof what, "warning, attribute 'message' at column %d",
+                     (int)(s - msg) + 2);
+            WgExpr *e = NULL;
+            rc = parse_scope_expr(d, g, inner + 1, line, what, &e);
+            if (!rc) rc = add_part(d, w, NULL, 0, e, -1);
+        } else {
+            int p = wg__graph_find_param(g, inner, len);
+            if (p < 0) {
+                const char *names[256];
+                int count = 0;
+                for (; count < g->n_params && count < 256; count++)
+                    names[count] = g->params[count].info.name;
+                const char *sug = wg_suggest(inner, names, count);
+                rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, (int)(s - msg) + 2,
+                                     "warning, attribute 'message', column %d: no parameter "
+                                     "'%s'%s%s%s (write {=expression} for a value, '{{' for a "
+                                     "brace)",
+                                     (int)(s - msg) + 2, inner, sug ? "; did you mean '" : "",
+                                     sug ? sug : "", sug ? "'?" : "");
+            } else {
+                rc = add_part(d, w, NULL, 0, NULL, p);
+            }
+        }
+        wg_free(inner);
+        s = end + 1;
+    }
+    if (!rc && n) rc = add_part(d, w, lit, n, NULL, -1);
+    wg_free(lit);
+    return rc;
+}
+
+static int parse_warning(Doc *d, WgGraph *g, xmlNodePtr x)
+{
+    static const char *const allowed[] = {"when", "message", NULL};
+    int rc = check_attrs(d, x, allowed);
+    if (rc) return rc;
+    WarningDef *w = &g->warnings[g->n_warnings++]; /* counted so wg_graph_free releases it */
+    memset(w, 0, sizeof *w);
+    w->line = line_of(x);
+    char *message = NULL;
+    if ((rc = need_attr(d, x, "when", &w->when_text)) ||
+        (rc = need_attr(d, x, "message", &message)))
+        goto out;
+    int when_line = attr_line(xmlHasProp(x, (const xmlChar *)"when"), w->line);
+    int msg_line = attr_line(xmlHasProp(x, (const xmlChar *)"message"), w->line);
+    if (w->when_text[0] != '=') {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, when_line, 0,
+                             "warning: 'when' must be an expression starting with '=', not '%s'",
+                             w->when_text);
+        goto out;
+    }
+    if ((rc = parse_scope_expr(d, g, w->when_text + 1, when_line, "warning, attribute 'when'",
+                               &w->when)))
+        goto out;
+    const char *m = message;
+    while (isspace((unsigned char)*m)) m++;
+    if (!*m) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, msg_line, 0,
+                             "warning: 'message' is empty");
+        goto out;
+    }
+    rc = parse_message(d, g, w, message, msg_line);
+out:
+    wg_free(message);
+    return rc;
+}
+
 /* ---- expansion --------------------------------------------------------------------------- */
 
 /* Instances one instantiation of g can make, from its subgraphs' counts (each file is counted
@@ -944,20 +1084,20 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
         wg_free(seed);
     }
 
-    int counts[4] = {0};
-    static const char *const elements[] = {"param", "input", "node", "output", NULL};
+    int counts[5] = {0};
+    static const char *const elements[] = {"param", "input", "node", "output", "warning", NULL};
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
         if (c->type != XML_ELEMENT_NODE) continue;
         int k = -1;
         for (int i = 0; elements[i]; i++)
             if (!strcmp(elements[i], (const char *)c->name)) k = i;
         if (k < 0) {
-            const char *s = wg_suggest((const char *)c->name, elements, 4);
-            rc =
-                wg_error_set_at(err, WG_ERR_PARSE, path, line_of(c), 0,
-                                "unknown element <%s>%s%s%s", (const char *)c->name,
-                                s ? "; did you mean <" : " (expected param, input, node or output)",
-                                s ? s : "", s ? ">?" : "");
+            const char *s = wg_suggest((const char *)c->name, elements, 5);
+            rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(c), 0,
+                                 "unknown element <%s>%s%s%s", (const char *)c->name,
+                                 s ? "; did you mean <"
+                                   : " (expected param, input, node, output or warning)",
+                                 s ? s : "", s ? ">?" : "");
             break;
         }
         counts[k]++;
@@ -967,6 +1107,8 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     if (!rc && !(g->inputs = wg_calloc((size_t)counts[1] + 1, sizeof(InputDef)))) rc = nomem(err);
     if (!rc && !(g->nodes = wg_calloc((size_t)counts[2] + 1, sizeof(NodeDef)))) rc = nomem(err);
     if (!rc && !(g->outputs = wg_calloc((size_t)counts[3] + 1, sizeof(WgGraphOutputInfo))))
+        rc = nomem(err);
+    if (!rc && !(g->warnings = wg_calloc((size_t)counts[4] + 1, sizeof(WarningDef))))
         rc = nomem(err);
     /* declarations first so node attributes can refer to any parameter */
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
@@ -979,6 +1121,10 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             rc = parse_output(&d, g, c);
         if (!rc && strcmp((const char *)c->name, "node")) rc = check_leaf(&d, c);
     }
+    /* warnings after the declarations, so they may name any parameter */
+    for (xmlNodePtr c = root->children; c && !rc; c = c->next)
+        if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "warning"))
+            rc = parse_warning(&d, g, c);
     for (xmlNodePtr c = root->children; c && !rc; c = c->next)
         if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "node"))
             rc = parse_node(lc, &d, g, c);

@@ -184,6 +184,36 @@ static void test_failing_rows(void **state)
     assert_true(contains("out", "{\"row\": 3, \"line\": 5, \"status\": \"ok\""));
 }
 
+/* A graph warning is printed for each row it applies to, after the row, and listed in the
+ * row's JSON line; -q hides it. */
+static void test_warnings_per_row(void **state)
+{
+    (void)state;
+    put_file("wv.wetgraph",
+             "<wetgraph version=\"1\" size=\"8\">\n"
+             "  <param name=\"level\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+             "  <warning when=\"=level > 0.7\" message=\"level {level} is high\"/>\n"
+             "  <node id=\"u\" type=\"uniform\" value=\"=level\"/>\n"
+             "  <output name=\"o\" from=\"u\"/>\n"
+             "</wetgraph>\n");
+    put_file("wv.csv", "set:level,out\n"
+                       "0.3,w0\n"
+                       "0.8,w1\n"
+                       "0.25,w2\n"
+                       "0.9,w3\n");
+    assert_int_equal(sh("\"$WG\" render wv.wetgraph --batch wv.csv --batch-json"), 0);
+    assert_int_equal(wgt_count_in(path("err"), "wetgraph: warning:"), 2);
+    assert_true(contains("err", "wetgraph: warning: wv.csv:3: row 1: wv.wetgraph:3: level 0.8 "
+                                "is high\n"));
+    assert_true(contains("err", "wetgraph: warning: wv.csv:5: row 3: wv.wetgraph:3: level 0.9 "
+                                "is high\n"));
+    assert_true(contains("out", "\"warnings\": [], \"error\": null}\n{\"row\": 1"));
+    assert_true(contains("out", "\"warnings\": [{\"file\": \"wv.wetgraph\", \"line\": 3, "
+                                "\"node\": null, \"message\": \"level 0.9 is high\"}]"));
+    assert_int_equal(sh("\"$WG\" render wv.wetgraph --batch wv.csv -q"), 0);
+    assert_int_equal(wgt_count_in(path("err"), "warning"), 0);
+}
+
 /* The rows after the first compute only what differs: same input, other level: only the
  * level and the blend; the same row again: nothing. */
 static void test_shared_nodes_computed_once(void **state)
@@ -436,6 +466,7 @@ int main(void)
         cmocka_unit_test(test_jsonl_rows),
         cmocka_unit_test(test_csv_quoting),
         cmocka_unit_test(test_failing_rows),
+        cmocka_unit_test(test_warnings_per_row),
         cmocka_unit_test(test_shared_nodes_computed_once),
         cmocka_unit_test(test_concurrent_shards),
         cmocka_unit_test(test_usage_errors),

@@ -766,6 +766,70 @@ static void test_cache_must_be_a_folder(void **state)
 
 /* ---- check, info, nodes, dot ------------------------------------------------------------- */
 
+/* Occurrences of needle in text. */
+static int count_of(const char *text, const char *needle)
+{
+    int n = 0;
+    for (const char *p = text; (p = strstr(p, needle)); p += strlen(needle)) n++;
+    return n;
+}
+
+/* A graph's <warning>s: printed once per render on stderr with file and line (and the subgraph
+ * instance), exit 0; -q hides them; a frame sequence prints each once; check prints them with
+ * the defaults; --stats=json lists them. */
+static void test_graph_warnings(void **state)
+{
+    (void)state;
+    wgt_write_file(
+        at("warn.wetgraph"),
+        "<wetgraph version=\"1\" size=\"8\">\n"
+        "  <param name=\"k\" type=\"float\" default=\"0.05\" min=\"0\" max=\"9\"/>\n"
+        "  <warning when=\"=k &lt; 0.1\" message=\"k {k} is below 0.1 ({=0.1 / k}x)\"/>\n"
+        "  <node id=\"u\" type=\"uniform\" value=\"=k\"/>\n"
+        "  <node id=\"t\" type=\"uniform\" value=\"=fract($time)\"/>\n"
+        "  <output name=\"o\" from=\"u\"/>\n"
+        "  <output name=\"t\" from=\"t\"/>\n"
+        "</wetgraph>\n");
+    wgt_write_file(at("warnsub.wetgraph"), "<wetgraph version=\"1\" size=\"8\">\n"
+                                           "  <node id=\"one\" type=\"warn\" k=\"0.5\"/>\n"
+                                           "  <node id=\"two\" type=\"warn\" k=\"0.02\"/>\n"
+                                           "  <output name=\"a\" from=\"one\"/>\n"
+                                           "  <output name=\"b\" from=\"two\"/>\n"
+                                           "</wetgraph>\n");
+    Cmd c[] = {
+        {"render warn.wetgraph -o wout1"},
+        {"render warn.wetgraph -o wout2 -q"},
+        {"render warn.wetgraph -o wout3 --set k=0.1"},
+        {"render warn.wetgraph -o wout4 --frames 0:4 --fps 2"},
+        {"check warn.wetgraph warnsub.wetgraph"},
+        {"render warn.wetgraph -o wout5 --stats=json -q --set k=0.025"},
+        {"render warnsub.wetgraph -o wout6"},
+        {"render warn.wetgraph -o wout7 --frames 0:2 -q"},
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+    const char *line = "wetgraph: warning: warn.wetgraph:3: k 0.05 is below 0.1 (2x)\n";
+    for (int i = 0; i < n; i++) expect_status(&c[i], 0);
+    assert_string_equal(c[0].err, line);
+    OUT_HAS(&c[0], "wout1/warn_o.png");
+    assert_true(exists(at("wout1/warn_o.png")));
+    assert_string_equal(c[1].err, "");
+    assert_string_equal(c[2].err, "");
+    assert_string_equal(c[3].err, line); /* five frames, one line */
+    assert_int_equal(count_of(c[3].out, "\n"), 10);
+    assert_string_equal(c[4].out, "warn.wetgraph: ok\nwarnsub.wetgraph: ok\n");
+    assert_string_equal(c[4].err, "wetgraph: warning: warn.wetgraph:3: k 0.05 is below 0.1 (2x)\n"
+                                  "wetgraph: warning: ./warn.wetgraph:3: node 'two': k 0.02 is "
+                                  "below 0.1 (5x)\n");
+    OUT_HAS(&c[5], "\"warnings\": [\n    {\"file\": \"warn.wetgraph\", \"line\": 3, \"node\": "
+                   "null, \"message\": \"k 0.025 is below 0.1 (4x)\"}\n  ]\n}");
+    assert_string_equal(c[5].err, "");
+    assert_string_equal(
+        c[6].err, "wetgraph: warning: ./warn.wetgraph:3: node 'two': k 0.02 is below 0.1 (5x)\n");
+    assert_string_equal(c[7].err, "");
+    free_batch(c, n);
+}
+
 static void test_inspection_commands(void **state)
 {
     (void)state;
@@ -909,6 +973,7 @@ int main(void)
         cmocka_unit_test(test_cache_option),
         cmocka_unit_test(test_cache_must_be_a_folder),
         cmocka_unit_test(test_inspection_commands),
+        cmocka_unit_test(test_graph_warnings),
         cmocka_unit_test(test_wet_basecolor_alone),
     };
     return cmocka_run_group_tests(tests, setup, NULL);

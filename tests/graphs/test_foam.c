@@ -6,7 +6,8 @@
  * stays 0); a higher threshold never adds
  * foam; no foam beyond the band's sea-side edge nor inland beyond the inland reach; the nodes
  * that do not depend on $time are computed once for a sequence; T tiles and merges its two
- * layers with max; everything is finite and in range. */
+ * layers with max; everything is finite and in range; the graph warns for exactly the values
+ * snapping changes by more than 2x. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -202,6 +203,127 @@ static void test_snapping_rule(void **state)
     wg_image_unref(shore);
 }
 
+/* The warnings of the foam graph with "name=value" settings (NULL-terminated): which of the
+ * six snapped values warn (bit i for names[i], from the message's first word). */
+static const char *const snapped_names[] = {"speed",       "warp_speed",   "tex_speed_x",
+                                            "tex_speed_y", "layer2_speed", "come_go_period"};
+
+static unsigned warned(const WgImage *shore, const char *const *sets, WgWarning **list, int *n)
+{
+    WgRequest *r = wg_request_new(foam_graph);
+    WgError err = {0};
+    assert_non_null(r);
+    if (wg_request_set_input_image(r, "shore", shore, &err)) fail_msg("%s", err.message);
+    for (int i = 0; sets[i]; i++) {
+        char name[64];
+        const char *eq = strchr(sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - sets[i]), sets[i]);
+        if (wg_request_set(r, name, eq + 1, &err)) fail_msg("%s: %s", sets[i], err.message);
+    }
+    if (wg_request_warnings(r, list, n, &err)) fail_msg("%s", err.message);
+    wg_request_free(r);
+    unsigned bits = 0;
+    for (int i = 0; i < *n; i++) {
+        const WgWarning *w = &(*list)[i];
+        assert_null(w->node);
+        assert_non_null(strstr(w->file, "foam.wetgraph"));
+        int k = -1;
+        for (int j = 0; j < 6; j++) {
+            size_t l = strlen(snapped_names[j]);
+            if (!strncmp(w->message, snapped_names[j], l) && w->message[l] == ' ') k = j;
+        }
+        if (k < 0) fail_msg("unexpected warning: %s", w->message);
+        if (bits & (1u << k)) fail_msg("two warnings for %s", snapped_names[k]);
+        bits |= 1u << k;
+    }
+    return bits;
+}
+
+/* Which values snapping changes by more than a factor of 2, from the rule itself: a speed s
+ * becomes sign(s)·max(1, round(|s|·L))/L, the period p becomes L / max(1, round(L/p)). */
+static unsigned changed_more_than_2x(const double v[6], double L)
+{
+    unsigned bits = 0;
+    for (int k = 0; k < 6 && L > 0; k++) {
+        double ratio;
+        if (k < 5) {
+            if (v[k] == 0) continue;
+            ratio = fmax(1, floor(fabs(v[k]) * L + 0.5)) / L / fabs(v[k]);
+        } else {
+            ratio = v[k] / (L / fmax(1, floor(L / v[k] + 0.5)));
+        }
+        if (ratio > 2 || ratio < 0.5) bits |= 1u << k;
+    }
+    return bits;
+}
+
+/* The graph warns for exactly the values snapping changes by more than 2x (docs/foam.md), each
+ * once, naming it and what it becomes; with the defaults and a 1-second loop all six, with a
+ * loop of 100 s or none, nothing. */
+static void test_snapping_warnings(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(16, 16, 1, shore_fn);
+    WgWarning *w = NULL;
+    int n = 0;
+    const double defaults[6] = {0.25, 0.02, 0.01, -0.005, -0.015, 6};
+    const char *const l1[] = {"loop_seconds=1", NULL};
+    assert_int_equal(warned(shore, l1, &w, &n), 0x3f);
+    assert_int_equal(n, 6);
+    assert_string_equal(w[2].message,
+                        "tex_speed_x 0.01 tiles/s snaps to 1 (one tile per 1 s loop), 100x faster: "
+                        "raise loop_seconds to at least 50 to keep it within 2x");
+    assert_string_equal(w[3].message, "tex_speed_y -0.005 tiles/s snaps to -1 (one tile per 1 s "
+                                      "loop), 200x faster: raise loop_seconds to at least 100 to "
+                                      "keep it within 2x");
+    assert_string_equal(w[5].message, "come_go_period 6 s snaps to 1 s (one come-and-go per loop), "
+                                      "6x faster: raise loop_seconds to at least 3 to keep it "
+                                      "within 2x");
+    wg_warnings_free(w, n);
+    const char *const l100[] = {"loop_seconds=100", NULL};
+    assert_int_equal(warned(shore, l100, &w, &n), 0);
+    assert_int_equal(n, 0);
+    const char *const l0[] = {"loop_seconds=0", "tex_speed_x=1e-6", NULL};
+    assert_int_equal(warned(shore, l0, &w, &n), 0);
+    /* the defaults over loop lengths around the table's bounds */
+    const double loops[] = {0.5,  1,     1.99, 2,    2.9, 3,    24.9, 25,
+                            33.3, 33.34, 40,   49.9, 50,  99.9, 100};
+    for (size_t i = 0; i < sizeof loops / sizeof *loops; i++) {
+        char l[64];
+        snprintf(l, sizeof l, "loop_seconds=%.17g", loops[i]);
+        const char *const sets[] = {l, NULL};
+        unsigned got = warned(shore, sets, &w, &n);
+        wg_warnings_free(w, n);
+        if (got != changed_more_than_2x(defaults, loops[i]))
+            fail_msg("loop %g: warned %#x, expected %#x", loops[i], got,
+                     changed_more_than_2x(defaults, loops[i]));
+    }
+    /* other values: zero speeds never warn, signs do not matter, the period either way */
+    const struct {
+        double v[6], L;
+    } cases[] = {
+        {{0, 0, 0, 0, 0, 0.5}, 0.2},   {{0.3, -0.3, 0.7, -2, 0.05, 0.5}, 1},
+        {{-1, 2, -0.1, 0.1, 0, 9}, 4}, {{0.125, -0.124, 0.126, 3, -3, 1e5}, 4},
+        {{5, 5, 5, 5, 5, 0.3}, 0.11},  {{0.01, 0.02, 0.03, 0.04, 0.05, 40}, 19.99},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        char text[7][64];
+        const char *sets[8];
+        for (int k = 0; k < 6; k++) {
+            snprintf(text[k], sizeof text[k], "%s=%.17g", snapped_names[k], cases[i].v[k]);
+            sets[k] = text[k];
+        }
+        snprintf(text[6], sizeof text[6], "loop_seconds=%.17g", cases[i].L);
+        sets[6] = text[6];
+        sets[7] = NULL;
+        unsigned got = warned(shore, sets, &w, &n);
+        wg_warnings_free(w, n);
+        unsigned want = changed_more_than_2x(cases[i].v, cases[i].L);
+        if (got != want) fail_msg("case %zu: warned %#x, expected %#x", i, got, want);
+    }
+    wg_image_unref(shore);
+}
+
 static void test_threshold_and_band(void **state)
 {
     (void)state;
@@ -392,6 +514,7 @@ int main(void)
         cmocka_unit_test(test_loop),
         cmocka_unit_test(test_short_loop_moves),
         cmocka_unit_test(test_snapping_rule),
+        cmocka_unit_test(test_snapping_warnings),
         cmocka_unit_test(test_threshold_and_band),
         cmocka_unit_test(test_untimed_nodes_once),
         cmocka_unit_test(test_pattern),

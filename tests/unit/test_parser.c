@@ -23,6 +23,73 @@ static bool ends_with(const char *s, const char *suffix)
     return a >= b && !strcmp(s + a - b, suffix);
 }
 
+/* ---- <warning> --------------------------------------------------------------------------- */
+
+/* A graph with one param `k` (float) and `mode` (enum) whose line 4 is `warning`. */
+static char *warning_graph(const char *warning)
+{
+    static char xml[2048];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"8\">\n"                                       /* 1 */
+             "  <param name=\"k\" type=\"float\" default=\"0.5\" min=\"-9\" max=\"9\"/>\n" /* 2 */
+             "  <node id=\"u\" type=\"uniform\" value=\"=k\"/>\n"                          /* 3 */
+             "  %s\n"                                                                      /* 4 */
+             "  <output name=\"o\" from=\"u\"/>\n"                                         /* 5 */
+             "  <param name=\"mode\" type=\"enum\" values=\"a|b\"/>\n"                     /* 6 */
+             "</wetgraph>\n",
+             warning);
+    return xml;
+}
+
+static void test_warning_element(void **state)
+{
+    (void)state;
+    /* valid: any parameter (also one declared after it), $-names, {name}, {=expr}, braces */
+    const char *const ok[] = {
+        "<warning when=\"=k &lt; 0.1\" message=\"k is {k}\"/>",
+        "<warning when=\"=mode == 1 &amp;&amp; $width &gt; 4\" message=\"{=1 / k}x {mode} {{}}\"/>",
+        "<warning message=\"m\" when=\"=$time + $seed + $height\"/>",
+        "<warning when=\"=1\" message=\"spans\n    two lines\"></warning>",
+    };
+    for (size_t i = 0; i < sizeof ok / sizeof *ok; i++)
+        wg_graph_free(wgt_load(warning_graph(ok[i])));
+    load_fails(warning_graph("<warning when=\"=k\" mesage=\"x\"/>"), WG_ERR_PARSE, 4,
+               "unknown attribute 'mesage' on <warning>; did you mean 'message'?");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"x\" level=\"2\"/>"), WG_ERR_PARSE, 4,
+               "unknown attribute 'level' on <warning>");
+    load_fails(warning_graph("<warning when=\"=k\"/>"), WG_ERR_PARSE, 4,
+               "<warning> needs a 'message' attribute");
+    load_fails(warning_graph("<warning message=\"x\"/>"), WG_ERR_PARSE, 4,
+               "<warning> needs a 'when' attribute");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"  \"/>"), WG_ERR_PARSE, 4,
+               "'message' is empty");
+    load_fails(warning_graph("<warning when=\"k &lt; 1\" message=\"x\"/>"), WG_ERR_PARSE, 4,
+               "'when' must be an expression starting with '='");
+    /* bad expressions: the column within the attribute, and a suggestion */
+    load_fails(warning_graph("<warning when=\"=k +\" message=\"x\"/>"), WG_ERR_PARSE, 4,
+               "test.wetgraph:4:|warning, attribute 'when', column");
+    load_fails(warning_graph("<warning when=\"=kk &lt; 1\" message=\"x\"/>"), WG_ERR_PARSE, 4,
+               "test.wetgraph:4:2:|unknown name 'kk'; did you mean 'k'?");
+    load_fails(warning_graph("<warning when=\"=sqrt(k, 2)\" message=\"x\"/>"), WG_ERR_PARSE, 4,
+               "warning, attribute 'when'");
+    /* the message's substitutions */
+    load_fails(warning_graph("<warning when=\"=k\" message=\"k is {kk}\"/>"), WG_ERR_PARSE, 4,
+               "no parameter 'kk'; did you mean 'k'?");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"k is {=k *}\"/>"), WG_ERR_PARSE, 4,
+               "warning, attribute 'message' at column 7");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"k is {k\"/>"), WG_ERR_PARSE, 4,
+               "'{' without '}'");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"k is }\"/>"), WG_ERR_PARSE, 4,
+               "'}' without '{'");
+    /* on the line of the attribute in a tag over several lines; nothing inside */
+    load_fails(warning_graph("<warning message=\"x\"\n           when=\"=k +\"/>"), WG_ERR_PARSE, 5,
+               "warning, attribute 'when'");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"x\">text</warning>"), WG_ERR_PARSE, 4,
+               "unexpected text inside <warning>");
+    load_fails(warning_graph("<warning when=\"=k\" message=\"x\"><in name=\"a\"/></warning>"),
+               WG_ERR_PARSE, 4, "unexpected <in> inside <warning>");
+}
+
 /* ---- valid files and the info accessors --------------------------------------------------- */
 
 static const char *const valid_xml =
@@ -245,7 +312,7 @@ static void test_unknown_elements(void **state)
                "  <texture/>\n"
                "</wetgraph>\n",
                WG_ERR_PARSE, 3,
-               "unknown element <texture> (expected param, input, node or output)");
+               "unknown element <texture> (expected param, input, node, output or warning)");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\">\n"
                "    <input name=\"x\" from=\"v\"/>\n"
@@ -1400,6 +1467,7 @@ int main(void)
         cmocka_unit_test(test_text_inside_elements),
         cmocka_unit_test(test_graph_seed),
         cmocka_unit_test(test_suggest),
+        cmocka_unit_test(test_warning_element),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -890,6 +890,145 @@ static void test_errors_located_in_the_subgraph_file(void **state)
     wg_graph_free(g);
 }
 
+/* ---- warnings ---------------------------------------------------------------------------- */
+
+/* The warnings of g with "name=value" settings (NULL: none) and outputs (NULL: all), through
+ * wg_request_warnings and, the same, through a render's result; returns the count. */
+static int warnings_of(const WgGraph *g, const char *const *sets, const char *only_output,
+                       WgWarning **out)
+{
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    WgError err = {0};
+    for (int i = 0; sets && sets[i]; i++) {
+        char name[64];
+        const char *eq = strchr(sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - sets[i]), sets[i]);
+        if (wg_request_set(r, name, eq + 1, &err)) fail_msg("%s", err.message);
+    }
+    if (only_output && wg_request_add_output(r, only_output, &err)) fail_msg("%s", err.message);
+    int n = -1;
+    if (wg_request_warnings(r, out, &n, &err)) fail_msg("%s", err.message);
+    WgEngine *e = wgt_engine(1, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    assert_int_equal(wg_result_warning_count(res), n);
+    for (int i = 0; i < n; i++) {
+        const WgWarning *a = wg_result_warning(res, i), *b = &(*out)[i];
+        assert_string_equal(a->file, b->file);
+        assert_int_equal(a->line, b->line);
+        assert_string_equal(a->message, b->message);
+        assert_true(a->node && b->node ? !strcmp(a->node, b->node) : a->node == b->node);
+    }
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    return n;
+}
+
+static void expect_warning(const WgWarning *w, const char *file_end, int line, const char *node,
+                           const char *message)
+{
+    size_t a = strlen(w->file), b = strlen(file_end);
+    if (a < b || strcmp(w->file + a - b, file_end)) fail_msg("warning in %s", w->file);
+    assert_int_equal(w->line, line);
+    if (node)
+        assert_string_equal(w->node, node);
+    else
+        assert_null(w->node);
+    assert_string_equal(w->message, message);
+}
+
+static void test_warnings_per_instance(void **state)
+{
+    (void)state;
+    const char *d = dir("warnings");
+    write_in(d, "level.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <param name=\"level\" type=\"float\" default=\"0.5\" min=\"0\" max=\"10\"/>\n"
+             "  <node id=\"u\" type=\"uniform\" value=\"=level / 10\"/>\n"
+             "  <output name=\"out\" from=\"u\"/>\n"
+             "  <warning when=\"=level > 1\"\n"
+             "           message=\"level {level} is above 1 at {=$width}x{=$height}\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "wrap.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <param name=\"x\" type=\"float\" default=\"0\" min=\"0\" max=\"10\"/>\n"
+             "  <node id=\"inner\" type=\"level\" level=\"=x * 2\"/>\n"
+             "  <output name=\"out\" from=\"inner\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "top.wetgraph",
+             "<wetgraph version=\"1\" size=\"8\">\n"
+             "  <param name=\"a\" type=\"float\" default=\"0.5\" min=\"0\" max=\"10\"/>\n"
+             "  <warning when=\"=a > 4\" message=\"a = {a} is large\"/>\n"
+             "  <node id=\"low\" type=\"level\" level=\"=a\"/>\n"
+             "  <node id=\"high\" type=\"level\" level=\"=a + 2\" size=\"16x12\"/>\n"
+             "  <node id=\"w\" type=\"wrap\" x=\"=a\"/>\n"
+             "  <output name=\"o1\" from=\"low\"/>\n"
+             "  <output name=\"o2\" from=\"high\"/>\n"
+             "  <output name=\"o3\" from=\"w\"/>\n"
+             "</wetgraph>\n");
+    WgGraph *g = load_file(file_in(d, "top.wetgraph"));
+    WgWarning *w = NULL;
+    /* defaults: only the instance whose level is above 1, with its own size */
+    assert_int_equal(warnings_of(g, NULL, NULL, &w), 1);
+    expect_warning(&w[0], "warnings/level.wetgraph", 5, "high", "level 2.5 is above 1 at 16x12");
+    wg_warnings_free(w, 1);
+    /* a = 0.6: the nested instance too (its level is 2 x = 1.2), named by its path */
+    const char *const mid[] = {"a=0.6", NULL};
+    assert_int_equal(warnings_of(g, mid, NULL, &w), 2);
+    expect_warning(&w[0], "warnings/level.wetgraph", 5, "high", "level 2.6 is above 1 at 16x12");
+    expect_warning(&w[1], "warnings/level.wetgraph", 5, "w/inner", "level 1.2 is above 1 at 8x8");
+    wg_warnings_free(w, 2);
+    /* a = 4.5: the graph's own warning first, then every instance */
+    const char *const big[] = {"a=4.5", NULL};
+    assert_int_equal(warnings_of(g, big, NULL, &w), 4);
+    expect_warning(&w[0], "warnings/top.wetgraph", 3, NULL, "a = 4.5 is large");
+    expect_warning(&w[1], "warnings/level.wetgraph", 5, "low", "level 4.5 is above 1 at 8x8");
+    expect_warning(&w[2], "warnings/level.wetgraph", 5, "high", "level 6.5 is above 1 at 16x12");
+    expect_warning(&w[3], "warnings/level.wetgraph", 5, "w/inner", "level 9 is above 1 at 8x8");
+    wg_warnings_free(w, 4);
+    /* only what the requested outputs use is instantiated, and warns */
+    assert_int_equal(warnings_of(g, big, "o1", &w), 2);
+    expect_warning(&w[1], "warnings/level.wetgraph", 5, "low", "level 4.5 is above 1 at 8x8");
+    wg_warnings_free(w, 2);
+    /* a = 0: none */
+    const char *const none[] = {"a=0", NULL};
+    assert_int_equal(warnings_of(g, none, NULL, &w), 1);
+    wg_warnings_free(w, 1);
+    const char *const small[] = {"a=0", "a=0.4", NULL};
+    assert_int_equal(warnings_of(g, small, "o3", &w), 0);
+    assert_null(w);
+    wg_graph_free(g);
+
+    /* a condition that is not a finite number is an error where the warning is written, naming
+     * the instance */
+    write_in(d, "inf.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <param name=\"k\" type=\"float\" default=\"0\" min=\"0\" max=\"10\"/>\n"
+             "  <node id=\"u\" type=\"uniform\"/>\n"
+             "  <output name=\"out\" from=\"u\"/>\n"
+             "  <warning when=\"=1 / k\" message=\"k {k}\"/>\n"
+             "</wetgraph>\n");
+    write_in(d, "use_inf.wetgraph",
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <node id=\"i\" type=\"inf\" k=\"1\"/>\n"
+             "  <node id=\"j\" type=\"inf\"/>\n"
+             "  <output name=\"a\" from=\"i\"/>\n"
+             "  <output name=\"b\" from=\"j\"/>\n"
+             "</wetgraph>\n");
+    g = load_file(file_in(d, "use_inf.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    WgError err = {0};
+    int n = -1;
+    assert_int_equal(wg_request_warnings(r, &w, &n, &err), WG_ERR_RANGE);
+    assert_null(w);
+    assert_int_equal(n, 0);
+    wgt_assert_error(&err, WG_ERR_RANGE, 5,
+                     "inf.wetgraph:5:|node 'j'|'when' expression '1 / k' gives inf, not a finite");
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 static void test_missing_subgraph(void **state)
 {
     (void)state;
@@ -986,6 +1125,7 @@ int main(void)
         cmocka_unit_test(test_errors_located_in_the_subgraph_file),
         cmocka_unit_test(test_missing_subgraph),
         cmocka_unit_test(test_input_kinds_are_enforced),
+        cmocka_unit_test(test_warnings_per_instance),
     };
     setenv("WETGRAPH_PATH", "", 1);
     unsetenv("WETGRAPH_GRAPHS_DIR");

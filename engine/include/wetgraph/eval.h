@@ -99,6 +99,23 @@ void wg_request_set_cancel(WgRequest *r, WgCancel *c);
 
 /* Resolve everything (sizes, parameters, types, files) without evaluating. */
 int wg_request_check(const WgRequest *r, WgError *err);
+/* A graph's <warning> that applies to a request: its `when` is non-zero with the request's
+ * parameters (docs/format.md). `node` is the path of the subgraph instance it belongs to
+ * ("wet" or "wet/masks"), NULL for the requested graph itself; `file` and `line` are where the
+ * <warning> is written. */
+typedef struct WgWarning {
+    const char *file;
+    int line;
+    const char *node;
+    const char *message;
+} WgWarning;
+
+/* The warnings that apply to the request, resolved as wg_request_check does (the same errors),
+ * in the order the graph's instances are made. On success the caller owns *out (*count
+ * entries, NULL when there are none) and frees it with wg_warnings_free. */
+int wg_request_warnings(const WgRequest *r, WgWarning **out, int *count, WgError *err);
+void wg_warnings_free(WgWarning *w, int count);
+
 /* Graphviz description of the request's graph (as wg_graph_write_dot) with a cluster around
  * each group of its nodes that a render of the request with nothing cached evaluates fused. */
 int wg_request_write_dot(const WgRequest *r, FILE *f, WgError *err);
@@ -136,6 +153,9 @@ const WgNodeStat *wg_result_stat(const WgResult *r, int i);
 int wg_result_evaluated_count(const WgResult *r); /* nodes computed (not cache hits) */
 size_t wg_result_peak_bytes(const WgResult *r);   /* peak image memory as the budget counts it */
 double wg_result_total_ms(const WgResult *r);
+/* The warnings that applied to the render (as wg_request_warnings), owned by the result. */
+int wg_result_warning_count(const WgResult *r);
+const WgWarning *wg_result_warning(const WgResult *r, int i);
 void wg_result_free(WgResult *r);
 
 #ifdef __cplusplus
