@@ -528,6 +528,19 @@ static bool pixel_uses_scope_name(const void *params, const char *name)
     return false;
 }
 
+/* A pixel expression is a point operation unless it reads the row (y, v, $height: the band
+ * has its own height) or other pixels (sample): only then does it need the whole image. noise()
+ * hashes coordinates the expression computes, so it is fine without v. Everything else the
+ * program compiles from (inputs, extras, scope, seed, the width) is the same for a band. A
+ * name that only hides one of these (an input called v) just forgoes fusion. */
+static bool pixel_banded(const void *params)
+{
+    static const char *const row_names[] = {"y", "v", "$height", "sample"};
+    for (size_t i = 0; i < sizeof row_names / sizeof *row_names; i++)
+        if (pixel_uses_scope_name(params, row_names[i])) return false;
+    return true;
+}
+
 const WgNodeType wg_node_pixel = {
     .name = "pixel",
     .summary = "Per-pixel expression over any number of named inputs (Pixel Processor)",
@@ -598,4 +611,5 @@ const WgNodeType wg_node_pixel = {
     .check = pixel_check,
     .eval = pixel_eval,
     .uses_scope_name = pixel_uses_scope_name,
+    .banded = pixel_banded,
 };
