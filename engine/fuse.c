@@ -37,8 +37,10 @@ enum {
 bool wg__fuse_capable(const WgInst *in)
 {
     const WgNodeType *t = in->type;
-    return !in->constant && (t->flags & WG_NODE_POINT) && !(t->flags & NOT_BANDED) &&
-           !t->scratch_bytes;
+    if (in->constant || t->scratch_bytes) return false;
+    /* the instance's params decide: the flags describe every instance of the type */
+    if (t->banded) return t->banded(in->params);
+    return (t->flags & WG_NODE_POINT) && !(t->flags & NOT_BANDED);
 }
 
 /* Channels input k of `in` is evaluated with: colour ports promote gray sources. */

@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /* `pixel`: a per-pixel expression (the equivalent of Substance's Pixel Processor). The
- * expression is compiled once per render by nodes/pixel_compile.c into a row program: constant
- * subexpressions folded in double, row-uniform ones (y, v) computed once per row, the rest run
- * over spans of up to 256 pixels of a row, one straight loop per operation over float arrays
- * so the compiler vectorises them. Varying arithmetic is float32 (each operation correctly
- * rounded, libm's float functions within 1 ulp), so the result differs from the double
+ * expression is compiled once per evaluation (per band when fused) by nodes/pixel_compile.c into a
+ * row program: constant subexpressions folded in double, row-uniform ones (y, v) computed once per
+ * row, the rest run over spans of up to 256 pixels of a row, one straight loop per operation over
+ * float arrays so the compiler vectorises them. Varying arithmetic is float32 (each operation
+ * correctly rounded, libm's float functions within 1 ulp), so the result differs from the double
  * reference (wg_expr_eval) by float rounding: ~1e-7 relative per operation, amplified only by
  * ill-conditioned maths (cancellation, discontinuities of floor/step/comparisons, large
  * arguments of sin). sample() is bilinear, wrapping, with coordinates in double; noise() is 2D
@@ -528,6 +528,19 @@ static bool pixel_uses_scope_name(const void *params, const char *name)
     return false;
 }
 
+/* A pixel expression is a point operation unless it reads the row (y, v, $height: the band
+ * has its own height) or other pixels (sample): only then does it need the whole image. noise()
+ * hashes coordinates the expression computes, so it is fine without v. Everything else the
+ * program compiles from (inputs, extras, scope, seed, the width) is the same for a band. A
+ * name that only hides one of these (an input called v) just forgoes fusion. */
+static bool pixel_banded(const void *params)
+{
+    static const char *const row_names[] = {"y", "v", "$height", "sample"};
+    for (size_t i = 0; i < sizeof row_names / sizeof *row_names; i++)
+        if (pixel_uses_scope_name(params, row_names[i])) return false;
+    return true;
+}
+
 const WgNodeType wg_node_pixel = {
     .name = "pixel",
     .summary = "Per-pixel expression over any number of named inputs (Pixel Processor)",
@@ -585,10 +598,14 @@ const WgNodeType wg_node_pixel = {
            "inside the expression (1/0 = inf, 0/0 = NaN, comparisons with NaN are false, NaN "
            "counts as true in `?:`, `&&` and `||`, clamp(NaN, a, b) = NaN); the written result is "
            "sanitised, NaN -> 0 and ±Inf -> ±FLT_MAX, unless `allow_nonfinite=\"true\"`.\n\n"
-           "Compiled once per render into a row program: constant folding, row-uniform parts "
+           "Compiled once per evaluation into a row program: constant folding, row-uniform parts "
            "(y, v) computed once per row, shared subexpressions, then one straight vectorisable "
-           "loop per operation over spans of 256 pixels. sample() reads anywhere in its input, "
-           "although the node is listed as a point operation.",
+           "loop per operation over spans of 256 pixels.\n\n"
+           "**Fusion**: an expression that does not read `y`, `v` or `$height` and does not use "
+           "sample() computes each pixel from the same pixel of its inputs: it is a point "
+           "operation and is fused with the point operations around it, evaluated a band of rows "
+           "at a time (docs/engine.md, compiled once per band), bit-identical to the node run "
+           "alone. Otherwise (sample() reads anywhere in its input) it runs alone.",
     .params = pixel_params,
     .params_size = sizeof(PixelParams),
     .outputs = pixel_out,
@@ -598,4 +615,5 @@ const WgNodeType wg_node_pixel = {
     .check = pixel_check,
     .eval = pixel_eval,
     .uses_scope_name = pixel_uses_scope_name,
+    .banded = pixel_banded,
 };

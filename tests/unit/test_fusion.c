@@ -458,6 +458,106 @@ static void test_wide_groups_are_not_fused(void **state)
     }
 }
 
+/* Pixel expressions shaped like the wet material's masks and maps: named gray and colour inputs,
+ * extra attributes, a graph parameter, a uniform (stride 0) input, statistics of the height as
+ * inputs, noise() of u with the seed, colour and gray mixed. Those that read no row and no other
+ * pixel fuse (px1 -> px2 -> px3 -> col -> px4, and the subgraph's two); one reading y, one
+ * reading v, one using sample() and one reading $height need the whole image and run alone, as
+ * does a shared one. Fused and unfused are bit-identical for 1, 2 and 3 threads, at sizes
+ * whose last band is partial. */
+static const char *const pixel_xml_fmt =
+    "<wetgraph version=\"1\" size=\"%dx%d\" seed=\"%d\">\n"
+    "  <param name=\"level\" type=\"float\" default=\"0.45\" min=\"0\" max=\"1\"/>\n"
+    "  <input name=\"src\" type=\"color\"/>\n"
+    "  <input name=\"h\" type=\"gray\"/>\n"
+    "  <input name=\"pm\" type=\"gray\" default=\"0.7\"/>\n"
+    "  <node id=\"st\" type=\"statistics\"><in name=\"source\" from=\"$h\"/></node>\n"
+    "  <node id=\"px1\" type=\"pixel\" k=\"=128 * level\" expr=\"clamp((level - h) * k, 0, 1)\">"
+    "<in name=\"h\" from=\"$h\"/></node>\n"
+    "  <node id=\"px2\" type=\"pixel\" expr=\"d = m * pm; d + (1 - d) * (h - lo) / (hi - lo + "
+    "1e-6) * noise(u * 3 + h, 0.25, 4)\"><in name=\"m\" from=\"px1\"/>"
+    "<in name=\"pm\" from=\"$pm\"/><in name=\"h\" from=\"$h\"/>"
+    "<in name=\"lo\" from=\"st.min\"/><in name=\"hi\" from=\"st.max\"/></node>\n"
+    "  <node id=\"px3\" type=\"pixel\" kind=\"color\" expr=\"A * (1 - 0.6 * w) + rgb(w, w * "
+    "w, sqrt(w)) * 0.3\"><in name=\"A\" from=\"$src\"/><in name=\"w\" from=\"px2\"/></node>\n"
+    "  <node id=\"col\" type=\"hsl\" saturation=\"0.2\"><in name=\"source\" from=\"px3\"/>"
+    "</node>\n"
+    "  <node id=\"px4\" type=\"pixel\" kind=\"color\" expr=\"C.r > 0.5 ? C * C : pow(C, 0.8) + "
+    "x * 1e-4\"><in name=\"C\" from=\"col\"/></node>\n"
+    "  <node id=\"py\" type=\"pixel\" expr=\"a * 0.5 + y * 1e-3\"><in name=\"a\" from=\"$h\"/>"
+    "</node>\n"
+    "  <node id=\"qy\" type=\"invert\"><in name=\"source\" from=\"py\"/></node>\n"
+    "  <node id=\"pv\" type=\"pixel\" expr=\"a * v\"><in name=\"a\" from=\"$h\"/></node>\n"
+    "  <node id=\"qv\" type=\"invert\"><in name=\"source\" from=\"pv\"/></node>\n"
+    "  <node id=\"ps\" type=\"pixel\" expr=\"sample(a, u + 0.01, 0.5) - a\">"
+    "<in name=\"a\" from=\"$h\"/></node>\n"
+    "  <node id=\"qs\" type=\"invert\"><in name=\"source\" from=\"ps\"/></node>\n"
+    "  <node id=\"ph\" type=\"pixel\" expr=\"a * $height\"><in name=\"a\" from=\"$h\"/></node>\n"
+    "  <node id=\"qh\" type=\"invert\"><in name=\"source\" from=\"ph\"/></node>\n"
+    "  <node id=\"sh\" type=\"pixel\" expr=\"1 - a\"><in name=\"a\" from=\"$h\"/></node>\n"
+    "  <node id=\"sa\" type=\"pixel\" expr=\"a * a\"><in name=\"a\" from=\"sh\"/></node>\n"
+    "  <node id=\"sb\" type=\"pixel\" expr=\"a + 1\"><in name=\"a\" from=\"sh\"/></node>\n"
+    "  <node id=\"t\" type=\"ptone\"><in name=\"source\" from=\"sa\"/></node>\n"
+    "  <output name=\"px4\" from=\"px4\"/>\n"
+    "  <output name=\"qy\" from=\"qy\"/>\n"
+    "  <output name=\"qv\" from=\"qv\"/>\n"
+    "  <output name=\"qs\" from=\"qs\"/>\n"
+    "  <output name=\"qh\" from=\"qh\"/>\n"
+    "  <output name=\"t\" from=\"t\"/>\n"
+    "  <output name=\"sb\" from=\"sb\"/>\n"
+    "</wetgraph>\n";
+
+static const char *const ptone_xml =
+    "<wetgraph version=\"1\">\n"
+    "  <input name=\"source\" type=\"gray\"/>\n"
+    "  <node id=\"a\" type=\"pixel\" g=\"0.7\" expr=\"s * g + 0.1\"><in name=\"s\" "
+    "from=\"$source\"/></node>\n"
+    "  <node id=\"b\" type=\"pixel\" expr=\"1 - s * s\"><in name=\"s\" from=\"a\"/></node>\n"
+    "  <output name=\"out\" from=\"b\"/>\n"
+    "</wetgraph>\n";
+
+static void test_point_pixel_expressions_fuse(void **state)
+{
+    (void)state;
+    static const int sizes[][3] = {{96, 203, 5}, {131, 67, 11}, {512, 301, 2}};
+    wgt_write_file(wgt_path("ptone.wetgraph"), ptone_xml);
+    for (size_t z = 0; z < sizeof sizes / sizeof *sizes; z++) {
+        int w = sizes[z][0], h = sizes[z][1];
+        char xml[8192];
+        snprintf(xml, sizeof xml, pixel_xml_fmt, w, h, sizes[z][2]);
+        WgGraph *g = wgt_load_at(xml, wgt_path("pixels.wetgraph"));
+        WgRequest *r = wg_request_new(g);
+        assert_non_null(r);
+        WgImage *src = wgt_image_fn(w, h, 4, src_fn), *hm = wgt_image_fn(w, h, 1, h_fn);
+        WgError err = {0};
+        assert_int_equal(wg_request_set_input_image(r, "src", src, &err), WG_OK);
+        assert_int_equal(wg_request_set_input_image(r, "h", hm, &err), WG_OK);
+        wg_image_unref(src);
+        wg_image_unref(hm);
+        WgResult *ref = render(1, false, r);
+        for (int threads = 1; threads <= 3; threads++) {
+            WgResult *fused = render(threads, true, r), *unfused = render(threads, false, r);
+            expect_same_outputs(ref, unfused);
+            expect_same_outputs(ref, fused);
+            int chain = fused_of(fused, "px4"), sub = fused_of(fused, "t/b");
+            assert_true(chain > 0 && sub > 0 && chain != sub);
+            static const char *const in_chain[] = {"px1", "px2", "px3", "col"};
+            for (size_t k = 0; k < 4; k++) assert_int_equal(fused_of(fused, in_chain[k]), chain);
+            assert_int_equal(fused_of(fused, "sa"), sub);
+            assert_int_equal(fused_of(fused, "t/a"), sub);
+            /* rows, other pixels, the height; shared; reading an input in place */
+            static const char *const alone[] = {"py", "pv", "ps", "ph", "sh", "sb", "st"};
+            for (size_t k = 0; k < sizeof alone / sizeof *alone; k++)
+                if (fused_of(fused, alone[k])) fail_msg("'%s' was fused", alone[k]);
+            wg_result_free(fused);
+            wg_result_free(unfused);
+        }
+        wg_result_free(ref);
+        wg_request_free(r);
+        wg_graph_free(g);
+    }
+}
+
 /* ---- listing the groups ----------------------------------------------------------------- */
 
 static void test_stats_list_the_groups(void **state)
@@ -544,6 +644,7 @@ int main(void)
         cmocka_unit_test(test_a_long_chain_peaks_lower_fused),
         cmocka_unit_test(test_a_budget_only_unfused_fits_renders_unfused),
         cmocka_unit_test(test_wide_groups_are_not_fused),
+        cmocka_unit_test(test_point_pixel_expressions_fuse),
         cmocka_unit_test(test_stats_list_the_groups),
         cmocka_unit_test(test_the_command_line_lists_and_draws_the_groups),
     };

@@ -215,6 +215,12 @@ typedef struct WgNodeType {
      * enter its scope and its cache key, so a change of another parameter or of $time does not
      * recompute it. An over-estimate is safe. Default: every name. */
     bool (*uses_scope_name)(const void *params, const char *name);
+    /* Optional, for nodes that are point operations with some params only (a `pixel`
+     * expression that reads no row index and no other pixel): may the instance with these
+     * params be evaluated a band of rows at a time and fused (point 9 holds for it, and its eval
+     * takes what it needs from its context)? When set, it decides instead of the flags. An
+     * under-estimate is safe. Default: WG_NODE_POINT types without flags that rule bands out. */
+    bool (*banded)(const void *params);
 } WgNodeType;
 
 /* The registry: a NULL-terminated array in fixed order. */
