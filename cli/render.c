@@ -478,13 +478,28 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         else
             wg_remove_stale_temporaries(dir);
     }
+    /* the outputs are encoded concurrently, by as many threads as the render had */
+    const char **wpaths = calloc((size_t)n + 1, sizeof *wpaths);
+    const WgImage **wimages = calloc((size_t)n + 1, sizeof *wimages);
+    WgFormat *wformats = calloc((size_t)n + 1, sizeof *wformats);
+    WgColorspace *wcs = calloc((size_t)n + 1, sizeof *wcs);
+    if (!rc && (!wpaths || !wimages || !wformats || !wcs))
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int nw = 0;
     for (int i = 0; !rc && separate && i < n; i++) {
         if (kept && kept[i]) continue;
-        WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
         output_path(o, g, res, i, frame, paths[i], sizeof paths[i]);
-        rc = wg_write_set_image(set, paths[i], wg_result_output_image(res, i), f,
-                                wg_result_output_colorspace(res, i), err);
+        wpaths[nw] = paths[i];
+        wimages[nw] = wg_result_output_image(res, i);
+        wformats[nw] = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+        wcs[nw++] = wg_result_output_colorspace(res, i);
     }
+    if (!rc && nw)
+        rc = wg_write_set_images(set, nw, wpaths, wimages, wformats, wcs, o->threads, err);
+    free(wpaths);
+    free(wimages);
+    free(wformats);
+    free(wcs);
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     if (!rc && !o->quiet) {
