@@ -8,6 +8,7 @@
  * order); readers of every kind decode the files, the tests check them with libpng. */
 #include "internal.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <libdeflate.h>
@@ -170,12 +171,16 @@ int wg__png_write(const char *path, const void *samples, int w, int h, int c, in
     if (fd < 0 || write_all(fd, file, total)) {
         int err = errno;
         snprintf(msg, msg_size, "%s", strerror(err));
+        msg[0] = (char)tolower((unsigned char)msg[0]); /* as the other writers' messages */
         if (fd >= 0) close(fd);
         errno = err;
         goto done;
     }
     if (close(fd)) {
-        snprintf(msg, msg_size, "%s", strerror(errno));
+        int err = errno;
+        snprintf(msg, msg_size, "%s", strerror(err));
+        msg[0] = (char)tolower((unsigned char)msg[0]);
+        errno = err;
         goto done;
     }
     rc = 0;
