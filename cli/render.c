@@ -11,6 +11,7 @@
 #include <strings.h>
 #include <sys/stat.h>
 #include <sys/xattr.h>
+#include <time.h>
 #include <unistd.h>
 #include <xxhash.h>
 
@@ -316,6 +317,7 @@ static struct {
     int n;
     char (*paths)[4096];
     bool *kept;
+    double ms; /* from the first key to the last rename */
 } last_write;
 
 void print_stats(const WgEngine *e, const WgResult *res, bool json)
@@ -363,7 +365,7 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             cli_json_string(stdout, last_write.paths[k]);
             printf(", \"file\": \"%s\"}", last_write.kept[k] ? "kept" : "written");
         }
-        printf("\n  ]\n}\n");
+        printf("\n  ],\n  \"write_ms\": %.3f\n}\n", last_write.ms);
         free(groups);
         return;
     }
@@ -402,7 +404,8 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             n_kept++;
         }
     if (last_write.n)
-        fprintf(stderr, "outputs: %d written, %d kept\n", last_write.n - n_kept, n_kept);
+        fprintf(stderr, "outputs: %d written, %d kept, %.1f ms\n", last_write.n - n_kept, n_kept,
+                last_write.ms);
 }
 
 /* The folder part of a file path ("." when there is none). */
@@ -580,6 +583,8 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     WgColorspace *wcs = calloc((size_t)n + 1, sizeof *wcs);
     if (!rc && (!wpaths || !wimages || !wformats || !wcs))
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
     OutKey *keys = calloc((size_t)n + 1, sizeof *keys);
     bool *skip = calloc((size_t)n + 1, sizeof *skip), *wrote = calloc((size_t)n + 1, sizeof *wrote);
     if (!rc && (!keys || !skip || !wrote))
@@ -614,6 +619,8 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
             if (!skip[i]) printf("%s\n", paths[i]);
     }
     last_write_clear();
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    last_write.ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6;
     if (!rc && separate) {
         last_write.n = n;
         last_write.paths = paths;

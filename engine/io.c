@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Image file reading and writing: single-layer EXR natively (io_exr.c), most PNGs natively
- * (png_check.c), JPEG headers natively (jpeg_header.c), everything else through the
+ * (png_check.c; written by png_write.c), JPEG headers natively (jpeg_header.c), everything else
+ * through the
  * OpenImageIO module (io_oiio.cpp, loaded on first use by io_module.c). Decoders write straight
  * into the image's rows when every file channel has its place there, integer files go through
  * tables of their codes, else a strip at a time through a float buffer. Here: channel
