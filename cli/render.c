@@ -354,18 +354,18 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             cli_json_string(stdout, wg_result_stat(res, groups[k].last)->id);
             printf("}");
         }
-        printf("\n  ],\n  \"warnings\": [");
-        for (int k = 0; k < wg_result_warning_count(res); k++) {
-            printf("%s\n    ", k ? "," : "");
-            cli_json_warning(stdout, wg_result_warning(res, k));
-        }
         printf("\n  ],\n  \"outputs\": [");
         for (int k = 0; k < last_write.n; k++) {
             printf("%s\n    {\"path\": ", k ? "," : "");
             cli_json_string(stdout, last_write.paths[k]);
             printf(", \"file\": \"%s\"}", last_write.kept[k] ? "kept" : "written");
         }
-        printf("\n  ],\n  \"write_ms\": %.3f\n}\n", last_write.ms);
+        printf("\n  ],\n  \"write_ms\": %.3f,\n  \"warnings\": [", last_write.ms);
+        for (int k = 0; k < wg_result_warning_count(res); k++) {
+            printf("%s\n    ", k ? "," : "");
+            cli_json_warning(stdout, wg_result_warning(res, k));
+        }
+        printf("\n  ]\n}\n");
         free(groups);
         return;
     }
