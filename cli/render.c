@@ -478,6 +478,7 @@ static bool key_text(const char *path, OutKey key, char *buf, size_t size)
     return true;
 }
 
+/* 0, 0 when out of memory: no key, never matched nor stored */
 static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs)
 {
     XXH3_state_t *st = XXH3_createState();
@@ -500,7 +501,7 @@ static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs)
 static bool key_matches(const char *path, OutKey key)
 {
     char want[128], have[128];
-    if (!key_text(path, key, want, sizeof want)) return false;
+    if ((!key.hi && !key.lo) || !key_text(path, key, want, sizeof want)) return false;
     ssize_t n = lgetxattr(path, KEY_ATTR, have, sizeof have - 1);
     if (n < 0) return false;
     have[n] = 0;
@@ -512,7 +513,8 @@ static bool key_matches(const char *path, OutKey key)
 static void key_store(const char *path, OutKey key)
 {
     char text[128];
-    if (key_text(path, key, text, sizeof text)) lsetxattr(path, KEY_ATTR, text, strlen(text), 0);
+    if ((key.hi || key.lo) && key_text(path, key, text, sizeof text))
+        lsetxattr(path, KEY_ATTR, text, strlen(text), 0);
 }
 
 static void last_write_clear(void)
