@@ -10,7 +10,10 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
+#include <sys/xattr.h>
+#include <time.h>
 #include <unistd.h>
+#include <xxhash.h>
 
 static const char help[] =
     "usage: wetgraph render FILE [options]\n"
@@ -309,6 +312,14 @@ static Group *fused_groups(const WgResult *res, int *count)
     return g;
 }
 
+/* What the last write_outputs did with each output, for --stats. */
+static struct {
+    int n;
+    char (*paths)[4096];
+    bool *kept;
+    double ms; /* from the first key to the last rename */
+} last_write;
+
 void print_stats(const WgEngine *e, const WgResult *res, bool json)
 {
     int n = wg_result_stat_count(res), n_groups;
@@ -343,7 +354,13 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             cli_json_string(stdout, wg_result_stat(res, groups[k].last)->id);
             printf("}");
         }
-        printf("\n  ],\n  \"warnings\": [");
+        printf("\n  ],\n  \"outputs\": [");
+        for (int k = 0; k < last_write.n; k++) {
+            printf("%s\n    {\"path\": ", k ? "," : "");
+            cli_json_string(stdout, last_write.paths[k]);
+            printf(", \"file\": \"%s\"}", last_write.kept[k] ? "kept" : "written");
+        }
+        printf("\n  ],\n  \"write_ms\": %.3f,\n  \"warnings\": [", last_write.ms);
         for (int k = 0; k < wg_result_warning_count(res); k++) {
             printf("%s\n    ", k ? "," : "");
             cli_json_warning(stdout, wg_result_warning(res, k));
@@ -380,6 +397,15 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             "%.1f MiB given back\n",
             (unsigned long long)m.pool_hits, (unsigned long long)m.pool_misses, m.pool_buffers,
             m.pool_bytes / 1048576.0, m.pool_released / 1048576.0);
+    int n_kept = 0;
+    for (int k = 0; k < last_write.n; k++)
+        if (last_write.kept[k]) {
+            fprintf(stderr, "kept %s (it already holds these pixels)\n", last_write.paths[k]);
+            n_kept++;
+        }
+    if (last_write.n)
+        fprintf(stderr, "outputs: %d written, %d kept, %.1f ms\n", last_write.n - n_kept, n_kept,
+                last_write.ms);
 }
 
 /* The folder part of a file path ("." when there is none). */
@@ -424,6 +450,80 @@ void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i,
     else
         snprintf(buf, size, "%s/%s_%s.%s", dir, wg_graph_name(g), wg_result_output_name(res, i),
                  wg_format_extension(f));
+}
+
+/* ---- outputs kept: a key per written file, in an extended attribute of the file -------------
+ * An output's key is a hash (XXH3, 128 bits) of its image (size, channels, every sample's
+ * bits) with the format and colour space it is written in and the writer's version. After a
+ * write, the file's attribute "user.wetgraph.key" holds the key with the file's size and
+ * modification time. The next write of that file, when the attribute holds the same key and
+ * the file still has that size and time (no one edited it; a file replaced by another program
+ * has lost the attribute with its inode), leaves the file untouched: it already holds exactly
+ * these pixels. Where a file system keeps no such attributes every file is written. */
+
+#define KEY_ATTR "user.wetgraph.key"
+#define KEYS_VERSION 1 /* changes whenever a file written from the same image would differ */
+
+typedef struct {
+    unsigned long long hi, lo;
+} OutKey;
+
+/* The attribute's text for key and the file as it is now; false when it cannot be had. */
+static bool key_text(const char *path, OutKey key, char *buf, size_t size)
+{
+    struct stat st;
+    if (lstat(path, &st) || !S_ISREG(st.st_mode)) return false;
+    snprintf(buf, size, "%016llx%016llx %llu %lld.%09ld", key.hi, key.lo,
+             (unsigned long long)st.st_size, (long long)st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+    return true;
+}
+
+/* 0, 0 when out of memory: no key, never matched nor stored */
+static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs)
+{
+    XXH3_state_t *st = XXH3_createState();
+    OutKey k = {0, 0};
+    if (!st) return k;
+    XXH3_128bits_reset(st);
+    int head[6] = {KEYS_VERSION, img->width, img->height, img->channels, (int)f, (int)cs};
+    XXH3_128bits_update(st, head, sizeof head);
+    for (int y = 0; y < img->height; y++)
+        XXH3_128bits_update(st, wg_image_row(img, y),
+                            (size_t)img->width * (size_t)img->channels * sizeof(float));
+    XXH128_hash_t h = XXH3_128bits_digest(st);
+    XXH3_freeState(st);
+    k.hi = h.high64;
+    k.lo = h.low64;
+    return k;
+}
+
+/* The file at path holds the image of `key`, untouched since it was written. */
+static bool key_matches(const char *path, OutKey key)
+{
+    char want[128], have[128];
+    if ((!key.hi && !key.lo) || !key_text(path, key, want, sizeof want)) return false;
+    ssize_t n = lgetxattr(path, KEY_ATTR, have, sizeof have - 1);
+    if (n < 0) return false;
+    have[n] = 0;
+    return !strcmp(have, want);
+}
+
+/* Record the key on a file just written. Best effort: a file without it is only written again
+ * next time. Setting it changes the file's status time, not its modification time. */
+static void key_store(const char *path, OutKey key)
+{
+    char text[128];
+    if ((key.hi || key.lo) && key_text(path, key, text, sizeof text))
+        lsetxattr(path, KEY_ATTR, text, strlen(text), 0);
+}
+
+static void last_write_clear(void)
+{
+    free(last_write.paths);
+    free(last_write.kept);
+    last_write.paths = NULL;
+    last_write.kept = NULL;
+    last_write.n = 0;
 }
 
 /* Every file is first written whole to a temporary beside its target; only when all of them
@@ -478,20 +578,61 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         else
             wg_remove_stale_temporaries(dir);
     }
+    /* the outputs are encoded concurrently, by as many threads as the render had */
+    const char **wpaths = calloc((size_t)n + 1, sizeof *wpaths);
+    const WgImage **wimages = calloc((size_t)n + 1, sizeof *wimages);
+    WgFormat *wformats = calloc((size_t)n + 1, sizeof *wformats);
+    WgColorspace *wcs = calloc((size_t)n + 1, sizeof *wcs);
+    if (!rc && (!wpaths || !wimages || !wformats || !wcs))
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    OutKey *keys = calloc((size_t)n + 1, sizeof *keys);
+    bool *skip = calloc((size_t)n + 1, sizeof *skip), *wrote = calloc((size_t)n + 1, sizeof *wrote);
+    if (!rc && (!keys || !skip || !wrote))
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    int nw = 0;
     for (int i = 0; !rc && separate && i < n; i++) {
-        if (kept && kept[i]) continue;
-        WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
         output_path(o, g, res, i, frame, paths[i], sizeof paths[i]);
-        rc = wg_write_set_image(set, paths[i], wg_result_output_image(res, i), f,
-                                wg_result_output_colorspace(res, i), err);
+        WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+        keys[i] =
+            output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i));
+        skip[i] = (kept && kept[i]) || key_matches(paths[i], keys[i]);
+        if (skip[i]) continue;
+        wrote[i] = true;
+        wpaths[nw] = paths[i];
+        wimages[nw] = wg_result_output_image(res, i);
+        wformats[nw] = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+        wcs[nw++] = wg_result_output_colorspace(res, i);
     }
+    if (!rc && nw)
+        rc = wg_write_set_images(set, nw, wpaths, wimages, wformats, wcs, o->threads, err);
+    free(wpaths);
+    free(wimages);
+    free(wformats);
+    free(wcs);
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
+    for (int i = 0; !rc && separate && i < n; i++)
+        if (wrote[i]) key_store(paths[i], keys[i]);
     if (!rc && !o->quiet) {
         if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", layered_name(o, frame), n);
         for (int i = 0; separate && i < n; i++)
-            if (!kept || !kept[i]) printf("%s\n", paths[i]);
+            if (!skip[i]) printf("%s\n", paths[i]);
     }
+    last_write_clear();
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    last_write.ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6;
+    if (!rc && separate) {
+        last_write.n = n;
+        last_write.paths = paths;
+        last_write.kept = skip;
+        paths = NULL;
+        skip = NULL;
+    }
+    free(keys);
+    free(skip);
+    free(wrote);
     free(paths);
     return rc;
 }

@@ -393,6 +393,10 @@ int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, v
 void wg__oiio_close(WgOiioIn *in);
 /* Whether this process has loaded the module (for tests). */
 bool wg__oiio_loaded(void);
+/* Write a PNG (png_write.c): `samples` packed rows of `c` channels (1-4) of `bits` (8 or 16, 16-bit
+ * ones in host order). Nonzero with msg (and errno where the system refused) on failure. */
+int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
+                  size_t msg_size);
 /* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);
  * rows packed, `c` channels of that type for 8/16, float for -16/32. finish closes and frees;
  * with ok false it only cleans up. */

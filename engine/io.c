@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* Image file reading and writing: single-layer EXR natively (io_exr.c), most PNGs natively
- * (png_check.c), JPEG headers natively (jpeg_header.c), everything else through the
+ * (png_check.c; written by png_write.c), JPEG headers natively (jpeg_header.c), everything else
+ * through the
  * OpenImageIO module (io_oiio.cpp, loaded on first use by io_module.c). Decoders write straight
  * into the image's rows when every file channel has its place there, integer files go through
  * tables of their codes, else a strip at a time through a float buffer. Here: channel
@@ -22,6 +23,7 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -693,11 +695,74 @@ static void file_layout(const WgImage *img, WgFormat format, int *channels, int 
                                         : 16;
 }
 
-/* Encode `img` into the file `path`, STRIP_ROWS rows at a time, so writing holds a strip of
+/* Quantise rows [y0, y1) of `img` into buf, packed: `c` channels of `bits` each. */
+static void pack_rows(const WgImage *img, WgColorspace cs, int c, int bits, int y0, int y1,
+                      void *buf)
+{
+    size_t i = 0;
+    if (bits == 16 && cs != WG_SRGB) {
+        /* linear 16-bit samples, most of what is written, in a loop without calls: the same
+         * rounding as quantize(), NaN to 0 by the comparisons */
+        size_t n = (size_t)img->width * (size_t)c;
+        for (int y = y0; y < y1; y++) {
+            const float *r = wg_image_row(img, y);
+            uint16_t *o = (uint16_t *)buf + (size_t)(y - y0) * n;
+            if (c == img->channels) {
+                for (size_t j = 0; j < n; j++) {
+                    float v = r[j];
+                    double d = v > 0 ? (v < 1 ? (double)v : 1.0) : 0.0;
+                    o[j] = (uint16_t)(uint32_t)(d * 65535.0 + 0.5);
+                }
+                continue;
+            }
+            for (int x = 0; x < img->width; x++)
+                for (int k = 0; k < c; k++) {
+                    float v = r[x * img->channels + k];
+                    double d = v > 0 ? (v < 1 ? (double)v : 1.0) : 0.0;
+                    o[x * c + k] = (uint16_t)(uint32_t)(d * 65535.0 + 0.5);
+                }
+        }
+        return;
+    }
+    for (int y = y0; y < y1; y++) {
+        const float *r = wg_image_row(img, y);
+        for (int x = 0; x < img->width; x++) {
+            for (int k = 0; k < c; k++, i++) {
+                float v = r[x * img->channels + k];
+                bool colour = k < 3; /* gray is a colour channel too; alpha never is */
+                if (bits == 8)
+                    ((uint8_t *)buf)[i] = wg_quantize8(v, cs == WG_SRGB && colour);
+                else if (bits == 16)
+                    ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
+                else
+                    ((float *)buf)[i] = v;
+            }
+        }
+    }
+}
+
+/* PNG: the whole image packed, then png_write.c filters and compresses it in one go. */
+static int encode_png(const char *path, const WgImage *img, WgColorspace cs, int c, int bits,
+                      char *msg, size_t msg_size)
+{
+    void *buf = wg_malloc((size_t)img->width * (size_t)img->height * (size_t)c * (bits / 8));
+    if (!buf) {
+        snprintf(msg, msg_size, "out of memory");
+        return -1;
+    }
+    pack_rows(img, cs, c, bits, 0, img->height, buf);
+    int rc = wg__png_write(path, buf, img->width, img->height, c, bits, msg, msg_size);
+    wg_free(buf);
+    return rc;
+}
+
+/* Other formats go through OpenImageIO, STRIP_ROWS rows at a time, so writing holds a strip of
  * packed pixels, not a packed copy of the image. Nonzero with msg on failure. */
 static int encode_to_file(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
                           int c, int bits, char *msg, size_t msg_size)
 {
+    if (format == WG_FORMAT_PNG || format == WG_FORMAT_PNG16)
+        return encode_png(path, img, cs, c, bits, msg, msg_size);
     size_t row = (size_t)img->width * (size_t)c;
     size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
     void *buf = wg_malloc(row * STRIP_ROWS * elem);
@@ -710,22 +775,7 @@ static int encode_to_file(const char *path, const WgImage *img, WgFormat format,
                                &out, msg, msg_size);
     for (int y0 = 0; ok && y0 < img->height; y0 += STRIP_ROWS) {
         int y1 = img->height - y0 < STRIP_ROWS ? img->height : y0 + STRIP_ROWS;
-        size_t i = 0;
-        for (int y = y0; y < y1; y++) {
-            const float *r = wg_image_row(img, y);
-            for (int x = 0; x < img->width; x++) {
-                for (int k = 0; k < c; k++, i++) {
-                    float v = r[x * img->channels + k];
-                    bool colour = k < 3; /* gray is a colour channel too; alpha never is */
-                    if (bits == 8)
-                        ((uint8_t *)buf)[i] = wg_quantize8(v, cs == WG_SRGB && colour);
-                    else if (bits == 16)
-                        ((uint16_t *)buf)[i] = (uint16_t)quantize(v, cs, colour, 65535.0);
-                    else
-                        ((float *)buf)[i] = v;
-                }
-            }
-        }
+        pack_rows(img, cs, c, bits, y0, y1, buf);
         ok = !wg__oiio_write_rows(out, y0, y1, buf, msg, msg_size);
         if (!ok) {
             wg__oiio_finish(out, false, NULL, 0);
@@ -780,19 +830,23 @@ static int stage_begin(WgWriteSet *s, const char *path, char **temp, WgError *er
     return WG_OK;
 }
 
+/* Flush a written temporary to the disk; `path` is its target, named in the error. */
+static int sync_temp(const char *temp, const char *path, WgError *err)
+{
+    int fd = open(temp, O_RDONLY | O_CLOEXEC);
+    int rc = WG_OK;
+    if (fd < 0 || fsync(fd) != 0)
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the file: %s",
+                             strerror(errno));
+    if (fd >= 0) close(fd);
+    return rc;
+}
+
 /* The temporary is written (rc says how): flush it to the disk and keep it, or remove it. */
 static int stage_end(WgWriteSet *s, int rc, WgError *err)
 {
     Staged *f = &s->files[s->count];
-    if (!rc) {
-        int fd = open(f->temp, O_RDONLY | O_CLOEXEC);
-        if (fd < 0 || fsync(fd) != 0) {
-            int e = errno;
-            rc = wg_error_set_at(err, WG_ERR_IO, f->path, 0, 0, "cannot write the file: %s",
-                                 strerror(e));
-        }
-        if (fd >= 0) close(fd);
-    }
+    if (!rc) rc = sync_temp(f->temp, f->path, err);
     if (rc) {
         unlink(f->temp);
         wg_free(f->path);
@@ -834,22 +888,121 @@ static int write_failed(WgError *err, const char *path, const char *msg)
     return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s", msg);
 }
 
-int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
-                       WgColorspace cs, WgError *err)
+/* Encode one image into the temporary `tmp` of target `path` and flush it. */
+static int write_one(const char *tmp, const char *path, const WgImage *img, WgFormat format,
+                     WgColorspace cs, WgError *err)
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c, bits;
     file_layout(img, format, &c, &bits);
-    char *tmp;
-    int rc = stage_begin(s, path, &tmp, err);
-    if (rc) return rc;
     char msg[512];
+    int rc = WG_OK;
     errno = 0;
     if (format == WG_FORMAT_EXR || format == WG_FORMAT_EXR32)
         rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, err);
     else if (encode_to_file(tmp, img, format, cs, c, bits, msg, sizeof msg))
         rc = write_failed(err, path, msg);
-    return stage_end(s, rc, err);
+    return rc ? rc : sync_temp(tmp, path, err);
+}
+
+int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                       WgColorspace cs, WgError *err)
+{
+    char *tmp = NULL;
+    int rc = stage_begin(s, path, &tmp, err);
+    if (rc) return rc;
+    rc = write_one(tmp, path, img, format, cs, err);
+    if (rc) {
+        unlink(tmp);
+        wg_free(s->files[s->count].path);
+        wg_free(tmp);
+        return rc;
+    }
+    s->count++;
+    return WG_OK;
+}
+
+typedef struct {
+    WgWriteSet *s;
+    int base, n;
+    const WgImage *const *images;
+    const WgFormat *formats;
+    const WgColorspace *cs;
+    atomic_int next;
+    int *rc;
+    WgError *errs;
+} Batch;
+
+static void *batch_worker(void *arg)
+{
+    Batch *b = arg;
+    for (int i; (i = atomic_fetch_add(&b->next, 1)) < b->n;) {
+        const Staged *f = &b->s->files[b->base + i];
+        b->rc[i] = write_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i], &b->errs[i]);
+    }
+    return NULL;
+}
+
+/* Drop the staged files from `from` on, removing their temporaries. */
+static void unstage(WgWriteSet *s, int from)
+{
+    for (int i = from; i < s->count; i++) {
+        unlink(s->files[i].temp);
+        wg_free(s->files[i].path);
+        wg_free(s->files[i].temp);
+    }
+    s->count = from;
+}
+
+int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
+                        const WgImage *const *images, const WgFormat *formats,
+                        const WgColorspace *cs, int threads, WgError *err)
+{
+    int base = s->count, rc = WG_OK;
+    for (int i = 0; i < n && !rc; i++) {
+        char *tmp;
+        if (!(rc = stage_begin(s, paths[i], &tmp, err))) s->count++;
+    }
+    if (rc) {
+        unstage(s, base);
+        return rc;
+    }
+    if (threads <= 0) {
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = cores > 0 ? (int)cores : 1;
+    }
+    if (threads > n) threads = n;
+    Batch b = {s,
+               base,
+               n,
+               images,
+               formats,
+               cs,
+               0,
+               wg_calloc((size_t)n + 1, sizeof(int)),
+               wg_calloc((size_t)n + 1, sizeof(WgError))};
+    pthread_t *tids = wg_calloc((size_t)threads + 1, sizeof *tids);
+    if (!b.rc || !b.errs || !tids) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    } else {
+        /* the calling thread is one of the encoders; a thread that cannot start leaves its
+         * share to the others */
+        int started = 0;
+        for (int t = 1; t < threads; t++)
+            if (!pthread_create(&tids[started], NULL, batch_worker, &b)) started++;
+        batch_worker(&b);
+        for (int t = 0; t < started; t++) pthread_join(tids[t], NULL);
+        for (int i = 0; i < n && !rc; i++)
+            if (b.rc[i]) {
+                rc = b.rc[i];
+                if (err) *err = b.errs[i];
+            }
+    }
+    if (rc) unstage(s, base);
+    wg_free(tids);
+    wg_free(b.rc);
+    wg_free(b.errs);
+    return rc;
 }
 
 int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,

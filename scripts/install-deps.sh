@@ -6,6 +6,7 @@
 set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
+      libdeflate-dev  # the PNG writer's deflate (engine/png_write.c)
       libmicrohttpd-dev  # `wetgraph watch --serve` (optional: built without it when missing)
       chromium  # the headless-browser test of the --serve page (tests/cli/test_serve_page.c)
       glslang-tools  # the tests validate the GLSL shaders in docs/shaders
@@ -17,6 +18,7 @@ if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks
            libopencv-dev python3-numpy python3-scipy  # blur and distance peers (bench/run_peers.sh)
            openimageio-tools  # oiiotool, the image-reading peer (bench/run_io.sh)
+           python3-opencv  # cv2.imwrite, the PNG-writing peer (bench/run_write.sh)
            blender)  # Cycles, the path tracer the preview is held against (bench/run_cycles.sh)
 fi
 if [[ "${1:-}" == "--docs" ]]; then

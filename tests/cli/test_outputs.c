@@ -477,6 +477,75 @@ static void test_full_disk_replaces_nothing(void **state)
     rm_rf(at("dafter"));
 }
 
+/* ---- unchanged outputs are kept --------------------------------------------------------- */
+
+/* `a` changes only "first", `b` only "second"; "third" depends on neither. */
+static const char *const graph_keys =
+    "<wetgraph version=\"1\" size=\"37x21\" seed=\"5\">\n"
+    "  <param name=\"a\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <param name=\"b\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <node id=\"n\" type=\"noise\"/>\n"
+    "  <node id=\"ua\" type=\"uniform\" value=\"=a\"/>\n"
+    "  <node id=\"ub\" type=\"uniform\" value=\"=b\"/>\n"
+    "  <node id=\"m\" type=\"blend\" mode=\"multiply\"><in name=\"foreground\" from=\"n\"/>"
+    "<in name=\"background\" from=\"ua\"/></node>\n"
+    "  <node id=\"s\" type=\"blend\" mode=\"add\"><in name=\"foreground\" from=\"n\"/>"
+    "<in name=\"background\" from=\"ub\"/></node>\n"
+    "  <output name=\"first\" from=\"m\" format=\"png16\"/>\n"
+    "  <output name=\"second\" from=\"s\" format=\"png\"/>\n"
+    "  <output name=\"third\" from=\"n\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+
+static void test_unchanged_outputs_are_kept(void **state)
+{
+    (void)state;
+    static const char *const files[] = {"k_first.png", "k_second.png", "k_third.exr"};
+    wgt_write_file(at("k.wetgraph"), graph_keys);
+    rm_rf(at("kd"));
+    rm_rf(at("kfresh"));
+    Run r = run("render", "k.wetgraph", "-o", "kd", "--set", "a=0.3", "--set", "b=0.4", NULL);
+    expect(&r, 0, "first render");
+    run_free(&r);
+    struct stat before[3], after[3];
+    for (int i = 0; i < 3; i++) assert_int_equal(stat(in("kd", files[i]), &before[i]), 0);
+    wgt_sleep_ms(20);
+
+    /* a changes: first is written again, second and third stay as they were */
+    r = run("render", "k.wetgraph", "-o", "kd", "--set", "a=0.6", "--set", "b=0.4", "--stats",
+            NULL);
+    expect(&r, 0, "render with a changed");
+    if (!strstr(r.err, "outputs: 1 written, 2 kept, ") || !strstr(r.err, "kept kd/k_second.png") ||
+        !strstr(r.err, "kept kd/k_third.exr") || strstr(r.err, "kept kd/k_first.png"))
+        fail_msg("--stats does not say what was kept:\n%s", r.err);
+    assert_string_equal(r.out, "kd/k_first.png\n");
+    run_free(&r);
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(stat(in("kd", files[i]), &after[i]), 0);
+        bool same = after[i].st_ino == before[i].st_ino &&
+                    after[i].st_mtim.tv_sec == before[i].st_mtim.tv_sec &&
+                    after[i].st_mtim.tv_nsec == before[i].st_mtim.tv_nsec;
+        if (same != (i > 0)) fail_msg("%s was %s", files[i], same ? "kept" : "rewritten");
+    }
+    /* the kept files are the ones a fresh render writes, byte for byte */
+    r = run("render", "k.wetgraph", "-o", "kfresh", "--set", "a=0.6", "--set", "b=0.4", "-q", NULL);
+    expect(&r, 0, "fresh render");
+    run_free(&r);
+    for (int i = 0; i < 3; i++) expect_same_file(in("kd", files[i]), in("kfresh", files[i]));
+
+    /* a file changed by someone else since is written again, even for the same pixels */
+    FILE *f = fopen(in("kd", files[1]), "r+b");
+    assert_non_null(f);
+    assert_int_equal(fputc('x', f) == 'x', 1);
+    assert_int_equal(fclose(f), 0);
+    r = run("render", "k.wetgraph", "-o", "kd", "--set", "a=0.6", "--set", "b=0.4", "--stats",
+            NULL);
+    expect(&r, 0, "render after an edit");
+    if (!strstr(r.err, "outputs: 1 written, 2 kept, ") || strstr(r.err, "kept kd/k_second.png"))
+        fail_msg("the edited file was kept:\n%s", r.err);
+    run_free(&r);
+    expect_same_file(in("kd", files[1]), in("kfresh", files[1]));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -484,6 +553,7 @@ int main(void)
         cmocka_unit_test(test_stale_temporaries_are_removed),
         cmocka_unit_test(test_killed_writer_leaves_temporaries_the_next_render_removes),
         cmocka_unit_test(test_full_disk_replaces_nothing),
+        cmocka_unit_test(test_unchanged_outputs_are_kept),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -2,9 +2,10 @@
 /* Which commands load OpenImageIO: the wetgraph command (WETGRAPH_BIN) runs with LD_DEBUG=files,
  * which makes the dynamic linker name on stderr every library it loads, at start-up or later by
  * dlopen. `nodes`, `--help`, `check` of graphs reading PNG, EXR and JPEG files, `info` and
- * `dot` of a graph with PNG inputs and outputs, a render whose files are all EXR, and a render
- * reading a PNG (decoded natively) into an EXR must not load libOpenImageIO; a render writing a PNG
- * or reading a JPEG must (through the module wetgraph-oiio.so), and when the module cannot be found
+ * `dot` of a graph with PNG inputs and outputs, a render whose files are all EXR, a render reading
+ * a PNG (decoded natively) into an EXR and one writing PNGs (encoded natively) must not load
+ * libOpenImageIO; a render writing a TIFF or reading a JPEG must (through the module
+ * wetgraph-oiio.so), and when the module cannot be found
  * such a render fails with a message naming the image file and the module path tried. */
 #include "wgtest.h"
 
@@ -113,7 +114,7 @@ static void test_oiio_loaded_only_when_needed(void **state)
     wgt_write_file(wgt_path("exr.wetgraph"), exr_graph);
 
     static const struct {
-        const char *args[6];
+        const char *args[8];
         bool loaded;
     } cases[] = {
         {{"nodes"}, false},
@@ -123,7 +124,8 @@ static void test_oiio_loaded_only_when_needed(void **state)
         {{"dot", "png.wetgraph"}, false},
         {{"render", "exr.wetgraph", "-q", "-o", "exr_out"}, false},
         {{"render", "png_exr.wetgraph", "-q", "-o", "png_exr_out"}, false},
-        {{"render", "png.wetgraph", "-q", "-o", "png_out"}, true},
+        {{"render", "png.wetgraph", "-q", "-o", "png_out"}, false},
+        {{"render", "png.wetgraph", "-q", "-o", "tif_out", "--format", "tif16"}, true},
         {{"render", "jpg.wetgraph", "-q", "-o", "jpg_out"}, true},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -151,19 +153,21 @@ static void test_missing_module_is_a_clear_error(void **state)
     snprintf(want, sizeof want, "%s/wetgraph-oiio.so", dir);
     static const struct {
         const char *graph, *file;
-    } need[] = {{"jpg.wetgraph", "in.jpg"}, {"png.wetgraph", "png_out.png"}};
+    } need[] = {{"jpg.wetgraph", "in.jpg"}, {"png.wetgraph", "png_out.tif"}};
     for (int i = 0; i < 2; i++) {
-        const char *args[] = {"render", need[i].graph, "-q", "-o", "missing_out", NULL};
+        const char *args[] = {"render",      need[i].graph, "-q",    "-o",
+                              "missing_out", "--format",    "tif16", NULL};
+        if (i == 0) args[5] = NULL;
         Run r = run(dir, args);
         if (r.status != 1) fail_msg("'render %s' exited %d", need[i].graph, r.status);
-        if (!strstr(r.err, i == 0 ? "in.jpg" : "missing_out/png_out.png") || !strstr(r.err, want) ||
+        if (!strstr(r.err, i == 0 ? "in.jpg" : "missing_out/png_out.tif") || !strstr(r.err, want) ||
             !strstr(r.err, "OpenImageIO module"))
             fail_msg("expected the image, the module path and the reason in:\n%.3000s", r.err);
         free(r.err);
     }
-    /* PNG in, EXR out, and EXR only need no module */
-    const char *const ok[2] = {"png_exr.wetgraph", "exr.wetgraph"};
-    for (int i = 0; i < 2; i++) {
+    /* PNG in, EXR out; EXR only; PNG in and out: no module needed */
+    const char *const ok[3] = {"png_exr.wetgraph", "exr.wetgraph", "png.wetgraph"};
+    for (int i = 0; i < 3; i++) {
         const char *args[] = {"render", ok[i], "-q", "-o", "missing_out", NULL};
         Run r = run(dir, args);
         if (r.status != 0) fail_msg("'render %s' exited %d:\n%.3000s", ok[i], r.status, r.err);

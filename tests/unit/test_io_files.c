@@ -1073,6 +1073,161 @@ static void test_exr_errors_name_the_file(void **state)
     }
 }
 
+/* ---- the PNG writer, checked against libpng's reading (through OpenImageIO) ------------ */
+
+/* Content that makes every PNG filter win somewhere: smooth ramps, noise, flat runs, values
+ * outside [0, 1] and NaN; alpha strictly inside (0, 1) so that it is kept. */
+static float png_sample(int content, int x, int y, int k, int c)
+{
+    if (c == 2 ? k == 1 : c == 4 && k == 3) return 0.05f + 0.9f * unit();
+    switch (content) {
+    case 0:
+        return (float)(x * 3 + y * 7 + k * 11) / 300.0f;
+    case 1:
+        return unit() * 1.2f - 0.1f;
+    case 2:
+        return (x / 4 + y / 3) % 2 ? 0.25f : 0.75f;
+    default:
+        return (x + y) % 97 == 0 ? NAN : sinf((float)x * 0.05f + (float)k) * 0.6f + 0.5f;
+    }
+}
+
+static void test_png_writer_codes_read_back_through_libpng(void **state)
+{
+    (void)state;
+    static const int sizes[][2] = {{1, 1}, {3, 5}, {257, 129}, {64, 33}, {2, 300}};
+    int files = 0;
+    for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
+        for (int c = 1; c <= 4; c += c == 1 ? 2 : 1) /* gray, RGB, RGBA files */
+            for (int bits = 8; bits <= 16; bits += 8)
+                for (int srgb = 0; srgb < 2; srgb++) {
+                    int w = sizes[si][0], h = sizes[si][1], content = (int)(si + c + bits) % 4;
+                    WgImage *img = wg_image_new(w, h, c == 3 ? 4 : c);
+                    assert_non_null(img);
+                    for (int y = 0; y < h; y++) {
+                        float *r = wg_image_row(img, y);
+                        for (int x = 0; x < w; x++)
+                            for (int k = 0; k < img->channels; k++)
+                                r[x * img->channels + k] =
+                                    c == 3 && k == 3 ? 1.0f : png_sample(content, x, y, k, c);
+                    }
+                    char path[1200];
+                    snprintf(path, sizeof path, "%s/pngw_%d_%d_%d_%d_%d.png", wgt_tmpdir(), w, h, c,
+                             bits, srgb);
+                    WgColorspace cs = srgb ? WG_SRGB : WG_LINEAR;
+                    WgError err = {0};
+                    assert_int_equal(wg_image_write(path, img,
+                                                    bits == 8 ? WG_FORMAT_PNG : WG_FORMAT_PNG16, cs,
+                                                    &err),
+                                     WG_OK);
+                    WgtOiioSpec spec = {0};
+                    float *px = oiio_read(path, &spec);
+                    assert_int_equal(spec.w, w);
+                    assert_int_equal(spec.h, h);
+                    assert_int_equal(spec.c, c);
+                    double max = bits == 8 ? 255.0 : 65535.0;
+                    for (int y = 0; y < h; y++) {
+                        const float *r = wg_image_row(img, y);
+                        for (int x = 0; x < w; x++)
+                            for (int k = 0; k < c; k++) {
+                                double v = r[x * img->channels + k];
+                                bool colour = c <= 2 ? k == 0 : k < 3;
+                                if (isnan(v)) v = 0;
+                                if (srgb && colour) v = wg_linear_to_srgb((float)v);
+                                v = v < 0 ? 0 : v > 1 ? 1 : v;
+                                double want = floor(v * max + 0.5);
+                                double got = (double)px[((size_t)y * w + x) * c + k] * max;
+                                if (fabs(got - want) > 0.01)
+                                    fail_msg("%s: (%d, %d, %d) holds %.0f, not %.0f", path, x, y, k,
+                                             got, want);
+                            }
+                    }
+                    free(px);
+                    wg_image_unref(img);
+                    files++;
+                }
+    assert_int_equal(files, 60);
+}
+
+/* A batch of images written by several threads: when one of them fails (its temporary cannot
+ * be created: the target's folder is missing), every target of the set stays as it was and no
+ * temporary is left behind; once the folder is there, the batch replaces them all. */
+static void test_parallel_write_failure_leaves_the_old_set(void **state)
+{
+    (void)state;
+    char dir[1100], sub[1200], paths[6][1300];
+    snprintf(dir, sizeof dir, "%s/pset", wgt_tmpdir());
+    snprintf(sub, sizeof sub, "%s/later", dir);
+    mkdir(dir, 0777);
+    WgImage *old = wg_image_new(40, 30, 1), *img[6];
+    assert_non_null(old);
+    for (int y = 0; y < 30; y++)
+        for (int x = 0; x < 40; x++) wg_image_row(old, y)[x] = 0.5f;
+    const char *ptrs[6];
+    WgFormat formats[6];
+    WgColorspace cs[6];
+    struct stat before[6];
+    for (int i = 0; i < 6; i++) {
+        snprintf(paths[i], sizeof paths[i], "%s/out%d.png", i == 3 ? sub : dir, i);
+        WgError err = {0};
+        if (i != 3) {
+            assert_int_equal(wg_image_write(paths[i], old, WG_FORMAT_PNG16, WG_LINEAR, &err),
+                             WG_OK);
+            assert_int_equal(stat(paths[i], &before[i]), 0);
+        }
+        img[i] = wg_image_new(40 + i, 30, i % 2 ? 4 : 1);
+        assert_non_null(img[i]);
+        for (int y = 0; y < 30; y++)
+            for (int x = 0; x < (40 + i) * img[i]->channels; x++)
+                wg_image_row(img[i], y)[x] = unit();
+        ptrs[i] = paths[i];
+        formats[i] = i % 2 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
+        cs[i] = i % 2 ? WG_SRGB : WG_LINEAR;
+    }
+    size_t n_old;
+    char *old_bytes = wgt_read_file(paths[0], &n_old);
+
+    for (int threads = 1; threads <= 4; threads++) {
+        WgWriteSet *s = wg_write_set_new();
+        WgError err = {0};
+        assert_int_not_equal(wg_write_set_images(s, 6, ptrs, (const WgImage *const *)img, formats,
+                                                 cs, threads, &err),
+                             WG_OK);
+        assert_string_equal(err.file, paths[3]);
+        assert_int_equal(wg_write_set_commit(s, &err), WG_OK); /* nothing left to commit */
+        wg_write_set_free(s);
+        for (int i = 0; i < 6; i++) {
+            if (i == 3) continue;
+            struct stat st;
+            assert_int_equal(stat(paths[i], &st), 0);
+            assert_true(st.st_ino == before[i].st_ino && st.st_size == before[i].st_size);
+        }
+        size_t n;
+        char *b = wgt_read_file(paths[0], &n);
+        assert_true(n == n_old && !memcmp(b, old_bytes, n));
+        free(b);
+        int hidden = 0;
+        wgt_count_files(dir, &hidden);
+        assert_int_equal(hidden, 0);
+    }
+
+    mkdir(sub, 0777);
+    WgWriteSet *s = wg_write_set_new();
+    WgError err = {0};
+    assert_int_equal(
+        wg_write_set_images(s, 6, ptrs, (const WgImage *const *)img, formats, cs, 3, &err), WG_OK);
+    assert_int_equal(wg_write_set_commit(s, &err), WG_OK);
+    wg_write_set_free(s);
+    for (int i = 0; i < 6; i++) {
+        WgImage *back = read_ok(paths[i], 0);
+        assert_int_equal(back->width, 40 + i);
+        wg_image_unref(back);
+        wg_image_unref(img[i]);
+    }
+    free(old_bytes);
+    wg_image_unref(old);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1089,6 +1244,8 @@ int main(void)
         cmocka_unit_test(test_unknown_critical_png_chunk_is_refused),
         cmocka_unit_test(test_channel_mapping_rules),
         cmocka_unit_test(test_exr_errors_name_the_file),
+        cmocka_unit_test(test_png_writer_codes_read_back_through_libpng),
+        cmocka_unit_test(test_parallel_write_failure_leaves_the_old_set),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

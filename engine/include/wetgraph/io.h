@@ -81,6 +81,12 @@ WgWriteSet *wg_write_set_new(void); /* NULL when out of memory; free with wg_wri
 /* Same conversions as wg_image_write. */
 int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                        WgColorspace cs, WgError *err);
+/* Several images at once, the same as adding each with wg_write_set_image, but encoded and
+ * flushed by `threads` threads (0: one per core) concurrently. If any fails, none of the n is
+ * added (their temporaries are removed) and err is the failure of the first in order. */
+int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
+                        const WgImage *const *images, const WgFormat *formats,
+                        const WgColorspace *cs, int threads, WgError *err);
 /* Same layout as wg_exr_write_layers. */
 int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
                             const WgImage *const *images, bool half, WgError *err);

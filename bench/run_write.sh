@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# Writing the outputs: graphs/wet_material.wetgraph on the Bricks102 wall from ../shared at
+# SIZE² (default 2048) with THREADS workers (default 2), its outputs (all PNG, 8- and 16-bit), against cv2.imwrite.
+#  cold     a render into an empty folder: whole process wall time, render time (total_ms of
+#           --stats=json), writing time (write_ms: hashing, encoding, flushing, renaming)
+#  cv2      cv2.imwrite of the same images (read back from the files just written), one after
+#           the other, zlib level 1 (IMWRITE_PNG_COMPRESSION=1, as OpenImageIO wrote them before)
+#  rerender a --cache render after a change of one texturing parameter (dark_wet) into the
+#           folder of the previous one: whole process wall time, outputs kept, its share of cold
+# Best of RUNS (default 3) each. Prints the CPU model and the load average: timing is noisy on a
+# loaded machine. Needs python3-opencv (scripts/install-deps.sh --bench).
+# Usage: bench/run_write.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$root/build}
+size=${2:-2048}
+threads=${3:-2}
+runs=${4:-3}
+[[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
+ninja -C "$build" cli/wetgraph >/dev/null
+py=${PYTHON:-/usr/bin/python3}  # the system python, which python3-opencv installs into
+mat=$root/../shared/materials/bricks102_stonewall_1k
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+render() { # out-folder, extra args...
+    local out=$1
+    shift
+    "$build/cli/wetgraph" render "$root/graphs/wet_material.wetgraph" -o "$out" -q \
+        --size "$size" --threads "$threads" --stats=json \
+        --input basecolor="$mat/Bricks102_1K-JPG_Color.jpg" \
+        --input height="$mat/Bricks102_1K-JPG_Displacement.jpg" \
+        --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg" \
+        --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg" \
+        --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" \
+        --set water_level=0.65 "$@"
+}
+# "wall_ms total_ms write_ms kept written" of one render
+timed() {
+    local t0 t1
+    t0=$(date +%s%N)
+    render "$@" >"$tmp/stats.json"
+    t1=$(date +%s%N)
+    python3 - "$tmp/stats.json" $(((t1 - t0) / 1000)) <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+kept = sum(o["file"] == "kept" for o in d.get("outputs", []))
+print("%.0f %.0f %.0f %d %d" % (int(sys.argv[2]) / 1e3, d["total_ms"], d.get("write_ms", 0),
+      kept, len(d.get("outputs", [])) - kept))
+PY
+}
+echo "host: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores;" \
+    "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "wet_material ${size}², $threads threads, its PNG outputs, best of $runs"
+best_wall=0
+for i in $(seq "$runs"); do
+    rm -rf "$tmp/cold"
+    read -r wall total write _ written < <(timed "$tmp/cold")
+    if ((best_wall == 0 || wall < best_wall)); then
+        best_wall=$wall best_total=$total best_write=$write n=$written
+    fi
+done
+echo "cold:     whole process $best_wall ms, render $best_total ms, writing $best_write ms" \
+    "($n files); whole/render $(python3 -c "print('%.2f' % ($best_wall / $best_total))")"
+cv2_ms=$("$py" - "$tmp/cold" "$runs" <<'PY'
+import cv2, glob, os, sys, time
+imgs = [cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sorted(glob.glob(sys.argv[1] + "/*.png"))]
+out = os.path.join(sys.argv[1], "..", "cv2.png")
+best = None
+for _ in range(int(sys.argv[2])):
+    t = time.perf_counter()
+    for im in imgs:
+        cv2.imwrite(out, im, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    t = (time.perf_counter() - t) * 1e3
+    best = t if best is None else min(best, t)
+print("%.0f" % best)
+PY
+)
+echo "cv2:      cv2.imwrite of the same $n images $cv2_ms ms;" \
+    "writing/cv2 $(python3 -c "print('%.2f' % ($best_write / $cv2_ms))")"
+rm -rf "$tmp/warm"
+render "$tmp/warm" --cache "$tmp/cache" >/dev/null
+best=0
+for i in $(seq "$runs"); do
+    read -r wall total write kept written < <(timed "$tmp/warm" --cache "$tmp/cache" --set "dark_wet=0.9$i")
+    if ((best == 0 || wall < best)); then bw=$write bk=$kept bn=$written best=$wall; fi
+done
+echo "rerender: whole process $best ms (dark_wet changed, --cache): $bn written, $bk kept," \
+    "writing $bw ms; $(python3 -c "print('%.0f' % (100 * $best / $best_wall))") % of cold"
+echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
