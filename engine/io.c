@@ -888,9 +888,9 @@ static int write_failed(WgError *err, const char *path, const char *msg)
     return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s", msg);
 }
 
-/* Encode one image into the temporary `tmp` of target `path` and flush it. */
-static int write_one(const char *tmp, const char *path, const WgImage *img, WgFormat format,
-                     WgColorspace cs, WgError *err)
+/* Encode one image into the temporary `tmp` of target `path`. */
+static int encode_one(const char *tmp, const char *path, const WgImage *img, WgFormat format,
+                      WgColorspace cs, WgError *err)
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c, bits;
@@ -902,7 +902,7 @@ static int write_one(const char *tmp, const char *path, const WgImage *img, WgFo
         rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, err);
     else if (encode_to_file(tmp, img, format, cs, c, bits, msg, sizeof msg))
         rc = write_failed(err, path, msg);
-    return rc ? rc : sync_temp(tmp, path, err);
+    return rc;
 }
 
 int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
@@ -911,15 +911,7 @@ int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFo
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
-    rc = write_one(tmp, path, img, format, cs, err);
-    if (rc) {
-        unlink(tmp);
-        wg_free(s->files[s->count].path);
-        wg_free(tmp);
-        return rc;
-    }
-    s->count++;
-    return WG_OK;
+    return stage_end(s, encode_one(tmp, path, img, format, cs, err), err);
 }
 
 typedef struct {
@@ -938,7 +930,8 @@ static void *batch_worker(void *arg)
     Batch *b = arg;
     for (int i; (i = atomic_fetch_add(&b->next, 1)) < b->n;) {
         const Staged *f = &b->s->files[b->base + i];
-        b->rc[i] = write_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i], &b->errs[i]);
+        int rc = encode_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i], &b->errs[i]);
+        b->rc[i] = rc ? rc : sync_temp(f->temp, f->path, &b->errs[i]);
     }
     return NULL;
 }

@@ -130,8 +130,9 @@ int wg__png_write(const char *path, const void *samples, int w, int h, int c, in
     }
     size_t bound = libdeflate_zlib_compress_bound(z, filtered_size);
     size_t chunks = bound / IDAT_BYTES + 1;
-    /* signature 8, IHDR 25, IDATs 12 each + data, IEND 12; the stream compressed first */
-    file = wg_malloc(bound + 45 + 12 * chunks + bound);
+    /* signature 8, IHDR 25, IDATs 12 each + data, IEND 12: the stream is compressed into the
+     * end of the buffer, then moved forward chunk by chunk */
+    file = wg_malloc(45 + 12 * chunks + bound);
     if (!file) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
