@@ -602,7 +602,7 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         wrote[i] = true;
         wpaths[nw] = paths[i];
         wimages[nw] = wg_result_output_image(res, i);
-        wformats[nw] = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+        wformats[nw] = f;
         wcs[nw++] = wg_result_output_colorspace(res, i);
     }
     if (!rc && nw)
