@@ -119,13 +119,22 @@ static bool files_changed(const FileSet *s)
 }
 
 /* Bounds on the file timestamps of changes made from now on (before) or up to now (after).
- * File systems stamp a change from the kernel's coarse clock, or (multigrain timestamps, Linux
- * 6.13 and later) from the fine one when the file's times were looked at since, which can be
- * ahead of the coarse clock: the coarse clock is a lower bound, the fine one an upper bound. */
+ * File systems stamp a change from the kernel's coarse clock, which lags the fine one by up to
+ * its resolution (a tick), or (multigrain timestamps, Linux 6.13 and later) from the fine one
+ * when the file's times were looked at since. So the fine clock less one tick of the coarse one
+ * is a lower bound (so only saves within a tick before the reading count as made during it, and
+ * are read again) and the fine clock an upper bound. */
 static struct timespec file_clock_before(void)
 {
-    struct timespec t;
-    clock_gettime(CLOCK_REALTIME_COARSE, &t);
+    struct timespec t, res;
+    clock_gettime(CLOCK_REALTIME, &t);
+    if (clock_getres(CLOCK_REALTIME_COARSE, &res) || res.tv_sec > 0)
+        res = (struct timespec){0, 10000000};
+    t.tv_nsec -= res.tv_nsec;
+    if (t.tv_nsec < 0) {
+        t.tv_nsec += 1000000000L;
+        t.tv_sec--;
+    }
     return t;
 }
 

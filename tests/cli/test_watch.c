@@ -76,8 +76,13 @@ static void wait_for(const char *needle, int count)
 
 /* Start watch on w.wetgraph in the test's folder (with a disk cache in folder `cache` unless it
  * is NULL), logging to out and err there. */
+/* Start watch on w.wetgraph. A file saved within a tick of the clock before watch reads it may
+ * still be being written, so watch reads it again (one more render, the first one superseded):
+ * the files the tests have just saved are left that long first, so that every render counted
+ * is one the test asked for. */
 static pid_t spawn_watch(const char *cache)
 {
+    wgt_sleep_ms(50);
     const char *args[] = {
         "watch", "w.wetgraph", "-o", "o", "--threads", "2", cache ? "--cache" : NULL, cache, NULL};
     return wgt_spawn(dir, "out", "err", NULL, args);
