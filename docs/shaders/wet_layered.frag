@@ -90,6 +90,16 @@ float fresnel_w(float c)
 const float W_AVG = 0.0539354; // 2 ∫ w(c) c dc: F_avg = f0 + (1 − f0)·W_AVG
 float fresnel(float f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
 vec3 fresnel3(vec3 f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
+// The water's surface: the exact Fresnel curve of the index whose normal reflectance is f0,
+// n = (1 + √f0)/(1 − √f0), for light crossing it at cos c on the air side (either way).
+float water_fresnel(float f0, float c)
+{
+    float s = sqrt(clamp(f0, 0.0, 0.98)), n = (1.0 + s) / (1.0 - s);
+    c = clamp(c, 1e-6, 1.0);
+    float g = sqrt(n * n - 1.0 + c * c);
+    float a = (g - c) / (g + c), b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * a * a * (1.0 + b * b);
+}
 
 float vis_smith(float nv, float nl, float a)
 {
@@ -180,7 +190,7 @@ vec3 under_irradiance(vec3 n, vec3 nw, float f0w)
         vec3 t = refract(-la, nw, 1.0 / water_ior);
         float cw = -dot(t, nw), nl = -dot(t, n);
         if (nl > 0.0 && cw > 1e-4)
-            acc += env_spec(la, 0.8) * ((1.0 - fresnel(f0w, cz)) * nl / cw);
+            acc += env_spec(la, 0.8) * ((1.0 - water_fresnel(f0w, cz)) * nl / cw);
     }
     return acc / float(UW_SAMPLES);
 }
@@ -213,7 +223,7 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
         irr = under_irradiance(n, nw, f0w);
         vec3 ra = dot(rd, nw) > 0.0 ? refract(rd, -nw, water_ior) : vec3(0.0);
         if (ra != vec3(0.0))
-            rad = env_spec(ra, r) * (1.0 - fresnel(f0w, dot(ra, nw)));
+            rad = env_spec(ra, r) * (1.0 - water_fresnel(f0w, dot(ra, nw)));
         else
             rad = irr * dc;
     }
@@ -248,7 +258,11 @@ void main()
         vec2 ab = lut(nv, rw);
         float fss = f0 * ab.x + ab.y;
         float ms = ms_term(vec3(f0), ab, vec3(fss)).x;
-        float e = fss + ms; // the lobe's albedo: Fresnel's F(n·v) when smooth
+        // the table follows the index-1.5 curve: scaled to the water's own at n·v
+        float fc = fresnel(f0, nv), kf = fc > 1e-6 ? water_fresnel(f0, nv) / fc : 1.0;
+        fss *= kf;
+        ms *= kf;
+        float e = min(fss + ms, 1.0); // the lobe's albedo: Fresnel's F(n·v) when smooth
         vec3 top = env_spec(dominant_dir(nw, reflect(d, nw), rw), rw) * fss + env_irr(nw) * ms;
         vec3 sun_l = sun_dir, sun_under = vec3(0.0);
         float nl = dot(nw, sun_dir);
@@ -256,9 +270,9 @@ void main()
             vec3 h = normalize(v + sun_dir);
             float a = max(rw * rw, 2e-3);
             top += sun_radiance * ggx(clamp(dot(nw, h), 0.0, 1.0), a) * vis_smith(nv, nl, a)
-                   * fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
+                   * water_fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
             sun_l = -refract(-sun_dir, nw, 1.0 / water_ior);
-            sun_under = sun_radiance * (1.0 - fresnel(f0, nl));
+            sun_under = sun_radiance * (1.0 - water_fresnel(f0, nl));
         }
         vec3 t = refract(d, nw, 1.0 / water_ior);
         if (t.z >= 0.0) t = d;
