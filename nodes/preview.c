@@ -38,8 +38,10 @@
  * Water: with a `water_mask` input, the camera ray is also marched against `water_height`; at
  * its hit, the surface (normal `water_normal`, roughness `water_roughness`, F0 `water_specular`
  * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the same compensated
- * weights, E = Fss + Ems·Fms in all (for a smooth surface this is Fresnel's F(n·v); using the
- * lobe's own albedo keeps reflection plus transmission ≤ 1 when rough). The ray is refracted
+ * weights, E = Fss + Ems·Fms in all, scaled from the index-1.5 curve to the exact Fresnel
+ * curve of the water's own index (water_fresnel; for a smooth surface E is that F(n·v); using
+ * the lobe's own albedo keeps reflection plus transmission ≤ 1 when rough), which every
+ * crossing of the surface uses. The ray is refracted
  * (Snell, `water_ior`) and marched again, from the water surface, against `height`, where the
  * material is shaded as seen from below the water, with its own metallic and specular level (a
  * metal stays a metal): the view direction is the refracted ray; ambient light arrives only
@@ -831,7 +833,8 @@ static V3 render_dry(const PreviewJob *j, V3 d)
  * (the radiance gained by entering the denser water, n², cancels the solid angle it is
  * squeezed into), estimated with UW_SAMPLES cosine-weighted directions fixed in the surface's
  * frame, L read from the prefiltered level of roughness 0.8 (a blur matching the samples'
- * spacing). A uniform environment L under a flat surface gives L · (1 − F_avg) at n = nw. */
+ * spacing). A uniform environment L under a flat surface gives L · (1 − F̄) at n = nw, F̄ the
+ * cosine-weighted average of water_fresnel (0.066 for index 1.33). */
 static V3 under_irradiance(const PreviewJob *j, V3 n, V3 nw, float f0)
 {
     V3 up = fabsf(nw.z) < 0.999f ? v3(0, 0, 1) : v3(1, 0, 0);
