@@ -173,6 +173,18 @@ float radical_inverse(uint i)
     return float(i) * 2.3283064365386963e-10;
 }
 
+// The gain of the diffuse colour under the water, 1/(1 − r_e)²: the base colour is the wet
+// albedo seen from outside (Lekner and Dorf's, with the way through the surface in and out),
+// and this path sends the light through the surface again both ways. r_e: the diffuse external
+// reflectance of the index whose F0 is f0w, as the maps' model computes it.
+float under_water_gain(float f0w)
+{
+    float s = sqrt(clamp(f0w, 0.0, 0.98)), n = (1.0 + s) / (1.0 - s);
+    float ri = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+    float re = clamp(1.0 - n * n * (1.0 - ri), 0.0, 0.9);
+    return 1.0 / ((1.0 - re) * (1.0 - re));
+}
+
 // Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
 // f0w: each direction la above the surface, refracted to the water, scaled by 1 − F, reaching
 // the point from the cone of refracted directions; 16 cosine-weighted Hammersley directions in
@@ -209,7 +221,7 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
     float level = specular_from_map ? clamp(texture(specular, st).r, 0.0, 1.0) : specular_level;
     float nv = clamp(dot(n, v), 1e-4, 1.0);
     vec3 f0 = mix(vec3(0.08 * level), base, metal);
-    vec3 dc = base * (1.0 - metal);
+    vec3 dc = base * (1.0 - metal) * (submerged ? under_water_gain(f0w) : 1.0);
     vec2 ab = lut(nv, r);
     vec3 fss = f0 * ab.x + ab.y;
     vec3 ms = ms_term(f0, ab, fss);
