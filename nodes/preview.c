@@ -37,14 +37,16 @@
  * (single scattering only).
  * Water: with a `water_mask` input, the camera ray is also marched against `water_height`; at
  * its hit, the surface (normal `water_normal`, roughness `water_roughness`, F0 `water_specular`
- * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the same compensated
+ * or ((n−1)/(n+1))² from `water_ior`) reflects the environment, or the relief standing out
+ * of the water where its mirror ray meets it (relief_above), with the same compensated
  * weights, E = Fss + Ems·Fms in all, scaled from the index-1.5 curve to the exact Fresnel
  * curve of the water's own index (water_fresnel; for a smooth surface E is that F(n·v); using
  * the lobe's own albedo keeps reflection plus transmission ≤ 1 when rough), which every
  * crossing of the surface uses. The ray is refracted
  * (Snell, `water_ior`) and marched again, from the water surface, against `height`, where the
  * material is shaded as seen from below the water, with its own metallic and specular level (a
- * metal stays a metal): the view direction is the refracted ray; ambient light arrives only
+ * metal stays a metal; its diffuse colour × under_water_gain, as its base colour is the wet
+ * albedo seen from outside): the view direction is the refracted ray; ambient light arrives only
  * through the surface, each direction above it refracted and scaled by 1 − F (under_irradiance);
  * the reflection leaves through the surface scaled by 1 − F or, beyond the critical angle, sees
  * the submerged floor; the sun arrives along its refracted direction scaled by 1 − F(l·n); the
@@ -812,11 +814,9 @@ static V3 dominant_dir(V3 n, V3 r, float rough)
     return normalize(add(scale(n, 1 - f), scale(r, f)));
 }
 
-static V3 render_dry(const PreviewJob *j, V3 d)
+/* Radiance leaving the relief's point p (out of the water) along the ray direction d. */
+static V3 shade_relief(const PreviewJob *j, V3 p, V3 d)
 {
-    float hs = j->p->height_scale;
-    V3 p = march(j, j->in[IN_HEIGHT], j->cam, d, hs * (j->hmax - 1), hs * (j->hmin - 1), 1);
-    if (!inside(j, p)) return background(j, d);
     V3 base, n;
     float rough, metal, spec, ao;
     material_at(j, p, &base, &n, &rough, &metal, &spec, &ao);
@@ -840,6 +840,38 @@ static float under_water_gain(float f0)
     float ri = -1.440f / (n * n) + 0.710f / n + 0.668f + 0.0636f * n;
     float re = clampf(1 - n * n * (1 - ri), 0, 0.9f);
     return 1 / ((1 - re) * (1 - re));
+}
+
+static V3 render_dry(const PreviewJob *j, V3 d)
+{
+    float hs = j->p->height_scale;
+    V3 p = march(j, j->in[IN_HEIGHT], j->cam, d, hs * (j->hmax - 1), hs * (j->hmin - 1), 1);
+    if (!inside(j, p)) return background(j, d);
+    return shade_relief(j, p, d);
+}
+
+/* The first point where the rising ray o + t d (d.z > 0) from the water's surface meets the
+ * relief standing out of the water, searched in pom_steps steps (and one secant step) up to the
+ * relief's top plane inside the tile; false where it reaches the sky. */
+static bool relief_above(const PreviewJob *j, V3 o, V3 d, V3 *hit)
+{
+    float hs = j->p->height_scale, z_top = hs * (j->hmax - 1);
+    if (!(d.z > 1e-4f) || !(hs > 0) || !(o.z < z_top)) return false;
+    int n = j->p->pom_steps;
+    float dt = (z_top - o.z) / d.z / n;
+    float prev_gap = o.z - hs * (clampf(tex_gray(j->in[IN_HEIGHT], o.x, o.y, 1), -16, 16) - 1);
+    for (int i = 1; i <= n; i++) {
+        V3 p = add(o, scale(d, dt * i));
+        if (!inside(j, p)) return false;
+        float gap = p.z - hs * (clampf(tex_gray(j->in[IN_HEIGHT], p.x, p.y, 1), -16, 16) - 1);
+        if (gap <= 0) {
+            float g0 = fmaxf(prev_gap, 0);
+            *hit = add(o, scale(d, dt * (i - 1 + g0 / (g0 - gap))));
+            return true;
+        }
+        prev_gap = gap;
+    }
+    return false;
 }
 
 /* Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
@@ -894,8 +926,10 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     float fc = fresnel(f0, nv), kf = fc > 1e-6f ? water_fresnel(f0, nv) / fc : 1;
     fss *= kf, ms *= kf;
     float e = fminf(fss + ms, 1); /* what the surface reflects; 1 − e crosses it */
-    V3 top = add(scale(env_spec(j, dominant_dir(nw, reflect(d, nw), rw), rw), fss),
-                 scale(env_irr(j, nw), ms));
+    V3 rr = reflect(d, nw), q;
+    V3 mirror = relief_above(j, pw, rr, &q) ? shade_relief(j, q, rr)
+                                            : env_spec(j, dominant_dir(nw, rr, rw), rw);
+    V3 top = add(scale(mirror, fss), scale(env_irr(j, nw), ms));
     V3 sun_under = v3(0, 0, 0), sun_l = j->sun_dir;
     if (p->sun) {
         /* the water's own highlight: a dielectric of F0 f0 without diffuse part */

@@ -155,6 +155,26 @@ vec3 march(sampler2D hmap, vec3 p, vec3 d, float z_top, float z_bot)
     return p + d * t1;
 }
 
+// The relief standing out of the water, met by the water's mirror ray p + t d (d.z > 0) before
+// it rises to the tile's plane: pom_steps steps and one secant step; the point in q.
+bool relief_above(vec3 p, vec3 d, out vec3 q)
+{
+    q = p;
+    if (d.z <= 1e-4 || height_scale <= 0.0 || p.z >= 0.0) return false;
+    float dt = -p.z / d.z / float(pom_steps);
+    float prev_gap = max(p.z - height_scale * (texture(height, p.xy).r - 1.0), 0.0);
+    for (int i = 1; i <= pom_steps; i++) {
+        vec3 s = p + d * (dt * float(i));
+        float gap = s.z - height_scale * (texture(height, s.xy).r - 1.0);
+        if (gap <= 0.0) {
+            q = p + d * (dt * (float(i - 1) + prev_gap / (prev_gap - gap)));
+            return true;
+        }
+        prev_gap = gap;
+    }
+    return false;
+}
+
 // The direction to read the prefiltered environment in for a lobe of roughness r around the
 // mirror direction rd: Frostbite's dominant direction, leaning to the normal as the lobe widens.
 vec3 dominant_dir(vec3 n, vec3 rd, float r)
@@ -275,7 +295,13 @@ void main()
         fss *= kf;
         ms *= kf;
         float e = min(fss + ms, 1.0); // the lobe's albedo: Fresnel's F(n·v) when smooth
-        vec3 top = env_spec(dominant_dir(nw, reflect(d, nw), rw), rw) * fss + env_irr(nw) * ms;
+        // the mirror image: the relief standing out of the water where the ray meets it, else
+        // the environment
+        vec3 rr = reflect(d, nw), q;
+        vec3 mirror = relief_above(pw, rr, q)
+                          ? shade(q.xy, -rr, false, vec3(0.0, 0.0, 1.0), 0.0, sun_dir, sun_radiance)
+                          : env_spec(dominant_dir(nw, rr, rw), rw);
+        vec3 top = mirror * fss + env_irr(nw) * ms;
         vec3 sun_l = sun_dir, sun_under = vec3(0.0);
         float nl = dot(nw, sun_dir);
         if (sun && nl > 0.0) {

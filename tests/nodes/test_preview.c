@@ -570,6 +570,74 @@ static void test_water_fresnel_exact(void **state)
     wg_image_unref(white);
 }
 
+/* A T x T map: height 1 on the rows above `wall_row` (the tile's far side, seen from azimuth 0),
+ * 0 below; or a constant. */
+static WgImage *wall_map(int t, int wall_row, float below, float above)
+{
+    WgImage *img = wgt_image(t, t, 1, NULL);
+    for (int y = 0; y < t; y++)
+        for (int x = 0; x < t; x++) wg_image_row(img, y)[x] = y < wall_row ? above : below;
+    return img;
+}
+
+/* The water's mirror sees the relief that stands out of it. A pool (the floor 0.3 tile widths
+ * down, the water halfway) against a black wall on the tile's far side, seen from 20° in a white
+ * environment, the water's tint absorbing what enters (so the reflection alone is seen): where
+ * the mirror ray meets the wall, the water reflects the dark wall (under half of what the same
+ * pool without the wall reflects); far from the wall it reflects the sky exactly as without it.
+ * Water pixels are those where the picture changes when the water's mask is 0. */
+static void test_water_mirrors_relief(void **state)
+{
+    (void)state;
+    enum { T = 64, WALL = 24 };
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    WgImage *black = const_image(T, T, 4, 0), *rough = const_image(T, T, 1, 0.5f);
+    WgImage *wall = wall_map(T, WALL, 0, 1), *flat = wall_map(T, WALL, 0, 0);
+    WgImage *surface = const_image(T, T, 1, 0.5f), *wzero = const_image(T, T, 1, 0);
+    WgImage *mask = wall_map(T, WALL + 1, 1, 0), *nomask = const_image(T, T, 1, 0);
+    const char *attrs = LINEAR "elevation=\"20\" azimuth=\"0\" fov=\"40\" height_scale=\"0.3\" "
+                               "water_tint=\"0 0 0\" absorption_depth=\"0.01\"";
+    WgImage *out[3];
+    const WgImage *heights[3] = {wall, flat, wall}, *masks[3] = {mask, mask, nomask};
+    for (int k = 0; k < 3; k++) {
+        Inputs in = {0};
+        in_add(&in, "environment", atlas);
+        in_add(&in, "basecolor", black);
+        in_add(&in, "roughness", rough);
+        in_add(&in, "height", heights[k]);
+        in_add(&in, "water_height", surface);
+        in_add(&in, "water_roughness", wzero);
+        in_add(&in, "water_mask", masks[k]);
+        out[k] = preview(attrs, AW, AH, &in, 2);
+    }
+    int water = 0, dark = 0, open = 0;
+    for (int y = 0; y < AH; y++)
+        for (int x = AW / 4; x < 3 * AW / 4; x++) {
+            double a = wgt_px(out[0], x, y, 0), b = wgt_px(out[1], x, y, 0);
+            double dry = wgt_px(out[2], x, y, 0);
+            if (a == dry) continue; /* not water */
+            water++;
+            if (a < 0.5 * b) dark++;
+            if (fabs(a - b) <= 1e-6 * b) open++;
+        }
+    print_message("water pixels %d, reflecting the wall %d, the sky as without it %d\n", water,
+                  dark, open);
+    assert_true(water > 200);
+    assert_true(dark > water / 10);
+    assert_true(open > water / 4);
+    for (int k = 0; k < 3; k++) wg_image_unref(out[k]);
+    wg_image_unref(nomask);
+    wg_image_unref(mask);
+    wg_image_unref(wzero);
+    wg_image_unref(surface);
+    wg_image_unref(flat);
+    wg_image_unref(wall);
+    wg_image_unref(rough);
+    wg_image_unref(black);
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
 /* F0 of a dielectric = 0.08 x specular: seen straight down, a smooth black material in a
  * white environment reflects F0 (plus the lobe's tiny bias); an unconnected port is 0.5. */
 static double spec_center(const WgImage *atlas, const WgImage *spec, const WgImage *black,
@@ -930,6 +998,7 @@ int main(void)
         cmocka_unit_test(test_specular_under_water),
         cmocka_unit_test(test_rough_lobe_horizon),
         cmocka_unit_test(test_fresnel_exact),
+        cmocka_unit_test(test_water_mirrors_relief),
         cmocka_unit_test(test_water_fresnel_exact),
         cmocka_unit_test(test_under_water_furnace),
         cmocka_unit_test(test_tint_input),
