@@ -30,7 +30,10 @@ int cmd_check(int argc, char **argv)
         WgError err = {0};
         WgGraph *g = NULL;
         WgRequest *r = NULL;
-        int rc = wg_graph_load(argv[i], &g, &err);
+        char *path = NULL;
+        int rc = wg_graph_find(argv[i], &path, &err);
+        if (!rc) rc = wg_graph_load(path, &g, &err);
+        wg_free(path);
         if (!rc && !(r = wg_request_new(g)))
             rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         if (!rc) rc = cli_fill_placeholders(g, r, &err);

@@ -31,9 +31,11 @@ int cmd_dot(int argc, char **argv)
         file = argv[i];
     }
     if (!file) return cli_usage_error("dot", "no graph file given");
+    char path[4096];
+    if (cli_find_graph(file, path, sizeof path)) return EXIT_USAGE;
     WgError err = {0};
     WgGraph *g;
-    if (wg_graph_load(file, &g, &err)) {
+    if (wg_graph_load(path, &g, &err)) {
         cli_report(&err);
         return cli_exit_for(err.code);
     }

@@ -279,6 +279,9 @@ int parse_args(int argc, char **argv, Options *o)
                                o->has_frames ? "--frames"
                                : o->layered  ? "--layered"
                                              : "--stats");
+    /* last, so that usage errors come first: the graph a path or a name gives */
+    if (cli_find_graph(o->file, o->file_found, sizeof o->file_found)) return EXIT_USAGE;
+    o->file = o->file_found;
     return 0;
 }
 

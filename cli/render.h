@@ -25,6 +25,7 @@ typedef struct {
     double time, fps;
     int frame_first, frame_last;
     size_t budget;
+    char file_found[4096]; /* the graph file `file` names (cli_find_graph) */
 } Options;
 
 /* Parse render's options into o (o->cmd and o->help may be set first); returns 0, 1 after

@@ -41,6 +41,21 @@ void cli_report(const WgError *err)
     fputc('\n', stderr);
 }
 
+int cli_find_graph(const char *arg, char *buf, size_t size)
+{
+    WgError err = {0};
+    char *path = NULL;
+    if (!wg_graph_find(arg, &path, &err) && strlen(path) >= size)
+        wg_error_set_at(&err, WG_ERR_IO, arg, 0, 0, "path of the graph file too long");
+    else if (path)
+        memcpy(buf, path, strlen(path) + 1);
+    bool ok = path && strlen(path) < size;
+    wg_free(path);
+    if (ok) return 0;
+    cli_report(&err);
+    return EXIT_USAGE;
+}
+
 int cli_usage_error(const char *cmd, const char *fmt, ...)
 {
     va_list ap;

@@ -155,6 +155,7 @@ typedef struct InputDef {
 struct WgGraph {
     int refs;
     char *path, *dir, *name;
+    char *label; /* the root's label, or NULL */
     char *size_text;
     int size_line;
     uint64_t seed;

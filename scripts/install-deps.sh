@@ -13,6 +13,8 @@ pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libope
       # ... and execute them headless (tests/graphs/test_glsl.c): EGL and desktop GL headers,
       # Mesa's EGL and its software rasteriser llvmpipe
       libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
+      help2man  # the manual page, from `wetgraph --help-all`
+      bash-completion  # where the bash completion is installed, and bash's completion itself
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks
