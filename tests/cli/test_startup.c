@@ -10,6 +10,7 @@
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 
 #include <signal.h>
 #include <stdio.h>

@@ -16,6 +16,7 @@
  * PNG files are checked (png_check.c) before the library sees them, because libpng prints its
  * own errors to stderr. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <dirent.h>
 #include <errno.h>

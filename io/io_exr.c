@@ -22,6 +22,7 @@
  * reader refuses) is left to OpenImageIO (io_oiio.cpp), which places the data window the same
  * way. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <errno.h>
 #include <openexr.h>

@@ -8,6 +8,7 @@
  * OpenImageIO, so it is refused or read exactly as before. The tables' contents are not checked
  * here; a JPEG whose tables are damaged is refused when it is read. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <stdio.h>
 
