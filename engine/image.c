@@ -172,10 +172,13 @@ void wg_image_unref(const WgImage *img)
     }
 }
 
-/* Filter taps for one axis: for each output index, `taps` source indices (wrapped) and
- * normalised weights. */
+/* Filter taps for one axis: for each output index o, n[o] <= `taps` source indices (wrapped)
+ * and normalised weights, stored from o * taps. Only the taps of nonzero weight are kept: the
+ * tent's ends carry none, and a zero-weight tap would only add work (and, reading an infinite
+ * value, a NaN). */
 typedef struct {
     int taps;
+    int *n;
     int *index;
     float *weight;
 } Axis;
@@ -186,9 +189,10 @@ static int axis_build(Axis *a, int src, int dst)
     double support = scale > 1 ? scale : 1; /* half-width of the tent in source pixels */
     int taps = (int)ceil(2 * support) + 2;
     a->taps = taps;
+    a->n = wg_malloc(sizeof(int) * (size_t)dst);
     a->index = wg_malloc(sizeof(int) * (size_t)taps * (size_t)dst);
     a->weight = wg_malloc(sizeof(float) * (size_t)taps * (size_t)dst);
-    if (!a->index || !a->weight) return WG_ERR_NOMEM;
+    if (!a->n || !a->index || !a->weight) return WG_ERR_NOMEM;
     for (int o = 0; o < dst; o++) {
         double centre = (o + 0.5) * scale - 0.5; /* in source pixel coordinates */
         int first = (int)floor(centre - support) + 1;
@@ -199,17 +203,21 @@ static int axis_build(Axis *a, int src, int dst)
             w[t] = d < 1 ? 1 - d : 0;
             sum += w[t];
         }
+        int n = 0;
         for (int t = 0; t < taps; t++) {
-            int i = ((first + t) % src + src) % src;
-            a->index[o * taps + t] = i;
-            a->weight[o * taps + t] = (float)(w[t] / sum);
+            if (w[t] == 0) continue;
+            a->index[o * taps + n] = ((first + t) % src + src) % src;
+            a->weight[o * taps + n] = (float)(w[t] / sum);
+            n++;
         }
+        a->n[o] = n;
     }
     return WG_OK;
 }
 
 static void axis_free(Axis *a)
 {
+    wg_free(a->n);
     wg_free(a->index);
     wg_free(a->weight);
 }
@@ -220,57 +228,127 @@ static inline float saturate(float v)
     return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
 }
 
-static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
+/* The two passes, each over rows split between the workers: horizontally from src's rows into
+ * tmp (width x src height), then vertically from tmp's rows into dst. Every output value is a
+ * sum over its taps in tap order, whichever thread computes it, so the result does not depend on
+ * the number of threads. */
+typedef struct {
+    const WgImage *src;
+    WgImage *tmp, *dst;
+    Axis ax, ay;
+} Resample;
+
+/* Colour pixels as one 4-wide vector per tap; gray samples one at a time. */
+static void resample_rows_x(void *user, int y0, int y1)
 {
-    int c = src->channels;
-    Axis ax = {0}, ay = {0};
-    WgImage *tmp = NULL, *dst = NULL;
-    if (axis_build(&ax, src->width, width) || axis_build(&ay, src->height, height)) goto done;
-    tmp = wg__image_new_in(pool, width, src->height, c);
-    dst = wg__image_new_in(pool, width, height, c);
-    if (!tmp || !dst) goto fail;
-    for (int y = 0; y < src->height; y++) {
-        const float *in = wg_image_row(src, y);
-        float *out = wg_image_row(tmp, y);
+    const Resample *r = user;
+    const Axis *ax = &r->ax;
+    int c = r->src->channels, width = r->tmp->width;
+    for (int y = y0; y < y1; y++) {
+        const float *in = wg_image_row(r->src, y);
+        float *out = wg_image_row(r->tmp, y);
         for (int x = 0; x < width; x++) {
-            for (int k = 0; k < c; k++) {
-                float s = 0, first = in[ax.index[x * ax.taps] * c + k];
-                bool same = true;
-                for (int t = 0; t < ax.taps; t++) {
-                    float v = in[ax.index[x * ax.taps + t] * c + k];
-                    same &= v == first;
-                    s += ax.weight[x * ax.taps + t] * v;
+            const int *idx = ax->index + (size_t)x * (size_t)ax->taps;
+            const float *wt = ax->weight + (size_t)x * (size_t)ax->taps;
+            int n = ax->n[x];
+            if (c == 4) {
+                const float *f = in + 4 * (size_t)idx[0];
+                float s[4] = {0, 0, 0, 0};
+                int diff[4] = {0, 0, 0, 0};
+                for (int t = 0; t < n; t++) {
+                    const float *v = in + 4 * (size_t)idx[t];
+                    for (int k = 0; k < 4; k++) {
+                        s[k] += wt[t] * v[k];
+                        diff[k] |= v[k] != f[k];
+                    }
                 }
-                out[x * c + k] = same ? first : saturate(s);
+                for (int k = 0; k < 4; k++) out[4 * x + k] = diff[k] ? saturate(s[k]) : f[k];
+            } else {
+                float f = in[idx[0]], s = 0;
+                int diff = 0;
+                for (int t = 0; t < n; t++) {
+                    float v = in[idx[t]];
+                    s += wt[t] * v;
+                    diff |= v != f;
+                }
+                out[x] = diff ? saturate(s) : f;
             }
         }
     }
-    for (int y = 0; y < height; y++) {
-        float *out = wg_image_row(dst, y);
-        for (int i = 0; i < width * c; i++) out[i] = 0;
-        for (int t = 0; t < ay.taps; t++) {
-            float w = ay.weight[y * ay.taps + t];
-            if (w == 0) continue;
-            const float *in = wg_image_row(tmp, ay.index[y * ay.taps + t]);
-            for (int i = 0; i < width * c; i++) out[i] += w * in[i];
-        }
-        const float *first = wg_image_row(tmp, ay.index[y * ay.taps]);
-        for (int i = 0; i < width * c; i++) {
-            bool same = true;
-            for (int t = 1; t < ay.taps && same; t++)
-                same = wg_image_row(tmp, ay.index[y * ay.taps + t])[i] == first[i];
-            out[i] = same ? first[i] : saturate(out[i]);
+}
+
+/* Rows as wide vectors: a block of a row's values summed over the taps, then kept only where
+ * some tap differs from the first. */
+#define RESAMPLE_BLOCK 512
+
+static void resample_rows_y(void *user, int y0, int y1)
+{
+    const Resample *r = user;
+    const Axis *ay = &r->ay;
+    int count = r->dst->width * r->dst->channels;
+    float s[RESAMPLE_BLOCK];
+    int diff[RESAMPLE_BLOCK];
+    for (int y = y0; y < y1; y++) {
+        const int *idx = ay->index + (size_t)y * (size_t)ay->taps;
+        const float *wt = ay->weight + (size_t)y * (size_t)ay->taps;
+        int n = ay->n[y];
+        const float *f = wg_image_row(r->tmp, idx[0]);
+        float *out = wg_image_row(r->dst, y);
+        for (int b0 = 0; b0 < count; b0 += RESAMPLE_BLOCK) {
+            int m = count - b0 < RESAMPLE_BLOCK ? count - b0 : RESAMPLE_BLOCK;
+            const float *fb = f + b0;
+            for (int i = 0; i < m; i++) {
+                s[i] = 0;
+                diff[i] = 0;
+            }
+            for (int t = 0; t < n; t++) {
+                const float *v = wg_image_row(r->tmp, idx[t]) + b0;
+                float w = wt[t];
+                for (int i = 0; i < m; i++) {
+                    s[i] += w * v[i];
+                    diff[i] |= v[i] != fb[i];
+                }
+            }
+            for (int i = 0; i < m; i++) out[b0 + i] = diff[i] ? saturate(s[i]) : fb[i];
         }
     }
-    goto done;
-fail:
-    wg_image_unref(dst);
-    dst = NULL;
+}
+
+/* src resampled into dst (same channels), tmp from `mem`, rows split over `workers` (NULL: this
+ * thread). WG_ERR_NOMEM or WG_ERR_CANCELLED on failure. */
+static int resample_into(WgMemPool *mem, WgPool *workers, volatile int *cancel, const WgImage *src,
+                         WgImage *dst)
+{
+    Resample r = {.src = src, .dst = dst};
+    int rc = WG_ERR_NOMEM;
+    if (axis_build(&r.ax, src->width, dst->width) || axis_build(&r.ay, src->height, dst->height))
+        goto done;
+    r.tmp = wg__image_new_in(mem, dst->width, src->height, src->channels);
+    if (!r.tmp) goto done;
+    rc = wg__pool_rows(workers, cancel, src->height, resample_rows_x, &r);
+    if (!rc) rc = wg__pool_rows(workers, cancel, dst->height, resample_rows_y, &r);
 done:
-    wg_image_unref(tmp);
-    axis_free(&ax);
-    axis_free(&ay);
+    wg_image_unref(r.tmp);
+    axis_free(&r.ax);
+    axis_free(&r.ay);
+    return rc;
+}
+
+static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
+{
+    WgImage *dst = wg__image_new_in(pool, width, height, src->channels);
+    if (dst && resample_into(pool, NULL, NULL, src, dst)) {
+        wg_image_unref(dst);
+        dst = NULL;
+    }
     return dst;
+}
+
+int wg_image_resample_into(const WgNodeContext *ctx, const WgImage *src, WgImage *dst)
+{
+    if (!src || !dst || src->channels != dst->channels) return WG_ERR_TYPE;
+    return resample_into(ctx ? ctx->mem_ : NULL, ctx ? ctx->pool_ : NULL, ctx ? ctx->cancel_ : NULL,
+                         src, dst);
 }
 
 float wg__luminance(const float *p)
