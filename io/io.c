@@ -389,6 +389,9 @@ size_t wg_image_read_scratch(const char *path)
     /* a PNG decoded here holds two rows of the file */
     if (wg__png_decodable(path) && !wg__png_probe(path, &w, &h, &c, msg, sizeof msg))
         return (size_t)w * (size_t)c * 2 * 3 + 2;
+    /* a JPEG decoded here: libjpeg's buffers and a row of codes */
+    if (!wg__jpeg_probe(path, &w, &h, &c))
+        return wg__jpeg_decoder_bytes(path) + (size_t)w * (size_t)c * 16;
     if (reader_open(path, &r, &decoder, msg, sizeof msg)) return 0;
     reader_close(&r);
     /* the strip of the general path; a direct read needs none */
@@ -609,11 +612,78 @@ static int read_png(const char *path, WgColorspace cs, WgImage *dst, WgError *er
     return rc;
 }
 
+/* The DCT scale (1..8, the largest) at which a w x h JPEG decodes to dw x dh, or 0. */
+static int jpeg_scale_for(int w, int h, int dw, int dh)
+{
+    for (int s = 8; s >= 1; s--)
+        if (wg__jpeg_scaled_side(w, s) == dw && wg__jpeg_scaled_side(h, s) == dh) return s;
+    return 0;
+}
+
+int wg_image_decode_size(const char *path, int width, int height, int *dw, int *dh, WgError *err)
+{
+    int w, h, c;
+    int rc = wg_image_probe(path, &w, &h, &c, err);
+    if (rc) return rc;
+    *dw = w;
+    *dh = h;
+    if (wg__jpeg_probe(path, &w, &h, &c)) return WG_OK;
+    for (int s = 1; s < 8; s++) {
+        int sw = wg__jpeg_scaled_side(w, s), sh = wg__jpeg_scaled_side(h, s);
+        if (sw >= width && sh >= height) {
+            *dw = sw;
+            *dh = sh;
+            break;
+        }
+    }
+    return WG_OK;
+}
+
+/* JPEG rows are 8-bit gray or RGB codes; the two common cases (gray to gray, RGB to colour)
+ * in loops of their own, the values convert_codes gives. */
+static void jpeg_row(void *user, int y, const unsigned char *data, int depth)
+{
+    PngRows *p = user;
+    float *dst = wg_image_row(p->dst, y);
+    int w = p->dst->width;
+    const float *col = p->cs == WG_SRGB ? code_srgb8 : code_lin8;
+    if (p->c == 3 && p->dst->channels == 4) {
+        for (int x = 0; x < w; x++, data += 3, dst += 4) {
+            dst[0] = col[data[0]];
+            dst[1] = col[data[1]];
+            dst[2] = col[data[2]];
+            dst[3] = 1.0f;
+        }
+    } else if (p->c == 1 && p->dst->channels == 1) {
+        for (int x = 0; x < w; x++) dst[x] = col[data[x]];
+    } else {
+        convert_codes(data, depth, p->c, p->cs, dst, w, p->dst->channels);
+    }
+}
+
+/* 1 when the file is not a JPEG decoded natively at the destination's size. */
+static int read_jpeg(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
+{
+    int w, h, c;
+    if (wg__jpeg_probe(path, &w, &h, &c)) return 1;
+    int scale = jpeg_scale_for(w, h, dst->width, dst->height);
+    if (!scale) return 1; /* the general path says the file changed */
+    pthread_once(&code_once, code_tables_build);
+    PngRows rows = {dst, cs, c, NULL};
+    WgPngSink sink = {dst->width, dst->height, c, jpeg_row, &rows};
+    char msg[512];
+    int rc = wg__jpeg_read(path, scale, &sink, msg, sizeof msg);
+    if (rc < 0)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    return rc;
+}
+
 int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
 {
     int rc = check_regular(path, err);
     if (rc) return rc;
     if ((rc = read_png(path, cs, dst, err)) <= 0) return rc;
+    if ((rc = read_jpeg(path, cs, dst, err)) <= 0) return rc;
     char msg[512];
     Reader r;
     if (wg__png_check(path, true, msg, sizeof msg) || reader_open(path, &r, NULL, msg, sizeof msg))

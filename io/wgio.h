@@ -115,6 +115,17 @@ bool wg__png_decodable(const char *path);
 /* JPEG header read natively (jpeg_header.c): 0 with the size and channels of an 8-bit gray or
  * colour JPEG whose header is well formed; 1 for anything else, which OpenImageIO probes. */
 int wg__jpeg_probe(const char *path, int *w, int *h, int *c);
+/* JPEG pixels decoded natively (jpeg_read.c, libjpeg-turbo) for the files wg__jpeg_probe
+ * answers for, at scale/8 of the file's size (scale 1..8; each side wg__jpeg_scaled_side).
+ * Each row of 8-bit codes (1 or 3 channels, as probed) goes to `row` as it is decoded. 1 when
+ * the file is not such a JPEG (nothing was decoded), -1 with msg when it is damaged (a warning of
+ * libjpeg's included) or does not decode to the sink's size and channels. */
+int wg__jpeg_read(const char *path, int scale, const WgPngSink *sink, char *msg, size_t size);
+/* A side of `side` pixels decoded at scale/8: rounded up, as libjpeg does. */
+int wg__jpeg_scaled_side(int side, int scale);
+/* What libjpeg holds while it decodes such a file (0 for other files): a few rows of blocks, or
+ * a progressive file's coefficients for the whole image. */
+size_t wg__jpeg_decoder_bytes(const char *path);
 /* Multi-layer EXR (io_exr.c): the layer checks, and the encoder writing straight to `file` with
  * errors naming `path`. */
 int wg__exr_check_layers(const char *path, int count, const char *const *names,
