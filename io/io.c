@@ -506,15 +506,25 @@ static int read_direct(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad,
  * k/255), and for sRGB colour channels srgb_decode of that value, so every path, native or
  * OpenImageIO, gives the same floats. */
 static float code_lin8[256], code_srgb8[256], code_lin16[65536], code_srgb16[65536];
-static pthread_once_t code_once = PTHREAD_ONCE_INIT;
+static pthread_once_t code_once = PTHREAD_ONCE_INIT, code8_once = PTHREAD_ONCE_INIT;
+
+/* The 8-bit tables alone for 8-bit files (every JPEG): 256 curve evaluations, where the 16-bit
+ * ones take 65536 and the sRGB table 65536 more, a few milliseconds a process would pay on its
+ * first image. srgb_decode of a value in [0, 1] is wg_srgb_to_linear of it, through its table
+ * or not. */
+static void code8_tables_build(void)
+{
+    volatile float r8 = 1.0f / 255.0f; /* rounded to float first */
+    for (int i = 0; i < 256; i++) code_lin8[i] = (float)i * r8;
+    for (int i = 0; i < 256; i++) code_srgb8[i] = wg_srgb_to_linear(code_lin8[i]);
+}
 
 static void code_tables_build(void)
 {
+    pthread_once(&code8_once, code8_tables_build);
     pthread_once(&srgb_once, srgb_lut_build);
-    volatile float r8 = 1.0f / 255.0f, r16 = 1.0f / 65535.0f; /* rounded to float first */
-    for (int i = 0; i < 256; i++) code_lin8[i] = (float)i * r8;
+    volatile float r16 = 1.0f / 65535.0f; /* rounded to float first */
     for (int i = 0; i < 65536; i++) code_lin16[i] = (float)i * r16;
-    for (int i = 0; i < 256; i++) code_srgb8[i] = srgb_decode(code_lin8[i]);
     for (int i = 0; i < 65536; i++) code_srgb16[i] = srgb_decode(code_lin16[i]);
 }
 
@@ -668,7 +678,7 @@ static int read_jpeg(const char *path, WgColorspace cs, WgImage *dst, WgError *e
     if (wg__jpeg_probe(path, &w, &h, &c)) return 1;
     int scale = jpeg_scale_for(w, h, dst->width, dst->height);
     if (!scale) return 1; /* the general path says the file changed */
-    pthread_once(&code_once, code_tables_build);
+    pthread_once(&code8_once, code8_tables_build);
     PngRows rows = {dst, cs, c, NULL};
     WgPngSink sink = {dst->width, dst->height, c, jpeg_row, &rows};
     char msg[512];
