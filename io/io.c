@@ -355,11 +355,7 @@ static int reader_open(const char *path, Reader *r, size_t *decoder, char *msg, 
     bool exr = wg__exr_is_exr(path);
     if (exr && wg__exr_check(path, msg, msg_size)) return -1;
     if (exr && !wg__exr_open(path, &r->exr, &r->w, &r->h, &r->c, &r->strip, msg, msg_size)) {
-        /* one chunk compressed and unpacked, and one of the data window when it is not the
-         * image */
-        if (decoder)
-            *decoder = 2 * (size_t)r->w * (size_t)r->strip * (size_t)r->c * sizeof(float) +
-                       wg__exr_chunk_bytes(r->exr);
+        if (decoder) *decoder = wg__exr_decoder_bytes(r->exr, r->strip);
         return 0;
     }
     return wg__oiio_open(path, &r->oiio, &r->w, &r->h, &r->c, &r->bits, decoder, msg, msg_size);

@@ -85,6 +85,11 @@ int wg__exr_check(const char *path, char *msg, size_t size);
 /* Bytes the reader holds beside the decoder's own chunk (a data window that is not the image
  * is decoded through one chunk of its own). */
 size_t wg__exr_chunk_bytes(const WgExrIn *in);
+/* What the decoder holds reading strips of `strip` rows: a chunk compressed and unpacked, both
+ * as wide as the data window, which may be wider than the image, and wg__exr_chunk_bytes. */
+size_t wg__exr_decoder_bytes(const WgExrIn *in, int strip);
+/* Chunks decoded so far (for tests: each chunk once, also when strips share one). */
+long wg__exr_decodes(const WgExrIn *in);
 int wg__exr_open(const char *path, WgExrIn **in, int *w, int *h, int *c, int *strip_rows, char *msg,
                  size_t msg_size);
 /* Rows [y0, y1) (y0 a multiple of the strip height, y1 too or the height), channels [cb, ce),
