@@ -653,7 +653,19 @@ static void jpeg_row(void *user, int y, const unsigned char *data, int depth)
     float *dst = wg_image_row(p->dst, y);
     int w = p->dst->width;
     const float *col = p->cs == WG_SRGB ? code_srgb8 : code_lin8;
-    if (p->c == 3 && p->dst->channels == 4) {
+    /* linear values are the table's own arithmetic, code times the float reciprocal of 255,
+     * which vectorises where the lookup does not */
+    const float r8 = code_lin8[1];
+    if (p->cs != WG_SRGB && p->c == 1 && p->dst->channels == 1) {
+        for (int x = 0; x < w; x++) dst[x] = (float)data[x] * r8;
+    } else if (p->cs != WG_SRGB && p->c == 3 && p->dst->channels == 4) {
+        for (int x = 0; x < w; x++, data += 3, dst += 4) {
+            dst[0] = (float)data[0] * r8;
+            dst[1] = (float)data[1] * r8;
+            dst[2] = (float)data[2] * r8;
+            dst[3] = 1.0f;
+        }
+    } else if (p->c == 3 && p->dst->channels == 4) {
         for (int x = 0; x < w; x++, data += 3, dst += 4) {
             dst[0] = col[data[0]];
             dst[1] = col[data[1]];
