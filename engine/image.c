@@ -228,15 +228,61 @@ static inline float saturate(float v)
     return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
 }
 
-/* The two passes, each over rows split between the workers: horizontally from src's rows into
- * tmp (width x src height), then vertically from tmp's rows into dst. Every output value is a
- * sum over its taps in tap order, whichever thread computes it, so the result does not depend on
- * the number of threads. */
+/* Both passes band by band: the output rows are split between the workers, and for each band
+ * of at most RESAMPLE_BAND of them the source rows its taps read are resampled horizontally into
+ * a buffer of the band's own, then combined vertically into the output, so no intermediate image
+ * of the output's width and the source's height is made (a source row that two bands read is
+ * resampled in both). Every output value is a sum over its taps in tap order, whichever thread
+ * computes it, so the result does not depend on the number of threads. */
+#define RESAMPLE_BAND 32
+
 typedef struct {
     const WgImage *src;
-    WgImage *tmp, *dst;
+    WgImage *dst;
     Axis ax, ay;
+    int band_rows; /* source rows a band reads, at most */
+    atomic_int failed;
+    /* band buffers no chunk is using: one per worker at most, made once per resampling */
+    pthread_mutex_t mu;
+    void *idle[64];
+    int n_idle;
 } Resample;
+
+/* A band's buffer: band_rows rows of the output's width, then the source row -> slot map and
+ * the rows in use. */
+static size_t band_bytes(const Resample *r)
+{
+    size_t row = (size_t)r->dst->width * (size_t)r->dst->channels;
+    return sizeof(float) * row * (size_t)r->band_rows +
+           sizeof(int) * ((size_t)r->src->height + (size_t)r->band_rows);
+}
+
+static void *band_take(Resample *r)
+{
+    void *b = NULL;
+    pthread_mutex_lock(&r->mu);
+    if (r->n_idle) b = r->idle[--r->n_idle];
+    pthread_mutex_unlock(&r->mu);
+    if (b) return b;
+    b = wg_malloc(band_bytes(r));
+    if (!b) return NULL;
+    int *slot = (int *)((float *)b +
+                        (size_t)r->dst->width * (size_t)r->dst->channels * (size_t)r->band_rows);
+    for (int i = 0; i < r->src->height; i++) slot[i] = -1;
+    return b;
+}
+
+/* Back to the idle list with every slot -1 again. */
+static void band_give(Resample *r, void *b)
+{
+    pthread_mutex_lock(&r->mu);
+    if (r->n_idle < 64) {
+        r->idle[r->n_idle++] = b;
+        b = NULL;
+    }
+    pthread_mutex_unlock(&r->mu);
+    wg_free(b);
+}
 
 /* Colour pixels as one 4-wide vector per tap (GCC and Clang vector types: SSE on x86-64, NEON on
  * ARM, plain code elsewhere); gray samples one at a time. */
@@ -255,121 +301,157 @@ static inline V4 select4(I4 mask, V4 a, V4 b) /* mask ? a : b, lane by lane */
     return (V4)(((I4)a & mask) | ((I4)b & ~mask));
 }
 
-static void resample_rows_x(void *user, int y0, int y1)
+/* Source row sy resampled horizontally into out (the output's width). */
+static void resample_row_x(const Resample *r, int sy, float *out)
 {
-    const Resample *r = user;
     const Axis *ax = &r->ax;
-    int c = r->src->channels, width = r->tmp->width;
+    const float *in = wg_image_row(r->src, sy);
+    int c = r->src->channels, width = r->dst->width;
     const V4 big = {FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX};
-    for (int y = y0; y < y1; y++) {
-        const float *in = wg_image_row(r->src, y);
-        float *out = wg_image_row(r->tmp, y);
-        for (int x = 0; x < width; x++) {
-            const int *idx = ax->index + (size_t)x * (size_t)ax->taps;
-            const float *wt = ax->weight + (size_t)x * (size_t)ax->taps;
-            int n = ax->n[x];
-            if (c == 1 && n == 2) { /* every output when enlarging */
-                float f = in[idx[0]], g = in[idx[1]];
-                out[x] = f != g ? saturate(wt[0] * f + wt[1] * g) : f;
-            } else if (c == 4) {
-                V4 f = load4(in + 4 * (size_t)idx[0]), s = wt[0] * f;
-                I4 diff = {0, 0, 0, 0};
-                for (int t = 1; t < n; t++) {
-                    V4 v = load4(in + 4 * (size_t)idx[t]);
-                    s += wt[t] * v;
-                    diff |= v != f;
-                }
-                s = select4(s > big, big, s);
-                s = select4(s < -big, -big, s);
-                s = select4(diff, s, f);
-                memcpy(out + 4 * (size_t)x, &s, sizeof s);
-            } else {
-                float f = in[idx[0]], s = wt[0] * f;
-                int diff = 0;
-                for (int t = 1; t < n; t++) {
-                    float v = in[idx[t]];
-                    s += wt[t] * v;
-                    diff |= v != f;
-                }
-                out[x] = diff ? saturate(s) : f;
+    for (int x = 0; x < width; x++) {
+        const int *idx = ax->index + (size_t)x * (size_t)ax->taps;
+        const float *wt = ax->weight + (size_t)x * (size_t)ax->taps;
+        int n = ax->n[x];
+        if (c == 1 && n == 2) { /* every output when enlarging */
+            float f = in[idx[0]], g = in[idx[1]];
+            out[x] = f != g ? saturate(wt[0] * f + wt[1] * g) : f;
+        } else if (c == 4) {
+            V4 f = load4(in + 4 * (size_t)idx[0]), s = wt[0] * f;
+            I4 diff = {0, 0, 0, 0};
+            for (int t = 1; t < n; t++) {
+                V4 v = load4(in + 4 * (size_t)idx[t]);
+                s += wt[t] * v;
+                diff |= v != f;
             }
+            s = select4(s > big, big, s);
+            s = select4(s < -big, -big, s);
+            s = select4(diff, s, f);
+            memcpy(out + 4 * (size_t)x, &s, sizeof s);
+        } else {
+            float f = in[idx[0]], s = wt[0] * f;
+            int diff = 0;
+            for (int t = 1; t < n; t++) {
+                float v = in[idx[t]];
+                s += wt[t] * v;
+                diff |= v != f;
+            }
+            out[x] = diff ? saturate(s) : f;
         }
     }
 }
 
-/* Rows as wide vectors. Two taps (every row when enlarging) in one loop; more in blocks of a
- * row's values summed over the taps, then kept only where some tap differs from the first. */
+/* Output row y from its taps' rows, horizontally resampled: two taps (every row when
+ * enlarging) in one loop; more in blocks of the row's values summed over the taps, then kept
+ * only where some tap differs from the first. */
 #define RESAMPLE_BLOCK 512
 
-static void resample_rows_y(void *user, int y0, int y1)
+static void resample_row_y(const Resample *r, int y, const float *const *rows, float *out)
 {
-    const Resample *r = user;
     const Axis *ay = &r->ay;
     int count = r->dst->width * r->dst->channels;
+    const float *wt = ay->weight + (size_t)y * (size_t)ay->taps;
+    int n = ay->n[y];
+    const float *f = rows[0];
+    if (n == 2) {
+        const float *g = rows[1];
+        float w0 = wt[0], w1 = wt[1];
+        for (int i = 0; i < count; i++) {
+            float v = w0 * f[i] + w1 * g[i];
+            v = v > FLT_MAX ? FLT_MAX : v;
+            v = v < -FLT_MAX ? -FLT_MAX : v;
+            out[i] = f[i] != g[i] ? v : f[i];
+        }
+        return;
+    }
     float s[RESAMPLE_BLOCK];
     int diff[RESAMPLE_BLOCK];
-    for (int y = y0; y < y1; y++) {
-        const int *idx = ay->index + (size_t)y * (size_t)ay->taps;
-        const float *wt = ay->weight + (size_t)y * (size_t)ay->taps;
-        int n = ay->n[y];
-        const float *f = wg_image_row(r->tmp, idx[0]);
-        float *out = wg_image_row(r->dst, y);
-        if (n == 1) { /* one tap: its weight is 1 */
-            memcpy(out, f, sizeof(float) * (size_t)count);
-            continue;
+    for (int b0 = 0; b0 < count; b0 += RESAMPLE_BLOCK) {
+        int m = count - b0 < RESAMPLE_BLOCK ? count - b0 : RESAMPLE_BLOCK;
+        const float *fb = f + b0;
+        for (int i = 0; i < m; i++) {
+            s[i] = wt[0] * fb[i];
+            diff[i] = 0;
         }
-        if (n == 2) {
-            const float *g = wg_image_row(r->tmp, idx[1]);
-            float w0 = wt[0], w1 = wt[1];
-            for (int i = 0; i < count; i++) {
-                float v = w0 * f[i] + w1 * g[i];
-                v = v > FLT_MAX ? FLT_MAX : v;
-                v = v < -FLT_MAX ? -FLT_MAX : v;
-                out[i] = f[i] != g[i] ? v : f[i];
+        for (int t = 1; t < n; t++) {
+            const float *v = rows[t] + b0;
+            float w = wt[t];
+            for (int i = 0; i < m; i++) {
+                s[i] += w * v[i];
+                diff[i] |= v[i] != fb[i];
             }
-            continue;
         }
-        for (int b0 = 0; b0 < count; b0 += RESAMPLE_BLOCK) {
-            int m = count - b0 < RESAMPLE_BLOCK ? count - b0 : RESAMPLE_BLOCK;
-            const float *fb = f + b0;
-            for (int i = 0; i < m; i++) {
-                s[i] = wt[0] * fb[i];
-                diff[i] = 0;
-            }
-            for (int t = 1; t < n; t++) {
-                const float *v = wg_image_row(r->tmp, idx[t]) + b0;
-                float w = wt[t];
-                for (int i = 0; i < m; i++) {
-                    s[i] += w * v[i];
-                    diff[i] |= v[i] != fb[i];
-                }
-            }
-            float *ob = out + b0;
-            for (int i = 0; i < m; i++) {
-                float v = s[i], e = fb[i];
-                v = v > FLT_MAX ? FLT_MAX : v;
-                v = v < -FLT_MAX ? -FLT_MAX : v;
-                ob[i] = diff[i] != 0 ? v : e;
-            }
+        float *ob = out + b0;
+        for (int i = 0; i < m; i++) {
+            float v = s[i], e = fb[i];
+            v = v > FLT_MAX ? FLT_MAX : v;
+            v = v < -FLT_MAX ? -FLT_MAX : v;
+            ob[i] = diff[i] != 0 ? v : e;
         }
     }
 }
 
-/* src resampled into dst (same channels), tmp from `mem`, rows split over `workers` (NULL: this
- * thread). WG_ERR_NOMEM or WG_ERR_CANCELLED on failure. */
-static int resample_into(WgMemPool *mem, WgPool *workers, volatile int *cancel, const WgImage *src,
-                         WgImage *dst)
+static void resample_rows(void *user, int y0, int y1)
+{
+    Resample *r = user;
+    const Axis *ay = &r->ay;
+    size_t row = (size_t)r->dst->width * (size_t)r->dst->channels;
+    float *buf = band_take(r);
+    const float **rows = wg_malloc(sizeof(float *) * (size_t)ay->taps);
+    if (!buf || !rows) {
+        atomic_store(&r->failed, 1);
+        goto out;
+    }
+    int *slot = (int *)(buf + row * (size_t)r->band_rows), *used = slot + r->src->height;
+    for (int b0 = y0; b0 < y1; b0 += RESAMPLE_BAND) {
+        int b1 = y1 - b0 < RESAMPLE_BAND ? y1 : b0 + RESAMPLE_BAND, nused = 0;
+        /* the source rows of the band's taps, each resampled once; a row of one tap (weight 1)
+         * goes straight to its output */
+        for (int y = b0; y < b1; y++) {
+            const int *idx = ay->index + (size_t)y * (size_t)ay->taps;
+            if (ay->n[y] == 1) {
+                resample_row_x(r, idx[0], wg_image_row(r->dst, y));
+                continue;
+            }
+            for (int t = 0; t < ay->n[y]; t++) {
+                if (slot[idx[t]] >= 0) continue;
+                slot[idx[t]] = nused;
+                used[nused] = idx[t];
+                resample_row_x(r, idx[t], buf + row * (size_t)nused);
+                nused++;
+            }
+        }
+        for (int y = b0; y < b1; y++) {
+            if (ay->n[y] == 1) continue;
+            const int *idx = ay->index + (size_t)y * (size_t)ay->taps;
+            for (int t = 0; t < ay->n[y]; t++) rows[t] = buf + row * (size_t)slot[idx[t]];
+            resample_row_y(r, y, rows, wg_image_row(r->dst, y));
+        }
+        for (int i = 0; i < nused; i++) slot[used[i]] = -1;
+    }
+out:
+    if (buf) band_give(r, buf);
+    wg_free(rows);
+}
+
+/* src resampled into dst (same channels), rows split over `workers` (NULL: this thread).
+ * WG_ERR_NOMEM or WG_ERR_CANCELLED on failure. */
+static int resample_into(WgPool *workers, volatile int *cancel, const WgImage *src, WgImage *dst)
 {
     Resample r = {.src = src, .dst = dst};
+    atomic_init(&r.failed, 0);
+    pthread_mutex_init(&r.mu, NULL);
     int rc = WG_ERR_NOMEM;
     if (axis_build(&r.ax, src->width, dst->width) || axis_build(&r.ay, src->height, dst->height))
         goto done;
-    r.tmp = wg__image_new_in(mem, dst->width, src->height, src->channels);
-    if (!r.tmp) goto done;
-    rc = wg__pool_rows(workers, cancel, src->height, resample_rows_x, &r);
-    if (!rc) rc = wg__pool_rows(workers, cancel, dst->height, resample_rows_y, &r);
+    /* a band of B output rows reads the taps from its first row's first to its last row's
+     * last: (B - 1) * scale + taps source rows at most, and never more than there are */
+    double rows = ceil((RESAMPLE_BAND - 1) * ((double)src->height / dst->height)) + r.ay.taps + 1;
+    r.band_rows = rows < src->height ? (int)rows : src->height;
+    rc = wg__pool_rows(workers, cancel, dst->height, resample_rows, &r);
+    if (!rc && atomic_load(&r.failed)) rc = WG_ERR_NOMEM;
 done:
-    wg_image_unref(r.tmp);
+    for (int i = 0; i < r.n_idle; i++) wg_free(r.idle[i]);
+    pthread_mutex_destroy(&r.mu);
     axis_free(&r.ax);
     axis_free(&r.ay);
     return rc;
@@ -378,7 +460,7 @@ done:
 static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
 {
     WgImage *dst = wg__image_new_in(pool, width, height, src->channels);
-    if (dst && resample_into(pool, NULL, NULL, src, dst)) {
+    if (dst && resample_into(NULL, NULL, src, dst)) {
         wg_image_unref(dst);
         dst = NULL;
     }
@@ -388,8 +470,7 @@ static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int hei
 int wg_image_resample_into(const WgNodeContext *ctx, const WgImage *src, WgImage *dst)
 {
     if (!src || !dst || src->channels != dst->channels) return WG_ERR_TYPE;
-    return resample_into(ctx ? ctx->mem_ : NULL, ctx ? ctx->pool_ : NULL, ctx ? ctx->cancel_ : NULL,
-                         src, dst);
+    return resample_into(ctx ? ctx->pool_ : NULL, ctx ? ctx->cancel_ : NULL, src, dst);
 }
 
 float wg__luminance(const float *p)

@@ -127,8 +127,9 @@ static int image_eval(WgNodeContext *ctx, WgError *err)
 }
 
 /* Decoding (the decoder's buffer and a strip); when the file is decoded at another size than
- * the node's, also the decoded image and the resampling: its horizontal pass and the filter
- * taps. */
+ * the node's, also the decoded image and the resampling: the band buffers of its threads (rows of
+ * the node's width, together no more than the decoded height of them unless the image is a few
+ * rows high) and the filter taps. */
 static size_t image_scratch(const WgNodeContext *ctx)
 {
     const ImageParams *p = ctx->params;
