@@ -74,8 +74,7 @@ size_t wg__jpeg_decoder_bytes(const char *path)
     if (probe(path, &w, &h, &c, &m)) return 0;
     /* a progressive file's coefficients for the whole image (16 bits each, at most one per
      * sample, blocks padded to 16x16 pixels); otherwise libjpeg holds a few rows of blocks */
-    size_t padded = (size_t)(w + 15) / 16 * 16 * (size_t)c;
-    if (m == 0xc2 || m == 0xc6 || m == 0xca || m == 0xce)
-        return padded * ((size_t)(h + 15) / 16 * 16) * 2;
-    return padded * 64;
+    size_t padded = (size_t)(w + 15) / 16 * 16 * (size_t)c, rows = (size_t)(h + 15) / 16 * 16;
+    if (m == 0xc2 || m == 0xc6 || m == 0xca || m == 0xce) return padded * rows * 2;
+    return padded * (rows < 64 ? rows : 64);
 }

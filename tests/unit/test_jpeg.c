@@ -4,8 +4,9 @@
  * baseline and progressive, odd sizes, to the same floats bit for bit, without loading
  * wetgraph's OpenImageIO module; CMYK files still read through the module; damaged files
  * (cut, flipped bytes, broken tables, stray bytes) refused with one line naming the file and
- * nothing printed by libjpeg; and the decode at a DCT scale, resampled to a smaller size,
- * against the full decode resampled to it. The JPEGs are written here with libjpeg. */
+ * nothing printed by libjpeg; the decode at a DCT scale, resampled to a smaller size, against
+ * the full decode resampled to it; and the memory a decode is counted to need. The JPEGs are
+ * written here with libjpeg. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -349,12 +350,34 @@ static void test_scaled_decode_matches_full_decode(void **state)
     wg_image_unref(img);
 }
 
+/* The memory budget's view of a JPEG decode: a progressive file holds its coefficients for the
+ * whole image (2 bytes a sample), a baseline one a few rows of blocks. */
+static void test_jpeg_scratch_counts_progressive_coefficients(void **state)
+{
+    (void)state;
+    static const int sizes[][2] = {{300, 200}, {37, 23}, {1000, 17}};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        for (int c = 1; c <= 3; c += 2) {
+            int w = sizes[i][0], h = sizes[i][1];
+            JpegSpec p = {w, h, c, true, false, 80, 0.1}, b = {w, h, c, false, false, 80, 0.1};
+            const char *pp = wgt_path("scratch_p.jpg"), *bp = wgt_path("scratch_b.jpg");
+            write_jpeg(pp, &p);
+            write_jpeg(bp, &b);
+            size_t whole = 2 * (size_t)w * (size_t)h * (size_t)c;
+            size_t sp = wg_image_read_scratch(pp), sb = wg_image_read_scratch(bp);
+            if (sp < whole) fail_msg("progressive %dx%dx%d: scratch %zu < %zu", w, h, c, sp, whole);
+            if (sb == 0 || sb >= sp) fail_msg("baseline %dx%dx%d: scratch %zu", w, h, c, sb);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_native_decode_equals_openimageio),
         cmocka_unit_test(test_damaged_jpeg_refused_in_one_line),
         cmocka_unit_test(test_scaled_decode_matches_full_decode),
+        cmocka_unit_test(test_jpeg_scratch_counts_progressive_coefficients),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
