@@ -10,6 +10,7 @@
  * (.<name>.tmp<pid>-<n>.wgc) and renamed, so concurrent renders never see half a file; opening
  * the cache removes the temporaries left behind by processes that no longer exist. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <ctype.h>
 #include <dirent.h>

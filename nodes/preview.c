@@ -627,6 +627,9 @@ static V3 atlas(const WgImage *a, int block, float u, float v)
     float fx = u * nbw - 0.5f;
     fx -= floorf(fx / nbw) * nbw;
     float fy = clampf(v * nbh - 0.5f, 0, (float)(nbh - 1));
+    /* a direction made of non-finite inputs reads the block's first pixel */
+    if (!(fx >= 0 && fx < (float)nbw)) fx = 0;
+    if (!(fy >= 0 && fy <= (float)(nbh - 1))) fy = 0;
     int x0 = (int)fx, y0 = (int)fy;
     if (x0 >= nbw) x0 = 0;
     float ax = fx - x0, ay = fy - y0;

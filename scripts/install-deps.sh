@@ -6,7 +6,8 @@
 set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
-      libdeflate-dev  # the PNG writer's deflate (engine/png_write.c)
+      libdeflate-dev  # the PNG writer's deflate (io/png_write.c)
+      libjpeg62-turbo-dev  # JPEG pixels decoded with libjpeg-turbo (io/jpeg_read.c)
       libmicrohttpd-dev  # `wetgraph watch --serve` (optional: built without it when missing)
       chromium  # the headless-browser test of the --serve page (tests/cli/test_serve_page.c)
       glslang-tools  # the tests validate the GLSL shaders in docs/shaders
