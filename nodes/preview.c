@@ -578,10 +578,12 @@ typedef struct {
 /* bilinear, wrapping, tile coordinates: x right, y up, [0, 1) is the tile */
 static float tex_gray(const WgImage *img, float x, float y, float def)
 {
-    if (!img) return def;
+    if (!img || !isfinite(x) || !isfinite(y)) return def;
     int w = img->width, h = img->height;
     float fx = x * w - 0.5f, fy = (1 - y) * h - 0.5f;
     fx -= floorf(fx / w) * w, fy -= floorf(fy / h) * h;
+    if (!(fx >= 0 && fx < w)) fx = 0;
+    if (!(fy >= 0 && fy < h)) fy = 0;
     int x0 = (int)fx, y0 = (int)fy;
     float ax = fx - x0, ay = fy - y0;
     if (x0 >= w) x0 = 0;
@@ -594,10 +596,12 @@ static float tex_gray(const WgImage *img, float x, float y, float def)
 
 static V3 tex_color(const WgImage *img, float x, float y, V3 def)
 {
-    if (!img) return def;
+    if (!img || !isfinite(x) || !isfinite(y)) return def;
     int w = img->width, h = img->height;
     float fx = x * w - 0.5f, fy = (1 - y) * h - 0.5f;
     fx -= floorf(fx / w) * w, fy -= floorf(fy / h) * h;
+    if (!(fx >= 0 && fx < w)) fx = 0; /* a coordinate too large to wrap in float */
+    if (!(fy >= 0 && fy < h)) fy = 0;
     int x0 = (int)fx, y0 = (int)fy;
     float ax = fx - x0, ay = fy - y0;
     if (x0 >= w) x0 = 0;
@@ -868,9 +872,9 @@ static bool relief_above(const PreviewJob *j, V3 o, V3 d, V3 *hit)
         if (!inside(j, p)) return false;
         float gap = p.z - hs * (clampf(tex_gray(j->in[IN_HEIGHT], p.x, p.y, 1), -16, 16) - 1);
         if (gap <= 0) {
-            float g0 = fmaxf(prev_gap, 0);
-            *hit = add(o, scale(d, dt * (i - 1 + g0 / (g0 - gap))));
-            return true;
+            float g0 = fmaxf(prev_gap, 0), f = g0 - gap > 0 ? g0 / (g0 - gap) : 0;
+            *hit = add(o, scale(d, dt * (i - 1 + f)));
+            return isfinite(hit->x) && isfinite(hit->y) && isfinite(hit->z);
         }
         prev_gap = gap;
     }
