@@ -39,7 +39,11 @@ static const char help[] =
     "                         set:NAME, out; or .jsonl) through one engine: nodes equal\n"
     "                         across rows are computed once; a failed row does not stop\n"
     "                         the others\n"
-    "  --shard I/N            with --batch: only rows I, I+N, I+2N, ... (rows from 0)\n"
+    "  --shard I/N            with --batch: only the I-th of N blocks of consecutive rows\n"
+    "                         (I from 0; the blocks' sizes differ by one row at most)\n"
+    "  --shard-by COLUMN      with --shard: rows with one value in COLUMN (input:NAME,\n"
+    "                         set:NAME, out or #NAME) go to one shard, so what they share\n"
+    "                         is computed once\n"
     "  --batch-json           with --batch: one JSON line per row on stdout\n"
     "  --format FMT           png | png16 | tif16 | exr | exr32 for every output\n"
     "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
@@ -227,6 +231,9 @@ int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--batch")) {
             NEED;
             o->batch = val;
+        } else if (TAKE("--shard-by")) {
+            NEED;
+            o->shard_by = val;
         } else if (TAKE("--shard")) {
             NEED;
             if (!parse_shard(val, o))
@@ -297,6 +304,7 @@ int parse_args(int argc, char **argv, Options *o)
         return cli_usage_error(o->cmd, "%s needs --frames",
                                o->has_fps ? "--fps" : "--contact-sheet");
     if (!o->has_fps) o->fps = 24;
+    if (o->shard_by && !o->has_shard) return cli_usage_error(o->cmd, "--shard-by needs --shard");
     if (!o->batch && (o->has_shard || o->batch_json))
         return cli_usage_error(o->cmd, "%s needs --batch",
                                o->has_shard ? "--shard" : "--batch-json");

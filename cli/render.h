@@ -21,6 +21,7 @@ typedef struct {
     bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json, no_fuse;
     bool has_shard, batch_json;
     int shard_index, shard_count;
+    const char *shard_by; /* --shard-by COLUMN: rows of one value stay on one shard */
     uint64_t seed;
     double time, fps;
     int frame_first, frame_last;
