@@ -15,6 +15,7 @@ int cmd_info(int argc, char **argv);
 int cmd_nodes(int argc, char **argv);
 int cmd_dot(int argc, char **argv);
 int cmd_watch(int argc, char **argv);
+int cmd_cache(int argc, char **argv);
 int cmd_graphs(int argc, char **argv);
 
 /* Exit code for an error: 1 for I/O, evaluation, memory and budget failures, 2 for usage and
@@ -22,6 +23,9 @@ int cmd_graphs(int argc, char **argv);
 int cli_exit_for(int code);
 /* "wetgraph: error: <location>: <message>" on stderr. */
 void cli_report(const WgError *err);
+/* A size in bytes: a decimal number, optionally followed by K, M, G or T (powers of 1024,
+ * also written KiB, MiB, ...); whole bytes up to 2^60. */
+bool cli_parse_bytes(const char *text, uint64_t *out);
 /* The graph file a command line names, a path or a graph's name (wg_graph_find), into buf;
  * 0, or EXIT_USAGE after reporting that there is none. */
 int cli_find_graph(const char *arg, char *buf, size_t size);

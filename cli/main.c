@@ -17,6 +17,7 @@ static const char usage[] =
     "  info FILE [--json]      list a graph's parameters, inputs and outputs\n"
     "  nodes [TYPE] [--markdown]  the built-in node catalogue\n"
     "  graphs [--paths]        the graphs found by name\n"
+    "  cache info|prune|clear DIR  the result cache folder: size, least recently used out\n"
     "  dot FILE [--fused]      Graphviz view of a graph\n"
     "\n"
     "FILE is a graph file, or the name of a graph in WETGRAPH_PATH or the built-in folder\n"
@@ -45,7 +46,7 @@ int main(int argc, char **argv)
         int (*fn)(int, char **);
     } cmds[] = {{"render", cmd_render}, {"check", cmd_check}, {"info", cmd_info},
                 {"nodes", cmd_nodes},   {"dot", cmd_dot},     {"watch", cmd_watch},
-                {"graphs", cmd_graphs}};
+                {"graphs", cmd_graphs}, {"cache", cmd_cache}};
     if (!strcmp(cmd, "--help-all")) {
         /* the overview and every command's --help, in one text: the man page's source */
         fputs(usage, stdout);
@@ -61,8 +62,8 @@ int main(int argc, char **argv)
     }
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
         if (!strcmp(cmd, cmds[i].name)) return cmds[i].fn(argc - 1, argv + 1);
-    const char *names[] = {"render", "check", "info", "nodes", "dot", "watch", "graphs"};
-    const char *s = wg_suggest(cmd, names, 7);
+    const char *names[] = {"render", "check", "info", "nodes", "dot", "watch", "graphs", "cache"};
+    const char *s = wg_suggest(cmd, names, 8);
     fprintf(stderr, "wetgraph: unknown command '%s'%s%s%s\n(see 'wetgraph --help')\n", cmd,
             s ? "; did you mean '" : "", s ? s : "", s ? "'?" : "");
     return EXIT_USAGE;

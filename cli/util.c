@@ -56,6 +56,28 @@ int cli_find_graph(const char *arg, char *buf, size_t size)
     return EXIT_USAGE;
 }
 
+bool cli_parse_bytes(const char *text, uint64_t *out)
+{
+    static const char units[] = "KMGT";
+    size_t n = strlen(text), unit = 0;
+    char num[64];
+    const char *end = text + n;
+    if (n >= 3 && !strcmp(end - 2, "iB")) end -= 2;
+    if (end > text && strchr(units, end[-1]) && end[-1]) {
+        unit = (size_t)(strchr(units, end[-1]) - units) + 1;
+        end--;
+    }
+    if (end == text || (size_t)(end - text) >= sizeof num) return false;
+    memcpy(num, text, (size_t)(end - text));
+    num[end - text] = '\0';
+    double v;
+    if (!wg_parse_number(num, &v) || v < 0) return false;
+    for (size_t i = 0; i < unit; i++) v *= 1024;
+    if (v > 1152921504606846976.0) return false; /* 2^60 */
+    *out = (uint64_t)v;
+    return true;
+}
+
 int cli_usage_error(const char *cmd, const char *fmt, ...)
 {
     va_list ap;
