@@ -43,7 +43,7 @@ int cmd_cache(int argc, char **argv)
             else
                 return cli_usage_error("cache", "--max needs a size");
         } else if (argv[i][0] == '-' && argv[i][1]) {
-            return cli_usage_error("cache", "unknown option '%s'", argv[i]);
+            return cli_unknown_option("cache", help, argv[i]);
         } else if (!action) {
             action = argv[i];
         } else if (!dir) {

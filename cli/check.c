@@ -22,8 +22,7 @@ int cmd_check(int argc, char **argv)
             fputs(help, stdout);
             return EXIT_OK;
         }
-        if (argv[i][0] == '-' && argv[i][1])
-            return cli_usage_error("check", "unknown option '%s'", argv[i]);
+        if (argv[i][0] == '-' && argv[i][1]) return cli_unknown_option("check", help, argv[i]);
     }
     for (int i = 1; i < argc; i++) {
         files++;

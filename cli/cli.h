@@ -30,6 +30,9 @@ bool cli_parse_bytes(const char *text, uint64_t *out);
  * 0, or EXIT_USAGE after reporting that there is none. */
 int cli_find_graph(const char *arg, char *buf, size_t size);
 /* Usage error with a hint to --help; returns EXIT_USAGE. */
+/* An unknown option `arg` of `cmd`: the usage error, suggesting the closest option that the
+ * command's help text names (its -x and --name words). */
+int cli_unknown_option(const char *cmd, const char *help, const char *arg);
 int cli_usage_error(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 bool cli_is_help(const char *arg);
 /* JSON string literal. */

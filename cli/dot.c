@@ -25,8 +25,7 @@ int cmd_dot(int argc, char **argv)
             fused = true;
             continue;
         }
-        if (argv[i][0] == '-' && argv[i][1])
-            return cli_usage_error("dot", "unknown option '%s'", argv[i]);
+        if (argv[i][0] == '-' && argv[i][1]) return cli_unknown_option("dot", help, argv[i]);
         if (file) return cli_usage_error("dot", "one graph file at a time");
         file = argv[i];
     }

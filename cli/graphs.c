@@ -23,8 +23,10 @@ int cmd_graphs(int argc, char **argv)
         }
         if (!strcmp(argv[i], "--paths"))
             paths = true;
+        else if (argv[i][0] == '-')
+            return cli_unknown_option("graphs", help, argv[i]);
         else
-            return cli_usage_error("graphs", "unknown argument '%s'", argv[i]);
+            return cli_usage_error("graphs", "unexpected argument '%s'", argv[i]);
     }
     WgError err = {0};
     WgGraphEntry *list = NULL;

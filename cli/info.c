@@ -130,7 +130,7 @@ int cmd_info(int argc, char **argv)
         if (!strcmp(argv[i], "--json"))
             json = true;
         else if (argv[i][0] == '-' && argv[i][1])
-            return cli_usage_error("info", "unknown option '%s'", argv[i]);
+            return cli_unknown_option("info", help, argv[i]);
         else if (file)
             return cli_usage_error("info", "one graph file at a time");
         else

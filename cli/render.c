@@ -288,7 +288,7 @@ int parse_args(int argc, char **argv, Options *o)
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             o->quiet = true;
         } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error(o->cmd, "unknown option '%s'", a);
+            return cli_unknown_option(o->cmd, o->help, a);
         } else if (!o->file) {
             o->file = a;
         } else {

@@ -2,6 +2,7 @@
 /* Helpers shared by the subcommands: error reporting, JSON strings, sizes. */
 #include "cli.h"
 
+#include <ctype.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -76,6 +77,29 @@ bool cli_parse_bytes(const char *text, uint64_t *out)
     if (v > 1152921504606846976.0) return false; /* 2^60 */
     *out = (uint64_t)v;
     return true;
+}
+
+int cli_unknown_option(const char *cmd, const char *help, const char *arg)
+{
+    enum { MAX = 128, LEN = 40 };
+    char words[MAX][LEN];
+    const char *names[MAX];
+    int n = 0;
+    for (const char *p = help; *p && n < MAX; p++) {
+        bool start = p == help || *(p - 1) == ' ' || *(p - 1) == '\n' || *(p - 1) == '[';
+        if (!start || *p != '-' || !(isalnum((unsigned char)p[1]) || p[1] == '-')) continue;
+        size_t len = 1;
+        while (len < LEN - 1 && (isalnum((unsigned char)p[len]) || p[len] == '-')) len++;
+        snprintf(words[n], LEN, "%.*s", (int)len, p);
+        bool seen = len < 2 || !strcmp(words[n], "--");
+        for (int k = 0; k < n && !seen; k++) seen = !strcmp(words[k], words[n]);
+        if (!seen) names[n] = words[n], n++;
+    }
+    char given[LEN];
+    snprintf(given, sizeof given, "%.*s", (int)strcspn(arg, "="), arg);
+    const char *near = wg_suggest(given, names, n);
+    if (near) return cli_usage_error(cmd, "unknown option '%s'; did you mean '%s'?", arg, near);
+    return cli_usage_error(cmd, "unknown option '%s'", arg);
 }
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)
