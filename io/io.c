@@ -994,6 +994,30 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
     return rc;
 }
 
+int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size,
+                       WgError *err)
+{
+    char *tmp = NULL;
+    int rc = stage_begin(s, path, &tmp, err);
+    if (rc) return rc;
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+    const unsigned char *p = data;
+    size_t left = size;
+    while (fd >= 0 && left > 0) {
+        ssize_t k = write(fd, p, left);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) break;
+        p += k, left -= (size_t)k;
+    }
+    if (fd < 0 || left > 0 || close(fd) != 0) {
+        const char *cause = wg__write_cause(errno);
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the file: %s",
+                             cause ? cause : strerror(errno));
+        if (fd >= 0 && left > 0) close(fd);
+    }
+    return stage_end(s, rc, err);
+}
+
 int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                        WgColorspace cs, WgError *err)
 {

@@ -97,9 +97,10 @@ static int write_all(int fd, const unsigned char *p, size_t n)
     return 0;
 }
 
-int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
-                  size_t msg_size)
+int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned char **out,
+                   size_t *out_size, char *msg, size_t msg_size)
 {
+    *out = NULL, *out_size = 0;
     int bpp = c * bits / 8;
     size_t row = (size_t)w * (size_t)bpp, filtered_size = (row + 1) * (size_t)h;
     unsigned char *filtered = wg_malloc(filtered_size);
@@ -168,8 +169,27 @@ int wg__png_write(const char *path, const void *samples, int w, int h, int c, in
     put32(p, 0);
     memcpy(p + 4, "IEND", 4);
     put32(p + 8, (uint32_t)libdeflate_crc32(0, p + 4, 4));
-    size_t total = (size_t)(p + 12 - file);
+    *out_size = (size_t)(p + 12 - file);
+    *out = file;
+    file = NULL;
+    rc = 0;
+done:
+    if (z) libdeflate_free_compressor(z);
+    wg_free(filtered);
+    wg_free(cur);
+    wg_free(prev);
+    wg_free(scratch);
+    wg_free(file);
+    return rc;
+}
 
+int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
+                  size_t msg_size)
+{
+    unsigned char *file;
+    size_t total;
+    if (wg__png_encode(samples, w, h, c, bits, &file, &total, msg, msg_size)) return -1;
+    int rc = -1;
     int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd < 0 || write_all(fd, file, total)) {
         int err = errno;
@@ -188,11 +208,6 @@ int wg__png_write(const char *path, const void *samples, int w, int h, int c, in
     }
     rc = 0;
 done:
-    if (z) libdeflate_free_compressor(z);
-    wg_free(filtered);
-    wg_free(cur);
-    wg_free(prev);
-    wg_free(scratch);
     wg_free(file);
     return rc;
 }

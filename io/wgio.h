@@ -58,6 +58,9 @@ void wg__oiio_close(WgOiioIn *in);
 bool wg__oiio_loaded(void);
 /* Write a PNG (png_write.c): `samples` packed rows of `c` channels (1-4) of `bits` (8 or 16, 16-bit
  * ones in host order). Nonzero with msg (and errno where the system refused) on failure. */
+/* The same PNG in memory: *out (wg_free it) holds *out_size bytes. */
+int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned char **out,
+                   size_t *out_size, char *msg, size_t msg_size);
 int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
                   size_t msg_size);
 /* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);

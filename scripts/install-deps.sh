@@ -7,6 +7,7 @@ set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
       libdeflate-dev  # the PNG writer's deflate (io/png_write.c)
+      libjson-c-dev  # the JSON of glTF assets (io/gltf.c)
       libjpeg62-turbo-dev  # JPEG pixels decoded with libjpeg-turbo (io/jpeg_read.c)
       libmicrohttpd-dev  # `wetgraph watch --serve` (optional: built without it when missing)
       chromium  # the headless-browser test of the --serve page (tests/cli/test_serve_page.c)
@@ -27,13 +28,27 @@ fi
 if [[ "${1:-}" == "--docs" ]]; then
     pkgs+=(openimageio-tools)
 fi
+# Khronos glTF-Validator checks the exported assets (tools/gltf-validator, from npm): node and
+# npm from Debian unless the machine has them already (some install nodejs with its own npm)
+command -v node >/dev/null || pkgs+=(nodejs)
+command -v npm >/dev/null || pkgs+=(npm)
 missing=()
 for p in "${pkgs[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-[[ ${#missing[@]} -eq 0 ]] && exit 0
+validator() { # the validator's npm package, at the version its lock file names
+    local dir
+    dir="$(dirname "$0")/../tools/gltf-validator"
+    [[ -f "$dir/node_modules/gltf-validator/package.json" ]] ||
+        (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+}
+if [[ ${#missing[@]} -eq 0 ]]; then
+    validator
+    exit 0
+fi
 sudo=""
 [[ "$(id -u)" -ne 0 ]] && sudo="sudo"
 echo "wetgraph: installing ${missing[*]}" >&2
 $sudo apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+validator

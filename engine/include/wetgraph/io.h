@@ -96,6 +96,9 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
 int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
                             const WgImage *const *images, bool half, WgError *err);
 /* Rename everything into place; the set is empty afterwards, whatever the outcome. */
+/* Stage `size` bytes of `data` as the file `path`. */
+int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size,
+                       WgError *err);
 int wg_write_set_commit(WgWriteSet *s, WgError *err);
 void wg_write_set_free(WgWriteSet *s);
 
@@ -107,7 +110,45 @@ void wg_write_set_free(WgWriteSet *s);
  * other file are kept. Best effort; returns how many were removed. */
 int wg_remove_stale_temporaries(const char *dir);
 
+/* ---- glTF 2.0 ----------------------------------------------------------------------------- */
+
+/* The maps of a material for a glTF asset. Colour maps are linear RGB(A) images (the base colour
+ * and specular level are written sRGB, as glTF wants); normal maps are tangent-space normals
+ * encoded 0..1, OpenGL convention (green up), as glTF's are; gray maps are 0..1. */
+typedef enum {
+    WG_GLTF_BASE_COLOR,          /* colour */
+    WG_GLTF_METALLIC,            /* gray \                                                   */
+    WG_GLTF_ROUGHNESS,           /* gray  } one texture: R occlusion, G roughness, B metallic */
+    WG_GLTF_OCCLUSION,           /* gray /                                                    */
+    WG_GLTF_NORMAL,              /* colour */
+    WG_GLTF_SPECULAR,            /* gray: specular level, 0.5 = F0 0.04 (KHR_materials_specular) */
+    WG_GLTF_CLEARCOAT,           /* gray: the coat's weight \ one texture: R weight, G roughness */
+    WG_GLTF_CLEARCOAT_ROUGHNESS, /* gray                    / (KHR_materials_clearcoat)          */
+    WG_GLTF_CLEARCOAT_NORMAL,    /* colour */
+    WG_GLTF_HEIGHT,              /* gray: the grid's relief, 1 the tile's plane, 0 height_scale
+                                    below it */
+    WG_GLTF_SLOT_COUNT
+} WgGltfSlot;
+
+typedef struct WgGltfAsset {
+    const char *name;                        /* the material's and the mesh's name */
+    const WgImage *maps[WG_GLTF_SLOT_COUNT]; /* NULL where the material has none */
+    bool binary;         /* one .glb holding everything, else .gltf + .bin + PNG textures */
+    int grid;            /* 0: a flat square of 4 vertices; N >= 1: N x N quads displaced by
+                            the HEIGHT map (needed then) */
+    double height_scale; /* tile widths between height 1 and height 0 (grid only) */
+    double repeat;       /* the texture repeats this many times across the tile (>= 1) */
+} WgGltfAsset;
+
+/* Stage a glTF 2.0 asset in s: the tile as a square one unit wide in the XZ plane (Y up,
+ * centred on the origin) with its material, the core metallic-roughness maps plus the
+ * KHR_materials_clearcoat, KHR_materials_specular and KHR_materials_ior extensions where their
+ * maps are given. `path` ends in .gltf (then PATH.bin and PATH-without-extension_<map>.png are
+ * staged beside it) or .glb (when binary). */
+int wg_gltf_write(WgWriteSet *s, const char *path, const WgGltfAsset *a, WgError *err);
+
 #ifdef __cplusplus
 }
 #endif
 #endif
+
