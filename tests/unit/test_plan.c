@@ -736,7 +736,7 @@ static void test_graph_inputs(void **state)
     WgError err = {0};
     assert_int_equal(wg_request_set_input_image(r, "hieght", NULL, &err), WG_ERR_USAGE);
     wgt_assert_error(&err, WG_ERR_USAGE, 0,
-                     "graph 'test' has no input 'hieght' (inputs: height, base, level)");
+                     "graph 'test' has no input 'hieght'; did you mean 'height'? (inputs: height, base, level)");
     assert_int_equal(wg_request_set_input_file(r, "height", wgt_path("nothing_here.png"), &err),
                      WG_ERR_IO);
 
