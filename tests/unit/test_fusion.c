@@ -2,9 +2,11 @@
 /* Fused point operations (engine/fuse.c): renders with fusion are bit-identical to renders
  * without (WgEngineOptions.no_fuse) for 1, 2 and 3 threads, on graphs mixing point and
  * non-point nodes, shared and requested intermediates, promotions and resampling between point
- * nodes, multi-output nodes, point sources and subgraphs; shared and requested intermediates are
- * materialised and cached, the others are not; the counted peak memory of a long chain is lower
- * fused; --stats and the result list the groups; dot --fused draws them. */
+ * nodes, multi-output nodes, point sources and subgraphs; results requested or read outside
+ * their group are materialised and cached inside the group, intermediates shared within a group
+ * stay in bands; no group contains a path that leaves it and comes back; the counted peak
+ * memory of a long chain is lower fused; --stats and the result list the groups; dot --fused
+ * draws them. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -19,8 +21,9 @@
 #define H 203
 
 /* Every kind of edge around point nodes:
- * - n -> lev: a non-point source feeds a group; lev is shared (crv and thr), so materialised;
- * - crv is requested and feeds gm: materialised, gm starts a group (gm -> hs -> sblur);
+ * - n -> lev: a non-point source feeds a group; lev is shared by crv and thr, both in the group,
+ *   so it stays in bands;
+ * - crv is requested and feeds gm: materialised inside the group (lev, crv, thr, gm, hs);
  * - a blur between point nodes ends one group (hs) and starts another (inv -> cs);
  * - a, b and ml meet in a masked blend: a tree-shaped group of four;
  * - pr (gray) into hsl's colour port is promoted: not fused across;
@@ -172,13 +175,19 @@ static void test_fused_renders_are_identical_to_unfused(void **state)
         expect_same_outputs(ref, unfused);
         expect_same_outputs(ref, fused);
         assert_int_equal(wg_result_evaluated_count(fused), wg_result_evaluated_count(unfused));
-        /* the groups, in plan order of their sinks: gm -> hs; inv -> cs; a, b, ml -> mix;
-         * split -> merge -> shuffle -> blend with the uniform; pre -> tone -> post */
+        /* the groups, in plan order of their sinks: lev, crv, thr, gm -> hs; inv -> cs; a, b,
+         * ml -> mix; split -> merge -> shuffle -> blend with the uniform; pre -> tone -> post */
         int g_hs = fused_of(fused, "hs"), g_cs = fused_of(fused, "cs");
         int g_mix = fused_of(fused, "mix"), g_tinted = fused_of(fused, "tinted");
         int g_post = fused_of(fused, "post");
         assert_true(g_hs > 0 && g_cs > 0 && g_mix > 0 && g_tinted > 0 && g_post > 0);
-        assert_int_equal(fused_of(fused, "gm"), g_hs);
+        static const char *const with_hs[] = {"lev", "crv", "thr", "gm"};
+        for (size_t k = 0; k < 4; k++) assert_int_equal(fused_of(fused, with_hs[k]), g_hs);
+        /* shared inside the group: bands only; requested: materialised in the group */
+        assert_int_equal(wgt_stat(fused, "lev")->bytes, 0);
+        assert_int_equal(wgt_stat(fused, "gm")->bytes, 0);
+        assert_int_equal(wgt_stat(fused, "crv")->bytes, wg_image_bytes_for(W, H, 1));
+        assert_int_equal(wgt_stat(fused, "thr")->bytes, wg_image_bytes_for(W, H, 1));
         assert_int_equal(fused_of(fused, "inv"), g_cs);
         assert_int_equal(fused_of(fused, "a"), g_mix);
         assert_int_equal(fused_of(fused, "b"), g_mix);
@@ -190,9 +199,8 @@ static void test_fused_renders_are_identical_to_unfused(void **state)
         assert_int_equal(fused_of(fused, "pre"), g_post);
         assert_int_equal(fused_of(fused, "t/l"), g_post);
         assert_int_equal(fused_of(fused, "t/i"), g_post);
-        /* shared, requested, promoted or resampled: alone */
-        static const char *const alone[] = {"n",  "lev", "crv", "thr", "sblur",
-                                            "pr", "hp",  "hl",  "half"};
+        /* not point operations, or read only promoted or resampled: alone */
+        static const char *const alone[] = {"n", "sblur", "pr", "hp", "hl", "half"};
         for (size_t k = 0; k < sizeof alone / sizeof *alone; k++)
             if (fused_of(fused, alone[k])) fail_msg("'%s' was fused", alone[k]);
         int groups[] = {g_hs, g_cs, g_mix, g_tinted, g_post};
@@ -206,7 +214,7 @@ static void test_fused_renders_are_identical_to_unfused(void **state)
     wg_graph_free(g);
 }
 
-/* Requesting an intermediate materialises it: the group ends there. */
+/* Requesting an intermediate materialises it, inside its group: the group goes on. */
 static void test_requested_intermediates_are_materialised(void **state)
 {
     (void)state;
@@ -231,9 +239,10 @@ static void test_requested_intermediates_are_materialised(void **state)
     for (int threads = 1; threads <= 3; threads++) {
         WgResult *fused = render(threads, true, r), *unfused = render(threads, false, r);
         expect_same_outputs(fused, unfused);
-        assert_int_equal(fused_of(fused, "ml"), 0);
-        assert_true(wgt_stat(fused, "ml")->bytes > 0);
-        assert_true(fused_of(fused, "mix") > 0); /* still with a and b */
+        assert_true(fused_of(fused, "mix") > 0); /* still with a, b and ml */
+        assert_int_equal(fused_of(fused, "ml"), fused_of(fused, "mix"));
+        assert_int_equal(wgt_stat(fused, "ml")->bytes, wg_image_bytes_for(W, H, 1));
+        assert_int_equal(wgt_stat(fused, "a")->bytes, 0);
         assert_int_equal(fused_of(fused, "a"), fused_of(fused, "mix"));
         wgt_assert_identical(wgt_output(fused, "mix"), wgt_output(all, "mix"));
         wg_result_free(fused);
@@ -261,8 +270,9 @@ static const char *const chain_xml =
     "  <output name=\"soft\" from=\"bl\"/>\n"
     "</wetgraph>\n";
 
-/* What is materialised is cached as before: p2 (shared with the blur) and p4 (requested); p1
- * and p3 are not, and an edit downstream of p2 recomputes p3 and p4 only. */
+/* What is materialised is cached as before: p2 (read by the blur, outside the group) and p4
+ * (requested), both members of one group; p1 and p3 are not, and an edit downstream of p2
+ * recomputes p3 and p4 only. */
 static void test_the_cache_keeps_what_is_materialised(void **state)
 {
     (void)state;
@@ -273,9 +283,10 @@ static void test_the_cache_keeps_what_is_materialised(void **state)
     assert_int_equal(wg_result_evaluated_count(first), 6);
     assert_true(fused_of(first, "p1") > 0);
     assert_int_equal(fused_of(first, "p1"), fused_of(first, "p2"));
-    assert_true(fused_of(first, "p3") > 0);
-    assert_int_equal(fused_of(first, "p3"), fused_of(first, "p4"));
-    assert_int_not_equal(fused_of(first, "p2"), fused_of(first, "p4"));
+    assert_int_equal(fused_of(first, "p1"), fused_of(first, "p3"));
+    assert_int_equal(fused_of(first, "p1"), fused_of(first, "p4"));
+    assert_int_equal(wgt_stat(first, "p2")->bytes, wg_image_bytes_for(64, 150, 1));
+    assert_int_equal(wgt_stat(first, "p3")->bytes, 0);
 
     WgResult *again = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(again), 0);
@@ -423,15 +434,14 @@ static void test_a_budget_only_unfused_fits_renders_unfused(void **state)
 }
 
 /* A right-deep comb of blends over uniforms: in plan order every uniform comes before the
- * blends, so all are alive at once. With 8 the group fits its band buffers; with 40 bands of
- * 256 KiB it would need 10 MiB per thread, and its nodes run alone. */
+ * blends, so all are alive at once. With 8 the group fits its band buffers; with 80 bands of
+ * one 16384-wide row (64 KiB) it would need 5 MiB per thread, and its nodes run alone. */
 static void test_wide_groups_are_not_fused(void **state)
 {
     (void)state;
-    for (int leaves = 8; leaves <= 40; leaves += 32) {
-        char xml[16384];
-        size_t n =
-            (size_t)snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"2048x256\">\n");
+    for (int leaves = 8; leaves <= 80; leaves += 72) {
+        char xml[32768];
+        size_t n = (size_t)snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"16384x3\">\n");
         for (int i = 0; i < leaves; i++)
             n += (size_t)snprintf(xml + n, sizeof xml - n,
                                   "  <node id=\"u%d\" type=\"uniform\" value=\"%g\"/>\n", i,
@@ -545,8 +555,12 @@ static void test_point_pixel_expressions_fuse(void **state)
             for (size_t k = 0; k < 4; k++) assert_int_equal(fused_of(fused, in_chain[k]), chain);
             assert_int_equal(fused_of(fused, "sa"), sub);
             assert_int_equal(fused_of(fused, "t/a"), sub);
+            /* sh, shared by sa and sb in the same group, stays in bands */
+            assert_int_equal(fused_of(fused, "sh"), sub);
+            assert_int_equal(fused_of(fused, "sb"), sub);
+            assert_int_equal(wgt_stat(fused, "sh")->bytes, 0);
             /* rows, other pixels, the height; shared; reading an input in place */
-            static const char *const alone[] = {"py", "pv", "ps", "ph", "sh", "sb", "st"};
+            static const char *const alone[] = {"py", "pv", "ps", "ph", "st"};
             for (size_t k = 0; k < sizeof alone / sizeof *alone; k++)
                 if (fused_of(fused, alone[k])) fail_msg("'%s' was fused", alone[k]);
             wg_result_free(fused);
@@ -566,11 +580,11 @@ static void test_stats_list_the_groups(void **state)
     WgGraph *g = wgt_load(chain_xml);
     WgRequest *r = wg_request_new(g);
     WgResult *res = render(2, true, r);
-    /* plan order: n, p1, p2, bl, p3, p4 (or p3, p4 before bl): group 1 ends at p2 */
+    /* one group: p2 is materialised for the blur, p4 for the output */
     assert_int_equal(fused_of(res, "p1"), 1);
     assert_int_equal(fused_of(res, "p2"), 1);
-    assert_int_equal(fused_of(res, "p3"), 2);
-    assert_int_equal(fused_of(res, "p4"), 2);
+    assert_int_equal(fused_of(res, "p3"), 1);
+    assert_int_equal(fused_of(res, "p4"), 1);
     assert_int_equal(fused_of(res, "n"), 0);
     assert_int_equal(fused_of(res, "bl"), 0);
     assert_int_equal(wgt_stat(res, "p1")->bytes, 0);
@@ -607,16 +621,17 @@ static void test_the_command_line_lists_and_draws_the_groups(void **state)
 
     snprintf(cmd, sizeof cmd, "'%s' render chain.wetgraph -o fz --stats -q", bin);
     assert_int_equal(run(cmd, out, sizeof out), 0);
-    if (!strstr(out, "fused group #1: 2 point operations from 'p1' to 'p2'") ||
-        !strstr(out, "fused group #2: 2 point operations from 'p3' to 'p4'") ||
-        !strstr(out, "only 'p4' is materialised"))
+    if (!strstr(out, "fused group #1: 4 point operations from 'p1' to 'p4'") ||
+        !strstr(out, "2 are materialised (the other 2 exist only in bands)") ||
+        strstr(out, "fused group #2"))
         fail_msg("--stats output:\n%s", out);
 
     snprintf(cmd, sizeof cmd, "'%s' render chain.wetgraph -o fz --stats=json -q", bin);
     assert_int_equal(run(cmd, out, sizeof out), 0);
     if (!strstr(out, "\"id\": \"p1\", \"type\": \"levels\"") ||
         !strstr(out, "\"bytes\": 0, \"fused\": 1}") ||
-        !strstr(out, "{\"group\": 2, \"nodes\": 2, ") || !strstr(out, "\"sink\": \"p4\"}"))
+        !strstr(out, "{\"group\": 1, \"nodes\": 4, ") ||
+        !strstr(out, "\"sink\": \"p4\", \"materialised\": 2}"))
         fail_msg("--stats=json output:\n%s", out);
 
     snprintf(cmd, sizeof cmd, "'%s' render chain.wetgraph -o fz --stats --no-fuse -q", bin);
@@ -625,10 +640,9 @@ static void test_the_command_line_lists_and_draws_the_groups(void **state)
 
     snprintf(cmd, sizeof cmd, "'%s' dot --fused chain.wetgraph", bin);
     assert_int_equal(run(cmd, out, sizeof out), 0);
-    const char *c1 = strstr(out, "subgraph cluster_fused_1 {"),
-               *c2 = strstr(out, "subgraph cluster_fused_2 {");
-    if (!c1 || !c2 || !strstr(c1, "\"n:p1\";\n    \"n:p2\";\n  }") ||
-        !strstr(c2, "\"n:p3\";\n    \"n:p4\";\n  }") || strstr(out, "cluster_fused_3"))
+    const char *c1 = strstr(out, "subgraph cluster_fused_1 {");
+    if (!c1 || !strstr(c1, "\"n:p1\";\n    \"n:p2\";\n    \"n:p3\";\n    \"n:p4\";\n  }") ||
+        strstr(out, "cluster_fused_2"))
         fail_msg("dot --fused output:\n%s", out);
     snprintf(cmd, sizeof cmd, "'%s' dot chain.wetgraph", bin);
     assert_int_equal(run(cmd, out, sizeof out), 0);
