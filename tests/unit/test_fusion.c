@@ -572,6 +572,41 @@ static void test_point_pixel_expressions_fuse(void **state)
     }
 }
 
+/* A pixel node in a fused group is compiled once for the render (its check when the plan is
+ * built, then once for all the bands), not once per band: 16 bands of a 64x2048 image here. */
+long wg__px_compiled(void);
+
+static void test_pixel_nodes_compile_once_per_group(void **state)
+{
+    (void)state;
+    static const char *const xml =
+        "<wetgraph version=\"1\" size=\"64x2048\">\n"
+        "  <node id=\"n\" type=\"noise\" scale=\"4\" octaves=\"2\"/>\n"
+        "  <node id=\"a\" type=\"pixel\" expr=\"s * 0.5 + 0.1\"><in name=\"s\" "
+        "from=\"n\"/></node>\n"
+        "  <node id=\"b\" type=\"pixel\" expr=\"1 - s * s\"><in name=\"s\" from=\"a\"/></node>\n"
+        "  <node id=\"c\" type=\"pixel\" kind=\"color\" expr=\"rgb(s, s * s, 1 - s)\">"
+        "<in name=\"s\" from=\"b\"/></node>\n"
+        "  <output name=\"out\" from=\"c\"/>\n"
+        "</wetgraph>\n";
+    WgGraph *g = wgt_load(xml);
+    WgRequest *r = wg_request_new(g);
+    WgResult *ref = render(1, false, r);
+    for (int threads = 1; threads <= 2; threads++) {
+        long before = wg__px_compiled();
+        WgResult *fused = render(threads, true, r);
+        long compiles = wg__px_compiled() - before;
+        assert_true(fused_of(fused, "a") > 0);
+        assert_int_equal(fused_of(fused, "c"), fused_of(fused, "a"));
+        expect_same_outputs(ref, fused);
+        if (compiles > 6) fail_msg("%ld programs compiled for 3 pixel nodes", compiles);
+        wg_result_free(fused);
+    }
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 /* ---- listing the groups ----------------------------------------------------------------- */
 
 static void test_stats_list_the_groups(void **state)
@@ -659,6 +694,7 @@ int main(void)
         cmocka_unit_test(test_a_budget_only_unfused_fits_renders_unfused),
         cmocka_unit_test(test_wide_groups_are_not_fused),
         cmocka_unit_test(test_point_pixel_expressions_fuse),
+        cmocka_unit_test(test_pixel_nodes_compile_once_per_group),
         cmocka_unit_test(test_stats_list_the_groups),
         cmocka_unit_test(test_the_command_line_lists_and_draws_the_groups),
     };
