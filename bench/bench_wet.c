@@ -16,7 +16,8 @@
  * into memory written before (median of 9, after the renders); node time is also given in such
  * copies. The host's CPU model and load average (at the start and the end) are printed first
  * and last, since a loaded machine's figures are not a quiet one's.
- * Usage: bench_wet [--size N] [--threads T] [--reps R] [GRAPH [MATERIAL_DIR]] */
+ * --no-fuse evaluates every node whole (WgEngineOptions.no_fuse), for comparison.
+ * Usage: bench_wet [--size N] [--threads T] [--reps R] [--no-fuse] [GRAPH [MATERIAL_DIR]] */
 #include "benchlib.h"
 
 #include <stdio.h>
@@ -106,9 +107,12 @@ int main(int argc, char **argv)
     const char *prefix = "Bricks102_1K-JPG_";
     char **opts = calloc((size_t)argc + 1, sizeof(char *));
     int n_opts = 0, pos = 0;
+    bool no_fuse = false;
     opts[n_opts++] = argv[0];
     for (int i = 1; i < argc; i++) {
-        if (argv[i][0] == '-') { /* an option and its value */
+        if (!strcmp(argv[i], "--no-fuse")) {
+            no_fuse = true;
+        } else if (argv[i][0] == '-') { /* an option and its value */
             opts[n_opts++] = argv[i];
             if (i + 1 < argc) opts[n_opts++] = argv[++i];
         } else if (pos++ == 0) {
@@ -138,7 +142,7 @@ int main(int argc, char **argv)
     }
     wg_request_set(r, "water_level", "0.65", &err);
     wg_request_set_size(r, a.size, a.size);
-    WgEngineOptions opt = {.threads = a.threads, .no_memory_cache = true};
+    WgEngineOptions opt = {.threads = a.threads, .no_memory_cache = true, .no_fuse = no_fuse};
     WgEngine *e = NULL;
     if (wg_engine_new(&opt, &e, &err)) {
         fprintf(stderr, "bench_wet: %s\n", err.message);
