@@ -35,8 +35,8 @@
  * wide one can hold many intermediates at once (a balanced tree of blends, one per level):
  * beyond this, its nodes run alone. */
 #define FUSE_MAX_SCRATCH ((size_t)4 << 20)
-/* Groups are found with a bit set of every node's ancestors (n^2 bits): plans larger than this
- * are not fused (2 MiB of bits). */
+/* Groups are found with bit sets of every node's ancestors (n^2 bits, three times: 6 MiB at
+ * 4096 nodes): larger plans fuse only trees of single-consumer intermediates. */
 #define FUSE_MAX_PLAN 4096
 
 /* Node kinds that cannot work on a band even if they claim to be point operations. */
@@ -85,30 +85,71 @@ static void set_bit(Bits *s, int i)
     s[i >> 6] |= (Bits)1 << (i & 63);
 }
 
-/* Whether the set `s` (bits of plan indexes) can run as one group: its members read one
- * another only as they are, and no input from outside depends on a member (anc: each node's
- * ancestors, `words` words per node). */
-static bool convex(const WgPlan *p, const Bits *anc, const Bits *s, size_t words)
+/* Whether node j may join the set `s` (bits of plan indexes; j is in it): it reads the
+ * members it reads as they are, and none of its other inputs is or depends on a member
+ * (anc: each node's ancestors, `words` words per node). */
+static bool may_join(const WgPlan *p, const Bits *anc, const Bits *s, size_t words, int j)
+{
+    const WgInst *in = &p->insts[j];
+    for (int k = 0; k < in->n_in; k++) {
+        int x = in->in[k].inst;
+        if (x < 0) continue;
+        if (has_bit(s, x)) {
+            if (!direct_input(p, in, k)) return false;
+            continue;
+        }
+        const Bits *a = anc + (size_t)x * words;
+        for (size_t w = 0; w < words; w++)
+            if (a[w] & s[w]) return false;
+    }
+    return true;
+}
+
+static bool disjoint(const Bits *a, const Bits *b, size_t words)
 {
     for (size_t w = 0; w < words; w++)
-        for (Bits b = s[w]; b; b &= b - 1) {
-            const WgInst *in = &p->insts[(int)(w * 64) + __builtin_ctzll(b)];
-            for (int k = 0; k < in->n_in; k++) {
-                int x = in->in[k].inst;
-                if (x < 0) continue;
-                if (has_bit(s, x)) {
-                    if (!direct_input(p, in, k)) return false;
-                    continue;
-                }
-                const Bits *a = anc + (size_t)x * words;
-                for (size_t v = 0; v < words; v++)
-                    if (a[v] & s[v]) return false;
-            }
-        }
+        if (a[w] & b[w]) return false;
     return true;
 }
 
 static int limit_scratch(const WgPlan *p, int *sink, const bool *whole, int *groups);
+
+/* The groups of plans too large for ancestor sets: chains and trees of point operations whose
+ * intermediates have one consumer, which is in the group, and are not requested; only the sink
+ * is materialised. */
+static int find_trees(const WgPlan *p, const bool *run, const bool *requested, int *sink,
+                      bool *whole)
+{
+    int n = p->n_insts, groups = 0;
+    /* the one node reading node i through direct inputs only; -1 none yet, -2 anything else */
+    int *consumer = wg_calloc((size_t)n + 1, sizeof(int));
+    if (!consumer) return WG_ERR_NOMEM;
+    for (int i = 0; i < n; i++) consumer[i] = -1;
+    for (int j = 0; j < n; j++) {
+        if (!run[j]) continue;
+        const WgInst *in = &p->insts[j];
+        bool capable = wg__fuse_capable(in);
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            if (s < 0) continue;
+            int c = consumer[s];
+            consumer[s] = (c == -1 || c == j) && capable && direct_input(p, in, k) ? j : -2;
+        }
+    }
+    /* consumers come after their inputs in the plan: a consumer's group is known first */
+    for (int i = n - 1; i >= 0; i--) {
+        int j = consumer[i];
+        if (!run[i] || requested[i] || j <= i || !wg__fuse_capable(&p->insts[i])) continue;
+        if (sink[j] < 0) {
+            sink[j] = j;
+            whole[j] = true;
+            groups++;
+        }
+        sink[i] = sink[j];
+    }
+    wg_free(consumer);
+    return groups;
+}
 
 int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink, bool *whole)
 {
@@ -117,17 +158,26 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
         sink[i] = -1;
         whole[i] = false;
     }
-    if (n > FUSE_MAX_PLAN || n < 2) return 0;
+    if (n > FUSE_MAX_PLAN) {
+        groups = find_trees(p, run, requested, sink, whole);
+        if (groups > 0) rc = limit_scratch(p, sink, whole, &groups);
+        for (int i = 0; i < n; i++)
+            if (sink[i] < 0) whole[i] = false;
+        return rc ? rc : groups;
+    }
     size_t words = ((size_t)n + 63) / 64;
-    /* anc: every node's ancestors; set: the members of each group, by its leader (the member
-     * it started from); leader: node i's group, or -1 */
+    /* anc: every node's ancestors; by group (its leader, the member it started from): set, its
+     * members, and ext, the nodes outside it that its members read, with their ancestors (the
+     * group stays convex as long as ext holds no member); leader: node i's group, or -1 */
     Bits *anc = wg_calloc((size_t)n * words + 1, sizeof(Bits));
     Bits *set = wg_calloc((size_t)n * words + 1, sizeof(Bits));
+    Bits *ext = wg_calloc((size_t)n * words + 1, sizeof(Bits));
+    Bits *cur = wg_calloc(words + 1, sizeof(Bits)), *cur_ext = wg_calloc(words + 1, sizeof(Bits));
     Bits *trial = wg_calloc(words + 1, sizeof(Bits));
     int *leader = wg_calloc((size_t)n + 1, sizeof(int)),
         *found = wg_calloc((size_t)n + 1, sizeof(int));
     int *count = wg_calloc((size_t)n + 1, sizeof(int));
-    if (!anc || !set || !trial || !leader || !found || !count) {
+    if (!anc || !set || !ext || !cur || !cur_ext || !trial || !leader || !found || !count) {
         rc = WG_ERR_NOMEM;
         goto out;
     }
@@ -147,6 +197,7 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
         leader[j] = j;
         count[j] = 1;
         set_bit(set + (size_t)j * words, j);
+        memcpy(ext + (size_t)j * words, aj, words * sizeof(Bits)); /* alone: its ancestors */
         int n_found = 0;
         for (int k = 0; k < in->n_in; k++) {
             int s = in->in[k].inst;
@@ -156,20 +207,28 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
             if (!seen) found[n_found++] = leader[s];
         }
         if (n_found == 0) continue;
-        /* the largest groups first, each taken if the union stays convex */
+        /* the largest groups first, each taken if the union stays convex: no group's outside
+         * reads (ext) hold a member of the others, and j reads none of them through a path
+         * that leaves the union. A group that reads another one directly but could not join it
+         * is not merged with it here either: a missed fusion, never a wrong one. */
         for (int q = 1; q < n_found; q++)
             for (int r = q; r > 0 && count[found[r]] > count[found[r - 1]]; r--) {
                 int t = found[r];
                 found[r] = found[r - 1];
                 found[r - 1] = t;
             }
-        Bits *sj = set + (size_t)j * words;
+        memset(cur, 0, words * sizeof(Bits));
+        memset(cur_ext, 0, words * sizeof(Bits));
+        set_bit(cur, j);
         int to = -1;
         for (int q = 0; q < n_found; q++) {
-            const Bits *sq = set + (size_t)found[q] * words;
-            for (size_t w = 0; w < words; w++) trial[w] = sj[w] | sq[w];
-            if (!convex(p, anc, trial, words)) continue;
-            memcpy(sj, trial, words * sizeof(Bits));
+            const Bits *sq = set + (size_t)found[q] * words, *eq = ext + (size_t)found[q] * words;
+            for (size_t w = 0; w < words; w++) trial[w] = cur[w] | sq[w];
+            if (!disjoint(eq, trial, words) || !disjoint(cur_ext, sq, words) ||
+                !may_join(p, anc, trial, words, j))
+                continue;
+            memcpy(cur, trial, words * sizeof(Bits));
+            for (size_t w = 0; w < words; w++) cur_ext[w] |= eq[w];
             if (to < 0) to = found[q];
             if (found[q] != to) {
                 memset(set + (size_t)found[q] * words, 0, words * sizeof(Bits));
@@ -178,13 +237,20 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
             }
         }
         if (to < 0) continue;
-        memcpy(set + (size_t)to * words, sj, words * sizeof(Bits));
-        memset(sj, 0, words * sizeof(Bits));
+        /* j's own outside reads join the group's */
+        for (int k = 0; k < in->n_in; k++) {
+            int x = in->in[k].inst;
+            if (x < 0 || has_bit(cur, x)) continue;
+            set_bit(cur_ext, x);
+            for (size_t w = 0; w < words; w++) cur_ext[w] |= anc[(size_t)x * words + w];
+        }
+        memcpy(set + (size_t)to * words, cur, words * sizeof(Bits));
+        memcpy(ext + (size_t)to * words, cur_ext, words * sizeof(Bits));
+        memset(set + (size_t)j * words, 0, words * sizeof(Bits));
         count[to]++;
         count[j] = 0;
         for (size_t w = 0; w < words; w++)
-            for (Bits b = set[(size_t)to * words + w]; b; b &= b - 1)
-                leader[(int)(w * 64) + __builtin_ctzll(b)] = to;
+            for (Bits b = cur[w]; b; b &= b - 1) leader[(int)(w * 64) + __builtin_ctzll(b)] = to;
     }
     /* What is materialised: requested results and those read outside their group. A constant
      * node (uniform) materialised would have its one row written by every band at once: it
@@ -223,6 +289,9 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
 out:
     wg_free(anc);
     wg_free(set);
+    wg_free(ext);
+    wg_free(cur);
+    wg_free(cur_ext);
     wg_free(trial);
     wg_free(leader);
     wg_free(found);

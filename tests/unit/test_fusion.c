@@ -607,6 +607,78 @@ static void test_pixel_nodes_compile_once_per_group(void **state)
     wg_graph_free(g);
 }
 
+/* No group holds a path that leaves it and comes back: a feeds a blur that c reads, so a and c
+ * are in different groups even though c reads a as it is; d and e, which read a directly and
+ * nothing from outside that depends on it, join a's group; f reads c and e, and joins c's group
+ * (a's would take c's path through the blur in). A plan of more than 4096 nodes (a chain of
+ * 5000 inverts and levels) still fuses its chain. */
+static void test_groups_hold_no_path_that_leaves_them(void **state)
+{
+    (void)state;
+    static const char *const xml =
+        "<wetgraph version=\"1\" size=\"80x97\">\n"
+        "  <input name=\"h\" type=\"gray\"/>\n"
+        "  <node id=\"a\" type=\"pixel\" expr=\"s * 0.8 + 0.1\"><in name=\"s\" "
+        "from=\"$h\"/></node>\n"
+        "  <node id=\"b\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"a\"/></node>\n"
+        "  <node id=\"c\" type=\"pixel\" expr=\"s - t\"><in name=\"s\" from=\"a\"/>"
+        "<in name=\"t\" from=\"b\"/></node>\n"
+        "  <node id=\"d\" type=\"invert\"><in name=\"source\" from=\"a\"/></node>\n"
+        "  <node id=\"e\" type=\"pixel\" expr=\"s * s\"><in name=\"s\" from=\"d\"/></node>\n"
+        "  <node id=\"f\" type=\"pixel\" expr=\"s + t\"><in name=\"s\" from=\"c\"/>"
+        "<in name=\"t\" from=\"e\"/></node>\n"
+        "  <output name=\"f\" from=\"f\"/>\n"
+        "</wetgraph>\n";
+    WgGraph *g = wgt_load(xml);
+    WgRequest *r = wg_request_new(g);
+    WgImage *h = wgt_image_fn(80, 97, 1, h_fn);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "h", h, &err), WG_OK);
+    wg_image_unref(h);
+    WgResult *ref = render(1, false, r);
+    for (int threads = 1; threads <= 3; threads++) {
+        WgResult *fused = render(threads, true, r);
+        expect_same_outputs(ref, fused);
+        int ga = fused_of(fused, "a"), gc = fused_of(fused, "c");
+        assert_true(ga > 0 && gc > 0 && ga != gc);
+        assert_int_equal(fused_of(fused, "d"), ga);
+        assert_int_equal(fused_of(fused, "e"), ga);
+        assert_int_equal(fused_of(fused, "f"), gc);
+        assert_int_equal(fused_of(fused, "b"), 0);
+        assert_int_equal(wgt_stat(fused, "a")->bytes, wg_image_bytes_for(80, 97, 1)); /* blur */
+        assert_int_equal(wgt_stat(fused, "d")->bytes, 0);
+        wg_result_free(fused);
+    }
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+
+    enum { N = 5000 };
+    size_t cap = (size_t)N * 120 + 256, at = 0;
+    char *big = malloc(cap);
+    at += (size_t)snprintf(big + at, cap - at,
+                           "<wetgraph version=\"1\" size=\"16x16\">\n"
+                           "  <node id=\"n0\" type=\"noise\" scale=\"2\"/>\n");
+    for (int i = 1; i < N; i++)
+        at += (size_t)snprintf(big + at, cap - at,
+                               "  <node id=\"n%d\" type=\"%s\"><in name=\"source\" "
+                               "from=\"n%d\"/></node>\n",
+                               i, i % 2 ? "invert" : "levels", i - 1);
+    snprintf(big + at, cap - at, "  <output name=\"out\" from=\"n%d\"/>\n</wetgraph>\n", N - 1);
+    g = wgt_load(big);
+    free(big);
+    r = wg_request_new(g);
+    ref = render(1, false, r);
+    WgResult *fused = render(2, true, r);
+    expect_same_outputs(ref, fused);
+    assert_int_equal(fused_of(fused, "n1"), 1);
+    assert_int_equal(fused_of(fused, "n4999"), 1);
+    wg_result_free(fused);
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 /* ---- listing the groups ----------------------------------------------------------------- */
 
 static void test_stats_list_the_groups(void **state)
@@ -695,6 +767,7 @@ int main(void)
         cmocka_unit_test(test_wide_groups_are_not_fused),
         cmocka_unit_test(test_point_pixel_expressions_fuse),
         cmocka_unit_test(test_pixel_nodes_compile_once_per_group),
+        cmocka_unit_test(test_groups_hold_no_path_that_leaves_them),
         cmocka_unit_test(test_stats_list_the_groups),
         cmocka_unit_test(test_the_command_line_lists_and_draws_the_groups),
     };
