@@ -1136,6 +1136,44 @@ static void test_wet_material_fused_identical(void **state)
     wg_graph_free(g);
 }
 
+/* A warm render, where the result cache holds the masks and only the texturing nodes that read
+ * a changed parameter run (fused in smaller groups, reading cached masks as inputs), equals a
+ * cold unfused render of the changed request, for 1 and 2 threads. */
+static void test_wet_material_fused_warm_equals_cold(void **state)
+{
+    (void)state;
+    static const char *const before[] = {"water_level", "0.55", "sat_wet", "0.5", NULL};
+    static const char *const after[] = {"water_level", "0.55", "sat_wet", "0.5",
+                                        "dark_wet",    "0.7",  NULL};
+    WgGraph *g = load_builtin("wet_material");
+    Material m = material(203, 157);
+    WgRequest *r0 = wet_request(g, &m, before), *r1 = wet_request(g, &m, after);
+    WgResult *ref = render_with(r1, 1, false, false);
+    for (int threads = 1; threads <= 2; threads++) {
+        WgEngineOptions opt = {.threads = threads};
+        WgEngine *e = NULL;
+        WgError err = {0};
+        if (wg_engine_new(&opt, &e, &err)) fail_msg("engine: %s", err.message);
+        WgResult *cold = wgt_render_request(e, r0);
+        WgResult *warm = wgt_render_request(e, r1);
+        assert_true(wg_result_evaluated_count(warm) > 0);
+        assert_true(wg_result_evaluated_count(warm) < wg_result_evaluated_count(cold));
+        assert_int_equal(wgt_stat(warm, "masks/wet")->cache, WG_HIT_MEMORY);
+        assert_int_equal(wgt_stat(warm, "tex/under")->cache, WG_COMPUTED);
+        assert_true(wgt_stat(warm, "tex/under")->fused > 0);
+        for (int k = 0; k < wg_result_output_count(ref); k++)
+            wgt_assert_identical(wg_result_output_image(warm, k), wg_result_output_image(ref, k));
+        wg_result_free(cold);
+        wg_result_free(warm);
+        wg_engine_free(e);
+    }
+    wg_result_free(ref);
+    wg_request_free(r0);
+    wg_request_free(r1);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1156,6 +1194,7 @@ int main(void)
         cmocka_unit_test(test_preview_clear_water_neutral),
         cmocka_unit_test(test_preview_gold_under_water),
         cmocka_unit_test(test_wet_material_fused_identical),
+        cmocka_unit_test(test_wet_material_fused_warm_equals_cold),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
