@@ -252,6 +252,35 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
         for (size_t w = 0; w < words; w++)
             for (Bits b = cur[w]; b; b &= b - 1) leader[(int)(w * 64) + __builtin_ctzll(b)] = to;
     }
+    /* A group runs as one job at its sink's place (its last member in plan order), and the
+     * scheduler's memory estimate walks the plan in that order: a node outside a group that reads
+     * a member must come after the group's sink. Where one comes before, the group is cut
+     * there and the members after it form a group of their own; both parts stay convex, since
+     * a path between two members of one part only passes through nodes between them in plan
+     * order, none of them in the other part. */
+    int *last = found; /* each group's last member in plan order */
+    for (bool cut = true; cut;) {
+        cut = false;
+        for (int i = 0; i < n; i++) last[i] = -1;
+        for (int i = 0; i < n; i++)
+            if (leader[i] >= 0) last[leader[i]] = i;
+        for (int c = 0; c < n && !cut; c++) {
+            const WgInst *in = &p->insts[c];
+            for (int k = 0; run[c] && k < in->n_in && !cut; k++) {
+                int x = in->in[k].inst, l = x < 0 ? -1 : leader[x];
+                if (l < 0 || l == leader[c] || last[l] < c) continue;
+                int head = -1, tail = -1;
+                for (int i = 0; i < n; i++)
+                    if (leader[i] == l) {
+                        if (i < c && head < 0) head = i;
+                        if (i > c && tail < 0) tail = i;
+                    }
+                for (int i = 0; i < n; i++)
+                    if (leader[i] == l) leader[i] = i < c ? head : tail;
+                cut = true;
+            }
+        }
+    }
     /* What is materialised: requested results and those read outside their group. A constant
      * node (uniform) materialised would have its one row written by every band at once: it
      * runs alone instead (it has no inputs, so the group stays convex). */
@@ -271,8 +300,7 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
     memset(count, 0, sizeof(int) * (size_t)n);
     for (int i = 0; i < n; i++)
         if (leader[i] >= 0) count[leader[i]]++;
-    int *last = found; /* each group's sink: its last member in plan order */
-    for (int i = 0; i < n; i++) last[i] = -1;
+    for (int i = 0; i < n; i++) last[i] = -1; /* now each group's sink */
     for (int i = n - 1; i >= 0; i--) {
         int l = leader[i];
         if (l < 0 || count[l] < 2) continue;
