@@ -568,8 +568,8 @@ static size_t convert_bytes(int sw, int sh, int sc, int w, int h, int c)
     return sc == c ? b : b + wg_image_bytes_for(w, h, c);
 }
 
-/* What eval_node holds while the node runs, beside its inputs. */
-static size_t inst_need(const WgPlan *p, const WgInst *in)
+/* What eval_node holds while the node runs, beside its inputs (fuse.c weighs groups by it). */
+size_t wg__inst_need(const WgPlan *p, const WgInst *in)
 {
     const WgNodeType *t = in->type;
     size_t need = inst_bytes(in);
@@ -690,11 +690,11 @@ static size_t job_need(Run *run, int i)
 {
     const WgPlan *p = run->plan;
     Node *n = &run->nodes[i];
-    if (!n->n_members) return inst_need(p, &p->insts[i]);
+    if (!n->n_members) return wg__inst_need(p, &p->insts[i]);
     size_t need = 0;
     for (int k = 0; k < n->n_members; k++) {
         const WgInst *m = &p->insts[n->members[k]];
-        need += inst_need(p, m) - (run->nodes[n->members[k]].whole ? 0 : inst_bytes(m));
+        need += wg__inst_need(p, m) - (run->nodes[n->members[k]].whole ? 0 : inst_bytes(m));
     }
     return need;
 }

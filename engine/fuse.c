@@ -151,6 +151,113 @@ static int find_trees(const WgPlan *p, const bool *run, const bool *requested, i
     return groups;
 }
 
+/* Bytes of node i's outputs (one row for a uniform node's). */
+static size_t out_bytes(const WgInst *in)
+{
+    size_t b = 0;
+    int rows = in->type->flags & WG_NODE_UNIFORM ? 1 : in->height;
+    for (int o = 0; o < in->n_out; o++)
+        b += wg_image_bytes_for(in->width, rows, in->out_channels[o]);
+    return b;
+}
+
+/* The peak memory of a sequential run in plan order as the scheduler estimates it (eval.c,
+ * plan_work): each job (a node, or a group at its sink's place) needs what its nodes hold while
+ * they run (wg__inst_need, without the results that exist only in bands) on top of the results
+ * alive; then it keeps its materialised results and releases the inputs it read last. sink NULL:
+ * nothing fused. first and next: n ints each. */
+static size_t seq_peak(const WgPlan *p, const bool *run, const bool *requested, const int *sink,
+                       const bool *whole, int *first, int *next)
+{
+    int n = p->n_insts;
+    size_t live = 0, peak = 0;
+    /* members of each group in plan order, as linked lists from their sink */
+    for (int i = 0; i < n; i++) first[i] = -1;
+    for (int i = n - 1; i >= 0 && sink; i--)
+        if (sink[i] >= 0) {
+            next[i] = first[sink[i]];
+            first[sink[i]] = i;
+        }
+    int *readers = wg_calloc((size_t)n + 1, sizeof(int)); /* the readers each node has left */
+    if (!readers) return (size_t)-1;                      /* taken as higher: nothing fuses */
+    for (int j = 0; j < n; j++) {
+        const WgInst *in = &p->insts[j];
+        for (int k = 0; run[j] && k < in->n_in; k++)
+            if (in->in[k].inst >= 0) readers[in->in[k].inst]++;
+    }
+    for (int i = 0; i < n; i++) {
+        if (!run[i] || (sink && sink[i] >= 0 && sink[i] != i)) continue;
+        bool group = sink && sink[i] == i;
+        size_t need = 0, kept = 0;
+        for (int m = group ? first[i] : i; m >= 0; m = group ? next[m] : -1) {
+            size_t own = out_bytes(&p->insts[m]);
+            bool held = !group || whole[m];
+            need += wg__inst_need(p, &p->insts[m]) - (held ? 0 : own);
+            kept += held ? own : 0;
+        }
+        if (live + need > peak) peak = live + need;
+        live += kept;
+        for (int m = group ? first[i] : i; m >= 0; m = group ? next[m] : -1) {
+            const WgInst *in = &p->insts[m];
+            for (int k = 0; k < in->n_in; k++) {
+                int x = in->in[k].inst;
+                if (x < 0 || !run[x] || --readers[x] > 0 || requested[x]) continue;
+                if (!(sink && sink[x] >= 0 && !whole[x])) live -= out_bytes(&p->insts[x]);
+            }
+        }
+        for (int m = group ? first[i] : i; m >= 0; m = group ? next[m] : -1)
+            if (readers[m] == 0 && !requested[m] && (!group || whole[m]))
+                live -= out_bytes(&p->insts[m]);
+    }
+    wg_free(readers);
+    return peak;
+}
+
+/* From the groups in leader[] (-1: alone): what is materialised (requested results and those
+ * read outside their group), and each group's sink (its last member, materialised too), in
+ * sink[] and whole[]. A constant node (uniform) materialised would have its one row written by
+ * every band at once: it leaves its group instead (it has no inputs, so the group stays
+ * convex). Returns the number of groups of two or more. */
+static int settle(const WgPlan *p, const bool *run, const bool *requested, int *leader, int *sink,
+                  bool *whole, int *last, int *count)
+{
+    int n = p->n_insts, groups = 0;
+    for (int i = 0; i < n; i++) {
+        whole[i] = false;
+        sink[i] = -1;
+    }
+    for (int j = 0; j < n; j++) {
+        if (!run[j]) continue;
+        const WgInst *in = &p->insts[j];
+        for (int k = 0; k < in->n_in; k++) {
+            int s = in->in[k].inst;
+            if (s >= 0 && leader[s] >= 0 && leader[s] != leader[j]) whole[s] = true;
+        }
+    }
+    for (int i = 0; i < n; i++) {
+        if (leader[i] < 0) continue;
+        if (requested[i]) whole[i] = true;
+        if (whole[i] && (p->insts[i].type->flags & WG_NODE_UNIFORM)) leader[i] = -1;
+    }
+    memset(count, 0, sizeof(int) * (size_t)n);
+    for (int i = 0; i < n; i++)
+        if (leader[i] >= 0) count[leader[i]]++;
+    for (int i = 0; i < n; i++) last[i] = -1;
+    for (int i = n - 1; i >= 0; i--) {
+        int l = leader[i];
+        if (l < 0 || count[l] < 2) continue;
+        if (last[l] < 0) {
+            last[l] = i;
+            whole[i] = true;
+            groups++;
+        }
+        sink[i] = last[l];
+    }
+    for (int i = 0; i < n; i++)
+        if (sink[i] < 0) whole[i] = false;
+    return groups;
+}
+
 int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink, bool *whole)
 {
     int n = p->n_insts, groups = 0, rc = WG_OK;
@@ -177,7 +284,11 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
     int *leader = wg_calloc((size_t)n + 1, sizeof(int)),
         *found = wg_calloc((size_t)n + 1, sizeof(int));
     int *count = wg_calloc((size_t)n + 1, sizeof(int));
-    if (!anc || !set || !ext || !cur || !cur_ext || !trial || !leader || !found || !count) {
+    int *trial_leader = wg_calloc((size_t)n + 1, sizeof(int)),
+        *trial_sink = wg_calloc((size_t)n + 1, sizeof(int));
+    bool *trial_whole = wg_calloc((size_t)n + 1, sizeof(bool));
+    if (!anc || !set || !ext || !cur || !cur_ext || !trial || !leader || !found || !count ||
+        !trial_leader || !trial_sink || !trial_whole) {
         rc = WG_ERR_NOMEM;
         goto out;
     }
@@ -281,35 +392,50 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
             }
         }
     }
-    /* What is materialised: requested results and those read outside their group. A constant
-     * node (uniform) materialised would have its one row written by every band at once: it
-     * runs alone instead (it has no inputs, so the group stays convex). */
-    for (int j = 0; j < n; j++) {
-        if (!run[j]) continue;
-        const WgInst *in = &p->insts[j];
-        for (int k = 0; k < in->n_in; k++) {
-            int s = in->in[k].inst;
-            if (s >= 0 && leader[s] >= 0 && leader[s] != leader[j]) whole[s] = true;
+    /* A group holds its inputs from outside and all its materialised results from its start to
+     * its end, where running its members one by one would release some inputs and allocate some
+     * results in between: fusing can raise the render's peak memory. While the sequential peak
+     * (as the scheduler estimates it) is higher fused than unfused, the largest group is cut in
+     * two at its middle member in plan order (both halves stay convex, as above). */
+    size_t unfused = seq_peak(p, run, requested, NULL, NULL, found, count);
+    groups = settle(p, run, requested, leader, sink, whole, found, count);
+    size_t fused = groups > 0 ? seq_peak(p, run, requested, sink, whole, found, count) : 0;
+    while (groups > 0 && fused > unfused) {
+        /* the cut of a group into two runs in plan order that lowers the peak most */
+        int best_sink = -1, best_at = -1;
+        size_t best = (size_t)-1;
+        for (int g = 0; g < n; g++) {
+            if (sink[g] != g) continue;
+            int members = 0, seen = 0;
+            for (int i = 0; i <= g; i++) members += sink[i] == g;
+            int step = members > 32 ? members / 32 : 1; /* at most about 32 cuts tried */
+            for (int at = 0; at <= g; at++) { /* members before `at` form the first part */
+                if (sink[at] != g || seen++ % step) continue;
+                int first_member = -1;
+                for (int i = 0; i < at && first_member < 0; i++)
+                    if (sink[i] == g) first_member = i;
+                if (first_member < 0) continue;
+                memcpy(trial_leader, leader, sizeof(int) * (size_t)n);
+                for (int i = 0; i < n; i++)
+                    if (sink[i] == g) trial_leader[i] = i < at ? first_member : at;
+                memcpy(trial_sink, sink, sizeof(int) * (size_t)n);
+                settle(p, run, requested, trial_leader, trial_sink, trial_whole, found, count);
+                size_t peak = seq_peak(p, run, requested, trial_sink, trial_whole, found, count);
+                if (peak < best) {
+                    best = peak;
+                    best_sink = g;
+                    best_at = at;
+                }
+            }
         }
-    }
-    for (int i = 0; i < n; i++) {
-        if (leader[i] < 0) continue;
-        if (requested[i]) whole[i] = true;
-        if (whole[i] && (p->insts[i].type->flags & WG_NODE_UNIFORM)) leader[i] = -1;
-    }
-    memset(count, 0, sizeof(int) * (size_t)n);
-    for (int i = 0; i < n; i++)
-        if (leader[i] >= 0) count[leader[i]]++;
-    for (int i = 0; i < n; i++) last[i] = -1; /* now each group's sink */
-    for (int i = n - 1; i >= 0; i--) {
-        int l = leader[i];
-        if (l < 0 || count[l] < 2) continue;
-        if (last[l] < 0) {
-            last[l] = i;
-            whole[i] = true;
-            groups++;
-        }
-        sink[i] = last[l];
+        if (best_sink < 0) break;
+        int first_member = -1;
+        for (int i = 0; i < best_at && first_member < 0; i++)
+            if (sink[i] == best_sink) first_member = i;
+        for (int i = 0; i < n; i++)
+            if (sink[i] == best_sink) leader[i] = i < best_at ? first_member : best_at;
+        groups = settle(p, run, requested, leader, sink, whole, found, count);
+        fused = groups > 0 ? seq_peak(p, run, requested, sink, whole, found, count) : 0;
     }
     if (groups > 0) rc = limit_scratch(p, sink, whole, &groups);
     for (int i = 0; i < n; i++)
@@ -324,6 +450,9 @@ out:
     wg_free(leader);
     wg_free(found);
     wg_free(count);
+    wg_free(trial_leader);
+    wg_free(trial_sink);
+    wg_free(trial_whole);
     return rc ? rc : groups;
 }
 

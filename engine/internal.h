@@ -337,6 +337,9 @@ bool wg__fuse_capable(const WgInst *in);
  * materialised (requested, read outside its group, or the sink), the other members exist only
  * in bands. Returns the number of groups, or WG_ERR_NOMEM. */
 int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink, bool *whole);
+/* What a node holds while it runs, beside its inputs: its outputs, the inputs converted for it
+ * and its working memory (eval.c; the scheduler's memory estimate counts it). */
+size_t wg__inst_need(const WgPlan *p, const WgInst *in);
 /* The image a group reads from node `inst`'s output `port` (outside the group). */
 typedef const WgImage *(*WgFuseSourceFn)(void *user, int inst, int port);
 /* Evaluate a group (members: plan indexes, ascending, the sink last) band by band. out[k] is

@@ -1090,7 +1090,8 @@ static WgResult *render_with(const WgRequest *r, int threads, bool fuse, bool ke
 }
 
 /* The wet material's point work runs fused (its masks and maps in groups, materialised where
- * they are outputs or read by a blur or distance, the rest in bands), with every output
+ * they are outputs or read by a blur or distance, the rest in bands, the groups no larger than
+ * keeps the peak memory at the unfused one), with every output
  * bit-identical to the unfused render for 1, 2 and 3 threads, on a fresh engine and on one whose
  * buffers are reused; at two sizes whose last band is partial, for clear water and for a tinted,
  * scattering liquid with the artistic saturation (the pow and exp paths). No group holds
@@ -1118,15 +1119,16 @@ static void test_wet_material_fused_identical(void **state)
                 int in_group = 0;
                 for (int i = 0; i < wg_result_stat_count(fused); i++)
                     in_group += wg_result_stat(fused, i)->fused > 0;
-                assert_true(in_group >= 14);
+                if (in_group < 12) fail_msg("%d nodes fused", in_group);
                 int group = wgt_stat(fused, "masks/wet")->fused;
                 assert_true(group > 0);
-                static const char *const with_wet[] = {"masks/moist", "masks/puddles",
-                                                       "masks/zones", "tex/under",
-                                                       "tex/albedo",  "tex/rough"};
-                for (size_t k = 0; k < sizeof with_wet / sizeof *with_wet; k++)
-                    assert_int_equal(wgt_stat(fused, with_wet[k])->fused, group);
+                static const char *const fused_too[] = {"masks/moist", "masks/puddles", "tex/under",
+                                                        "tex/albedo", "tex/rough"};
+                for (size_t k = 0; k < sizeof fused_too / sizeof *fused_too; k++)
+                    assert_true(wgt_stat(fused, fused_too[k])->fused > 0);
                 assert_true(wgt_stat(fused, "masks/immersed")->fused != group);
+                if (threads == 1) /* in plan order, as estimated: never above unfused */
+                    assert_true(wg_result_peak_bytes(fused) <= wg_result_peak_bytes(ref));
                 wg_result_free(fused);
             }
             wg_result_free(ref);
@@ -1137,8 +1139,8 @@ static void test_wet_material_fused_identical(void **state)
 }
 
 /* A warm render, where the result cache holds the masks and only the texturing nodes that read
- * a changed parameter run (fused in smaller groups, reading cached masks as inputs), equals a
- * cold unfused render of the changed request, for 1 and 2 threads. */
+ * a changed parameter run (grouped anew, reading cached masks as inputs), equals a cold unfused
+ * render of the changed request, for 1 and 2 threads. */
 static void test_wet_material_fused_warm_equals_cold(void **state)
 {
     (void)state;
@@ -1160,7 +1162,6 @@ static void test_wet_material_fused_warm_equals_cold(void **state)
         assert_true(wg_result_evaluated_count(warm) < wg_result_evaluated_count(cold));
         assert_int_equal(wgt_stat(warm, "masks/wet")->cache, WG_HIT_MEMORY);
         assert_int_equal(wgt_stat(warm, "tex/under")->cache, WG_COMPUTED);
-        assert_true(wgt_stat(warm, "tex/under")->fused > 0);
         for (int k = 0; k < wg_result_output_count(ref); k++)
             wgt_assert_identical(wg_result_output_image(warm, k), wg_result_output_image(ref, k));
         wg_result_free(cold);
