@@ -165,9 +165,10 @@ static size_t out_bytes(const WgInst *in)
  * plan_work): each job (a node, or a group at its sink's place) needs what its nodes hold while
  * they run (wg__inst_need, without the results that exist only in bands) on top of the results
  * alive; then it keeps its materialised results and releases the inputs it read last. sink NULL:
- * nothing fused. first and next: n ints each. */
+ * nothing fused. need_of and bytes: each node's need and outputs; first and next: n ints. */
 static size_t seq_peak(const WgPlan *p, const bool *run, const bool *requested, const int *sink,
-                       const bool *whole, int *first, int *next)
+                       const bool *whole, const size_t *need_of, const size_t *bytes, int *first,
+                       int *next)
 {
     int n = p->n_insts;
     size_t live = 0, peak = 0;
@@ -190,9 +191,9 @@ static size_t seq_peak(const WgPlan *p, const bool *run, const bool *requested, 
         bool group = sink && sink[i] == i;
         size_t need = 0, kept = 0;
         for (int m = group ? first[i] : i; m >= 0; m = group ? next[m] : -1) {
-            size_t own = out_bytes(&p->insts[m]);
+            size_t own = bytes[m];
             bool held = !group || whole[m];
-            need += wg__inst_need(p, &p->insts[m]) - (held ? 0 : own);
+            need += need_of[m] - (held ? 0 : own);
             kept += held ? own : 0;
         }
         if (live + need > peak) peak = live + need;
@@ -202,12 +203,11 @@ static size_t seq_peak(const WgPlan *p, const bool *run, const bool *requested, 
             for (int k = 0; k < in->n_in; k++) {
                 int x = in->in[k].inst;
                 if (x < 0 || !run[x] || --readers[x] > 0 || requested[x]) continue;
-                if (!(sink && sink[x] >= 0 && !whole[x])) live -= out_bytes(&p->insts[x]);
+                if (!(sink && sink[x] >= 0 && !whole[x])) live -= bytes[x];
             }
         }
         for (int m = group ? first[i] : i; m >= 0; m = group ? next[m] : -1)
-            if (readers[m] == 0 && !requested[m] && (!group || whole[m]))
-                live -= out_bytes(&p->insts[m]);
+            if (readers[m] == 0 && !requested[m] && (!group || whole[m])) live -= bytes[m];
     }
     wg_free(readers);
     return peak;
@@ -287,8 +287,10 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
     int *trial_leader = wg_calloc((size_t)n + 1, sizeof(int)),
         *trial_sink = wg_calloc((size_t)n + 1, sizeof(int));
     bool *trial_whole = wg_calloc((size_t)n + 1, sizeof(bool));
+    size_t *need_of = wg_calloc((size_t)n + 1, sizeof(size_t)),
+           *bytes = wg_calloc((size_t)n + 1, sizeof(size_t));
     if (!anc || !set || !ext || !cur || !cur_ext || !trial || !leader || !found || !count ||
-        !trial_leader || !trial_sink || !trial_whole) {
+        !trial_leader || !trial_sink || !trial_whole || !need_of || !bytes) {
         rc = WG_ERR_NOMEM;
         goto out;
     }
@@ -395,32 +397,45 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
     /* A group holds its inputs from outside and all its materialised results from its start to
      * its end, where running its members one by one would release some inputs and allocate some
      * results in between: fusing can raise the render's peak memory. While the sequential peak
-     * (as the scheduler estimates it) is higher fused than unfused, the largest group is cut in
-     * two at its middle member in plan order (both halves stay convex, as above). */
-    size_t unfused = seq_peak(p, run, requested, NULL, NULL, found, count);
+     * (as the scheduler estimates it) is higher fused than unfused, the group whose cut into two
+     * runs in plan order lowers it most is cut (both parts stay convex, as above). At most
+     * about 128 cuts are weighed per round and 32 rounds made; past them nothing is fused. */
+    for (int i = 0; i < n; i++)
+        if (run[i]) {
+            need_of[i] = wg__inst_need(p, &p->insts[i]);
+            bytes[i] = out_bytes(&p->insts[i]);
+        }
+    size_t unfused = seq_peak(p, run, requested, NULL, NULL, need_of, bytes, found, count);
     groups = settle(p, run, requested, leader, sink, whole, found, count);
-    size_t fused = groups > 0 ? seq_peak(p, run, requested, sink, whole, found, count) : 0;
-    while (groups > 0 && fused > unfused) {
-        /* the cut of a group into two runs in plan order that lowers the peak most */
+    for (int round = 0; groups > 0; round++) {
+        if (seq_peak(p, run, requested, sink, whole, need_of, bytes, found, count) <= unfused)
+            break;
+        if (round == 32) {
+            for (int i = 0; i < n; i++) leader[i] = -1;
+            groups = settle(p, run, requested, leader, sink, whole, found, count);
+            break;
+        }
+        int fused_nodes = 0;
+        for (int i = 0; i < n; i++) fused_nodes += sink[i] >= 0;
+        int step = fused_nodes > 128 ? (fused_nodes + 127) / 128 : 1, seen = 0;
         int best_sink = -1, best_at = -1;
         size_t best = (size_t)-1;
         for (int g = 0; g < n; g++) {
             if (sink[g] != g) continue;
-            int members = 0, seen = 0;
-            for (int i = 0; i <= g; i++) members += sink[i] == g;
-            int step = members > 32 ? members / 32 : 1; /* at most about 32 cuts tried */
+            int first_member = -1;
             for (int at = 0; at <= g; at++) { /* members before `at` form the first part */
-                if (sink[at] != g || seen++ % step) continue;
-                int first_member = -1;
-                for (int i = 0; i < at && first_member < 0; i++)
-                    if (sink[i] == g) first_member = i;
-                if (first_member < 0) continue;
+                if (sink[at] != g) continue;
+                if (first_member < 0) {
+                    first_member = at;
+                    continue;
+                }
+                if (seen++ % step) continue;
                 memcpy(trial_leader, leader, sizeof(int) * (size_t)n);
-                for (int i = 0; i < n; i++)
+                for (int i = first_member; i <= g; i++)
                     if (sink[i] == g) trial_leader[i] = i < at ? first_member : at;
-                memcpy(trial_sink, sink, sizeof(int) * (size_t)n);
                 settle(p, run, requested, trial_leader, trial_sink, trial_whole, found, count);
-                size_t peak = seq_peak(p, run, requested, trial_sink, trial_whole, found, count);
+                size_t peak = seq_peak(p, run, requested, trial_sink, trial_whole, need_of, bytes,
+                                       found, count);
                 if (peak < best) {
                     best = peak;
                     best_sink = g;
@@ -430,12 +445,12 @@ int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *
         }
         if (best_sink < 0) break;
         int first_member = -1;
-        for (int i = 0; i < best_at && first_member < 0; i++)
-            if (sink[i] == best_sink) first_member = i;
-        for (int i = 0; i < n; i++)
-            if (sink[i] == best_sink) leader[i] = i < best_at ? first_member : best_at;
+        for (int i = 0; i <= best_sink; i++)
+            if (sink[i] == best_sink) {
+                if (first_member < 0) first_member = i;
+                leader[i] = i < best_at ? first_member : best_at;
+            }
         groups = settle(p, run, requested, leader, sink, whole, found, count);
-        fused = groups > 0 ? seq_peak(p, run, requested, sink, whole, found, count) : 0;
     }
     if (groups > 0) rc = limit_scratch(p, sink, whole, &groups);
     for (int i = 0; i < n; i++)
@@ -453,6 +468,8 @@ out:
     wg_free(trial_leader);
     wg_free(trial_sink);
     wg_free(trial_whole);
+    wg_free(need_of);
+    wg_free(bytes);
     return rc ? rc : groups;
 }
 
