@@ -12,13 +12,19 @@
  * read the input files, as `wetgraph render --stats` reports it. The difference between the two
  * rows is what first touching new memory cost that render; the minor page faults of each render
  * are printed with it. Then one line per node: its first and pooled time, slowest first.
- * Usage: bench_wet [--size N] [--threads T] [--reps R] [GRAPH [MATERIAL_DIR]] */
+ * The yardstick, timed in the same run: one memcpy of a gray float plane of the render's size
+ * into memory written before (median of 9, after the renders); node time is also given in such
+ * copies. The host's CPU model and load average (at the start and the end) are printed first
+ * and last, since a loaded machine's figures are not a quiet one's.
+ * --no-fuse evaluates every node whole (WgEngineOptions.no_fuse), for comparison.
+ * Usage: bench_wet [--size N] [--threads T] [--reps R] [--no-fuse] [GRAPH [MATERIAL_DIR]] */
 #include "benchlib.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 static long minor_faults(void)
 {
@@ -68,6 +74,26 @@ static int render_once(WgEngine *e, const WgRequest *r, Render *out)
     return 0;
 }
 
+/* The CPU model (lscpu's "Model name") and the load average, for the record. */
+static void print_host(const char *when)
+{
+    char line[512], model[256] = "unknown";
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, "model name", 10) && strchr(line, ':')) {
+            snprintf(model, sizeof model, "%s", strchr(line, ':') + 2);
+            model[strcspn(model, "\n")] = '\0';
+            break;
+        }
+    if (f) fclose(f);
+    double load[3] = {0};
+    f = fopen("/proc/loadavg", "r");
+    if (!f || fscanf(f, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
+    if (f) fclose(f);
+    printf("# host (%s): %s, %ld CPUs online; load average %.2f %.2f %.2f\n", when, model,
+           sysconf(_SC_NPROCESSORS_ONLN), load[0], load[1], load[2]);
+}
+
 static const char *const maps[][2] = {
     {"basecolor", "Color"},     {"height", "Displacement"}, {"normal", "NormalGL"},
     {"roughness", "Roughness"}, {"ao", "AmbientOcclusion"},
@@ -81,9 +107,12 @@ int main(int argc, char **argv)
     const char *prefix = "Bricks102_1K-JPG_";
     char **opts = calloc((size_t)argc + 1, sizeof(char *));
     int n_opts = 0, pos = 0;
+    bool no_fuse = false;
     opts[n_opts++] = argv[0];
     for (int i = 1; i < argc; i++) {
-        if (argv[i][0] == '-') { /* an option and its value */
+        if (!strcmp(argv[i], "--no-fuse")) {
+            no_fuse = true;
+        } else if (argv[i][0] == '-') { /* an option and its value */
             opts[n_opts++] = argv[i];
             if (i + 1 < argc) opts[n_opts++] = argv[++i];
         } else if (pos++ == 0) {
@@ -113,12 +142,13 @@ int main(int argc, char **argv)
     }
     wg_request_set(r, "water_level", "0.65", &err);
     wg_request_set_size(r, a.size, a.size);
-    WgEngineOptions opt = {.threads = a.threads, .no_memory_cache = true};
+    WgEngineOptions opt = {.threads = a.threads, .no_memory_cache = true, .no_fuse = no_fuse};
     WgEngine *e = NULL;
     if (wg_engine_new(&opt, &e, &err)) {
         fprintf(stderr, "bench_wet: %s\n", err.message);
         return 1;
     }
+    print_host("start");
     Render first, *pooled = calloc((size_t)a.reps + 1, sizeof(Render));
     if (!pooled || render_once(e, r, &first)) return 1;
     double *node = calloc((size_t)a.reps + 1, sizeof(double));
@@ -137,6 +167,10 @@ int main(int argc, char **argv)
            m->cpu_ms, m->minflt);
     printf("# first touch of new memory: %.1f ms of the first render's node time\n",
            first.node_ms - m->node_ms);
+    double copy = bench_memcpy_ms((size_t)a.size * (size_t)a.size * sizeof(float), 9, false);
+    printf("# memcpy of a %dx%d float plane: %.2f ms; node time in such copies: first %.0f, "
+           "pooled %.0f\n",
+           a.size, a.size, copy, first.node_ms / copy, m->node_ms / copy);
     /* per node, slowest pooled first */
     WgResult *res = NULL;
     if (wg_render(e, r, &res, &err)) return 1;
@@ -155,6 +189,7 @@ int main(int argc, char **argv)
         printf("%s\t%s\t%.1f\t%.1f\n", s->id, s->type, first.ms[order[k]], m->ms[order[k]]);
     }
     wg_result_free(res);
+    print_host("end");
     free(order);
     for (int k = 0; k < a.reps; k++) free(pooled[k].ms);
     free(pooled);

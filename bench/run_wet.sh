@@ -8,6 +8,10 @@
 #  warm   a render with --cache into a fresh folder, then RUNS renders each with a new value
 #         of one texturing parameter (dark_wet): only the texturing nodes that depend on it run
 #         again. Best node time, and its share of the best cold render.
+#  floor  bench_wet at SIZE² and (2·SIZE)²: node time of the first render in a process (new
+#         memory, touched for the first time: what `wetgraph render` pays) and of later renders
+#         whose buffers come from the pool (compute alone), each in copies of a SIZE² float
+#         plane timed in the same run (memcpy), and the growth from SIZE² to (2·SIZE)².
 # Builds wetgraph in BUILD_DIR (default build) first. Timing is noisy on a loaded machine: the
 # load average is printed with the results; run it on an idle machine for the real numbers.
 # Usage: bench/run_wet.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
@@ -18,7 +22,7 @@ size=${2:-2048}
 threads=${3:-2}
 runs=${4:-3}
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
-ninja -C "$build" cli/wetgraph >/dev/null
+ninja -C "$build" cli/wetgraph bench/bench_wet >/dev/null
 mat=$root/../shared/materials/bricks102_stonewall_1k
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -57,3 +61,28 @@ for ((i = 0; i < runs; i++)); do
 done
 echo "after changing dark_wet (best of $runs): $warm ms," \
      "$(python3 -c "print('%.0f' % (100 * $warm / $best))") % of the cold render"
+
+# the memory floor: bench_wet's first and pooled renders, and memcpy in the same process
+echo "host: $(lscpu | sed -n 's/^Model name: *//p'); $(uptime)"
+small=$tmp/floor_small.txt large=$tmp/floor_large.txt
+(cd "$root" && "$build/bench/bench_wet" --size "$size" --threads "$threads" --reps "$runs") >"$small"
+(cd "$root" && "$build/bench/bench_wet" --size $((2 * size)) --threads "$threads" --reps "$runs") >"$large"
+python3 - "$small" "$large" "$size" <<'PY'
+import re, sys
+def read(path):
+    t = open(path).read()
+    rows = {l.split("\t")[0]: l.split("\t") for l in t.splitlines() if l.startswith(("first\t", "pooled\t"))}
+    copy = float(re.search(r"float plane: ([0-9.]+) ms", t).group(1))
+    hosts = re.findall(r"^# host.*$", t, re.M)
+    return float(rows["first"][3]), float(rows["pooled"][3]), copy, hosts
+s, l, n = read(sys.argv[1]), read(sys.argv[2]), int(sys.argv[3])
+for (first, pooled, copy, hosts), size in ((s, n), (l, 2 * n)):
+    print("%d²: node time first render %.0f ms (%.0f copies of a %d² plane), pooled %.0f ms "
+          "(%.0f copies), first touch %.0f ms; memcpy %.2f ms" % (size, first, first / copy, size,
+          pooled, pooled / copy, first - pooled, copy))
+    for h in hosts: print("  " + h[2:])
+print("%d² over %d²: first render %.2fx, pooled %.2fx (target at most 4.5x)" % (2 * n, n,
+      l[0] / s[0], l[1] / s[1]))
+print("%d² node time in copies of a %d² plane (target at most 200): first %.0f, pooled %.0f" %
+      (n, n, s[0] / s[2], s[1] / s[2]))
+PY

@@ -321,10 +321,10 @@ int parse_args(int argc, char **argv, Options *o)
     return 0;
 }
 
-/* Fused groups, numbered 1..n in the stats; each group's members in plan order, its sink (the
- * one node materialised) last. */
+/* Fused groups, numbered 1..n in the stats; each group's members in plan order, its sink last;
+ * `whole` of them materialised (the sink, and the members read outside the group). */
 typedef struct {
-    int first, last, count;
+    int first, last, count, whole;
     double ms;
 } Group;
 
@@ -346,6 +346,7 @@ static Group *fused_groups(const WgResult *res, int *count)
         if (!x->count) x->first = i;
         x->last = i;
         x->count++;
+        x->whole += s->bytes > 0;
         x->ms += s->ms;
     }
     return g;
@@ -391,7 +392,7 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             cli_json_string(stdout, wg_result_stat(res, groups[k].first)->id);
             printf(", \"sink\": ");
             cli_json_string(stdout, wg_result_stat(res, groups[k].last)->id);
-            printf("}");
+            printf(", \"materialised\": %d}", groups[k].whole);
         }
         printf("\n  ],\n  \"outputs\": [");
         for (int k = 0; k < last_write.n; k++) {
@@ -423,9 +424,13 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
         const char *sink = wg_result_stat(res, groups[k].last)->id;
         fprintf(stderr,
                 "fused group #%d: %d point operations from '%s' to '%s', in bands, %.2f ms in "
-                "all; only '%s' is materialised\n",
-                k, groups[k].count, wg_result_stat(res, groups[k].first)->id, sink, groups[k].ms,
-                sink);
+                "all; ",
+                k, groups[k].count, wg_result_stat(res, groups[k].first)->id, sink, groups[k].ms);
+        if (groups[k].whole > 1)
+            fprintf(stderr, "%d are materialised (the other %d exist only in bands)\n",
+                    groups[k].whole, groups[k].count - groups[k].whole);
+        else
+            fprintf(stderr, "only '%s' is materialised\n", sink);
     }
     free(groups);
     fprintf(stderr, "%d of %d nodes computed, %.1f ms in all, peak image memory %.1f MiB\n",

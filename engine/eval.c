@@ -50,7 +50,8 @@ typedef struct Node {
      * which are never scheduled on their own; a sink lists the members (plan order, itself
      * last). */
     bool fused;
-    int job; /* the node whose job evaluates this one: itself, or its group's sink */
+    bool whole; /* a group member that is materialised (its sink, or read outside the group) */
+    int job;    /* the node whose job evaluates this one: itself, or its group's sink */
     int *members;
     int n_members;
     WgNodeStat stat;
@@ -392,19 +393,20 @@ static const WgImage *group_source(void *user, int inst, int port)
  * threads, in its stat.ms (node_job turns them into shares of the group's time). */
 static int eval_group(Run *run, Node *node, WgError *err)
 {
-    WgInst *sink = &run->plan->insts[node->index];
     double *ms = wg_calloc((size_t)node->n_members + 1, sizeof(double));
-    WgImage **outputs = wg_calloc((size_t)sink->n_out + 1, sizeof *outputs);
+    WgImage ***outputs = wg_calloc((size_t)node->n_members + 1, sizeof *outputs);
     int failed = node->n_members - 1, rc;
     if (!ms || !outputs) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     } else {
-        rc = wg__fuse_eval(run->plan, node->members, node->n_members, group_source, run,
-                           run->e->pool, &run->cancel, outputs, ms, &failed, err);
+        for (int k = 0; k < node->n_members; k++) {
+            Node *m = &run->nodes[node->members[k]];
+            outputs[k] = m->whole ? (WgImage **)m->out : NULL;
+        }
+        rc = wg__fuse_eval(run->plan, node->members, node->n_members, outputs, run->e->mem,
+                           group_source, run, run->e->pool, &run->cancel, ms, &failed, err);
         for (int k = 0; k < node->n_members; k++) run->nodes[node->members[k]].stat.ms = ms[k];
     }
-    if (rc == WG_OK)
-        for (int o = 0; o < sink->n_out; o++) node->out[o] = outputs[o];
     wg_free(ms);
     wg_free(outputs);
     if (rc && rc != WG_ERR_CANCELLED) locate_error(&run->plan->insts[node->members[failed]], err);
@@ -458,9 +460,11 @@ static void release(Run *run, int index)
         n->out[o] = NULL;
     }
     run->live -= n->out_bytes;
-    if (n->ahead) {
-        run->ahead -= n->ahead_bytes;
-        n->ahead_bytes = 0;
+    Node *j = &run->nodes[n->job]; /* a group's results are counted ahead with its job */
+    if (j->ahead) {
+        size_t b = n->out_bytes < j->ahead_bytes ? n->out_bytes : j->ahead_bytes;
+        run->ahead -= b;
+        j->ahead_bytes -= b;
     }
 }
 
@@ -468,7 +472,6 @@ static void node_job(void *user)
 {
     Node *node = user;
     Run *run = node->run;
-    WgInst *in = &run->plan->insts[node->index];
     WgError err = {0};
     double t0 = wg__now_ms();
     int rc = run->cancel       ? WG_ERR_CANCELLED
@@ -488,11 +491,17 @@ static void node_job(void *user)
     } else {
         node->stat.ms = ms;
     }
-    if (!rc) {
-        for (int o = 0; o < in->n_out; o++) {
-            if (run->e->memory_cache) wg__cache_put(run->e->cache, in->key, o, node->out[o]);
-            if (wg__cache_has_disk(run->e->cache) && disk_cacheable(in))
-                wg__cache_disk_put(run->e->cache, in->key, o, node->out[o]);
+    /* what the job materialised: the node, or its group's whole members */
+    size_t made = 0;
+    for (int m = 0; m < n_members && !rc; m++) {
+        Node *mn = &run->nodes[members[m]];
+        const WgInst *mi = &run->plan->insts[members[m]];
+        if (node->n_members && !mn->whole) continue;
+        made += mn->out_bytes;
+        for (int o = 0; o < mi->n_out; o++) {
+            if (run->e->memory_cache) wg__cache_put(run->e->cache, mi->key, o, mn->out[o]);
+            if (wg__cache_has_disk(run->e->cache) && disk_cacheable(mi))
+                wg__cache_disk_put(run->e->cache, mi->key, o, mn->out[o]);
         }
     }
     pthread_mutex_lock(&run->mu);
@@ -509,10 +518,10 @@ static void node_job(void *user)
         run->cancel = 1;
         run->live -= node->need;
     } else {
-        run->live -= node->need - node->out_bytes;
+        run->live -= node->need - made;
         if (node->ahead) {
-            run->ahead -= node->ahead_bytes - node->out_bytes;
-            node->ahead_bytes = node->out_bytes;
+            run->ahead -= node->ahead_bytes - made;
+            node->ahead_bytes = made;
         }
         for (int m = 0; m < n_members; m++) {
             const WgInst *mi = &run->plan->insts[members[m]];
@@ -526,7 +535,8 @@ static void node_job(void *user)
             Node *d = &run->nodes[node->dependents[k]];
             if (--d->pending == 0) ready_push(run, node->dependents[k]);
         }
-        if (node->consumers == 0) release(run, node->index);
+        for (int m = 0; m < n_members; m++)
+            if (run->nodes[members[m]].consumers == 0) release(run, members[m]);
     }
     /* The cache and the pool may hold what the working set leaves of the budget (images in the
      * cache and the working set are counted twice, so this errs towards evicting). */
@@ -558,8 +568,8 @@ static size_t convert_bytes(int sw, int sh, int sc, int w, int h, int c)
     return sc == c ? b : b + wg_image_bytes_for(w, h, c);
 }
 
-/* What eval_node holds while the node runs, beside its inputs. */
-static size_t inst_need(const WgPlan *p, const WgInst *in)
+/* What eval_node holds while the node runs, beside its inputs (fuse.c weighs groups by it). */
+size_t wg__inst_need(const WgPlan *p, const WgInst *in)
 {
     const WgNodeType *t = in->type;
     size_t need = inst_bytes(in);
@@ -627,7 +637,7 @@ static int plan_fusion(Run *run, WgError *err)
     int n = p->n_insts, rc = WG_OK;
     for (int i = 0; i < n; i++) run->nodes[i].job = i;
     if (!run->fuse) return WG_OK;
-    bool *flags = wg_calloc(2 * (size_t)n + 1, sizeof(bool));
+    bool *flags = wg_calloc(3 * (size_t)n + 1, sizeof(bool));
     int *sink = wg_calloc((size_t)n + 1, sizeof(int));
     int groups = -1;
     if (flags && sink) {
@@ -635,7 +645,7 @@ static int plan_fusion(Run *run, WgError *err)
             flags[i] = run->nodes[i].evaluate;
             flags[n + i] = run->nodes[i].requested;
         }
-        groups = wg__fuse_find(p, flags, flags + n, sink);
+        groups = wg__fuse_find(p, flags, flags + n, sink, flags + 2 * (size_t)n);
     }
     size_t total = 0;
     for (int i = 0; i < n && groups > 0; i++)
@@ -663,10 +673,9 @@ static int plan_fusion(Run *run, WgError *err)
             s->members[s->n_members++] = i;
             m->stat.fused = s->stat.fused;
             m->job = sink[i];
-            if (i != sink[i]) {
-                m->fused = true;
-                m->out_bytes = 0; /* never materialised */
-            }
+            m->whole = flags[2 * (size_t)n + i];
+            if (i != sink[i]) m->fused = true;
+            if (!m->whole) m->out_bytes = 0; /* only in bands */
         }
     }
     wg_free(flags);
@@ -681,11 +690,11 @@ static size_t job_need(Run *run, int i)
 {
     const WgPlan *p = run->plan;
     Node *n = &run->nodes[i];
-    if (!n->n_members) return inst_need(p, &p->insts[i]);
+    if (!n->n_members) return wg__inst_need(p, &p->insts[i]);
     size_t need = 0;
     for (int k = 0; k < n->n_members; k++) {
         const WgInst *m = &p->insts[n->members[k]];
-        need += inst_need(p, m) - (k < n->n_members - 1 ? inst_bytes(m) : 0);
+        need += wg__inst_need(p, m) - (run->nodes[n->members[k]].whole ? 0 : inst_bytes(m));
     }
     return need;
 }
@@ -720,9 +729,10 @@ static int plan_work(Run *run, WgError *err)
             int s = in->in[k].inst;
             if (s < 0) continue;
             run->nodes[s].consumers++;
-            if (run->nodes[s].evaluate && !run->nodes[s].fused) { /* else within n's group */
+            int js = run->nodes[s].job;
+            if (run->nodes[s].evaluate && js != n->job) { /* else within n's group */
                 run->nodes[n->job].pending++;
-                run->nodes[s].n_dependents++;
+                run->nodes[js].n_dependents++;
                 n_edges++;
             }
         }
@@ -740,8 +750,9 @@ static int plan_work(Run *run, WgError *err)
         if (!run->nodes[i].evaluate) continue;
         for (int k = 0; k < in->n_in; k++) {
             int s = in->in[k].inst;
-            if (s >= 0 && run->nodes[s].evaluate && !run->nodes[s].fused)
-                run->nodes[s].dependents[run->nodes[s].n_dependents++] = run->nodes[i].job;
+            int js = s < 0 ? -1 : run->nodes[s].job;
+            if (s >= 0 && run->nodes[s].evaluate && js != run->nodes[i].job)
+                run->nodes[js].dependents[run->nodes[js].n_dependents++] = run->nodes[i].job;
         }
     }
     /* Peak memory of a sequential run in plan order: what node i holds while it runs plus the
@@ -776,16 +787,21 @@ static int plan_work(Run *run, WgError *err)
         }
         run->seq_peak[i] = live + n->need;
         if (live + n->need > peak) peak = live + n->need;
-        live += n->out_bytes;
-        for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
-            const WgInst *mi = &p->insts[n->n_members ? n->members[m] : i];
+        int n_members = n->n_members ? n->n_members : 1;
+        const int *members = n->n_members ? n->members : &n->index;
+        for (int m = 0; m < n_members; m++) live += run->nodes[members[m]].out_bytes;
+        for (int m = 0; m < n_members; m++) {
+            const WgInst *mi = &p->insts[members[m]];
             for (int k = 0; k < mi->n_in; k++) {
                 int s = mi->in[k].inst;
                 if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
                     live -= run->nodes[s].out_bytes;
             }
         }
-        if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
+        for (int m = 0; m < n_members; m++) {
+            const Node *mn = &run->nodes[members[m]];
+            if (mn->consumers == 0 && !mn->requested) live -= mn->out_bytes;
+        }
     }
     wg_free(left);
     for (int i = p->n_insts - 1, after = -1; i >= 0; i--) { /* from node i on */

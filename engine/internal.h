@@ -333,19 +333,24 @@ int wg__pool_rows(WgPool *p, volatile int *cancel, int height, WgRowsFn fn, void
 /* Whether a node can be evaluated on a band of rows (a point operation). */
 bool wg__fuse_capable(const WgInst *in);
 /* The groups a render fuses. run[i]: node i is computed; requested[i]: an output refers to it.
- * On return sink[i] is the node whose group node i belongs to (its own index for the group's
- * sink, the one member that is materialised), or -1 when node i runs alone. Returns the number
- * of groups, or WG_ERR_NOMEM. */
-int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink);
+ * On return sink[i] is the node whose group node i belongs to (the group's last member in plan
+ * order, which runs it), or -1 when node i runs alone; whole[i] says that member i is
+ * materialised (requested, read outside its group, or the sink), the other members exist only
+ * in bands. Returns the number of groups, or WG_ERR_NOMEM. */
+int wg__fuse_find(const WgPlan *p, const bool *run, const bool *requested, int *sink, bool *whole);
+/* What a node holds while it runs, beside its inputs: its outputs, the inputs converted for it
+ * and its working memory (eval.c; the scheduler's memory estimate counts it). */
+size_t wg__inst_need(const WgPlan *p, const WgInst *in);
 /* The image a group reads from node `inst`'s output `port` (outside the group). */
 typedef const WgImage *(*WgFuseSourceFn)(void *user, int inst, int port);
-/* Evaluate a group (members: plan indexes, ascending, the sink last) band by band: at most
- * 256 KiB per band buffer, per thread. On success out[o] are the sink's outputs (the caller owns
- * them) and ms[k] the time member k took, summed over its bands and threads. On failure
- * *failed is the member the error belongs to. */
-int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgFuseSourceFn source, void *user,
-                  WgPool *pool, volatile int *cancel, WgImage **out, double *ms, int *failed,
-                  WgError *err);
+/* Evaluate a group (members: plan indexes, ascending, the sink last) band by band. out[k] is
+ * NULL for a member that exists only in bands, else an array of its n_out outputs that this
+ * fills (images from `mem`; the caller owns them). ms[k] is the time member k took, summed over
+ * its bands and threads. On failure the outputs are released and *failed is the member the
+ * error belongs to. */
+int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgImage ***out, WgMemPool *mem,
+                  WgFuseSourceFn source, void *user, WgPool *pool, volatile int *cancel, double *ms,
+                  int *failed, WgError *err);
 /* Graphviz description of the request's graph with a cluster around each group of its own
  * nodes that a render with nothing cached fuses (graph.c writes it). */
 void wg__graph_write_dot(const WgGraph *g, const int *cluster, FILE *f);

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* `pixel`: a per-pixel expression (the equivalent of Substance's Pixel Processor). The
- * expression is compiled once per evaluation (per band when fused) by nodes/pixel_compile.c into a
+ * expression is compiled once per evaluation (once per group when fused: the prepare hook) by
+ * nodes/pixel_compile.c into a
  * row program: constant subexpressions folded in double, row-uniform ones (y, v) computed once per
  * row, the rest run over spans of up to 256 pixels of a row, one straight loop per operation over
  * float arrays so the compiler vectorises them. Varying arithmetic is float32 (each operation
@@ -491,22 +492,70 @@ static int pixel_check(const WgNodeContext *ctx, WgError *err)
     return rc;
 }
 
+/* A program compiled once for every band of a fused evaluation, with the input channels it
+ * was compiled for. */
+typedef struct {
+    WgPxProgram *p;
+    int n_inputs;
+    int channels[];
+} Prepared;
+
+/* Channels of each input as eval sees them: an unconnected one reads as gray. */
+static void input_channels(const WgNodeContext *ctx, int *channels)
+{
+    for (int i = 0; i < ctx->n_inputs; i++)
+        channels[i] = ctx->inputs                  ? (ctx->inputs[i] ? ctx->inputs[i]->channels : 1)
+                      : ctx->input_channels[i] > 0 ? ctx->input_channels[i]
+                                                   : 1;
+}
+
+static int pixel_prepare(const WgNodeContext *ctx, void **state, WgError *err)
+{
+    const PixelParams *pp = ctx->params;
+    Prepared *s = wg_calloc(1, sizeof *s + sizeof(int) * ((size_t)ctx->n_inputs + 1));
+    if (!s) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    s->n_inputs = ctx->n_inputs;
+    input_channels(ctx, s->channels);
+    int rc = wg__px_compile(ctx, pp->expr, pixel_channels(ctx, 0), s->channels, &s->p, err);
+    if (rc) {
+        wg_free(s);
+        return rc;
+    }
+    *state = s;
+    return WG_OK;
+}
+
+static void pixel_finish(void *state)
+{
+    Prepared *s = state;
+    if (!s) return;
+    wg__px_free(s->p);
+    wg_free(s);
+}
+
 static int pixel_eval(WgNodeContext *ctx, WgError *err)
 {
     const PixelParams *pp = ctx->params;
     int *channels = wg_calloc((size_t)ctx->n_inputs + 1, sizeof(int));
     if (!channels) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    for (int i = 0; i < ctx->n_inputs; i++)
-        channels[i] = ctx->inputs[i] ? ctx->inputs[i]->channels : 1;
+    input_channels(ctx, channels);
+    /* a band of a fused group: the program prepare compiled, if the inputs are as it assumed */
+    const Prepared *pre = ctx->prepared;
     WgPxProgram *p = NULL;
-    int rc = wg__px_compile(ctx, pp->expr, ctx->outputs[0]->channels, channels, &p, err);
+    int rc = WG_OK;
+    if (pre && pre->n_inputs == ctx->n_inputs &&
+        pre->p->out_channels == ctx->outputs[0]->channels &&
+        !memcmp(pre->channels, channels, sizeof(int) * (size_t)ctx->n_inputs))
+        p = pre->p;
+    else
+        rc = wg__px_compile(ctx, pp->expr, ctx->outputs[0]->channels, channels, &p, err);
     wg_free(channels);
     if (rc) return rc;
     Job j = {.p = p, .inputs = ctx->inputs, .out = ctx->outputs[0], .raw = pp->allow_nonfinite};
     atomic_init(&j.failed, 0);
     rc = wg_parallel_rows(ctx, j.out->height, pixel_rows, &j);
     if (!rc && atomic_load(&j.failed)) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    wg__px_free(p);
+    if (!pre || p != pre->p) wg__px_free(p);
     return rc;
 }
 
@@ -604,7 +653,8 @@ const WgNodeType wg_node_pixel = {
            "**Fusion**: an expression that does not read `y`, `v` or `$height` and does not use "
            "sample() computes each pixel from the same pixel of its inputs: it is a point "
            "operation and is fused with the point operations around it, evaluated a band of rows "
-           "at a time (docs/engine.md, compiled once per band), bit-identical to the node run "
+           "at a time (docs/engine.md; compiled once for all the bands), bit-identical to the node "
+           "run "
            "alone. Otherwise (sample() reads anywhere in its input) it runs alone.",
     .params = pixel_params,
     .params_size = sizeof(PixelParams),
@@ -616,4 +666,6 @@ const WgNodeType wg_node_pixel = {
     .eval = pixel_eval,
     .uses_scope_name = pixel_uses_scope_name,
     .banded = pixel_banded,
+    .prepare = pixel_prepare,
+    .finish = pixel_finish,
 };

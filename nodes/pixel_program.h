@@ -78,6 +78,8 @@ typedef struct WgPxProgram {
 int wg__px_compile(const WgNodeContext *ctx, const char *src, int out_channels,
                    const int *input_channels, WgPxProgram **out, WgError *err);
 void wg__px_free(WgPxProgram *p);
+/* How many programs wg__px_compile has compiled in this process (checks included). */
+long wg__px_compiled(void);
 
 /* Shared by the compiler (folding constant calls) and the kernels. */
 uint32_t wg__px_seed(uint64_t seed);

@@ -174,6 +174,9 @@ typedef struct WgNodeContext {
 
     int n_outputs;
     WgImage **outputs; /* eval only: allocated by the engine */
+    /* eval only: what the type's prepare hook made for this evaluation (a fused group's
+     * bands share it), or NULL when eval runs without it */
+    const void *prepared;
 
     /* Extra numeric attributes (WG_NODE_EXTRA_PARAMS), and the numeric scope of the graph
      * (graph params, $time, $seed, $width, $height) for nodes with their own expressions. */
@@ -222,6 +225,12 @@ typedef struct WgNodeType {
      * takes what it needs from its context)? When set, it decides instead of the flags. An
      * under-estimate is safe. Default: WG_NODE_POINT types without flags that rule bands out. */
     bool (*banded)(const void *params);
+    /* Optional, for banded instances: the work every band of a fused evaluation shares
+     * (compiling an expression), done once before the bands with the whole image's context
+     * (sizes, input channels, no images). eval then finds it in ctx->prepared; finish frees it
+     * after the last band. eval must give the same pixels with ctx->prepared NULL. */
+    int (*prepare)(const WgNodeContext *ctx, void **state, WgError *err);
+    void (*finish)(void *state);
 } WgNodeType;
 
 /* The registry: a NULL-terminated array in fixed order. */
