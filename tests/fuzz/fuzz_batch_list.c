@@ -42,7 +42,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (err.line < 0 || err.line > lines || err.column < 0)
             fail("an error out of the file", &err);
         if (strchr(err.message, '\n')) fail("an error of several lines", &err);
-        if (l.rows || l.n_rows) fail("rows left after a failure", &err);
+        if (l.rows || l.n_rows || l.columns || l.n_columns) fail("rows left after a failure", &err);
         return 0;
     }
     WgError out_err = {0};
@@ -64,11 +64,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if (!f->name || !f->value || f->line < r->line || f->line > lines || f->column < 1 ||
                 f->name_line < 1 || f->name_column < 1)
                 fail("a field without a name, value or position", &err);
-            if (f->kind != BATCH_INPUT && f->kind != BATCH_SET) fail("a field of no kind", &err);
+            if (f->kind != BATCH_INPUT && f->kind != BATCH_SET && f->kind != BATCH_NOTE)
+                fail("a field of no kind", &err);
+            if ((f->kind == BATCH_NOTE) != (f->name[0] == '#'))
+                fail("a note not named #..., or a value named so", &err);
             for (int j = 0; j < k; j++)
                 if (r->fields[j].kind == f->kind && !strcmp(r->fields[j].name, f->name))
                     fail("a name twice in one row", &err);
         }
+    }
+    for (int c = 0; c < l.n_columns; c++) {
+        const BatchField *f = &l.columns[c];
+        if (f->value || (f->kind == BATCH_OUT) != !f->name || f->name_line < 1 ||
+            f->name_line > lines || f->name_column < 1)
+            fail("a header column without its name or place", &err);
     }
     batch_list_free(&l);
     return 0;
