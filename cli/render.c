@@ -702,7 +702,10 @@ int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *
         if (wg_request_set_input_file(r, name, eq + 1, err)) return err->code;
     }
     for (int i = 0; i < o->n_outputs; i++)
-        if (wg_request_add_output(r, o->outputs[i], err)) return err->code;
+        if (wg_graph_find_gltf(g, o->outputs[i]) < 0 &&
+            wg_request_add_output(r, o->outputs[i], err))
+            return err->code;
+    if (gltf_request_outputs(o, g, *out, err)) return err->code;
     if (o->width) wg_request_set_size(r, o->width, o->height);
     if (o->has_seed) wg_request_set_seed(r, o->seed);
     if (o->has_time) wg_request_set_time(r, o->time);

@@ -40,6 +40,13 @@ int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *
 /* The path output i of res is written to (frame >= 0: with "_<frame>"). */
 void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
                  char *buf, size_t size);
+/* The graph's glTF assets (cli/gltf_export.c): whether asset i is rendered (no --output, or
+ * its name among them); the outputs of the maps of those named by --output, added to r; and the
+ * assets staged in `set` from res, their paths in paths[0..*n_paths). */
+bool gltf_selected(const Options *o, const WgGraph *g, int i);
+int gltf_request_outputs(const Options *o, const WgGraph *g, WgRequest *r, WgError *err);
+int gltf_stage(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgWriteSet *set,
+               char (*paths)[4096], int *n_paths, WgError *err);
 /* With --cache-max: remove the cache folder's least recently used entries until it holds at
  * most that much (with --stats, say what went, on stderr). */
 void prune_cache(const Options *o);
