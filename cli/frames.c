@@ -164,20 +164,40 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
     for (int f = o->frame_first; !rc && f <= o->frame_last; f++) {
         double t = (o->has_time ? o->time : 0) + f / o->fps;
         WgResult *res = NULL;
+        Stream *stream = NULL;
         wg_request_set_time(r, t);
-        rc = wg_render(e, r, &res, err);
+        /* separate files are written while the frame renders; a layered EXR wants them all */
+        if (!o->layered) {
+            rc = stream_new(o, g, f, o->contact_sheet != NULL, &stream, err);
+            wg_request_set_output_fn(r, rc ? NULL : stream_output, stream);
+        }
+        if (!rc) rc = wg_render(e, r, &res, err);
         if (!rc && seen_add(&seen, res, o->quiet))
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-        if (!rc) rc = write_outputs(o, g, res, f, err);
-        if (!rc && o->contact_sheet && wg_result_output_count(res) > 0) {
-            const WgImage *img = wg_result_output_image(res, 0);
+        const WgImage *img = NULL;
+        WgColorspace img_space = WG_LINEAR;
+        if (!rc && !stream) {
+            rc = write_outputs(o, g, res, f, err);
+            if (wg_result_output_count(res) > 0) {
+                img = wg_result_output_image(res, 0);
+                img_space = wg_result_output_colorspace(res, 0);
+            }
+        }
+        if (!rc && stream && o->contact_sheet && (img = stream_first(stream, &img_space)))
+            img = wg_image_ref(img); /* outlives the stream */
+        if (stream) {
+            rc = stream_finish(stream, rc, err);
+            wg_request_set_output_fn(r, NULL, NULL);
+        }
+        if (!rc && o->contact_sheet && img) {
             if (!sheet) {
                 sheet = contact_sheet_new(count, img->width, img->height, img->channels);
-                sheet_space = wg_result_output_colorspace(res, 0);
+                sheet_space = img_space;
                 if (!sheet) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
             }
-            contact_sheet_add(sheet, f - o->frame_first, img);
+            if (sheet) contact_sheet_add(sheet, f - o->frame_first, img);
         }
+        if (!o->layered) wg_image_unref(img);
         if (!rc && o->stats && totals_add(&totals, res))
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         if (rc && err && err->message[0]) { /* say which frame failed */

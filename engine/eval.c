@@ -38,6 +38,8 @@ typedef struct Node {
     bool needed, evaluate, requested, done;
     int pending;   /* inputs still being computed */
     int consumers; /* evaluations that still have to read this node */
+    int holds;     /* output calls (WgRequest.output_fn) not yet returned that read it */
+    bool released;
     int *dependents;
     int n_dependents;
     const WgImage **out;
@@ -86,6 +88,11 @@ struct Run {
     Run *token_next; /* the token's other running renders */
     int rc;
     bool skipped; /* a node ended with WG_ERR_CANCELLED: counted as completed, but not done */
+    /* Outputs streamed to the request's output function: one job per output, submitted to the
+     * pool when its node is done and counted in `running` while it runs. The node's image is
+     * held (Node.holds) until the job has returned, then released like an intermediate. */
+    struct OutputJob *output_jobs;
+    int outputs_left; /* output jobs not yet returned */
     WgError err;
     bool fuse;   /* fuse point operations (fuse.c) */
     size_t need; /* the sequential peak the plan needs */
@@ -448,10 +455,17 @@ static void ready_push(Run *run, int index)
     heap_push(&run->ready[parallel_job(run, &run->nodes[index]) ? 0 : 1], index);
 }
 
+/* A requested node's image stays with the result, unless an output function takes it. */
+static bool keeps(const Run *run, const Node *n)
+{
+    return n->requested && !run->r->output_fn;
+}
+
 static void release(Run *run, int index)
 {
     Node *n = &run->nodes[index];
-    if (n->requested || !n->out) return;
+    if (keeps(run, n) || n->holds > 0 || n->released || !n->out) return;
+    n->released = true;
     WgInst *in = &run->plan->insts[index];
     for (int o = 0; o < in->n_out; o++) {
         wg_image_unref(n->out[o]);
@@ -461,6 +475,55 @@ static void release(Run *run, int index)
     if (n->ahead) {
         run->ahead -= n->ahead_bytes;
         n->ahead_bytes = 0;
+    }
+}
+
+typedef struct OutputJob {
+    Run *run;
+    int index; /* in plan->outputs */
+} OutputJob;
+
+static void output_job(void *user)
+{
+    OutputJob *j = user;
+    Run *run = j->run;
+    const WgPlanOutput *po = &run->plan->outputs[j->index];
+    Node *src = &run->nodes[po->ref.inst];
+    WgOutputInfo info = {j->index, po->name, src->out[po->ref.port], po->format, po->colorspace};
+    WgError err = {0};
+    int rc = run->cancel ? WG_ERR_CANCELLED : run->r->output_fn(run->r->output_user, &info, &err);
+    if (rc && !err.code) rc = wg_error_set(&err, rc, NULL, "writing output '%s' failed", po->name);
+    pthread_mutex_lock(&run->mu);
+    run->running--;
+    run->outputs_left--;
+    if (rc) {
+        if (run->rc == WG_OK && rc != WG_ERR_CANCELLED) {
+            run->rc = rc;
+            run->err = err;
+        }
+        if (rc == WG_ERR_CANCELLED) run->skipped = true;
+        run->cancel = 1;
+    }
+    if (--src->holds == 0 && src->consumers == 0) release(run, po->ref.inst);
+    fit_budget(run->e, run->live);
+    pthread_cond_signal(&run->cv);
+    pthread_mutex_unlock(&run->mu);
+}
+
+/* With run->mu held: hand the outputs of node `index` (done, or from the cache) to the output
+ * function. A job that cannot be submitted fails the render like a node out of memory. */
+static void submit_outputs(Run *run, int index)
+{
+    if (!run->r->output_fn) return;
+    for (int k = 0; k < run->plan->n_outputs; k++) {
+        if (run->plan->outputs[k].ref.inst != index) continue;
+        run->running++;
+        if (wg__pool_submit(run->e->pool, output_job, &run->output_jobs[k])) {
+            run->running--;
+            if (run->rc == WG_OK)
+                run->rc = wg_error_set(&run->err, WG_ERR_NOMEM, NULL, "out of memory");
+            run->cancel = 1;
+        }
     }
 }
 
@@ -526,6 +589,7 @@ static void node_job(void *user)
             Node *d = &run->nodes[node->dependents[k]];
             if (--d->pending == 0) ready_push(run, node->dependents[k]);
         }
+        if (node->requested) submit_outputs(run, node->index);
         if (node->consumers == 0) release(run, node->index);
     }
     /* The cache and the pool may hold what the working set leaves of the budget (images in the
@@ -781,11 +845,11 @@ static int plan_work(Run *run, WgError *err)
             const WgInst *mi = &p->insts[n->n_members ? n->members[m] : i];
             for (int k = 0; k < mi->n_in; k++) {
                 int s = mi->in[k].inst;
-                if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
+                if (s >= 0 && --left[s] == 0 && !keeps(run, &run->nodes[s]))
                     live -= run->nodes[s].out_bytes;
             }
         }
-        if (n->consumers == 0 && !n->requested) live -= n->out_bytes;
+        if (n->consumers == 0 && !keeps(run, n)) live -= n->out_bytes;
     }
     wg_free(left);
     for (int i = p->n_insts - 1, after = -1; i >= 0; i--) { /* from node i on */
@@ -855,7 +919,8 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     for (int k = 0; k < p->n_outputs; k++) {
         WgPlanOutput *po = &p->outputs[k];
         ok &= (r->names[k] = wg_strdup(po->name)) != NULL;
-        r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
+        if (!run->r->output_fn)
+            r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
         r->formats[k] = po->format;
         r->colorspaces[k] = po->colorspace;
     }
@@ -909,7 +974,8 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     run.ready[0].h = run.ready_storage;
     run.ready[1].h = run.ready_storage ? run.ready_storage + plan->n_insts + 1 : NULL;
     run.seq_peak = wg_calloc((size_t)plan->n_insts + 1, sizeof(size_t));
-    if (!run.nodes || !run.ready_storage || !run.seq_peak) {
+    run.output_jobs = wg_calloc((size_t)plan->n_outputs + 1, sizeof(OutputJob));
+    if (!run.nodes || !run.ready_storage || !run.seq_peak || !run.output_jobs) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto done;
     }
@@ -922,17 +988,27 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
             goto done;
         }
     }
+    if (req->output_fn)
+        for (int k = 0; k < plan->n_outputs; k++) {
+            run.output_jobs[k] = (OutputJob){&run, k};
+            run.nodes[plan->outputs[k].ref.inst].holds++;
+            run.outputs_left++;
+        }
     if ((rc = plan_work(&run, err))) goto done;
     for (int i = 0; i < plan->n_insts; i++)
         if (run.nodes[i].needed && !run.nodes[i].evaluate) run.live += run.nodes[i].out_bytes;
     run.peak = run.live;
+    pthread_mutex_lock(&run.mu); /* outputs that are cache hits go first */
+    for (int i = 0; i < plan->n_insts; i++)
+        if (run.nodes[i].requested && !run.nodes[i].evaluate) submit_outputs(&run, i);
+    pthread_mutex_unlock(&run.mu);
     for (int i = 0; i < plan->n_insts; i++)
         if (run.nodes[i].evaluate && !run.nodes[i].fused && run.nodes[i].pending == 0)
             ready_push(&run, i);
 
     int reported = 0;
     pthread_mutex_lock(&run.mu);
-    while (run.completed < run.total) {
+    while (run.completed < run.total || run.outputs_left > 0) {
         while (!run.cancel && run.ready[0].n + run.ready[1].n > 0) {
             while (run.frontier < plan->n_insts &&
                    (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started ||
@@ -1022,7 +1098,8 @@ done:
     size_t kept = 0;
     if (rc == WG_OK)
         for (int k = 0; k < plan->n_outputs; k++)
-            kept += wg_image_bytes(wg_result_output_image(*out, k));
+            if (wg_result_output_image(*out, k))
+                kept += wg_image_bytes(wg_result_output_image(*out, k));
     fit_budget(e, kept);
     token_unregister(&run);
     wg_free(run.nodes);
@@ -1030,6 +1107,7 @@ done:
     wg_free(run.dependents);
     wg_free(run.members);
     wg_free(run.seq_peak);
+    wg_free(run.output_jobs);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
     *need = run.need;

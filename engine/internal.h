@@ -254,7 +254,9 @@ struct WgRequest {
     double time;
     WgProgressFn progress;
     void *progress_user;
-    WgCancel *cancel; /* borrowed; NULL: none */
+    WgCancel *cancel;     /* borrowed; NULL: none */
+    WgOutputFn output_fn; /* NULL: the result keeps the outputs */
+    void *output_user;
 };
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);

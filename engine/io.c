@@ -1009,6 +1009,22 @@ int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const ch
     return stage_end(s, rc, err);
 }
 
+int wg_write_set_move(WgWriteSet *into, WgWriteSet *from, WgError *err)
+{
+    if (!from->count) return WG_OK;
+    if (into->count + from->count > into->cap) {
+        int cap = into->count + from->count;
+        Staged *f = wg_realloc_array(into->files, (size_t)into->cap, (size_t)cap, sizeof *f);
+        if (!f) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        into->files = f;
+        into->cap = cap;
+    }
+    memcpy(into->files + into->count, from->files, (size_t)from->count * sizeof *from->files);
+    into->count += from->count;
+    from->count = 0;
+    return WG_OK;
+}
+
 /* Append "a, b, c" (the targets [from, to)) to buf, cut with "..." when it does not fit. */
 static void list_paths(char *buf, size_t size, const WgWriteSet *s, int from, int to)
 {

@@ -79,6 +79,29 @@ void wg_request_set_time(WgRequest *r, double time);
 typedef void (*WgProgressFn)(void *user, int done, int total, const char *node_id);
 void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user);
 
+/* Outputs handed over as soon as they are final. With an output function set, a render calls
+ * it once for each requested output, on one of the engine's worker threads, as soon as the node
+ * that makes the output has run (at once for an output taken from the cache), while the rest of
+ * the graph is still being computed: encoding and writing files then overlaps the render. Calls
+ * for different outputs run concurrently, in no fixed order; the function must be thread-safe
+ * for that (each output's own state needs no lock). The image is borrowed for the call: after it
+ * the render lets go of it (the memory cache may keep it), and the result holds no images
+ * (wg_result_output_image returns NULL); take a reference (wg_image_ref) to keep one. A
+ * non-zero return (with err set) fails the render like a failing node: nothing else starts,
+ * wg_render returns that error, and the outputs already handed over are the caller's to undo.
+ * wg_render returns only when every call has returned. Memory the function allocates is not
+ * counted in the engine's budget. */
+typedef struct WgOutputInfo {
+    int index;        /* as in wg_result_output_name(res, index) */
+    const char *name; /* the output's name */
+    const WgImage *image;
+    WgFormat format; /* resolved, never DEFAULT */
+    WgColorspace colorspace;
+} WgOutputInfo;
+typedef int (*WgOutputFn)(void *user, const WgOutputInfo *out, WgError *err);
+/* fn NULL: the result keeps the output images (the default). */
+void wg_request_set_output_fn(WgRequest *r, WgOutputFn fn, void *user);
+
 /* Cancelling a render from another thread (or from its progress callback). A cancel token is
  * set on requests; wg_cancel_request makes every render of those requests that is running, and
  * every one started later, stop and return WG_ERR_CANCELLED: nodes not started are not started,
@@ -145,8 +168,9 @@ typedef struct WgNodeStat {
 
 int wg_result_output_count(const WgResult *r);
 const char *wg_result_output_name(const WgResult *r, int i);
-const WgImage *wg_result_output_image(const WgResult *r, int i); /* owned by the result */
-WgFormat wg_result_output_format(const WgResult *r, int i);      /* resolved, never DEFAULT */
+/* Owned by the result; NULL when the request had an output function. */
+const WgImage *wg_result_output_image(const WgResult *r, int i);
+WgFormat wg_result_output_format(const WgResult *r, int i); /* resolved, never DEFAULT */
 WgColorspace wg_result_output_colorspace(const WgResult *r, int i);
 int wg_result_stat_count(const WgResult *r);
 const WgNodeStat *wg_result_stat(const WgResult *r, int i);
