@@ -25,6 +25,7 @@ typedef struct {
     int n, cap, frames;
     double ms;
     size_t peak;
+    size_t held; /* the most the memory cache and the buffer pool held after a frame */
 } Totals;
 
 /* The distinct warnings of the sequence so far (own copies). */
@@ -70,8 +71,11 @@ static void seen_free(Seen *s)
     free(s->w);
 }
 
-static int totals_add(Totals *t, const WgResult *res)
+static int totals_add(Totals *t, const WgResult *res, const WgEngine *e)
 {
+    WgMemoryStats m;
+    wg_engine_memory_stats(e, &m);
+    if (m.cache_bytes + m.pool_bytes > t->held) t->held = m.cache_bytes + m.pool_bytes;
     int n = wg_result_stat_count(res);
     for (int i = 0; i < n; i++) {
         const WgNodeStat *s = wg_result_stat(res, i);
@@ -106,9 +110,9 @@ static int totals_add(Totals *t, const WgResult *res)
 static void totals_print(const Totals *t, const Seen *seen, bool json)
 {
     if (json) {
-        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"nodes\": "
-               "[\n",
-               t->frames, t->ms, t->peak);
+        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  "
+               "\"held_bytes\": %zu,\n  \"nodes\": [\n",
+               t->frames, t->ms, t->peak, t->held);
         for (int i = 0; i < t->n; i++) {
             const NodeTotal *n = &t->nodes[i];
             printf("    {\"id\": ");
@@ -132,8 +136,10 @@ static void totals_print(const Totals *t, const Seen *seen, bool json)
         fprintf(stderr, "%-32s %-12s %9d %9d %10.2f\n", n->id, n->type, n->computed, n->reused,
                 n->ms);
     }
-    fprintf(stderr, "%d frames, %.1f ms in all, peak image memory %.1f MiB\n", t->frames, t->ms,
-            t->peak / 1048576.0);
+    fprintf(stderr,
+            "%d frames, %.1f ms in all, peak image memory %.1f MiB; between frames the cache "
+            "and the buffer pool held at most %.1f MiB\n",
+            t->frames, t->ms, t->peak / 1048576.0, t->held / 1048576.0);
 }
 
 static void totals_free(Totals *t)
@@ -198,7 +204,10 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
             if (sheet) contact_sheet_add(sheet, f - o->frame_first, img);
         }
         if (!o->layered) wg_image_unref(img);
-        if (!rc && o->stats && totals_add(&totals, res))
+        /* what earlier frames' times computed is never read again: only what this frame used
+         * stays cached (the nodes that do not depend on $time, and this frame's results) */
+        wg_engine_drop_unused(e);
+        if (!rc && o->stats && totals_add(&totals, res, e))
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         if (rc && err && err->message[0]) { /* say which frame failed */
             char msg[sizeof err->message];

@@ -266,6 +266,13 @@ size_t wg_engine_memory_budget(const WgEngine *e)
 void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out)
 {
     wg__mempool_stats(e->mem, out);
+    out->cache_bytes = wg__cache_bytes(e->cache);
+    out->cache_entries = wg__cache_count(e->cache);
+}
+
+void wg_engine_drop_unused(WgEngine *e)
+{
+    wg__cache_drop_unused(e->cache);
 }
 
 WgMemPool *wg__engine_mempool(WgEngine *e)

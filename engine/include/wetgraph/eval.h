@@ -53,6 +53,8 @@ typedef struct WgMemoryStats {
     uint64_t pool_hits;   /* buffer requests served by an idle buffer */
     uint64_t pool_misses; /* requests that took new memory */
     size_t pool_released; /* bytes given back to the system (trimmed or not kept) */
+    size_t cache_bytes;   /* images held by the memory cache now */
+    int cache_entries;    /* how many */
 } WgMemoryStats;
 void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out);
 /* Keep at most max_cache bytes of images in the memory cache (the least recently used go
@@ -60,6 +62,13 @@ void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out);
  * system). For a long session that only needs about what its last render used: `wetgraph
  * watch` keeps twice that. Not while a render of this engine runs. */
 void wg_engine_trim(WgEngine *e, size_t max_cache, size_t max_pool);
+/* Drop the memory cache's images that no render since the previous call (or since the engine
+ * was made) computed or read; their buffers go to the pool. For a sequence of renders each of
+ * which reuses what the one before it used, such as the frames of an animation: the results of
+ * an earlier frame's time are never read again, and dropping them after each frame keeps the
+ * cache at what one frame uses instead of growing with every frame. Not while a render of this
+ * engine runs. */
+void wg_engine_drop_unused(WgEngine *e);
 
 /* A request refers to the graph (which must outlive it). */
 WgRequest *wg_request_new(const WgGraph *g);
