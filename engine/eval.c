@@ -83,6 +83,11 @@ struct Run {
     size_t *seq_peak;
     size_t ahead;
     int frontier;
+    size_t ceiling; /* the least of the budget and the sequential run's peak (Run.need) */
+    /* The order that sequential run follows (plan_order): rank[i] is node i's place in it,
+     * by_rank[r] the node at place r. The ready heaps hold ranks, and seq_peak and frontier
+     * count in ranks. */
+    int *rank, *by_rank;
     volatile int cancel;
     WgCancel *token; /* the request's cancel token, with this run registered in it */
     Run *token_next; /* the token's other running renders */
@@ -303,6 +308,18 @@ static void fit_budget(WgEngine *e, size_t live)
     wg__mempool_trim(e->mem, cached < room ? room - cached : 0);
 }
 
+/* With the run's lock held, when a job has let go of memory. An engine without a memory cache
+ * renders once: idle buffers are kept only within what the render itself needs (Run.ceiling),
+ * not up to the whole budget, so that buffers of sizes the rest of the render does not ask for
+ * are given back. What is left is at least the need of the next job that may start (the
+ * scheduler keeps live + need within the ceiling), which takes its buffers from there. */
+static void fit_run(Run *run)
+{
+    fit_budget(run->e, run->live);
+    if (!run->e->memory_cache && run->ceiling)
+        wg__mempool_trim(run->e->mem, run->live < run->ceiling ? run->ceiling - run->live : 0);
+}
+
 /* ---- evaluating one node ----------------------------------------------------------------- */
 
 static bool disk_cacheable(const WgInst *in)
@@ -459,7 +476,7 @@ static bool parallel_job(const Run *run, const Node *n)
 
 static void ready_push(Run *run, int index)
 {
-    heap_push(&run->ready[parallel_job(run, &run->nodes[index]) ? 0 : 1], index);
+    heap_push(&run->ready[parallel_job(run, &run->nodes[index]) ? 0 : 1], run->rank[index]);
 }
 
 /* A requested node's image stays with the result, unless an output function takes it. */
@@ -512,7 +529,7 @@ static void output_job(void *user)
         run->cancel = 1;
     }
     if (--src->holds == 0 && src->consumers == 0) release(run, po->ref.inst);
-    fit_budget(run->e, run->live);
+    fit_run(run);
     pthread_cond_signal(&run->cv);
     pthread_mutex_unlock(&run->mu);
 }
@@ -601,7 +618,7 @@ static void node_job(void *user)
     }
     /* The cache and the pool may hold what the working set leaves of the budget (images in the
      * cache and the working set are counted twice, so this errs towards evicting). */
-    fit_budget(run->e, run->live);
+    fit_run(run);
     pthread_cond_signal(&run->cv);
     pthread_mutex_unlock(&run->mu);
 }
@@ -761,6 +778,104 @@ static size_t job_need(Run *run, int i)
     return need;
 }
 
+/* Jobs are ordered greedily for memory when there are at most this many; beyond it the
+ * quadratic search would cost more than it saves, and plan order is kept. */
+#define ORDER_LIMIT 2000
+
+static bool is_job(const Node *n)
+{
+    return n->evaluate && !n->fused;
+}
+
+/* Bytes that running job i frees: its inputs (of all its members) that no other evaluation
+ * reads afterwards; left[] holds how many reads each node still has. */
+static size_t job_frees(Run *run, int i, int *left)
+{
+    const WgPlan *p = run->plan;
+    Node *n = &run->nodes[i];
+    size_t freed = 0;
+    for (int pass = 0; pass < 2; pass++)
+        for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
+            const WgInst *mi = &p->insts[n->n_members ? n->members[m] : i];
+            for (int k = 0; k < mi->n_in; k++) {
+                int src = mi->in[k].inst;
+                if (src < 0) continue;
+                if (pass == 1) { /* put the counts back */
+                    left[src]++;
+                    continue;
+                }
+                if (--left[src] == 0 && !keeps(run, &run->nodes[src]))
+                    freed += run->nodes[src].out_bytes;
+            }
+        }
+    return freed;
+}
+
+/* The order of the sequential run the memory guarantee is built on, which is also the order
+ * the scheduler prefers among ready jobs. Plan order (the file's order, subgraphs in place)
+ * makes every input image first and keeps it until its last reader, however late; instead,
+ * each step takes, among the jobs whose inputs are done, the one whose run leaves the least
+ * memory held (its output, unless no one reads it and it is handed over, less the inputs it is
+ * the last to read), the earliest in plan order on ties. So outputs that are written and let
+ * go of run early and free their inputs, and large sources wait until they are needed. The
+ * images are the same in any order. */
+static int plan_order(Run *run, int *left, WgError *err)
+{
+    const WgPlan *p = run->plan;
+    int n = p->n_insts, jobs = 0;
+    for (int i = 0; i < n; i++) {
+        run->rank[i] = run->by_rank[i] = i;
+        jobs += is_job(&run->nodes[i]);
+    }
+    if (jobs > ORDER_LIMIT) return WG_OK;
+    int *pend = wg_calloc((size_t)n + 1, sizeof(int));
+    bool *placed = wg_calloc((size_t)n + 1, sizeof(bool));
+    if (!pend || !placed) {
+        wg_free(pend);
+        wg_free(placed);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    for (int i = 0; i < n; i++) {
+        left[i] = run->nodes[i].consumers;
+        pend[i] = run->nodes[i].pending;
+    }
+    int at = 0;
+    for (int step = 0; step < jobs; step++) {
+        int best = -1;
+        long long best_delta = 0;
+        for (int i = 0; i < n; i++) {
+            Node *c = &run->nodes[i];
+            if (!is_job(c) || placed[i] || pend[i]) continue;
+            size_t own = c->consumers > 0 || keeps(run, c) ? c->out_bytes : 0;
+            long long delta = (long long)own - (long long)job_frees(run, i, left);
+            if (best < 0 || delta < best_delta) {
+                best = i;
+                best_delta = delta;
+            }
+        }
+        if (best < 0) break; /* cannot happen: the plan is acyclic */
+        Node *b = &run->nodes[best];
+        placed[best] = true;
+        run->by_rank[at++] = best;
+        for (int m = 0; m < (b->n_members ? b->n_members : 1); m++) {
+            const WgInst *mi = &p->insts[b->n_members ? b->members[m] : best];
+            for (int k = 0; k < mi->n_in; k++)
+                if (mi->in[k].inst >= 0) left[mi->in[k].inst]--;
+        }
+        for (int k = 0; k < b->n_dependents; k++) pend[b->dependents[k]]--;
+    }
+    if (at == jobs) { /* the other nodes after the jobs, in plan order */
+        for (int i = 0; i < n; i++)
+            if (!placed[i]) run->by_rank[at++] = i;
+        for (int r = 0; r < n; r++) run->rank[run->by_rank[r]] = r;
+    } else {
+        for (int i = 0; i < n; i++) run->rank[i] = run->by_rank[i] = i;
+    }
+    wg_free(pend);
+    wg_free(placed);
+    return WG_OK;
+}
+
 static int plan_work(Run *run, WgError *err)
 {
     WgPlan *p = run->plan;
@@ -823,12 +938,18 @@ static int plan_work(Run *run, WgError *err)
     if (!left) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     int biggest = -1, largest = -1;
     size_t biggest_bytes = 0;
+    rc = plan_order(run, left, err);
+    if (rc) {
+        wg_free(left);
+        return rc;
+    }
     for (int i = 0; i < p->n_insts; i++) {
         left[i] = run->nodes[i].consumers;
         if (run->nodes[i].needed && !run->nodes[i].evaluate) live += run->nodes[i].out_bytes;
     }
     peak = live;
-    for (int i = 0; i < p->n_insts; i++) {
+    for (int r = 0; r < p->n_insts; r++) {
+        int i = run->by_rank[r];
         Node *n = &run->nodes[i];
         if (!n->evaluate || n->fused) continue; /* a group runs at its sink's place */
         WgInst *in = &p->insts[i];
@@ -845,7 +966,7 @@ static int plan_work(Run *run, WgError *err)
             biggest = i;
             biggest_bytes = own;
         }
-        run->seq_peak[i] = live + n->need;
+        run->seq_peak[r] = live + n->need;
         if (live + n->need > peak) peak = live + n->need;
         live += n->out_bytes;
         for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
@@ -859,14 +980,15 @@ static int plan_work(Run *run, WgError *err)
         if (n->consumers == 0 && !keeps(run, n)) live -= n->out_bytes;
     }
     wg_free(left);
-    for (int i = p->n_insts - 1, after = -1; i >= 0; i--) { /* from node i on */
+    for (int r = p->n_insts - 1, after = -1; r >= 0; r--) { /* from place r on */
         size_t later = after >= 0 ? run->seq_peak[after] : 0;
-        if (!run->nodes[i].evaluate || run->nodes[i].fused) {
-            run->seq_peak[i] = later;
+        const Node *n = &run->nodes[run->by_rank[r]];
+        if (!n->evaluate || n->fused) {
+            run->seq_peak[r] = later;
             continue;
         }
-        if (later > run->seq_peak[i]) run->seq_peak[i] = later;
-        after = i;
+        if (later > run->seq_peak[r]) run->seq_peak[r] = later;
+        after = r;
     }
     run->need = peak;
     if (peak > run->e->budget) {
@@ -981,8 +1103,10 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     run.ready[0].h = run.ready_storage;
     run.ready[1].h = run.ready_storage ? run.ready_storage + plan->n_insts + 1 : NULL;
     run.seq_peak = wg_calloc((size_t)plan->n_insts + 1, sizeof(size_t));
+    run.rank = wg_calloc(2 * ((size_t)plan->n_insts + 1), sizeof(int));
+    run.by_rank = run.rank ? run.rank + plan->n_insts + 1 : NULL;
     run.output_jobs = wg_calloc((size_t)plan->n_outputs + 1, sizeof(OutputJob));
-    if (!run.nodes || !run.ready_storage || !run.seq_peak || !run.output_jobs) {
+    if (!run.nodes || !run.ready_storage || !run.seq_peak || !run.output_jobs || !run.rank) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto done;
     }
@@ -1013,14 +1137,19 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
         if (run.nodes[i].evaluate && !run.nodes[i].fused && run.nodes[i].pending == 0)
             ready_push(&run, i);
 
+    /* Starting a job ahead of the frontier must not take the render past what the sequential
+     * run needs: overlap uses the room below that peak, never more memory than the budget or
+     * than rendering in order would take. */
+    run.ceiling = run.need < e->budget ? run.need : e->budget;
     int reported = 0;
     pthread_mutex_lock(&run.mu);
     while (run.completed < run.total || run.outputs_left > 0) {
         while (!run.cancel && run.ready[0].n + run.ready[1].n > 0) {
             while (run.frontier < plan->n_insts &&
-                   (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started ||
-                    run.nodes[run.frontier].fused)) {
-                Node *f = &run.nodes[run.frontier++];
+                   (!run.nodes[run.by_rank[run.frontier]].evaluate ||
+                    run.nodes[run.by_rank[run.frontier]].started ||
+                    run.nodes[run.by_rank[run.frontier]].fused)) {
+                Node *f = &run.nodes[run.by_rank[run.frontier++]];
                 if (f->ahead) { /* now in plan order: covered by seq_peak */
                     run.ahead -= f->ahead_bytes;
                     f->ahead = false;
@@ -1038,14 +1167,14 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
             } else if (from->n == 0 || (run.ready[0].n > 0 && run.ready[0].h[0] < from->h[0])) {
                 from = &run.ready[0];
             }
-            Node *n = &run.nodes[from->h[0]];
+            Node *n = &run.nodes[run.by_rank[from->h[0]]];
             bool parallel = from == &run.ready[0];
-            bool ahead = n->index != run.frontier;
+            bool ahead = run.rank[n->index] != run.frontier;
             size_t after = run.live + n->need;
             /* wait for memory; the frontier node can always run once the others are done */
             if (run.running > 0 &&
-                (after > e->budget ||
-                 (ahead && run.ahead + n->need + run.seq_peak[run.frontier] > e->budget)))
+                (after > run.ceiling ||
+                 (ahead && run.ahead + n->need + run.seq_peak[run.frontier] > run.ceiling)))
                 break;
             /* make room: the cache and the pool keep only what the working set leaves */
             fit_budget(e, after);
@@ -1114,6 +1243,7 @@ done:
     wg_free(run.dependents);
     wg_free(run.members);
     wg_free(run.seq_peak);
+    wg_free(run.rank);
     wg_free(run.output_jobs);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);

@@ -3,7 +3,8 @@
  * reaches the output function exactly once, with the image, name, format and colour space a
  * render without it gives, at any thread count and also when the output comes from the memory
  * cache; the result then holds no output images, and the engine lets go of each output once it
- * has been handed over, so a chain of outputs needs the memory of a few images, not of all; an
+ * has been handed over, so a chain of outputs needs the memory of a few images, not of all;
+ * pictures read from files wait until a job needs them, also on several workers; an
  * output function that fails makes the render fail with its error, and with one worker no later
  * node runs and no later output is handed over. */
 #include "wgtest.h"
@@ -200,12 +201,82 @@ static void test_failing_output_fails_the_render(void **state)
     free(xml);
 }
 
+/* Four pictures read from files (serial source jobs, which may start beside others), each only
+ * inverted and handed over. In plan order (the graph's inputs first) all four would be read
+ * before the first is inverted; the render reads each one when it is needed, and the jobs that
+ * could start early do not take it past what the render in that order needs. */
+static void test_sources_wait_until_they_are_needed(void **state)
+{
+    (void)state;
+    static const int sizes[][2] = {{128, 96}, {71, 130}};
+    for (int v = 0; v < 2; v++) {
+        int w = sizes[v][0], h = sizes[v][1];
+        WgError err = {0};
+        for (int i = 0; i < 4; i++) { /* four different files: four different nodes */
+            WgImage *pic = wgt_image(w, h, 1, NULL);
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w; x++)
+                    wg_image_row(pic, y)[x] = (float)((x * 3 + y * 5 + i) % 17) / 16;
+            char name[32];
+            snprintf(name, sizeof name, "pic%d.png", i);
+            assert_int_equal(wg_image_write(wgt_path(name), pic, WG_FORMAT_PNG16, WG_LINEAR, &err),
+                             WG_OK);
+            wg_image_unref(pic);
+        }
+        char xml[2048];
+        int n = snprintf(xml, sizeof xml, "<wetgraph version=\"1\" size=\"%dx%d\">\n", w, h);
+        for (int i = 0; i < 4; i++)
+            n += snprintf(xml + n, sizeof xml - (size_t)n,
+                          "  <input name=\"p%d\" type=\"gray\"/>\n", i);
+        for (int i = 0; i < 4; i++)
+            n += snprintf(xml + n, sizeof xml - (size_t)n,
+                          "  <node id=\"i%d\" type=\"invert\"><in name=\"source\" "
+                          "from=\"$p%d\"/></node>\n",
+                          i, i);
+        for (int i = 0; i < 4; i++)
+            n += snprintf(xml + n, sizeof xml - (size_t)n,
+                          "  <output name=\"o%d\" from=\"i%d\" format=\"png16\"/>\n", i, i);
+        snprintf(xml + n, sizeof xml - (size_t)n, "</wetgraph>\n");
+        WgGraph *g = wgt_load_at(xml, wgt_path("pics.wetgraph"));
+        size_t image = wg_image_bytes_for(w, h, 1);
+        for (int threads = 1; threads <= 4; threads += 3) {
+            WgEngineOptions opt = {threads, 0, NULL, true, true}; /* unfused: whole images */
+            WgEngine *e = NULL;
+            assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+            WgRequest *r = wg_request_new(g);
+            assert_non_null(r);
+            for (int i = 0; i < 4; i++) {
+                char name[8], file[32];
+                snprintf(name, sizeof name, "p%d", i);
+                snprintf(file, sizeof file, "pic%d.png", i);
+                assert_int_equal(wg_request_set_input_file(r, name, wgt_path(file), &err), WG_OK);
+            }
+            Seen s;
+            seen_init(&s, -1);
+            wg_request_set_output_fn(r, take_output, &s);
+            WgResult *res = wgt_render_request(e, r);
+            for (int i = 0; i < 4; i++) assert_int_equal(atomic_load(&s.calls[i]), 1);
+            /* a picture and its inverse, a picture's decoding scratch, one output being handed
+             * over: never four pictures */
+            if (wg_result_peak_bytes(res) > 3 * image + image / 2)
+                fail_msg("%dx%d, %d threads: peak %zu bytes; a picture is %zu", w, h, threads,
+                         wg_result_peak_bytes(res), image);
+            wg_result_free(res);
+            seen_free(&s);
+            wg_request_free(r);
+            wg_engine_free(e);
+        }
+        wg_graph_free(g);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_output_is_handed_over_once),
         cmocka_unit_test(test_outputs_are_let_go_once_handed_over),
         cmocka_unit_test(test_failing_output_fails_the_render),
+        cmocka_unit_test(test_sources_wait_until_they_are_needed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
