@@ -25,7 +25,8 @@ typedef struct {
     int n, cap, frames;
     double ms;
     size_t peak;
-    size_t held; /* the most the memory cache and the buffer pool held after a frame */
+    size_t held;      /* the most the memory cache and the buffer pool held after a frame */
+    double output_ms; /* the outputs' hashing, encoding and flushing, summed over the workers */
 } Totals;
 
 /* The distinct warnings of the sequence so far (own copies). */
@@ -110,9 +111,9 @@ static int totals_add(Totals *t, const WgResult *res, const WgEngine *e)
 static void totals_print(const Totals *t, const Seen *seen, bool json)
 {
     if (json) {
-        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  "
-               "\"held_bytes\": %zu,\n  \"nodes\": [\n",
-               t->frames, t->ms, t->peak, t->held);
+        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"output_ms\": %.3f,\n  "
+               "\"peak_bytes\": %zu,\n  \"held_bytes\": %zu,\n  \"nodes\": [\n",
+               t->frames, t->ms, t->output_ms, t->peak, t->held);
         for (int i = 0; i < t->n; i++) {
             const NodeTotal *n = &t->nodes[i];
             printf("    {\"id\": ");
@@ -137,9 +138,10 @@ static void totals_print(const Totals *t, const Seen *seen, bool json)
                 n->ms);
     }
     fprintf(stderr,
-            "%d frames, %.1f ms in all, peak image memory %.1f MiB; between frames the cache "
-            "and the buffer pool held at most %.1f MiB\n",
-            t->frames, t->ms, t->peak / 1048576.0, t->held / 1048576.0);
+            "%d frames, %.1f ms in all (with %.1f ms of output work during the renders), peak "
+            "image memory %.1f MiB; between frames the cache and the buffer pool held at most "
+            "%.1f MiB\n",
+            t->frames, t->ms, t->output_ms, t->peak / 1048576.0, t->held / 1048576.0);
 }
 
 static void totals_free(Totals *t)
@@ -193,6 +195,7 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
             img = wg_image_ref(img); /* outlives the stream */
         if (stream) {
             rc = stream_finish(stream, rc, err);
+            totals.output_ms += rc ? 0 : stream_last_output_ms();
             wg_request_set_output_fn(r, NULL, NULL);
         }
         if (!rc && o->contact_sheet && img) {

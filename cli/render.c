@@ -715,6 +715,11 @@ int stream_finish(Stream *s, int render_rc, WgError *err)
     return rc;
 }
 
+double stream_last_output_ms(void)
+{
+    return last_write.streamed ? last_write.output_ms : 0;
+}
+
 const WgImage *stream_first(const Stream *s, WgColorspace *cs)
 {
     *cs = s->first_cs;

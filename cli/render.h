@@ -52,6 +52,8 @@ int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, S
                WgError *err);
 int stream_output(void *user, const WgOutputInfo *out, WgError *err);
 int stream_finish(Stream *s, int render_rc, WgError *err);
+/* The time of the output calls of the last stream_finish that succeeded, summed (ms). */
+double stream_last_output_ms(void);
 /* Output 0's image (NULL unless kept) and its colour space; owned by the stream. */
 const WgImage *stream_first(const Stream *s, WgColorspace *cs);
 /* The per-node table (stderr) or JSON (stdout) of one render. */
