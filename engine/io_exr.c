@@ -4,20 +4,22 @@
  * channels OpenImageIO gives such images (Y for gray, R G B or R G B A for colour) or several
  * layers whose channels are "<layer>.Y" for gray images and "<layer>.R/G/B/A" for colour ones.
  * The library converts our float rows to half while encoding (round to nearest even, as
- * OpenImageIO does); the ZIP chunks are compressed here with libdeflate (zip_compress), and a
- * chunk that ZIP does not make smaller is stored raw. The file is written as a temporary of a write
- * set (io.c) and renamed over the target when complete. Checking: before any library reads an EXR,
- * wg__exr_check walks its header (the OpenEXR file layout: magic, version, attributes as name,
- * type, size, value) and refuses a declared size beyond the end of the file, windows whose sides
- * are outside 1..WG_MAX_SIDE, and windows that call for more chunk offsets than the file has bytes:
- * OpenEXR and OpenImageIO allocate what a header declares before they read it. Reading: single-part
- * scanline files with the channels Y, Y A, R G B or R G B A (half or float) are decoded here, chunk
- * by chunk straight into the caller's rows with the caller's strides, in the channel order
- * OpenImageIO gives. The image is the display window; when the data window differs (shifted,
- * smaller, larger, partly or wholly outside), chunks are decoded into a buffer of their own and
- * their part inside the display window copied, the rest being 0. Any other EXR (tiled, multi-part,
- * layers, integer channels, subsampled, or a header this reader refuses) is left to OpenImageIO
- * (io_oiio.cpp), which places the data window the same way. */
+ * OpenImageIO does); the ZIP chunks are deflated here with libdeflate (zip_compress), and a
+ * chunk that ZIP does not make smaller is stored raw. The file is written as a temporary of a
+ * write set (io.c) and renamed over the target when complete.
+ * Checking: before any library reads an EXR, wg__exr_check walks its header (the OpenEXR file
+ * layout: magic, version, attributes as name, type, size, value) and refuses a declared size
+ * beyond the end of the file, windows whose sides are outside 1..WG_MAX_SIDE, and windows that
+ * call for more chunk offsets than the file has bytes: OpenEXR and OpenImageIO allocate what a
+ * header declares before they read it.
+ * Reading: single-part scanline files with the channels Y, Y A, R G B or R G B A (half or
+ * float) are decoded here, chunk by chunk straight into the caller's rows with the caller's
+ * strides, in the channel order OpenImageIO gives. The image is the display window; when the
+ * data window differs (shifted, smaller, larger, partly or wholly outside), chunks are decoded
+ * into a buffer of their own and their part inside the display window copied, the rest being 0.
+ * Any other EXR (tiled, multi-part, layers, integer channels, subsampled, or a header this
+ * reader refuses) is left to OpenImageIO (io_oiio.cpp), which places the data window the same
+ * way. */
 #include "internal.h"
 
 #include <errno.h>
