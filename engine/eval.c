@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /* Rendering a request: build the plan, decide what must be computed (walking back from the
- * requested outputs, stopping at cache hits), check that the working set fits the memory
- * budget, then run ready nodes on the worker pool. Intermediates are released as soon as their
- * last consumer has run; the in-memory cache keeps what fits in the budget. The first failing
+ * requested outputs, stopping at cache hits), order the jobs for memory and check that the
+ * working set fits the memory budget, then run ready nodes on the worker pool. Intermediates
+ * are released as soon as their last consumer has run; the in-memory cache keeps what fits in
+ * the budget. With an output function on the request, each output is handed to it by a job of
+ * its own as soon as it is final, and then released like an intermediate. The first failing
  * node cancels the rest and its error is reported; so does the request's cancel token, from
  * another thread: wg_cancel_request sets the cancel flag of every render registered with the
  * token, which the scheduler, wg_parallel_rows' chunks and the fused bands already check. */
@@ -75,11 +77,11 @@ struct Run {
     int *dependents;   /* storage of every node's dependents list */
     int *members;      /* storage of every fused group's members list */
     size_t live, peak; /* outputs held and needs of the running nodes */
-    /* The memory guarantee. A sequential run in plan order needs at most seq_peak[i] from node i
-     * on. Nodes started ahead of the frontier (the first node not yet started) hold `ahead`
-     * bytes. Keeping ahead + seq_peak[frontier] within the budget means that once the running
-     * nodes finish, the rest can always run in plan order within the budget, so the render
-     * never waits for memory it cannot get. */
+    /* The memory guarantee. A sequential run in the order of plan_order needs at most
+     * seq_peak[r] from place r on. Nodes started ahead of the frontier (the place of the first
+     * node not yet started) hold `ahead` bytes. Keeping ahead + seq_peak[frontier] within the
+     * ceiling means that once the running jobs finish, the rest can always run in that order
+     * within it, so the render never waits for memory it cannot get. */
     size_t *seq_peak;
     size_t ahead;
     int frontier;
