@@ -1,7 +1,10 @@
 /* SPDX-License-Identifier: MIT */
-/* How `wetgraph render` (WETGRAPH_BIN) replaces its output files: all of them or none. A render
- * that cannot write its last output leaves the previous render's files byte for byte and no
- * temporaries; temporaries left by writers killed with SIGKILL are removed by the next render
+/* How `wetgraph render` (WETGRAPH_BIN) replaces its output files: all of them or none. Outputs
+ * are written while the render runs, and the files are byte for byte those the library writes
+ * after a whole render, at 1 and 4 threads and from a cold and a warm cache; an output that
+ * fails mid-render (after others were staged) leaves the previous set and no temporaries. A
+ * render that cannot write its last output leaves the previous render's files byte for byte and
+ * no temporaries; temporaries left by writers killed with SIGKILL are removed by the next render
  * into the folder while those of live processes stay; on a full disk (a small tmpfs in a private
  * mount namespace, skipped where namespaces are not allowed) the error says so and nothing is
  * replaced. */
@@ -644,11 +647,16 @@ static void test_streamed_outputs_are_the_files_written_after_the_render(void **
         write_after_render("ref", sizes[v], ks[v]);
         char set[32];
         snprintf(set, sizeof set, "k=%s", ks[v]);
-        for (int t = 0; t < 2; t++) {
-            const char *threads = t ? "4" : "1", *dir = t ? "st4" : "st1";
+        rm_rf(at("stcache"));
+        /* 1 and 4 threads, then twice with a cache folder: cold, then every node from it */
+        for (int t = 0; t < 4; t++) {
+            static const char *const dirs[] = {"st1", "st4", "stcold", "stwarm"};
+            const char *threads = t == 1 ? "4" : t == 3 ? "3" : "1", *dir = dirs[t];
             rm_rf(at(dir));
-            Run r = run("render", "kinds.wetgraph", "-o", dir, "--size", sizes[v], "--set", set,
-                        "--threads", threads, NULL);
+            Run r = t < 2 ? run("render", "kinds.wetgraph", "-o", dir, "--size", sizes[v], "--set",
+                                set, "--threads", threads, NULL)
+                          : run("render", "kinds.wetgraph", "-o", dir, "--size", sizes[v], "--set",
+                                set, "--threads", threads, "--cache", "stcache", NULL);
             expect(&r, 0, "streamed render");
             for (int i = 0; i < N_KINDS; i++) {
                 char name[64];
@@ -669,6 +677,9 @@ static void test_streamed_outputs_are_the_files_written_after_the_render(void **
     rm_rf(at("ref"));
     rm_rf(at("st1"));
     rm_rf(at("st4"));
+    rm_rf(at("stcold"));
+    rm_rf(at("stwarm"));
+    rm_rf(at("stcache"));
 }
 
 /* The first outputs are final, encoded and staged long before the last one, which fails: its
