@@ -1,11 +1,15 @@
 # SPDX-License-Identifier: MIT
-# Writes the blur and distance peer report from the raw results of bench/run_peers.sh
-# (bench/peers.tsv: "size op case sigma_px method runs median_ms min_ms max_abs_error" lines and
-# "# key: value" notes): a markdown page of tables (time, ratios to OpenCV and scipy, error
-# against the float64 reference, the targets at 2048²) and an SVG plot of time against error,
-# one panel per operation and size, drawn here with no packages beyond the standard library.
-#   python3 bench/peer_report.py PEERS.tsv REPORT.md REPORT.svg
+# Writes the blur and distance peer report from the raw results of bench/run_peers.sh, one file
+# per host (bench/peers/<host>.tsv, that host's latest run: "size op case sigma_px method runs
+# median_ms min_ms max_abs_error" lines and "# key: value" notes): a markdown page with the
+# targets at 2048² as one row per host, then per host its tables (time, ratios to OpenCV and
+# scipy, error against the float64 reference) and an SVG plot of time against error (one panel
+# per operation and size, drawn here with no packages beyond the standard library), written
+# beside the page as report-<host>.svg. Ratios are given per host and never carried from one
+# host to another: the same code gave different ratios on AMD and Intel VMs.
+#   python3 bench/peer_report.py PEERS_DIR REPORT.md
 import math
+import os
 import sys
 from collections import defaultdict
 
@@ -83,29 +87,37 @@ def tables(rows):
     return out
 
 
-def targets(rows, n=2048):
+def target_row(host, notes, rows, n=2048):
+    """One host's row of the targets table: its measures at n², each marked met or not met."""
     b = lambda s, m: rows.get((n, "blur", "noise", float(s), m))
     d = lambda c, m: rows.get((n, "distance", c, 0.0, m))
+    when = next((x.split(":", 1)[1].strip() for x in notes if x.startswith("date:")), "?")
+    load = next((x.split(":", 1)[1].strip() for x in notes if x.startswith("load average at start")), "?")
+    head = f"| {host} ({when}, load {load}) "
     fast = [b(s, FAST) for s in (2, 16, 64, 256)]
-    if any(r is None for r in fast):
-        return [f"(no complete {n}² run in the results)"]
-    yes = lambda ok: "met" if ok else "**not met**"
+    if any(r is None for r in fast) or b(16, CV_BLUR) is None:
+        return head + f"| (no complete {n}² run) |" + " |" * 6
+    yes = lambda ok: "" if ok else " (**not met**)"
     worst = max(r[1] for r in fast)
     r16 = b(16, CV_BLUR)[1] / b(16, FAST)[1]
     e = max(r[3] for r in fast)
-    out = ["| target (2048², 2 threads) | measured | |", "|---|---|---|",
-           f"| blur fast ≤ 15 ms at every σ | slowest {worst:.1f} ms | {yes(worst <= 15)} |",
-           f"| blur fast ≥ 5× faster than OpenCV at σ = 16 px | {r16:.1f}× | {yes(r16 >= 5)} |",
-           f"| blur fast error ≤ 1e-4 | {e:.1e} | {yes(e <= 1e-4)} |"]
+    cells = [f"{worst:.1f} ms{yes(worst <= 15)}", f"{r16:.1f}×{yes(r16 >= 5)}",
+             f"{e:.1e}{yes(e <= 1e-4)}"]
     for c in ("blobs", "seeds"):
         w, o = d(c, WG), d(c, CV_DIST)
         if w and o:
-            out.append(f"| distance ({c}) ≤ 30 ms | {w[1]:.1f} ms | {yes(w[1] <= 30)} |")
-            out.append(f"| distance ({c}) ≥ 2.5× faster than OpenCV precise | {o[1] / w[1]:.1f}× | "
-                       f"{yes(o[1] / w[1] >= 2.5)} |")
-            out.append(f"| distance ({c}) exact | error {w[3]:.1e} (OpenCV {o[3]:.1e}) | "
-                       f"{yes(w[3] <= o[3] and w[3] < 1e-5)} (float32 rounding of the exact distance) |")
-    return out
+            cells.append(f"{w[1]:.1f} ms{yes(w[1] <= 30)}")
+            cells.append(f"{o[1] / w[1]:.1f}×{yes(o[1] / w[1] >= 2.5)}")
+        else:
+            cells += ["–", "–"]
+    return head + "| " + " | ".join(cells) + " |"
+
+
+TARGET_HEAD = ["| host (run, load average at its start) | blur fast, slowest σ (≤ 15 ms) | "
+               "blur fast vs OpenCV at σ = 16 px (≥ 5×) | blur fast error (≤ 1e-4) | "
+               "distance blobs (≤ 30 ms) | blobs vs OpenCV precise (≥ 2.5×) | "
+               "distance seeds (≤ 30 ms) | seeds vs OpenCV precise (≥ 2.5×) |",
+               "|---|---|---|---|---|---|---|---|"]
 
 
 def svg(rows, path):
@@ -167,28 +179,45 @@ def svg(rows, path):
         f.write("\n".join(parts) + "\n")
 
 
+def host_name(notes, slug):
+    cpu = next((x.split(":", 1)[1].strip() for x in notes if x.startswith("cpu:")), None)
+    return cpu or slug
+
+
 def main():
-    if len(sys.argv) != 4:
-        sys.exit("usage: peer_report.py PEERS.tsv REPORT.md REPORT.svg")
-    notes, rows = load(sys.argv[1])
-    if not rows:
-        sys.exit(f"peer_report.py: {sys.argv[1]}: no results")
+    if len(sys.argv) != 3:
+        sys.exit("usage: peer_report.py PEERS_DIR REPORT.md")
+    folder, report = sys.argv[1], sys.argv[2]
+    files = sorted(f for f in os.listdir(folder) if f.endswith(".tsv"))
+    if not files:
+        sys.exit(f"peer_report.py: {folder}: no results (bench/run_peers.sh writes them)")
+    runs = []
+    for f in files:
+        notes, rows = load(os.path.join(folder, f))
+        if not rows:
+            sys.exit(f"peer_report.py: {os.path.join(folder, f)}: no results")
+        runs.append((f[:-4], notes, rows))
     md = ["# Blur and distance against OpenCV and scipy", "",
-          "Generated by `bench/run_peers.sh` from `bench/peers.tsv` (do not edit by hand; the "
-          "notes on method are in bench/README.md). The machine is a 2-core VM shared with other "
-          "agents' builds and tests, so the times carry their load (the load averages below); the "
-          "ratios within one size are steadier than the absolute times. Run notes:", ""]
-    md += [f"- {n}" for n in notes]
-    md += ["", "## Targets", ""] + targets(rows)
-    md += ["", "## Results", "",
-           "Times in ms, median of 5 runs (n=3 when a run took over 2 s, n=1 over 10 s); "
-           "ratios are peer time / wetgraph time (above 1: wetgraph is faster). Errors are "
-           "max |result − float64 reference| over the image.", ""]
-    md += tables(rows)
-    md += ["![time against error](report.svg)", ""]
-    with open(sys.argv[2], "w") as f:
+          "Generated by `bench/run_peers.sh` from `bench/peers/` (do not edit by hand; the notes "
+          "on method are in bench/README.md). Each host keeps its latest run; a ratio holds for "
+          "the host it was measured on and is never the current figure for another (the same "
+          "code gave different ratios on AMD and Intel VMs). The machines are 2-core VMs shared "
+          "with other builds and tests, so the times carry their load (the load averages below); "
+          "the ratios within one size are steadier than the absolute times.", "",
+          "## Targets at 2048², 2 threads, a row per host", ""]
+    md += TARGET_HEAD + [target_row(host_name(n, slug), n, r) for slug, n, r in runs]
+    for slug, notes, rows in runs:
+        md += ["", f"## {host_name(notes, slug)}", "", "Run notes:", ""]
+        md += [f"- {n}" for n in notes]
+        md += ["", "Times in ms, median of 5 runs (n=3 when a run took over 2 s, n=1 over 10 s); "
+               "ratios are peer time / wetgraph time (above 1: wetgraph is faster), measured on "
+               "this host. Errors are max |result − float64 reference| over the image.", ""]
+        md += tables(rows)
+        picture = f"report-{slug}.svg"
+        svg(rows, os.path.join(os.path.dirname(os.path.abspath(report)), picture))
+        md += [f"![time against error on {host_name(notes, slug)}]({picture})", ""]
+    with open(report, "w") as f:
         f.write("\n".join(md))
-    svg(rows, sys.argv[3])
 
 
 main()

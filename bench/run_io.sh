@@ -11,6 +11,9 @@
 #    ImageInput in bench/peer_oiio_read.cpp (median of RUNS, after an untimed first read) and
 #    oiiotool's own --runstats total for `-i:now=1:type=float FILE` (OpenImageIO's timer, 10 ms
 #    resolution; the process start-up excluded).
+# 3. The five JPEGs of the wet material's wall as `image` nodes, at their own size and
+#    resampled to 2048², beside cv2.imread + conversion to float (+ cv2.resize) of the same
+#    files, in the same run (python3-opencv); then the host's CPU and load average.
 # Builds BUILD_DIR first (default: build, set up as a release build if missing); needs oiiotool
 # and the OpenImageIO headers (scripts/install-deps.sh --bench). Timing is noisy on a loaded
 # machine: run it on an idle one.
@@ -171,5 +174,68 @@ for spec in "$jpeg:1024:srgb:1024² JPEG (sRGB)" "$tmp/gen_png16.png:2048:linear
     printf '| %-28s | %10s | %16s | %9s | %13s |\n' "$name" "$ours" "$peer" "$tool" \
         "$(awk -v a="$ours" -v b="$peer" 'BEGIN { printf "%.2f", a / b }')"
 done
+
+# The five JPEGs of the wet material's wall, as `image` nodes at the file's size (1024x512) and
+# resampled to 2048² (the wet benches' size), beside cv2.imread of the same file (unchanged:
+# gray stays one channel) and its conversion to float, and for 2048² also cv2.resize with
+# INTER_LINEAR, in the same run (median of RUNS after a first untimed read; one OpenCV thread,
+# the image node decodes on one thread and resamples on the render's 2). The colour map is read
+# sRGB-decoded by the node (a table lookup per value) and as plain codes / 255 by the peer.
+py=${PYTHON:-/usr/bin/python3} # the system python, which python3-opencv installs into
+mat=$root/../shared/materials/bricks102_stonewall_1k
+if "$py" -c 'import cv2' 2>/dev/null && [ -d "$mat" ]; then
+    cv2_ms() { # FILE SIZE (0: the file's own)
+        "$py" - "$1" "$2" "$runs" <<'PY'
+import sys, time
+import cv2
+import numpy as np
+cv2.setNumThreads(1)
+path, size, runs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+def once():
+    t = time.perf_counter()
+    a = cv2.imread(path, cv2.IMREAD_UNCHANGED).astype(np.float32) * np.float32(1 / 255)
+    if size:
+        a = cv2.resize(a, (size, size), interpolation=cv2.INTER_LINEAR)
+    return (time.perf_counter() - t) * 1e3
+once()
+t = sorted(once() for _ in range(runs))
+a = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+print("%.2f %dx%d" % (t[len(t) // 2], a.shape[1], a.shape[0]))
+PY
+    }
+    echo
+    echo "The wet material's JPEGs as image nodes against cv2.imread + float (+ cv2.resize), median of $runs (ms):"
+    echo
+    printf '| %-26s | %9s | %9s | %10s | %9s | %9s | %10s |\n' "file" "node file" "cv2 file" "node/cv2" \
+        "node 2K" "cv2 2K" "node/cv2"
+    printf '|%s|%s|%s|%s|%s|%s|%s|\n' "----------------------------" "-----------" "-----------" \
+        "------------" "-----------" "-----------" "------------"
+    sum_n1=0 sum_c1=0 sum_n2=0 sum_c2=0
+    for map in Color AmbientOcclusion Displacement NormalGL Roughness; do
+        file=$mat/Bricks102_1K-JPG_$map.jpg
+        cs=linear
+        [ $map = Color ] && cs=srgb
+        c1=$(cv2_ms "$file" 0)
+        wh=${c1#* }
+        c1=${c1% *}
+        n1=$(node_ms "$file" "$wh" "$cs")
+        n2=$(node_ms "$file" 2048 "$cs")
+        c2=$(cv2_ms "$file" 2048)
+        c2=${c2% *}
+        printf '| %-26s | %9s | %9s | %10s | %9s | %9s | %10s |\n' "$map" "$n1" "$c1" \
+            "$(awk -v a="$n1" -v b="$c1" 'BEGIN { printf "%.2f", a / b }')" "$n2" "$c2" \
+            "$(awk -v a="$n2" -v b="$c2" 'BEGIN { printf "%.2f", a / b }')"
+        sum_n1=$(awk -v a="$sum_n1" -v b="$n1" 'BEGIN { print a + b }')
+        sum_c1=$(awk -v a="$sum_c1" -v b="$c1" 'BEGIN { print a + b }')
+        sum_n2=$(awk -v a="$sum_n2" -v b="$n2" 'BEGIN { print a + b }')
+        sum_c2=$(awk -v a="$sum_c2" -v b="$c2" 'BEGIN { print a + b }')
+    done
+    printf '| %-26s | %9s | %9s | %10s | %9s | %9s | %10s |\n' "all five" "$sum_n1" "$sum_c1" \
+        "$(awk -v a="$sum_n1" -v b="$sum_c1" 'BEGIN { printf "%.2f", a / b }')" "$sum_n2" "$sum_c2" \
+        "$(awk -v a="$sum_n2" -v b="$sum_c2" 'BEGIN { printf "%.2f", a / b }')"
+else
+    echo
+    echo "(no python3-opencv or no $mat: the cv2 comparison is left out)"
+fi
 echo
-echo "(load average: $(cut -d' ' -f1-3 /proc/loadavg))"
+echo "(host: $(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores; load average: $(cut -d' ' -f1-3 /proc/loadavg))"

@@ -6,8 +6,9 @@
  * checked against the graph before anything is rendered (a mistake there is a usage error);
  * then a row that fails is reported with its LIST line and the others go on, and the exit
  * status is 1 if any failed. Each row's files are written all or none, as a single render's.
- * --shard I/N keeps rows I, I+N, I+2N, ... so that several processes or machines share one
- * LIST; --batch-json prints one JSON line per row on stdout. */
+ * --shard I/N keeps the I-th of N blocks of consecutive rows, so that several processes or
+ * machines share one LIST (with --shard-by COLUMN, whole groups of rows with one value in
+ * COLUMN); --batch-json prints one JSON line per row on stdout. */
 #include "batch_list.h"
 #include "render.h"
 
@@ -35,10 +36,13 @@ static int check_names(const char *list, const BatchList *l, const WgGraph *g, W
     if (!params || !inputs) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; !rc && i < np; i++) params[i] = wg_graph_param_info(g, i)->name;
     for (int i = 0; !rc && i < ni; i++) inputs[i] = wg_graph_input_info(g, i)->name;
-    for (int r = 0; !rc && r < l->n_rows; r++) {
-        const BatchRow *row = &l->rows[r];
-        for (int k = 0; !rc && k < row->n_fields; k++) {
-            const BatchField *f = &row->fields[k];
+    /* the header's columns first (a list may have no row filling one), then the rows' names */
+    for (int r = -1; !rc && r < l->n_rows; r++) {
+        const BatchField *fields = r < 0 ? l->columns : l->rows[r].fields;
+        int n_fields = r < 0 ? l->n_columns : l->rows[r].n_fields;
+        for (int k = 0; !rc && k < n_fields; k++) {
+            const BatchField *f = &fields[k];
+            if (f->kind != BATCH_INPUT && f->kind != BATCH_SET) continue;
             bool input = f->kind == BATCH_INPUT;
             const char *const *names = input ? inputs : params;
             int n = input ? ni : np, found = 0;
@@ -58,6 +62,83 @@ static int check_names(const char *list, const BatchList *l, const WgGraph *g, W
     return rc;
 }
 
+/* The value a row has in COLUMN ("input:NAME", "set:NAME", "out" or "#NAME"; "" when it has
+ * none), or NULL when COLUMN is no column name. */
+static const char *column_value(const BatchRow *row, const char *column)
+{
+    if (!strcmp(column, "out")) return row->out ? row->out : "";
+    int kind = !strncmp(column, "input:", 6) ? BATCH_INPUT
+               : !strncmp(column, "set:", 4) ? BATCH_SET
+               : column[0] == '#'            ? BATCH_NOTE
+                                             : -1;
+    if (kind < 0) return NULL;
+    const char *name = kind == BATCH_INPUT ? column + 6 : kind == BATCH_SET ? column + 4 : column;
+    for (int k = 0; k < row->n_fields; k++)
+        if (row->fields[k].kind == kind && !strcmp(row->fields[k].name, name))
+            return row->fields[k].value;
+    return "";
+}
+
+/* Which rows are this shard's: the I-th of N blocks of consecutive rows, rows
+ * [⌊I·n/N⌋, ⌊(I+1)·n/N⌋); with --shard-by, the groups of rows with one value in the column, in
+ * the order of their first row, laid end to end, each going whole to the block its middle row
+ * falls in. Every shard works this out alike from the whole LIST. */
+static int shard_rows(const Options *o, const BatchList *l, bool *mine, WgError *err)
+{
+    int n = l->n_rows, N = o->has_shard ? o->shard_count : 1, I = o->has_shard ? o->shard_index : 0;
+    if (!o->shard_by) {
+        long long lo = (long long)I * n / N, hi = (long long)(I + 1) * n / N;
+        for (int r = 0; r < n; r++) mine[r] = r >= lo && r < hi;
+        return WG_OK;
+    }
+    if (!column_value(&(BatchRow){0}, o->shard_by))
+        return wg_error_set(err, WG_ERR_USAGE, NULL,
+                            "bad --shard-by '%s' (a column: input:NAME, set:NAME, out or #NAME)",
+                            o->shard_by);
+    bool declared = l->n_columns == 0; /* JSON lines declare no columns */
+    for (int c = 0; c < l->n_columns && !declared; c++) {
+        const BatchField *f = &l->columns[c];
+        char name[4200];
+        snprintf(name, sizeof name, "%s%s",
+                 f->kind == BATCH_INPUT ? "input:"
+                 : f->kind == BATCH_SET ? "set:"
+                                        : "",
+                 f->kind == BATCH_OUT ? "out" : f->name);
+        declared = !strcmp(name, o->shard_by);
+    }
+    if (!declared)
+        return wg_error_set_at(err, WG_ERR_USAGE, o->batch, 1, 0,
+                               "--shard-by '%s': the list has no such column", o->shard_by);
+    int *group = malloc(sizeof *group * (size_t)(n + 1)),
+        *size = calloc((size_t)n + 1, sizeof *size);
+    if (!group || !size) {
+        free(group), free(size);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    int groups = 0;
+    for (int r = 0; r < n; r++) { /* quadratic in the worst case; lists are thousands of rows */
+        const char *v = column_value(&l->rows[r], o->shard_by);
+        group[r] = -1;
+        for (int q = 0; q < r && group[r] < 0; q++)
+            if (!strcmp(column_value(&l->rows[q], o->shard_by), v)) group[r] = group[q];
+        if (group[r] < 0) group[r] = groups++;
+        size[group[r]]++;
+    }
+    long long before = 0; /* rows in the groups before this one */
+    int *shard = size;    /* each group's shard, in place of its size */
+    for (int gi = 0; gi < groups; gi++) {
+        int rows = size[gi];
+        long long middle = 2 * before + rows; /* twice the middle row's position */
+        int k = 0;
+        while (k + 1 < N && 2 * ((long long)(k + 1) * n / N) <= middle) k++;
+        shard[gi] = k;
+        before += rows;
+    }
+    for (int r = 0; r < n; r++) mine[r] = shard[group[r]] == I;
+    free(group), free(size);
+    return WG_OK;
+}
+
 /* The request of one row: the command line's values, then the row's. */
 static int row_request(const Options *o, const WgGraph *g, const char *list, const BatchRow *row,
                        WgRequest **r, WgError *err)
@@ -66,6 +147,7 @@ static int row_request(const Options *o, const WgGraph *g, const char *list, con
     for (int k = 0; k < row->n_fields; k++) {
         const BatchField *f = &row->fields[k];
         int rc;
+        if (f->kind == BATCH_NOTE) continue;
         if (f->kind == BATCH_SET) {
             rc = wg_request_set(*r, f->name, f->value, err);
         } else {
@@ -133,12 +215,21 @@ int render_batch(const Options *o, const WgGraph *g)
         batch_list_free(&list);
         return EXIT_FAILED;
     }
-    int step = o->has_shard ? o->shard_count : 1, first = o->has_shard ? o->shard_index : 0;
-    int mine = list.n_rows > first ? (list.n_rows - first + step - 1) / step : 0;
-    int done = 0, failed = 0;
+    bool *in_shard = calloc((size_t)list.n_rows + 1, sizeof *in_shard);
+    if (!in_shard || shard_rows(o, &list, in_shard, &err)) {
+        if (!in_shard) wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+        cli_report(&err);
+        free(in_shard);
+        wg_engine_free(e);
+        batch_list_free(&list);
+        return cli_exit_for(err.code);
+    }
+    int mine = 0, done = 0, failed = 0;
+    for (int i = 0; i < list.n_rows; i++) mine += in_shard[i];
     bool progress = !o->quiet && isatty(2);
     double start = now_ms();
-    for (int i = first; i < list.n_rows; i += step) {
+    for (int i = 0; i < list.n_rows; i++) {
+        if (!in_shard[i]) continue;
         const BatchRow *row = &list.rows[i];
         Options ro = *o;
         ro.quiet = o->quiet || o->batch_json; /* stdout holds only the JSON lines */
@@ -192,6 +283,7 @@ int render_batch(const Options *o, const WgGraph *g)
         fprintf(stderr, ", %d rendered, %d failed, %.1f s\n", done - failed, failed,
                 (now_ms() - start) / 1e3);
     }
+    free(in_shard);
     wg_engine_free(e);
     batch_list_free(&list);
     return failed ? EXIT_FAILED : EXIT_OK;

@@ -234,8 +234,9 @@ static bool record_is_empty(const Record *r)
     return r->n == 1 && !r->cells[0].text[0];
 }
 
+enum { COLUMN_OUT = -1 };
 typedef struct {
-    int kind; /* BATCH_INPUT, BATCH_SET or -1 for out */
+    int kind; /* BATCH_INPUT, BATCH_SET, BATCH_NOTE (named #...) or COLUMN_OUT */
     const char *name;
     int line, column; /* of the header's cell */
 } Column;
@@ -259,6 +260,16 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
         rc = nomem(rd);
         goto out;
     }
+    /* a list saved with ';' between its fields reads as one column named by all of them */
+    if (header.n == 1 && strchr(header.cells[0].text, ';')) {
+        char shown[300];
+        rc = wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, header.cells[0].line,
+                             header.cells[0].column,
+                             "the header '%s' is one column: its names are separated by ';', but "
+                             "LIST is read as CSV, with ',' between fields",
+                             batch_shown(header.cells[0].text, shown, sizeof shown));
+        goto out;
+    }
     bool has_out = false;
     for (int i = 0; i < header.n; i++) {
         const Cell *c = &header.cells[i];
@@ -268,13 +279,16 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
         else if (!strncmp(t, "set:", 4) && t[4])
             cols[i] = (Column){BATCH_SET, t + 4, c->line, c->column};
         else if (!strcmp(t, "out") && !has_out)
-            cols[i] = (Column){-1, NULL, c->line, c->column}, has_out = true;
+            cols[i] = (Column){COLUMN_OUT, NULL, c->line, c->column}, has_out = true;
+        else if (t[0] == '#')
+            cols[i] = (Column){BATCH_NOTE, t, c->line, c->column};
         else {
             char shown[300];
             rc = wg_error_set_at(rd->err, WG_ERR_PARSE, rd->path, c->line, c->column,
                                  !strcmp(t, "out") ? "the column 'out' appears twice"
                                                    : "unknown column '%s' (the header names "
-                                                     "columns input:NAME, set:NAME and out)",
+                                                     "columns input:NAME, set:NAME and out, and "
+                                                     "#NAME for columns to ignore)",
                                  batch_shown(t, shown, sizeof shown));
             goto out;
         }
@@ -287,6 +301,25 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
                                      batch_shown(t, shown, sizeof shown));
                 goto out;
             }
+        {
+            BatchField *f = realloc(l->columns, sizeof *f * (size_t)(l->n_columns + 1));
+            char *name = cols[i].name ? strdup(cols[i].name) : NULL;
+            if (!f || (cols[i].name && !name)) {
+                if (f) l->columns = f;
+                free(name);
+                rc = nomem(rd);
+                goto out;
+            }
+            l->columns = f;
+            l->columns[l->n_columns++] =
+                (BatchField){cols[i].kind == COLUMN_OUT ? BATCH_OUT : cols[i].kind,
+                             name,
+                             NULL,
+                             c->line,
+                             c->column,
+                             c->line,
+                             c->column};
+        }
     }
     while ((rc = csv_record(rd, &p, end, &line, &rec)) == 1) {
         if (record_is_empty(&rec)) continue;
@@ -303,7 +336,7 @@ static int read_csv(Reader *rd, const char *text, size_t size, BatchList *l)
         for (int i = 0; i < rec.n; i++) {
             Cell *c = &rec.cells[i];
             if (!c->text[0]) continue; /* empty: as the command line or the graph has it */
-            if (cols[i].kind < 0) {
+            if (cols[i].kind == COLUMN_OUT) {
                 BatchRow *r = &l->rows[l->n_rows - 1];
                 if (!(r->out = resolve(rd, c->text))) {
                     rc = nomem(rd);
@@ -773,5 +806,7 @@ void batch_list_free(BatchList *l)
         free(r->out);
     }
     free(l->rows);
+    for (int k = 0; k < l->n_columns; k++) free(l->columns[k].name);
+    free(l->columns);
     *l = (BatchList){0};
 }

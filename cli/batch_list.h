@@ -1,16 +1,19 @@
 /* SPDX-License-Identifier: MIT */
 /* The LIST file of `wetgraph render --batch`: rows of input images, parameter values and an
  * output folder, read from CSV (header `input:NAME`, `set:NAME`, `out`) or JSON lines
- * ({"inputs": {...}, "set": {...}, "out": "..."}), chosen by the extension (cli/batch_list.c). */
+ * ({"inputs": {...}, "set": {...}, "out": "..."}), chosen by the extension (cli/batch_list.c).
+ * A CSV column whose name starts with '#' (an id, a comment) is carried along and ignored. */
 #ifndef WETGRAPH_CLI_BATCH_LIST_H
 #define WETGRAPH_CLI_BATCH_LIST_H
 
 #include "cli.h"
 
-enum { BATCH_INPUT, BATCH_SET };
+/* a value for a graph input, a parameter; a column the renders ignore (#NAME, kept for
+ * --shard-by); the output folder (only in BatchList.columns: a row's is BatchRow.out) */
+enum { BATCH_INPUT, BATCH_SET, BATCH_NOTE, BATCH_OUT };
 
 typedef struct {
-    int kind; /* BATCH_INPUT or BATCH_SET */
+    int kind; /* BATCH_INPUT, BATCH_SET or BATCH_NOTE */
     char *name, *value;
     int line, column;           /* where the value starts in the LIST */
     int name_line, name_column; /* where the name is: the CSV header's cell or the JSON key */
@@ -26,6 +29,10 @@ typedef struct {
 typedef struct {
     BatchRow *rows;
     int n_rows;
+    BatchField *columns; /* the CSV header's columns (value NULL; name "#..." for a note,
+                            NULL for out), so that a column is checked against the graph even
+                            when no row fills it */
+    int n_columns;
 } BatchList;
 
 /* Read a LIST. Input paths and `out` that are relative are resolved against the LIST's folder;

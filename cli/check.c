@@ -22,15 +22,17 @@ int cmd_check(int argc, char **argv)
             fputs(help, stdout);
             return EXIT_OK;
         }
-        if (argv[i][0] == '-' && argv[i][1])
-            return cli_usage_error("check", "unknown option '%s'", argv[i]);
+        if (argv[i][0] == '-' && argv[i][1]) return cli_unknown_option("check", help, argv[i]);
     }
     for (int i = 1; i < argc; i++) {
         files++;
         WgError err = {0};
         WgGraph *g = NULL;
         WgRequest *r = NULL;
-        int rc = wg_graph_load(argv[i], &g, &err);
+        char *path = NULL;
+        int rc = wg_graph_find(argv[i], &path, &err);
+        if (!rc) rc = wg_graph_load(path, &g, &err);
+        wg_free(path);
         if (!rc && !(r = wg_request_new(g)))
             rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         if (!rc) rc = cli_fill_placeholders(g, r, &err);

@@ -15,13 +15,24 @@ int cmd_info(int argc, char **argv);
 int cmd_nodes(int argc, char **argv);
 int cmd_dot(int argc, char **argv);
 int cmd_watch(int argc, char **argv);
+int cmd_cache(int argc, char **argv);
+int cmd_graphs(int argc, char **argv);
 
 /* Exit code for an error: 1 for I/O, evaluation, memory and budget failures, 2 for usage and
  * graph errors (parse, type, range, cycle). */
 int cli_exit_for(int code);
 /* "wetgraph: error: <location>: <message>" on stderr. */
 void cli_report(const WgError *err);
+/* A size in bytes: a decimal number, optionally followed by K, M, G or T (powers of 1024,
+ * also written KiB, MiB, ...); whole bytes up to 2^60. */
+bool cli_parse_bytes(const char *text, uint64_t *out);
+/* The graph file a command line names, a path or a graph's name (wg_graph_find), into buf;
+ * 0, or EXIT_USAGE after reporting that there is none. */
+int cli_find_graph(const char *arg, char *buf, size_t size);
 /* Usage error with a hint to --help; returns EXIT_USAGE. */
+/* An unknown option `arg` of `cmd`: the usage error, suggesting the closest option that the
+ * command's help text names (its -x and --name words). */
+int cli_unknown_option(const char *cmd, const char *help, const char *arg);
 int cli_usage_error(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 bool cli_is_help(const char *arg);
 /* JSON string literal. */

@@ -25,15 +25,16 @@ int cmd_dot(int argc, char **argv)
             fused = true;
             continue;
         }
-        if (argv[i][0] == '-' && argv[i][1])
-            return cli_usage_error("dot", "unknown option '%s'", argv[i]);
+        if (argv[i][0] == '-' && argv[i][1]) return cli_unknown_option("dot", help, argv[i]);
         if (file) return cli_usage_error("dot", "one graph file at a time");
         file = argv[i];
     }
     if (!file) return cli_usage_error("dot", "no graph file given");
+    char path[4096];
+    if (cli_find_graph(file, path, sizeof path)) return EXIT_USAGE;
     WgError err = {0};
     WgGraph *g;
-    if (wg_graph_load(file, &g, &err)) {
+    if (wg_graph_load(path, &g, &err)) {
         cli_report(&err);
         return cli_exit_for(err.code);
     }

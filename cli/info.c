@@ -19,6 +19,11 @@ static void print_json(const WgGraph *g)
 {
     printf("{\n  \"name\": ");
     cli_json_string(stdout, wg_graph_name(g));
+    printf(",\n  \"label\": ");
+    if (wg_graph_label(g))
+        cli_json_string(stdout, wg_graph_label(g));
+    else
+        printf("null");
     printf(",\n  \"size\": ");
     cli_json_string(stdout, wg_graph_size_text(g));
     printf(",\n  \"seed\": %llu,\n  \"params\": [", (unsigned long long)wg_graph_seed(g));
@@ -74,8 +79,10 @@ static void print_json(const WgGraph *g)
 
 static void print_text(const WgGraph *g)
 {
-    printf("graph %s (%s)\n  size %s, seed %llu, %d nodes\n", wg_graph_name(g), wg_graph_path(g),
-           wg_graph_size_text(g), (unsigned long long)wg_graph_seed(g), wg_graph_node_count(g));
+    printf("graph %s (%s)\n", wg_graph_name(g), wg_graph_path(g));
+    if (wg_graph_label(g)) printf("  \"%s\"\n", wg_graph_label(g));
+    printf("  size %s, seed %llu, %d nodes\n", wg_graph_size_text(g),
+           (unsigned long long)wg_graph_seed(g), wg_graph_node_count(g));
     printf("parameters:%s\n", wg_graph_param_count(g) ? "" : " none");
     for (int i = 0; i < wg_graph_param_count(g); i++) {
         const WgGraphParamInfo *p = wg_graph_param_info(g, i);
@@ -123,16 +130,18 @@ int cmd_info(int argc, char **argv)
         if (!strcmp(argv[i], "--json"))
             json = true;
         else if (argv[i][0] == '-' && argv[i][1])
-            return cli_usage_error("info", "unknown option '%s'", argv[i]);
+            return cli_unknown_option("info", help, argv[i]);
         else if (file)
             return cli_usage_error("info", "one graph file at a time");
         else
             file = argv[i];
     }
     if (!file) return cli_usage_error("info", "no graph file given");
+    char path[4096];
+    if (cli_find_graph(file, path, sizeof path)) return EXIT_USAGE;
     WgError err = {0};
     WgGraph *g;
-    if (wg_graph_load(file, &g, &err)) {
+    if (wg_graph_load(path, &g, &err)) {
         cli_report(&err);
         return cli_exit_for(err.code);
     }

@@ -16,10 +16,15 @@ static const char usage[] =
     "  check FILE...           validate graph files without evaluating them\n"
     "  info FILE [--json]      list a graph's parameters, inputs and outputs\n"
     "  nodes [TYPE] [--markdown]  the built-in node catalogue\n"
-    "  dot FILE                Graphviz view of a graph\n"
+    "  graphs [--paths]        the graphs found by name\n"
+    "  cache info|prune|clear DIR  the result cache folder: size, least recently used out\n"
+    "  dot FILE [--fused]      Graphviz view of a graph\n"
     "\n"
-    "'wetgraph COMMAND --help' describes a command. Exit codes: 0 ok, 1 evaluation or I/O\n"
-    "failure, 2 usage or graph error.\n";
+    "FILE is a graph file, or the name of a graph in WETGRAPH_PATH or the built-in folder\n"
+    "(wetgraph render wet_material; 'wetgraph graphs' lists them).\n"
+    "\n"
+    "'wetgraph COMMAND --help' describes a command ('wetgraph --help-all': all of them).\n"
+    "Exit codes: 0 ok, 1 evaluation or I/O failure, 2 usage or graph error.\n";
 
 int main(int argc, char **argv)
 {
@@ -40,11 +45,25 @@ int main(int argc, char **argv)
         const char *name;
         int (*fn)(int, char **);
     } cmds[] = {{"render", cmd_render}, {"check", cmd_check}, {"info", cmd_info},
-                {"nodes", cmd_nodes},   {"dot", cmd_dot},     {"watch", cmd_watch}};
+                {"nodes", cmd_nodes},   {"dot", cmd_dot},     {"watch", cmd_watch},
+                {"graphs", cmd_graphs}, {"cache", cmd_cache}};
+    if (!strcmp(cmd, "--help-all")) {
+        /* the overview and every command's --help, in one text: the man page's source */
+        fputs(usage, stdout);
+        for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++) {
+            char name[16], help[] = "--help";
+            snprintf(name, sizeof name, "%s", cmds[i].name);
+            char *args[] = {name, help, NULL};
+            printf("\n%s:\n\n", cmds[i].name);
+            fflush(stdout);
+            cmds[i].fn(2, args);
+        }
+        return EXIT_OK;
+    }
     for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++)
         if (!strcmp(cmd, cmds[i].name)) return cmds[i].fn(argc - 1, argv + 1);
-    const char *names[] = {"render", "check", "info", "nodes", "dot", "watch"};
-    const char *s = wg_suggest(cmd, names, 6);
+    const char *names[] = {"render", "check", "info", "nodes", "dot", "watch", "graphs", "cache"};
+    const char *s = wg_suggest(cmd, names, 8);
     fprintf(stderr, "wetgraph: unknown command '%s'%s%s%s\n(see 'wetgraph --help')\n", cmd,
             s ? "; did you mean '" : "", s ? s : "", s ? "'?" : "");
     return EXIT_USAGE;

@@ -146,7 +146,7 @@ int cmd_nodes(int argc, char **argv)
         if (!strcmp(argv[i], "--markdown"))
             md = true;
         else if (argv[i][0] == '-')
-            return cli_usage_error("nodes", "unknown option '%s'", argv[i]);
+            return cli_unknown_option("nodes", help, argv[i]);
         else if (type)
             return cli_usage_error("nodes", "one node type at a time");
         else

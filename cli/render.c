@@ -40,18 +40,40 @@ static const char help[] =
     "                         set:NAME, out; or .jsonl) through one engine: nodes equal\n"
     "                         across rows are computed once; a failed row does not stop\n"
     "                         the others\n"
-    "  --shard I/N            with --batch: only rows I, I+N, I+2N, ... (rows from 0)\n"
+    "  --shard I/N            with --batch: only the I-th of N blocks of consecutive rows\n"
+    "                         (I from 0; the blocks' sizes differ by one row at most)\n"
+    "  --shard-by COLUMN      with --shard: rows with one value in COLUMN (input:NAME,\n"
+    "                         set:NAME, out or #NAME) go to one shard, so what they share\n"
+    "                         is computed once\n"
     "  --batch-json           with --batch: one JSON line per row on stdout\n"
     "  --format FMT           png | png16 | tif16 | exr | exr32 for every output\n"
     "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
     "                         (add -o to get both)\n"
     "  --threads N            worker threads (default: number of cores)\n"
     "  --cache DIR            persistent result cache: unchanged nodes are not recomputed\n"
+    "  --cache-max SIZE       after rendering, remove the cache's least recently used entries\n"
+    "                         until it holds at most SIZE (bytes, or with K, M, G or T:\n"
+    "                         binary multiples; 'wetgraph cache' manages the folder)\n"
     "  --memory-budget MB     image memory for the working set and the cache\n"
     "  --stats[=json]         per-node time, cache outcome and size, fused groups, and peak\n"
     "                         memory (table on stderr, or JSON on stdout)\n"
     "  --no-fuse              evaluate every node whole: no point operations fused into bands\n"
     "  -q, --quiet            print nothing but errors (no warnings either)\n";
+
+void prune_cache(const Options *o)
+{
+    if (!o->has_cache_max || !o->cache) return;
+    WgError err = {0};
+    WgCachePruned p;
+    if (wg_cache_dir_prune(o->cache, o->cache_max, &p, &err)) {
+        cli_report(&err);
+        return;
+    }
+    if (o->stats && !o->stats_json)
+        fprintf(stderr, "cache %s: %lld entries removed (%.1f MiB), %.1f MiB left (cap %.1f MiB)\n",
+                o->cache, p.removed, p.freed / 1048576.0, p.left / 1048576.0,
+                o->cache_max / 1048576.0);
+}
 
 static int mkdir_p(const char *path)
 {
@@ -210,6 +232,9 @@ int parse_args(int argc, char **argv, Options *o)
         } else if (TAKE("--batch")) {
             NEED;
             o->batch = val;
+        } else if (TAKE("--shard-by")) {
+            NEED;
+            o->shard_by = val;
         } else if (TAKE("--shard")) {
             NEED;
             if (!parse_shard(val, o))
@@ -234,6 +259,14 @@ int parse_args(int argc, char **argv, Options *o)
             if (!wg_parse_whole(val, &n) || n < 1 || n > 256)
                 return cli_usage_error(o->cmd, "bad --threads '%s' (a whole number, 1..256)", val);
             o->threads = (int)n;
+        } else if (TAKE("--cache-max")) {
+            NEED;
+            if (!cli_parse_bytes(val, &o->cache_max))
+                return cli_usage_error(o->cmd,
+                                       "bad --cache-max '%s' (a size: bytes, or a decimal number "
+                                       "with K, M, G or T)",
+                                       val);
+            o->has_cache_max = true;
         } else if (TAKE("--cache")) {
             NEED;
             o->cache = val;
@@ -256,7 +289,7 @@ int parse_args(int argc, char **argv, Options *o)
         } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             o->quiet = true;
         } else if (a[0] == '-' && a[1]) {
-            return cli_usage_error(o->cmd, "unknown option '%s'", a);
+            return cli_unknown_option(o->cmd, o->help, a);
         } else if (!o->file) {
             o->file = a;
         } else {
@@ -266,10 +299,13 @@ int parse_args(int argc, char **argv, Options *o)
 #undef NEED
     }
     if (!o->file) return cli_usage_error(o->cmd, "no graph file given");
+    if (o->has_cache_max && !o->cache)
+        return cli_usage_error(o->cmd, "--cache-max needs --cache DIR");
     if (!o->has_frames && (o->has_fps || o->contact_sheet))
         return cli_usage_error(o->cmd, "%s needs --frames",
                                o->has_fps ? "--fps" : "--contact-sheet");
     if (!o->has_fps) o->fps = 24;
+    if (o->shard_by && !o->has_shard) return cli_usage_error(o->cmd, "--shard-by needs --shard");
     if (!o->batch && (o->has_shard || o->batch_json))
         return cli_usage_error(o->cmd, "%s needs --batch",
                                o->has_shard ? "--shard" : "--batch-json");
@@ -280,6 +316,9 @@ int parse_args(int argc, char **argv, Options *o)
                                o->has_frames ? "--frames"
                                : o->layered  ? "--layered"
                                              : "--stats");
+    /* last, so that usage errors come first: the graph a path or a name gives */
+    if (cli_find_graph(o->file, o->file_found, sizeof o->file_found)) return EXIT_USAGE;
+    o->file = o->file_found;
     return 0;
 }
 
@@ -921,6 +960,7 @@ fail:
     /* once evaluation has started every failure is an evaluation failure */
     if (status != EXIT_FAILED) status = cli_exit_for(err.code);
 out:
+    if (g) prune_cache(&o); /* also after a failure: the cap holds whatever was stored */
     wg_result_free(res);
     wg_engine_free(e);
     wg_request_free(r);

@@ -21,10 +21,14 @@ typedef struct {
     bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json, no_fuse;
     bool has_shard, batch_json;
     int shard_index, shard_count;
+    const char *shard_by; /* --shard-by COLUMN: rows of one value stay on one shard */
     uint64_t seed;
     double time, fps;
     int frame_first, frame_last;
     size_t budget;
+    uint64_t cache_max; /* --cache-max: bytes the cache folder keeps after a render */
+    bool has_cache_max;
+    char file_found[4096]; /* the graph file `file` names (cli_find_graph) */
 } Options;
 
 /* Parse render's options into o (o->cmd and o->help may be set first); returns 0, 1 after
@@ -36,6 +40,9 @@ int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *
 /* The path output i of res is written to (frame >= 0: with "_<frame>"). */
 void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
                  char *buf, size_t size);
+/* With --cache-max: remove the cache folder's least recently used entries until it holds at
+ * most that much (with --stats, say what went, on stderr). */
+void prune_cache(const Options *o);
 /* Write every output of res (frame >= 0: with "_<frame>" in the names), all or none. */
 int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgError *err);
 /* The same, leaving out (not writing, not listing) the separate files of the outputs i with

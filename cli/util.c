@@ -2,6 +2,7 @@
 /* Helpers shared by the subcommands: error reporting, JSON strings, sizes. */
 #include "cli.h"
 
+#include <ctype.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,6 +40,66 @@ void cli_report(const WgError *err)
             fputc(c, stderr);
     }
     fputc('\n', stderr);
+}
+
+int cli_find_graph(const char *arg, char *buf, size_t size)
+{
+    WgError err = {0};
+    char *path = NULL;
+    if (!wg_graph_find(arg, &path, &err) && strlen(path) >= size)
+        wg_error_set_at(&err, WG_ERR_IO, arg, 0, 0, "path of the graph file too long");
+    else if (path)
+        memcpy(buf, path, strlen(path) + 1);
+    bool ok = path && strlen(path) < size;
+    wg_free(path);
+    if (ok) return 0;
+    cli_report(&err);
+    return EXIT_USAGE;
+}
+
+bool cli_parse_bytes(const char *text, uint64_t *out)
+{
+    static const char units[] = "KMGT";
+    size_t n = strlen(text), unit = 0;
+    char num[64];
+    const char *end = text + n;
+    if (n >= 3 && !strcmp(end - 2, "iB")) end -= 2;
+    if (end > text && strchr(units, end[-1]) && end[-1]) {
+        unit = (size_t)(strchr(units, end[-1]) - units) + 1;
+        end--;
+    }
+    if (end == text || (size_t)(end - text) >= sizeof num) return false;
+    memcpy(num, text, (size_t)(end - text));
+    num[end - text] = '\0';
+    double v;
+    if (!wg_parse_number(num, &v) || v < 0) return false;
+    for (size_t i = 0; i < unit; i++) v *= 1024;
+    if (v > 1152921504606846976.0) return false; /* 2^60 */
+    *out = (uint64_t)v;
+    return true;
+}
+
+int cli_unknown_option(const char *cmd, const char *help, const char *arg)
+{
+    enum { MAX = 128, LEN = 40 };
+    char words[MAX][LEN];
+    const char *names[MAX];
+    int n = 0;
+    for (const char *p = help; *p && n < MAX; p++) {
+        bool start = p == help || *(p - 1) == ' ' || *(p - 1) == '\n' || *(p - 1) == '[';
+        if (!start || *p != '-' || !(isalnum((unsigned char)p[1]) || p[1] == '-')) continue;
+        size_t len = 1;
+        while (len < LEN - 1 && (isalnum((unsigned char)p[len]) || p[len] == '-')) len++;
+        snprintf(words[n], LEN, "%.*s", (int)len, p);
+        bool seen = len < 2 || !strcmp(words[n], "--");
+        for (int k = 0; k < n && !seen; k++) seen = !strcmp(words[k], words[n]);
+        if (!seen) names[n] = words[n], n++;
+    }
+    char given[LEN];
+    snprintf(given, sizeof given, "%.*s", (int)strcspn(arg, "="), arg);
+    const char *near = wg_suggest(given, names, n);
+    if (near) return cli_usage_error(cmd, "unknown option '%s'; did you mean '%s'?", arg, near);
+    return cli_usage_error(cmd, "unknown option '%s'", arg);
 }
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)

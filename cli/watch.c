@@ -628,6 +628,7 @@ int cmd_watch(int argc, char **argv)
     int *wds = NULL;
     for (bool stop = false; !stop;) {
         bool superseded = render_once(&o, e, &files, serve, sfd, &written);
+        prune_cache(&o);
         int *grown = realloc(wds, sizeof *wds * (size_t)(files.n + 1));
         if (!grown) {
             fprintf(stderr, "wetgraph: error: out of memory\n");

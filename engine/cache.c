@@ -10,6 +10,7 @@
  * (.<name>.tmp<pid>-<n>.wgc) and renamed, so concurrent renders never see half a file; opening
  * the cache removes the temporaries left behind by processes that no longer exist. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <ctype.h>
 #include <dirent.h>
@@ -349,6 +350,8 @@ const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, i
         wg_image_unref(img);
         img = NULL;
     }
+    /* a hit marks the entry as just used: pruning the folder removes the least recently used */
+    if (img) futimens(fileno(f), NULL);
 out:
     if (f) fclose(f);
     if (bad) unlink(path); /* corrupt, stale or someone else's: recompute and rewrite */

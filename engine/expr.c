@@ -224,6 +224,20 @@ static WgExprNode *parse_atom(Parser *ps)
                 if (find_func(s, len, &f))
                     return fail(ps, at, WG_ERR_PARSE,
                                 "function '%s' is only available in the pixel node", name);
+                /* the closest function this expression may call */
+                const char *names[WG_FN_COUNT_ + 1];
+                int count = 0;
+                for (int i = 0; i < WG_FN_COUNT_; i++)
+                    if (!funcs[i].pixel_only || ps->opt->pixel_functions)
+                        names[count++] = funcs[i].name;
+                names[count++] = "mix";
+                const char *near = wg_suggest(name, names, count);
+                if (near) {
+                    char text[200];
+                    snprintf(text, sizeof text, "unknown function '%s'; did you mean '%s'?", name,
+                             near);
+                    return fail(ps, at, WG_ERR_PARSE, "%s", text);
+                }
                 return fail(ps, at, WG_ERR_PARSE, "unknown function '%s'", name);
             }
             ps->p++;

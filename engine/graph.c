@@ -118,6 +118,7 @@ void wg_graph_free(WgGraph *g)
     wg_free(g->path);
     wg_free(g->dir);
     wg_free(g->name);
+    wg_free(g->label);
     wg_free(g->size_text);
     wg_free(g);
 }
@@ -127,6 +128,10 @@ void wg_graph_free(WgGraph *g)
 const char *wg_graph_name(const WgGraph *g)
 {
     return g->name;
+}
+const char *wg_graph_label(const WgGraph *g)
+{
+    return g->label;
 }
 const char *wg_graph_path(const WgGraph *g)
 {

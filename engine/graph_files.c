@@ -1,12 +1,18 @@
 /* SPDX-License-Identifier: MIT */
 /* Finding and reading graph files: the built-in graphs folder (WETGRAPH_GRAPHS_DIR, else the
- * source tree's graphs/, else the installed one), path helpers, the search for a subgraph
+ * source tree's graphs/ for the library in the build tree and the installed one for an
+ * installed library), path helpers, the search for a subgraph
  * named by a node's type (a .wetgraph path relative to the using file; or <type>.wetgraph next
  * to the using file, then in each WETGRAPH_PATH folder, then in the built-in folder) with a
- * spelling suggestion when nothing is found, and reading a graph file's whole text. */
+ * spelling suggestion when nothing is found, the graph a command line names (a file, or a
+ * graph's name looked up as a subgraph is, from WETGRAPH_PATH on), the graph library (every
+ * graph those folders hold, by name), and reading a graph file's whole text. */
 #include "load.h"
 
+#include <dirent.h>
+#include <dlfcn.h>
 #include <errno.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +23,9 @@
 #endif
 #ifndef WG_INSTALL_GRAPHS_DIR
 #define WG_INSTALL_GRAPHS_DIR ""
+#endif
+#ifndef WG_BUILD_DIR
+#define WG_BUILD_DIR ""
 #endif
 
 static bool file_exists(const char *path)
@@ -31,12 +40,40 @@ static bool dir_exists(const char *path)
     return path[0] && stat(path, &st) == 0 && S_ISDIR(st.st_mode);
 }
 
+/* Whether this library is the one in the build tree (not an installed copy): found through
+ * the path of the object holding this function. */
+static bool in_build_tree(void)
+{
+    Dl_info info;
+    if (!dladdr((void *)in_build_tree, &info) || !info.dli_fname) return false;
+    char *real = realpath(info.dli_fname, NULL);
+    size_t len = strlen(WG_BUILD_DIR);
+    bool in = real && len > 0 && !strncmp(real, WG_BUILD_DIR, len) && real[len] == '/';
+    free(real);
+    return in;
+}
+
+static const char *builtin_dir;
+
+static void builtin_dir_find(void)
+{
+    /* a library built here reads the source tree's graphs, an installed one its own */
+    bool build = in_build_tree();
+    if (build && dir_exists(WG_SOURCE_GRAPHS_DIR))
+        builtin_dir = WG_SOURCE_GRAPHS_DIR;
+    else if (dir_exists(WG_INSTALL_GRAPHS_DIR) || !dir_exists(WG_SOURCE_GRAPHS_DIR))
+        builtin_dir = WG_INSTALL_GRAPHS_DIR;
+    else
+        builtin_dir = WG_SOURCE_GRAPHS_DIR;
+}
+
 const char *wg_builtin_graphs_dir(void)
 {
     const char *env = getenv("WETGRAPH_GRAPHS_DIR");
     if (env && dir_exists(env)) return env;
-    if (dir_exists(WG_SOURCE_GRAPHS_DIR)) return WG_SOURCE_GRAPHS_DIR;
-    return WG_INSTALL_GRAPHS_DIR;
+    static pthread_once_t once = PTHREAD_ONCE_INIT;
+    pthread_once(&once, builtin_dir_find);
+    return builtin_dir;
 }
 
 char *wg__dir_of(const char *path)
@@ -133,6 +170,130 @@ int wg__resolve_subgraph(LoadCtx *lc, Doc *d, WgGraph *g, NodeDef *n, WgError *e
     }
     wg_free(found);
     return rc;
+}
+
+/* ---- graphs named on a command line, and the library ----------------------------------- */
+
+/* The folders a graph name is looked up in, in order: each WETGRAPH_PATH folder, then the
+ * built-in one. Returns the count; *buf holds the strings (wg_free it). */
+static int library_dirs(const char **dirs, int max, char **buf)
+{
+    int n = 0;
+    const char *env = getenv("WETGRAPH_PATH");
+    *buf = env && env[0] ? wg_strdup(env) : NULL;
+    for (char *save = NULL, *tok = *buf ? strtok_r(*buf, ":", &save) : NULL; tok && n < max - 1;
+         tok = strtok_r(NULL, ":", &save))
+        dirs[n++] = tok;
+    dirs[n++] = wg_builtin_graphs_dir();
+    return n;
+}
+
+static int cmp_entry(const void *a, const void *b)
+{
+    return strcmp(((const WgGraphEntry *)a)->name, ((const WgGraphEntry *)b)->name);
+}
+
+void wg_graph_list_free(WgGraphEntry *list, int count)
+{
+    for (int i = 0; list && i < count; i++) {
+        wg_free(list[i].name);
+        wg_free(list[i].path);
+    }
+    wg_free(list);
+}
+
+int wg_graph_list(WgGraphEntry **out, int *count, WgError *err)
+{
+    *out = NULL, *count = 0;
+    const char *dirs[64];
+    char *buf = NULL;
+    int n_dirs = library_dirs(dirs, 64, &buf), n = 0, cap = 0, rc = WG_OK;
+    WgGraphEntry *list = NULL;
+    for (int k = 0; k < n_dirs && !rc; k++) {
+        DIR *d = dir_exists(dirs[k]) ? opendir(dirs[k]) : NULL;
+        if (!d) continue;
+        int first = n; /* entries of earlier folders shadow this one's */
+        for (struct dirent *e; !rc && (e = readdir(d));) {
+            size_t len = strlen(e->d_name);
+            if (e->d_name[0] == '.' || !wg__ends_with(e->d_name, ".wetgraph") || len == 9) continue;
+            char *path = join_path(dirs[k], e->d_name);
+            char *name = wg_strndup(e->d_name, len - 9);
+            if (!path || !name) {
+                wg_free(path), wg_free(name);
+                rc = nomem(err);
+                break;
+            }
+            bool shadowed = !file_exists(path);
+            for (int i = 0; i < first && !shadowed; i++) shadowed = !strcmp(list[i].name, name);
+            if (shadowed) {
+                wg_free(path), wg_free(name);
+                continue;
+            }
+            if (n == cap) {
+                int c = cap ? 2 * cap : 32;
+                WgGraphEntry *bigger = wg_realloc_array(list, (size_t)cap, (size_t)c, sizeof *list);
+                if (!bigger) {
+                    wg_free(path), wg_free(name);
+                    rc = nomem(err);
+                    break;
+                }
+                list = bigger, cap = c;
+            }
+            list[n++] = (WgGraphEntry){name, path};
+        }
+        closedir(d);
+    }
+    wg_free(buf);
+    if (rc) {
+        wg_graph_list_free(list, n);
+        return rc;
+    }
+    if (n > 1) qsort(list, (size_t)n, sizeof *list, cmp_entry);
+    *out = list, *count = n;
+    return WG_OK;
+}
+
+int wg_graph_find(const char *name, char **path, WgError *err)
+{
+    *path = NULL;
+    if (!name || !name[0]) return wg_error_set(err, WG_ERR_IO, NULL, "no graph file given");
+    struct stat st;
+    if (stat(name, &st) == 0) {
+        if (S_ISDIR(st.st_mode))
+            return wg_error_set_at(err, WG_ERR_IO, name, 0, 0,
+                                   "cannot open the graph file: it is a folder");
+        return (*path = wg_strdup(name)) ? WG_OK : nomem(err);
+    }
+    if (strchr(name, '/'))
+        return wg_error_set_at(err, WG_ERR_IO, name, 0, 0,
+                               "cannot open the graph file: no such file");
+    /* a bare name: NAME.wetgraph (or NAME) in WETGRAPH_PATH, then the built-in folder */
+    size_t fl = strlen(name) + 10;
+    char *file = wg_malloc(fl);
+    if (!file) return nomem(err);
+    snprintf(file, fl, "%s%s", name, wg__ends_with(name, ".wetgraph") ? "" : ".wetgraph");
+    const char *dirs[64];
+    char *buf = NULL;
+    int n_dirs = library_dirs(dirs, 64, &buf), rc = WG_OK;
+    for (int k = 0; k < n_dirs && !*path && !rc; k++)
+        if (dir_exists(dirs[k])) rc = try_path(dirs[k], file, path, err);
+    wg_free(buf);
+    wg_free(file);
+    if (rc || *path) return rc;
+    WgGraphEntry *list = NULL;
+    int count = 0;
+    const char *names[512], *s = NULL;
+    if (!wg_graph_list(&list, &count, NULL)) {
+        int m = count < 512 ? count : 512;
+        for (int i = 0; i < m; i++) names[i] = list[i].name;
+        s = wg_suggest(name, names, m);
+    }
+    wg_error_set_at(err, WG_ERR_IO, name, 0, 0,
+                    "no such graph file, and no graph of that name in WETGRAPH_PATH or in %s%s%s%s",
+                    wg_builtin_graphs_dir(), s ? "; did you mean '" : "", s ? s : "",
+                    s ? "'?" : " ('wetgraph graphs' lists them)");
+    wg_graph_list_free(list, count);
+    return WG_ERR_IO;
 }
 
 /* The whole file (the line annotation needs the text); graph files are small. */

@@ -172,10 +172,13 @@ void wg_image_unref(const WgImage *img)
     }
 }
 
-/* Filter taps for one axis: for each output index, `taps` source indices (wrapped) and
- * normalised weights. */
+/* Filter taps for one axis: for each output index o, n[o] <= `taps` source indices (wrapped)
+ * and normalised weights, stored from o * taps. Only the taps of nonzero weight are kept: the
+ * tent's ends carry none, and a zero-weight tap would only add work (and, reading an infinite
+ * value, a NaN). */
 typedef struct {
     int taps;
+    int *n;
     int *index;
     float *weight;
 } Axis;
@@ -186,9 +189,10 @@ static int axis_build(Axis *a, int src, int dst)
     double support = scale > 1 ? scale : 1; /* half-width of the tent in source pixels */
     int taps = (int)ceil(2 * support) + 2;
     a->taps = taps;
+    a->n = wg_malloc(sizeof(int) * (size_t)dst);
     a->index = wg_malloc(sizeof(int) * (size_t)taps * (size_t)dst);
     a->weight = wg_malloc(sizeof(float) * (size_t)taps * (size_t)dst);
-    if (!a->index || !a->weight) return WG_ERR_NOMEM;
+    if (!a->n || !a->index || !a->weight) return WG_ERR_NOMEM;
     for (int o = 0; o < dst; o++) {
         double centre = (o + 0.5) * scale - 0.5; /* in source pixel coordinates */
         int first = (int)floor(centre - support) + 1;
@@ -199,17 +203,21 @@ static int axis_build(Axis *a, int src, int dst)
             w[t] = d < 1 ? 1 - d : 0;
             sum += w[t];
         }
+        int n = 0;
         for (int t = 0; t < taps; t++) {
-            int i = ((first + t) % src + src) % src;
-            a->index[o * taps + t] = i;
-            a->weight[o * taps + t] = (float)(w[t] / sum);
+            if (w[t] == 0) continue;
+            a->index[o * taps + n] = ((first + t) % src + src) % src;
+            a->weight[o * taps + n] = (float)(w[t] / sum);
+            n++;
         }
+        a->n[o] = n;
     }
     return WG_OK;
 }
 
 static void axis_free(Axis *a)
 {
+    wg_free(a->n);
     wg_free(a->index);
     wg_free(a->weight);
 }
@@ -220,57 +228,249 @@ static inline float saturate(float v)
     return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
 }
 
-static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
+/* Both passes band by band: the output rows are split between the workers, and for each band
+ * of at most RESAMPLE_BAND of them the source rows its taps read are resampled horizontally into
+ * a buffer of the band's own, then combined vertically into the output, so no intermediate image
+ * of the output's width and the source's height is made (a source row that two bands read is
+ * resampled in both). Every output value is a sum over its taps in tap order, whichever thread
+ * computes it, so the result does not depend on the number of threads. */
+#define RESAMPLE_BAND 32
+
+typedef struct {
+    const WgImage *src;
+    WgImage *dst;
+    Axis ax, ay;
+    int band_rows; /* source rows a band reads, at most */
+    atomic_int failed;
+    /* band buffers no chunk is using: one per worker at most, made once per resampling */
+    pthread_mutex_t mu;
+    void *idle[64];
+    int n_idle;
+} Resample;
+
+/* A band's buffer: band_rows rows of the output's width, then the source row -> slot map and
+ * the rows in use. */
+static size_t band_bytes(const Resample *r)
 {
-    int c = src->channels;
-    Axis ax = {0}, ay = {0};
-    WgImage *tmp = NULL, *dst = NULL;
-    if (axis_build(&ax, src->width, width) || axis_build(&ay, src->height, height)) goto done;
-    tmp = wg__image_new_in(pool, width, src->height, c);
-    dst = wg__image_new_in(pool, width, height, c);
-    if (!tmp || !dst) goto fail;
-    for (int y = 0; y < src->height; y++) {
-        const float *in = wg_image_row(src, y);
-        float *out = wg_image_row(tmp, y);
-        for (int x = 0; x < width; x++) {
-            for (int k = 0; k < c; k++) {
-                float s = 0, first = in[ax.index[x * ax.taps] * c + k];
-                bool same = true;
-                for (int t = 0; t < ax.taps; t++) {
-                    float v = in[ax.index[x * ax.taps + t] * c + k];
-                    same &= v == first;
-                    s += ax.weight[x * ax.taps + t] * v;
-                }
-                out[x * c + k] = same ? first : saturate(s);
+    size_t row = (size_t)r->dst->width * (size_t)r->dst->channels;
+    return sizeof(float) * row * (size_t)r->band_rows +
+           sizeof(int) * ((size_t)r->src->height + (size_t)r->band_rows);
+}
+
+static void *band_take(Resample *r)
+{
+    void *b = NULL;
+    pthread_mutex_lock(&r->mu);
+    if (r->n_idle) b = r->idle[--r->n_idle];
+    pthread_mutex_unlock(&r->mu);
+    if (b) return b;
+    b = wg_malloc(band_bytes(r));
+    if (!b) return NULL;
+    int *slot = (int *)((float *)b +
+                        (size_t)r->dst->width * (size_t)r->dst->channels * (size_t)r->band_rows);
+    for (int i = 0; i < r->src->height; i++) slot[i] = -1;
+    return b;
+}
+
+/* Back to the idle list with every slot -1 again. */
+static void band_give(Resample *r, void *b)
+{
+    pthread_mutex_lock(&r->mu);
+    if (r->n_idle < 64) {
+        r->idle[r->n_idle++] = b;
+        b = NULL;
+    }
+    pthread_mutex_unlock(&r->mu);
+    wg_free(b);
+}
+
+/* Colour pixels as one 4-wide vector per tap (GCC and Clang vector types: SSE on x86-64, NEON on
+ * ARM, plain code elsewhere); gray samples one at a time. */
+typedef float V4 __attribute__((vector_size(16)));
+typedef int32_t I4 __attribute__((vector_size(16)));
+
+static inline V4 load4(const float *p)
+{
+    V4 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static inline V4 select4(I4 mask, V4 a, V4 b) /* mask ? a : b, lane by lane */
+{
+    return (V4)(((I4)a & mask) | ((I4)b & ~mask));
+}
+
+/* Source row sy resampled horizontally into out (the output's width). */
+static void resample_row_x(const Resample *r, int sy, float *out)
+{
+    const Axis *ax = &r->ax;
+    const float *in = wg_image_row(r->src, sy);
+    int c = r->src->channels, width = r->dst->width;
+    const V4 big = {FLT_MAX, FLT_MAX, FLT_MAX, FLT_MAX};
+    for (int x = 0; x < width; x++) {
+        const int *idx = ax->index + (size_t)x * (size_t)ax->taps;
+        const float *wt = ax->weight + (size_t)x * (size_t)ax->taps;
+        int n = ax->n[x];
+        if (c == 1 && n == 2) { /* every output when enlarging */
+            float f = in[idx[0]], g = in[idx[1]];
+            out[x] = f != g ? saturate(wt[0] * f + wt[1] * g) : f;
+        } else if (c == 4) {
+            V4 f = load4(in + 4 * (size_t)idx[0]), s = wt[0] * f;
+            I4 diff = {0, 0, 0, 0};
+            for (int t = 1; t < n; t++) {
+                V4 v = load4(in + 4 * (size_t)idx[t]);
+                s += wt[t] * v;
+                diff |= v != f;
+            }
+            s = select4(s > big, big, s);
+            s = select4(s < -big, -big, s);
+            s = select4(diff, s, f);
+            memcpy(out + 4 * (size_t)x, &s, sizeof s);
+        } else {
+            float f = in[idx[0]], s = wt[0] * f;
+            int diff = 0;
+            for (int t = 1; t < n; t++) {
+                float v = in[idx[t]];
+                s += wt[t] * v;
+                diff |= v != f;
+            }
+            out[x] = diff ? saturate(s) : f;
+        }
+    }
+}
+
+/* Output row y from its taps' rows, horizontally resampled: two taps (every row when
+ * enlarging) in one loop; more in blocks of the row's values summed over the taps, then kept
+ * only where some tap differs from the first. */
+#define RESAMPLE_BLOCK 512
+
+static void resample_row_y(const Resample *r, int y, const float *const *rows, float *out)
+{
+    const Axis *ay = &r->ay;
+    int count = r->dst->width * r->dst->channels;
+    const float *wt = ay->weight + (size_t)y * (size_t)ay->taps;
+    int n = ay->n[y];
+    const float *f = rows[0];
+    if (n == 2) {
+        const float *g = rows[1];
+        float w0 = wt[0], w1 = wt[1];
+        for (int i = 0; i < count; i++) {
+            float v = w0 * f[i] + w1 * g[i];
+            v = v > FLT_MAX ? FLT_MAX : v;
+            v = v < -FLT_MAX ? -FLT_MAX : v;
+            out[i] = f[i] != g[i] ? v : f[i];
+        }
+        return;
+    }
+    float s[RESAMPLE_BLOCK];
+    int diff[RESAMPLE_BLOCK];
+    for (int b0 = 0; b0 < count; b0 += RESAMPLE_BLOCK) {
+        int m = count - b0 < RESAMPLE_BLOCK ? count - b0 : RESAMPLE_BLOCK;
+        const float *fb = f + b0;
+        for (int i = 0; i < m; i++) {
+            s[i] = wt[0] * fb[i];
+            diff[i] = 0;
+        }
+        for (int t = 1; t < n; t++) {
+            const float *v = rows[t] + b0;
+            float w = wt[t];
+            for (int i = 0; i < m; i++) {
+                s[i] += w * v[i];
+                diff[i] |= v[i] != fb[i];
             }
         }
-    }
-    for (int y = 0; y < height; y++) {
-        float *out = wg_image_row(dst, y);
-        for (int i = 0; i < width * c; i++) out[i] = 0;
-        for (int t = 0; t < ay.taps; t++) {
-            float w = ay.weight[y * ay.taps + t];
-            if (w == 0) continue;
-            const float *in = wg_image_row(tmp, ay.index[y * ay.taps + t]);
-            for (int i = 0; i < width * c; i++) out[i] += w * in[i];
-        }
-        const float *first = wg_image_row(tmp, ay.index[y * ay.taps]);
-        for (int i = 0; i < width * c; i++) {
-            bool same = true;
-            for (int t = 1; t < ay.taps && same; t++)
-                same = wg_image_row(tmp, ay.index[y * ay.taps + t])[i] == first[i];
-            out[i] = same ? first[i] : saturate(out[i]);
+        float *ob = out + b0;
+        for (int i = 0; i < m; i++) {
+            float v = s[i], e = fb[i];
+            v = v > FLT_MAX ? FLT_MAX : v;
+            v = v < -FLT_MAX ? -FLT_MAX : v;
+            ob[i] = diff[i] != 0 ? v : e;
         }
     }
-    goto done;
-fail:
-    wg_image_unref(dst);
-    dst = NULL;
+}
+
+static void resample_rows(void *user, int y0, int y1)
+{
+    Resample *r = user;
+    const Axis *ay = &r->ay;
+    size_t row = (size_t)r->dst->width * (size_t)r->dst->channels;
+    float *buf = band_take(r);
+    const float **rows = wg_malloc(sizeof(float *) * (size_t)ay->taps);
+    if (!buf || !rows) {
+        atomic_store(&r->failed, 1);
+        goto out;
+    }
+    int *slot = (int *)(buf + row * (size_t)r->band_rows), *used = slot + r->src->height;
+    for (int b0 = y0; b0 < y1; b0 += RESAMPLE_BAND) {
+        int b1 = y1 - b0 < RESAMPLE_BAND ? y1 : b0 + RESAMPLE_BAND, nused = 0;
+        /* the source rows of the band's taps, each resampled once; a row of one tap (weight 1)
+         * goes straight to its output */
+        for (int y = b0; y < b1; y++) {
+            const int *idx = ay->index + (size_t)y * (size_t)ay->taps;
+            if (ay->n[y] == 1) {
+                resample_row_x(r, idx[0], wg_image_row(r->dst, y));
+                continue;
+            }
+            for (int t = 0; t < ay->n[y]; t++) {
+                if (slot[idx[t]] >= 0) continue;
+                slot[idx[t]] = nused;
+                used[nused] = idx[t];
+                resample_row_x(r, idx[t], buf + row * (size_t)nused);
+                nused++;
+            }
+        }
+        for (int y = b0; y < b1; y++) {
+            if (ay->n[y] == 1) continue;
+            const int *idx = ay->index + (size_t)y * (size_t)ay->taps;
+            for (int t = 0; t < ay->n[y]; t++) rows[t] = buf + row * (size_t)slot[idx[t]];
+            resample_row_y(r, y, rows, wg_image_row(r->dst, y));
+        }
+        for (int i = 0; i < nused; i++) slot[used[i]] = -1;
+    }
+out:
+    if (buf) band_give(r, buf);
+    wg_free(rows);
+}
+
+/* src resampled into dst (same channels), rows split over `workers` (NULL: this thread).
+ * WG_ERR_NOMEM or WG_ERR_CANCELLED on failure. */
+static int resample_into(WgPool *workers, volatile int *cancel, const WgImage *src, WgImage *dst)
+{
+    Resample r = {.src = src, .dst = dst};
+    atomic_init(&r.failed, 0);
+    pthread_mutex_init(&r.mu, NULL);
+    int rc = WG_ERR_NOMEM;
+    if (axis_build(&r.ax, src->width, dst->width) || axis_build(&r.ay, src->height, dst->height))
+        goto done;
+    /* a band of B output rows reads the taps from its first row's first to its last row's
+     * last: (B - 1) * scale + taps source rows at most, and never more than there are */
+    double rows = ceil((RESAMPLE_BAND - 1) * ((double)src->height / dst->height)) + r.ay.taps + 1;
+    r.band_rows = rows < src->height ? (int)rows : src->height;
+    rc = wg__pool_rows(workers, cancel, dst->height, resample_rows, &r);
+    if (!rc && atomic_load(&r.failed)) rc = WG_ERR_NOMEM;
 done:
-    wg_image_unref(tmp);
-    axis_free(&ax);
-    axis_free(&ay);
+    for (int i = 0; i < r.n_idle; i++) wg_free(r.idle[i]);
+    pthread_mutex_destroy(&r.mu);
+    axis_free(&r.ax);
+    axis_free(&r.ay);
+    return rc;
+}
+
+static WgImage *resample(WgMemPool *pool, const WgImage *src, int width, int height)
+{
+    WgImage *dst = wg__image_new_in(pool, width, height, src->channels);
+    if (dst && resample_into(NULL, NULL, src, dst)) {
+        wg_image_unref(dst);
+        dst = NULL;
+    }
     return dst;
+}
+
+int wg_image_resample_into(const WgNodeContext *ctx, const WgImage *src, WgImage *dst)
+{
+    if (!src || !dst || src->channels != dst->channels) return WG_ERR_TYPE;
+    return resample_into(ctx ? ctx->pool_ : NULL, ctx ? ctx->cancel_ : NULL, src, dst);
 }
 
 float wg__luminance(const float *p)

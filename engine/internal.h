@@ -155,6 +155,7 @@ typedef struct InputDef {
 struct WgGraph {
     int refs;
     char *path, *dir, *name;
+    char *label; /* the root's label, or NULL */
     char *size_text;
     int size_line;
     uint64_t seed;
@@ -354,117 +355,9 @@ int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgFuseSourceFn sou
  * nodes that a render with nothing cached fuses (graph.c writes it). */
 void wg__graph_write_dot(const WgGraph *g, const int *cluster, FILE *f);
 
-/* ---- PNG checking (png_check.c) -------------------------------------------------------- */
-
-/* 0 when `path` is not a PNG or is one libpng will read without complaint (structure and CRCs
- * up to the first IDAT, or with `whole` to IEND plus the image data itself); -1 with a one-line
- * message saying what is damaged and where. */
-int wg__png_check(const char *path, bool whole, char *msg, size_t size);
-
-/* ---- temporaries (io.c) ----------------------------------------------------------------- */
-
-/* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
-char *wg__temp_path_for(const char *path);
-/* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
- * not have exactly that form; with host: the writer's host id there (wg__temp_host), or -1 for
- * a name without one (written by an earlier version). */
-long wg__temp_name_parse(const char *name, long long *host);
-long wg__temp_name_pid(const char *name);
-/* This machine's id in temporaries' names: a hash of its host name and /etc/machine-id. */
-uint32_t wg__temp_host(void);
-/* wg_remove_stale_temporaries removes another machine's temporaries (and those without a host
- * id) only when they have not been modified for this many seconds. */
-#define WG_TEMP_FOREIGN_AGE (24 * 60 * 60)
-
 /* ---- misc -------------------------------------------------------------------------------- */
 
 float wg__luminance(const float *rgba);
 double wg__now_ms(void);
-/* xxh3 of a whole file's content; false when it cannot be read. */
-bool wg__hash_file(const char *path, uint64_t out[2]);
-/* OpenImageIO, through its module (io_oiio.h, loaded by io_module.c on first use; every call
- * fails with a message naming the module paths tried when it cannot be loaded). */
-int wg__oiio_probe(const char *path, int *w, int *h, int *c, char *msg, size_t msg_size);
-/* Reading a file in strips of rows: *decoder_bytes is what the decoder itself holds meanwhile
- * (the whole file at its native type for formats decoded at once, such as PNG); *bits is 8 or
- * 16 when the file stores unsigned integers of that size, else 0. */
-typedef struct WgOiioIn WgOiioIn;
-int wg__oiio_open(const char *path, WgOiioIn **in, int *w, int *h, int *c, int *bits,
-                  size_t *decoder_bytes, char *msg, size_t msg_size);
-/* Rows [y0, y1), channels [cb, ce), as float (bits 0) or the file's integers (bits 8 or 16),
- * pixels xstride and rows ystride bytes apart. */
-int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, void *data,
-                       ptrdiff_t xstride, ptrdiff_t ystride, char *msg, size_t msg_size);
-void wg__oiio_close(WgOiioIn *in);
-/* Whether this process has loaded the module (for tests). */
-bool wg__oiio_loaded(void);
-/* Write a PNG (png_write.c): `samples` packed rows of `c` channels (1-4) of `bits` (8 or 16, 16-bit
- * ones in host order). Nonzero with msg (and errno where the system refused) on failure. */
-int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
-                  size_t msg_size);
-/* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);
- * rows packed, `c` channels of that type for 8/16, float for -16/32. finish closes and frees;
- * with ok false it only cleans up. */
-typedef struct WgOiioOut WgOiioOut;
-int wg__oiio_create(const char *path, const char *format_ext, int w, int h, int c, int bits,
-                    WgOiioOut **out, char *msg, size_t msg_size);
-int wg__oiio_write_rows(WgOiioOut *o, int y0, int y1, const void *data, char *msg, size_t msg_size);
-int wg__oiio_finish(WgOiioOut *o, bool ok, char *msg, size_t msg_size);
-/* The whole image at once (for tests). */
-int wg__oiio_write(const char *path, const char *format_ext, const void *data, int w, int h, int c,
-                   int bits, char *msg, size_t msg_size);
-/* Single-layer EXR read natively (io_exr.c): 1 when `path` starts with the EXR magic number. A
- * file is read natively when it is one scanline part with the half or float channels Y, Y+A,
- * R+G+B or R+G+B+A (the layouts OpenImageIO gives in that order); the image is its display
- * window, pixels outside the data window 0. wg__exr_open returns 1 (and opens nothing) for
- * other EXR files, which go to OpenImageIO. */
-int wg__exr_is_exr(const char *path);
-typedef struct WgExrIn WgExrIn;
-/* The header of an EXR file walked before any library reads it: 0 when its structure holds
- * (every attribute's declared size within the file, both windows' sides 1..WG_MAX_SIDE, the
- * offset tables the windows call for within the file), -1 with a one-line message. */
-int wg__exr_check(const char *path, char *msg, size_t size);
-/* Bytes the reader holds beside the decoder's own chunk (a data window that is not the image
- * is decoded through one chunk of its own). */
-size_t wg__exr_chunk_bytes(const WgExrIn *in);
-int wg__exr_open(const char *path, WgExrIn **in, int *w, int *h, int *c, int *strip_rows, char *msg,
-                 size_t msg_size);
-/* Rows [y0, y1) (y0 a multiple of the strip height, y1 too or the height), channels [cb, ce),
- * as wg__oiio_read_rows. */
-int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, ptrdiff_t xstride,
-                      ptrdiff_t ystride, char *msg, size_t msg_size);
-void wg__exr_close(WgExrIn *in);
-/* Single-layer EXR written natively: `c` channels (1: Y, 3: RGB, 4: RGBA) of img, half or float,
- * ZIP, straight to `file`, errors naming `path`. */
-int wg__exr_write_image(const char *file, const char *path, const WgImage *img, int c, bool half,
-                        WgError *err);
-/* PNG header read natively (png_check.c): size and the channels OpenImageIO gives (palette
- * expanded to RGB, a tRNS chunk adding alpha). 1 when `path` is not a PNG. */
-int wg__png_probe(const char *path, int *w, int *h, int *c, char *msg, size_t size);
-/* PNG decoded natively while it is checked as wg__png_check does: 8- or 16-bit gray, gray-alpha,
- * RGB or RGBA, not interlaced, without tRNS. Each row goes to `row` unfiltered (samples
- * big-endian) as soon as it is inflated. 1 when the file is not such a PNG (nothing was
- * decoded; read it otherwise), -1 with msg when it is damaged or not of the expected size and
- * channels. */
-typedef struct WgPngSink {
-    int width, height, channels;
-    void (*row)(void *user, int y, const unsigned char *data, int depth); /* depth 8 or 16 */
-    void *user;
-} WgPngSink;
-int wg__png_read(const char *path, const WgPngSink *sink, char *msg, size_t size);
-/* Whether wg__png_read decodes the file. */
-bool wg__png_decodable(const char *path);
-/* JPEG header read natively (jpeg_header.c): 0 with the size and channels of an 8-bit gray or
- * colour JPEG whose header is well formed; 1 for anything else, which OpenImageIO probes. */
-int wg__jpeg_probe(const char *path, int *w, int *h, int *c);
-/* Multi-layer EXR (io_exr.c): the layer checks, and the encoder writing straight to `file` with
- * errors naming `path`. */
-int wg__exr_check_layers(const char *path, int count, const char *const *names,
-                         const WgImage *const *images, WgError *err);
-int wg__exr_write_file(const char *file, const char *path, int count, const char *const *names,
-                       const WgImage *const *images, bool half, WgError *err);
-/* strerror of errno after a failed write when it is a cause a write can have (no space, quota,
- * read-only, I/O error, ...), else NULL: encoders' messages rarely say why. */
-const char *wg__write_cause(int e);
 
 #endif

@@ -7,6 +7,7 @@
  * output channel counts, and a cache key: xxh3-128 of everything its result depends on. Two
  * instances with the same key are merged. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -120,6 +120,14 @@ static int find_input(WgRequest *r, const char *name, WgError *err)
     if (i < 0) {
         char list[1024];
         list_names(list, sizeof list, g->n_inputs, input_name, g);
+        const char *names[256];
+        int n = g->n_inputs < 256 ? g->n_inputs : 256;
+        for (int k = 0; k < n; k++) names[k] = g->inputs[k].info.name;
+        const char *near = wg_suggest(name, names, n);
+        if (near)
+            return wg_error_set(err, WG_ERR_USAGE, NULL,
+                                "graph '%s' has no input '%s'; did you mean '%s'? (inputs: %s)",
+                                g->name, name, near, list);
         return wg_error_set(err, WG_ERR_USAGE, NULL, "graph '%s' has no input '%s' (inputs: %s)",
                             g->name, name, list);
     }
@@ -159,6 +167,14 @@ int wg_request_add_output(WgRequest *r, const char *name, WgError *err)
     if (wg__graph_find_output(g, name) < 0) {
         char list[1024];
         list_names(list, sizeof list, g->n_outputs, output_name, g);
+        const char *names[256];
+        int n = g->n_outputs < 256 ? g->n_outputs : 256;
+        for (int k = 0; k < n; k++) names[k] = g->outputs[k].name;
+        const char *near = wg_suggest(name, names, n);
+        if (near)
+            return wg_error_set(err, WG_ERR_USAGE, NULL,
+                                "graph '%s' has no output '%s'; did you mean '%s'? (outputs: %s)",
+                                g->name, name, near, list);
         return wg_error_set(err, WG_ERR_USAGE, NULL, "graph '%s' has no output '%s' (outputs: %s)",
                             g->name, name, list);
     }

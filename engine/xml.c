@@ -1073,6 +1073,7 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     char *seed = NULL;
     if (!g->path || !g->dir || !g->name) rc = nomem(err);
     if (!rc && wg__ends_with(g->name, ".wetgraph")) g->name[strlen(g->name) - 9] = '\0';
+    if (!rc) rc = attr(&d, root, "label", &g->label);
     if (!rc) rc = attr(&d, root, "size", &g->size_text);
     if (!rc && !g->size_text && !(g->size_text = wg_strdup("1024"))) rc = nomem(err);
     g->size_line = line_of(root);

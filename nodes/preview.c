@@ -37,12 +37,16 @@
  * (single scattering only).
  * Water: with a `water_mask` input, the camera ray is also marched against `water_height`; at
  * its hit, the surface (normal `water_normal`, roughness `water_roughness`, F0 `water_specular`
- * or ((n−1)/(n+1))² from `water_ior`) reflects the environment with the same compensated
- * weights, E = Fss + Ems·Fms in all (for a smooth surface this is Fresnel's F(n·v); using the
- * lobe's own albedo keeps reflection plus transmission ≤ 1 when rough). The ray is refracted
+ * or ((n−1)/(n+1))² from `water_ior`) reflects the environment, or the relief standing out
+ * of the water where its mirror ray meets it (relief_above), with the same compensated
+ * weights, E = Fss + Ems·Fms in all, scaled from the index-1.5 curve to the exact Fresnel
+ * curve of the water's own index (water_fresnel; for a smooth surface E is that F(n·v); using
+ * the lobe's own albedo keeps reflection plus transmission ≤ 1 when rough), which every
+ * crossing of the surface uses. The ray is refracted
  * (Snell, `water_ior`) and marched again, from the water surface, against `height`, where the
  * material is shaded as seen from below the water, with its own metallic and specular level (a
- * metal stays a metal): the view direction is the refracted ray; ambient light arrives only
+ * metal stays a metal; its diffuse colour × under_water_gain, as its base colour is the wet
+ * albedo seen from outside): the view direction is the refracted ray; ambient light arrives only
  * through the surface, each direction above it refracted and scaled by 1 − F (under_irradiance);
  * the reflection leaves through the surface scaled by 1 − F or, beyond the critical angle, sees
  * the submerged floor; the sun arrives along its refracted direction scaled by 1 − F(l·n); the
@@ -574,10 +578,12 @@ typedef struct {
 /* bilinear, wrapping, tile coordinates: x right, y up, [0, 1) is the tile */
 static float tex_gray(const WgImage *img, float x, float y, float def)
 {
-    if (!img) return def;
+    if (!img || !isfinite(x) || !isfinite(y)) return def;
     int w = img->width, h = img->height;
     float fx = x * w - 0.5f, fy = (1 - y) * h - 0.5f;
     fx -= floorf(fx / w) * w, fy -= floorf(fy / h) * h;
+    if (!(fx >= 0 && fx < w)) fx = 0;
+    if (!(fy >= 0 && fy < h)) fy = 0;
     int x0 = (int)fx, y0 = (int)fy;
     float ax = fx - x0, ay = fy - y0;
     if (x0 >= w) x0 = 0;
@@ -590,10 +596,12 @@ static float tex_gray(const WgImage *img, float x, float y, float def)
 
 static V3 tex_color(const WgImage *img, float x, float y, V3 def)
 {
-    if (!img) return def;
+    if (!img || !isfinite(x) || !isfinite(y)) return def;
     int w = img->width, h = img->height;
     float fx = x * w - 0.5f, fy = (1 - y) * h - 0.5f;
     fx -= floorf(fx / w) * w, fy -= floorf(fy / h) * h;
+    if (!(fx >= 0 && fx < w)) fx = 0; /* a coordinate too large to wrap in float */
+    if (!(fy >= 0 && fy < h)) fy = 0;
     int x0 = (int)fx, y0 = (int)fy;
     float ax = fx - x0, ay = fy - y0;
     if (x0 >= w) x0 = 0;
@@ -623,6 +631,9 @@ static V3 atlas(const WgImage *a, int block, float u, float v)
     float fx = u * nbw - 0.5f;
     fx -= floorf(fx / nbw) * nbw;
     float fy = clampf(v * nbh - 0.5f, 0, (float)(nbh - 1));
+    /* a direction made of non-finite inputs reads the block's first pixel */
+    if (!(fx >= 0 && fx < (float)nbw)) fx = 0;
+    if (!(fy >= 0 && fy <= (float)(nbh - 1))) fy = 0;
     int x0 = (int)fx, y0 = (int)fy;
     if (x0 >= nbw) x0 = 0;
     float ax = fx - x0, ay = fy - y0;
@@ -673,6 +684,19 @@ static float fresnel(float f0, float c)
     return f0 + (1 - f0) * (float)fresnel_w(c);
 }
 
+/* Fresnel reflectance of the water's surface for light crossing it at cos c on the air side
+ * (the same both ways): the exact curve of a dielectric of index n = (1 + √f0)/(1 − √f0), the
+ * index whose normal reflectance is f0. The rescaled index-1.5 curve of fresnel() is 15 % high
+ * for water at 70° (0.154 against 0.133), which seen low made the water's mirror too bright. */
+static float water_fresnel(float f0, float c)
+{
+    float s = sqrtf(clampf(f0, 0, 0.98f)), n = (1 + s) / (1 - s);
+    c = clampf(c, 1e-6f, 1);
+    float g = sqrtf(n * n - 1 + c * c);
+    float a = (g - c) / (g + c), b = (c * (g + c) - 1) / (c * (g - c) + 1);
+    return 0.5f * a * a * (1 + b * b);
+}
+
 /* The ambient weights of a lobe of reflectance f0 at n·v with split-sum terms A, B, with the
  * energy that single scattering loses restored (Fdez-Agüera 2019): fss = f0·A + B is what the
  * lobe reflects once, ems = 1 − (A + B) what a white lobe loses to masking, returned as
@@ -689,14 +713,14 @@ static float ms_weights(float f0, float A, float B, float *ms)
 /* Radiance leaving a material point towards v (before exposure). irr: the ambient irradiance
  * over π reaching the point, rad: the prefiltered radiance arriving along the reflection;
  * sun_rad: the sun's irradiance arriving along sun_l. spec is the specular level: F0 = 0.08 ·
- * spec for the dielectric part. */
+ * spec for the dielectric part; kd scales the diffuse colour (1, or under_water_gain). */
 static V3 shade(const PreviewJob *j, V3 v, V3 n, V3 base, float rough, float metal, float spec,
-                float ao, V3 irr, V3 rad, V3 sun_l, V3 sun_rad)
+                float ao, V3 irr, V3 rad, V3 sun_l, V3 sun_rad, float kd)
 {
     float nv = clampf(dot(n, v), 1e-4f, 1);
     float fd = 0.08f * spec;
     V3 f0 = add(scale(v3(fd, fd, fd), 1 - metal), scale(base, metal));
-    V3 dc = scale(base, 1 - metal);
+    V3 dc = scale(base, (1 - metal) * kd);
     float A, B;
     brdf_lut(j, nv, rough, &A, &B);
     V3 fss, ms;
@@ -797,17 +821,64 @@ static V3 dominant_dir(V3 n, V3 r, float rough)
     return normalize(add(scale(n, 1 - f), scale(r, f)));
 }
 
-static V3 render_dry(const PreviewJob *j, V3 d)
+/* Radiance leaving the relief's point p (out of the water) along the ray direction d. */
+static V3 shade_relief(const PreviewJob *j, V3 p, V3 d)
 {
-    float hs = j->p->height_scale;
-    V3 p = march(j, j->in[IN_HEIGHT], j->cam, d, hs * (j->hmax - 1), hs * (j->hmin - 1), 1);
-    if (!inside(j, p)) return background(j, d);
     V3 base, n;
     float rough, metal, spec, ao;
     material_at(j, p, &base, &n, &rough, &metal, &spec, &ao);
     V3 v = scale(d, -1);
     return shade(j, v, n, base, rough, metal, spec, ao, env_irr(j, n),
-                 env_spec(j, dominant_dir(n, reflect(d, n), rough), rough), j->sun_dir, j->sun_rad);
+                 env_spec(j, dominant_dir(n, reflect(d, n), rough), rough), j->sun_dir, j->sun_rad,
+                 1);
+}
+
+/* The gain of the diffuse colour of the material under the water, 1/(1 − r_e)². Its base
+ * colour is the wet albedo seen from outside (wet_material's under_basecolor: Lekner and Dorf's
+ * A_w = (1 − r_e)(1 − r_i) A / (1 − r_i A), which already holds the light's way in and out
+ * through the surface and the light the surface traps), while this path sends the light
+ * through the surface on its way in (under_irradiance: 1 − r_e on average) and out (1 − E):
+ * without the gain the surface would be counted twice, 13 % too dark for water. r_e is the
+ * diffuse external reflectance the maps' model uses for the index whose F0 is f0:
+ * r_i = −1.440/n² + 0.710/n + 0.668 + 0.0636 n, 1 − r_e = n² (1 − r_i) (0.067 for 1.333). */
+static float under_water_gain(float f0)
+{
+    float s = sqrtf(clampf(f0, 0, 0.98f)), n = (1 + s) / (1 - s);
+    float ri = -1.440f / (n * n) + 0.710f / n + 0.668f + 0.0636f * n;
+    float re = clampf(1 - n * n * (1 - ri), 0, 0.9f);
+    return 1 / ((1 - re) * (1 - re));
+}
+
+static V3 render_dry(const PreviewJob *j, V3 d)
+{
+    float hs = j->p->height_scale;
+    V3 p = march(j, j->in[IN_HEIGHT], j->cam, d, hs * (j->hmax - 1), hs * (j->hmin - 1), 1);
+    if (!inside(j, p)) return background(j, d);
+    return shade_relief(j, p, d);
+}
+
+/* The first point where the rising ray o + t d (d.z > 0) from the water's surface meets the
+ * relief standing out of the water, searched in pom_steps steps (and one secant step) up to the
+ * relief's top plane inside the tile; false where it reaches the sky. */
+static bool relief_above(const PreviewJob *j, V3 o, V3 d, V3 *hit)
+{
+    float hs = j->p->height_scale, z_top = hs * (j->hmax - 1);
+    if (!(d.z > 1e-4f) || !(hs > 0) || !(o.z < z_top)) return false;
+    int n = j->p->pom_steps;
+    float dt = (z_top - o.z) / d.z / n;
+    float prev_gap = o.z - hs * (clampf(tex_gray(j->in[IN_HEIGHT], o.x, o.y, 1), -16, 16) - 1);
+    for (int i = 1; i <= n; i++) {
+        V3 p = add(o, scale(d, dt * i));
+        if (!inside(j, p)) return false;
+        float gap = p.z - hs * (clampf(tex_gray(j->in[IN_HEIGHT], p.x, p.y, 1), -16, 16) - 1);
+        if (gap <= 0) {
+            float g0 = fmaxf(prev_gap, 0), f = g0 - gap > 0 ? g0 / (g0 - gap) : 0;
+            *hit = add(o, scale(d, dt * (i - 1 + f)));
+            return isfinite(hit->x) && isfinite(hit->y) && isfinite(hit->z);
+        }
+        prev_gap = gap;
+    }
+    return false;
 }
 
 /* Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
@@ -818,7 +889,8 @@ static V3 render_dry(const PreviewJob *j, V3 d)
  * (the radiance gained by entering the denser water, n², cancels the solid angle it is
  * squeezed into), estimated with UW_SAMPLES cosine-weighted directions fixed in the surface's
  * frame, L read from the prefiltered level of roughness 0.8 (a blur matching the samples'
- * spacing). A uniform environment L under a flat surface gives L · (1 − F_avg) at n = nw. */
+ * spacing). A uniform environment L under a flat surface gives L · (1 − F̄) at n = nw, F̄ the
+ * cosine-weighted average of water_fresnel (0.066 for index 1.33). */
 static V3 under_irradiance(const PreviewJob *j, V3 n, V3 nw, float f0)
 {
     V3 up = fabsf(nw.z) < 0.999f ? v3(0, 0, 1) : v3(1, 0, 0);
@@ -832,7 +904,7 @@ static V3 under_irradiance(const PreviewJob *j, V3 n, V3 nw, float f0)
         if (!refract(scale(la, -1), nw, eta, &t)) continue; /* cannot happen entering water */
         float cw = -dot(t, nw), nl = -dot(t, n);
         if (!(nl > 0) || !(cw > 1e-4f)) continue;
-        float w = (1 - fresnel(f0, s[2])) * nl / cw;
+        float w = (1 - water_fresnel(f0, s[2])) * nl / cw;
         acc = add(acc, scale(env_spec(j, la, 0.8f), w));
     }
     return scale(acc, 1.0f / UW_SAMPLES);
@@ -856,9 +928,15 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
     float A, B;
     brdf_lut(j, nv, rw, &A, &B);
     float ms, fss = ms_weights(f0, A, B, &ms);
-    float e = fss + ms; /* what the surface reflects; 1 − e crosses it */
-    V3 top = add(scale(env_spec(j, dominant_dir(nw, reflect(d, nw), rw), rw), fss),
-                 scale(env_irr(j, nw), ms));
+    /* the split-sum table follows the index-1.5 curve; scaled to the water's own at n·v (exact
+     * for a smooth surface, which water nearly always is) */
+    float fc = fresnel(f0, nv), kf = fc > 1e-6f ? water_fresnel(f0, nv) / fc : 1;
+    fss *= kf, ms *= kf;
+    float e = fminf(fss + ms, 1); /* what the surface reflects; 1 − e crosses it */
+    V3 rr = reflect(d, nw), q;
+    V3 mirror = relief_above(j, pw, rr, &q) ? shade_relief(j, q, rr)
+                                            : env_spec(j, dominant_dir(nw, rr, rw), rw);
+    V3 top = add(scale(mirror, fss), scale(env_irr(j, nw), ms));
     V3 sun_under = v3(0, 0, 0), sun_l = j->sun_dir;
     if (p->sun) {
         /* the water's own highlight: a dielectric of F0 f0 without diffuse part */
@@ -870,12 +948,12 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
             if (a < 2e-3f) a = 2e-3f;
             float a2 = a * a, dd = nh * nh * (a2 - 1) + 1;
             float D = a2 / ((float)M_PI * dd * dd);
-            float s = D * (float)vis_smith(nv, nl, a) * fresnel(f0, vh) * nl;
+            float s = D * (float)vis_smith(nv, nl, a) * water_fresnel(f0, vh) * nl;
             top = add(top, scale(j->sun_rad, s));
             V3 t;
             if (refract(scale(j->sun_dir, -1), nw, 1 / p->water_ior, &t)) {
                 sun_l = scale(t, -1);
-                sun_under = scale(j->sun_rad, 1 - fresnel(f0, nl));
+                sun_under = scale(j->sun_rad, 1 - water_fresnel(f0, nl));
             }
         }
     }
@@ -890,11 +968,13 @@ static bool render_wet(const PreviewJob *j, V3 d, V3 dry, V3 *out)
      * down and sees the submerged floor, taken as this point's own diffuse radiance */
     V3 irr = under_irradiance(j, n, nw, f0), rad;
     V3 rw_dir = dominant_dir(n, reflect(t, n), rough), ra;
+    float kd = under_water_gain(f0);
     if (dot(rw_dir, nw) > 0 && refract(rw_dir, scale(nw, -1), p->water_ior, &ra))
-        rad = scale(env_spec(j, ra, rough), 1 - fresnel(f0, dot(ra, nw)));
+        rad = scale(env_spec(j, ra, rough), 1 - water_fresnel(f0, dot(ra, nw)));
     else
-        rad = mul(irr, scale(base, 1 - metal));
-    V3 under = shade(j, scale(t, -1), n, base, rough, metal, spec, ao, irr, rad, sun_l, sun_under);
+        rad = mul(irr, scale(base, (1 - metal) * kd));
+    V3 under =
+        shade(j, scale(t, -1), n, base, rough, metal, spec, ao, irr, rad, sun_l, sun_under, kd);
     float path = 0;
     if (hs > 0) {
         V3 dp = sub(pw, pu);

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /* Source nodes: `uniform` (a constant gray value or colour) and `image` (a picture file,
  * decoded to linear float and resampled to the node's size with the engine's wrapping tent
- * filter, see wg_image_convert). */
+ * filter, see wg_image_convert; a JPEG larger than the node is decoded at the DCT scale just
+ * above its size first). */
 #include "wetgraph/node.h"
 
 #include <string.h>
@@ -108,36 +109,39 @@ static int image_eval(WgNodeContext *ctx, WgError *err)
     const ImageParams *p = ctx->params;
     WgColorspace cs = p->colorspace ? WG_SRGB : WG_LINEAR;
     WgImage *out = ctx->outputs[0];
-    int w, h, c;
-    int rc = wg_image_probe(p->path, &w, &h, &c, err);
+    int dw, dh;
+    int rc = wg_image_decode_size(p->path, out->width, out->height, &dw, &dh, err);
     if (rc) return rc;
-    if (w == out->width && h == out->height) return wg_image_read_into(p->path, cs, out, err);
-    WgImage *img;
-    if ((rc = wg_image_read(p->path, out->channels, cs, &img, err))) return rc;
-    WgImage *sized = wg_image_convert(img, out->width, out->height, out->channels);
+    if (dw == out->width && dh == out->height) return wg_image_read_into(p->path, cs, out, err);
+    /* decoded at the file's size or, for a larger JPEG, at the DCT scale just above the node's,
+     * then resampled on the render's threads */
+    WgImage *img = wg_scratch_image(ctx, dw, dh, out->channels);
+    if (!img) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory reading '%s'", p->path);
+    rc = wg_image_read_into(p->path, cs, img, err);
+    if (!rc) {
+        rc = wg_image_resample_into(ctx, img, out);
+        if (rc == WG_ERR_NOMEM) rc = wg_error_set(err, rc, NULL, "out of memory resampling");
+    }
     wg_image_unref(img);
-    if (!sized) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory resampling");
-    for (int y = 0; y < out->height; y++)
-        memcpy(wg_image_row(out, y), wg_image_row(sized, y),
-               sizeof(float) * (size_t)out->width * (size_t)out->channels);
-    wg_image_unref(sized);
-    return WG_OK;
+    return rc;
 }
 
-/* Decoding (the decoder's buffer and a strip); when the file has another size, also the
- * file-sized image and the resampling: its horizontal pass, its result and the filter taps. */
+/* Decoding (the decoder's buffer and a strip); when the file is decoded at another size than
+ * the node's, also the decoded image and the resampling: the band buffers of its threads (rows of
+ * the node's width, together no more than the decoded height of them unless the image is a few
+ * rows high) and the filter taps. */
 static size_t image_scratch(const WgNodeContext *ctx)
 {
     const ImageParams *p = ctx->params;
-    int w, h, c, oc = ctx->n_outputs > 0 && image_channels(ctx, 0) == 4 ? 4 : 1;
+    int dw, dh, oc = ctx->n_outputs > 0 && image_channels(ctx, 0) == 4 ? 4 : 1;
     WgError err = {0};
-    if (!p->path || wg_image_probe(p->path, &w, &h, &c, &err)) return 0;
+    if (!p->path || wg_image_decode_size(p->path, ctx->width, ctx->height, &dw, &dh, &err))
+        return 0;
     size_t decode = wg_image_read_scratch(p->path);
-    if (w == ctx->width && h == ctx->height) return decode;
-    size_t file = wg_image_bytes_for(w, h, oc);
-    size_t taps = (size_t)(2 * (w / ctx->width + h / ctx->height) + 8);
-    size_t resample = file + wg_image_bytes_for(ctx->width, h, oc) +
-                      wg_image_bytes_for(ctx->width, ctx->height, oc) +
+    if (dw == ctx->width && dh == ctx->height) return decode;
+    size_t file = wg_image_bytes_for(dw, dh, oc);
+    size_t taps = (size_t)(2 * (dw / ctx->width + dh / ctx->height) + 8);
+    size_t resample = file + wg_image_bytes_for(ctx->width, dh, oc) +
                       taps * 8 * ((size_t)ctx->width + (size_t)ctx->height);
     return decode + file > resample ? decode + file : resample;
 }
@@ -152,7 +156,10 @@ const WgNodeType wg_node_image = {
            "gray for 1-2 channel files and colour for 3-4; `gray` takes Rec.709 luminance "
            "(exactly the value when R = G = B). The picture is resampled to the node's size "
            "with a wrapping tent filter (bilinear when enlarging; when shrinking by k, a triangle "
-           "k source pixels wide on each side, e.g. weights 1 3 3 1 / 8 for 2x). "
+           "k source pixels wide on each side, e.g. weights 1 3 3 1 / 8 for 2x). A JPEG larger "
+           "than the node is first decoded at the smallest of libjpeg's DCT scales (n/8 of "
+           "each side) that is not smaller than the node, which takes a fraction of a full "
+           "decode. "
            "Files with NaN or infinite values are rejected.",
     .params = image_params,
     .params_size = sizeof(ImageParams),

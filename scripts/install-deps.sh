@@ -6,13 +6,16 @@
 set -euo pipefail
 pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libopenexr-dev
       libxxhash-dev zlib1g-dev libcmocka-dev libfftw3-dev
-      libdeflate-dev  # the PNG writer's deflate (engine/png_write.c)
+      libdeflate-dev  # the PNG writer's deflate (io/png_write.c)
+      libjpeg62-turbo-dev  # JPEG pixels decoded with libjpeg-turbo (io/jpeg_read.c)
       libmicrohttpd-dev  # `wetgraph watch --serve` (optional: built without it when missing)
       chromium  # the headless-browser test of the --serve page (tests/cli/test_serve_page.c)
       glslang-tools  # the tests validate the GLSL shaders in docs/shaders
       # ... and execute them headless (tests/graphs/test_glsl.c): EGL and desktop GL headers,
       # Mesa's EGL and its software rasteriser llvmpipe
       libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
+      help2man  # the manual page, from `wetgraph --help-all`
+      bash-completion  # where the bash completion is installed, and bash's completion itself
       clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks

@@ -90,6 +90,16 @@ float fresnel_w(float c)
 const float W_AVG = 0.0539354; // 2 ∫ w(c) c dc: F_avg = f0 + (1 − f0)·W_AVG
 float fresnel(float f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
 vec3 fresnel3(vec3 f0, float c) { return f0 + (1.0 - f0) * fresnel_w(c); }
+// The water's surface: the exact Fresnel curve of the index whose normal reflectance is f0,
+// n = (1 + √f0)/(1 − √f0), for light crossing it at cos c on the air side (either way).
+float water_fresnel(float f0, float c)
+{
+    float s = sqrt(clamp(f0, 0.0, 0.98)), n = (1.0 + s) / (1.0 - s);
+    c = clamp(c, 1e-6, 1.0);
+    float g = sqrt(n * n - 1.0 + c * c);
+    float a = (g - c) / (g + c), b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * a * a * (1.0 + b * b);
+}
 
 float vis_smith(float nv, float nl, float a)
 {
@@ -145,6 +155,26 @@ vec3 march(sampler2D hmap, vec3 p, vec3 d, float z_top, float z_bot)
     return p + d * t1;
 }
 
+// The relief standing out of the water, met by the water's mirror ray p + t d (d.z > 0) before
+// it rises to the tile's plane: pom_steps steps and one secant step; the point in q.
+bool relief_above(vec3 p, vec3 d, out vec3 q)
+{
+    q = p;
+    if (d.z <= 1e-4 || height_scale <= 0.0 || p.z >= 0.0) return false;
+    float dt = -p.z / d.z / float(pom_steps);
+    float prev_gap = max(p.z - height_scale * (texture(height, p.xy).r - 1.0), 0.0);
+    for (int i = 1; i <= pom_steps; i++) {
+        vec3 s = p + d * (dt * float(i));
+        float gap = s.z - height_scale * (texture(height, s.xy).r - 1.0);
+        if (gap <= 0.0) {
+            q = p + d * (dt * (float(i - 1) + prev_gap / (prev_gap - gap)));
+            return true;
+        }
+        prev_gap = gap;
+    }
+    return false;
+}
+
 // The direction to read the prefiltered environment in for a lobe of roughness r around the
 // mirror direction rd: Frostbite's dominant direction, leaning to the normal as the lobe widens.
 vec3 dominant_dir(vec3 n, vec3 rd, float r)
@@ -161,6 +191,18 @@ float radical_inverse(uint i)
     i = ((i & 0x0F0F0F0Fu) << 4u) | ((i & 0xF0F0F0F0u) >> 4u);
     i = ((i & 0x00FF00FFu) << 8u) | ((i & 0xFF00FF00u) >> 8u);
     return float(i) * 2.3283064365386963e-10;
+}
+
+// The gain of the diffuse colour under the water, 1/(1 − r_e)²: the base colour is the wet
+// albedo seen from outside (Lekner and Dorf's, with the way through the surface in and out),
+// and this path sends the light through the surface again both ways. r_e: the diffuse external
+// reflectance of the index whose F0 is f0w, as the maps' model computes it.
+float under_water_gain(float f0w)
+{
+    float s = sqrt(clamp(f0w, 0.0, 0.98)), n = (1.0 + s) / (1.0 - s);
+    float ri = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+    float re = clamp(1.0 - n * n * (1.0 - ri), 0.0, 0.9);
+    return 1.0 / ((1.0 - re) * (1.0 - re));
 }
 
 // Ambient irradiance over π at a point of normal n under a water surface of normal nw and F0
@@ -180,7 +222,7 @@ vec3 under_irradiance(vec3 n, vec3 nw, float f0w)
         vec3 t = refract(-la, nw, 1.0 / water_ior);
         float cw = -dot(t, nw), nl = -dot(t, n);
         if (nl > 0.0 && cw > 1e-4)
-            acc += env_spec(la, 0.8) * ((1.0 - fresnel(f0w, cz)) * nl / cw);
+            acc += env_spec(la, 0.8) * ((1.0 - water_fresnel(f0w, cz)) * nl / cw);
     }
     return acc / float(UW_SAMPLES);
 }
@@ -199,7 +241,7 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
     float level = specular_from_map ? clamp(texture(specular, st).r, 0.0, 1.0) : specular_level;
     float nv = clamp(dot(n, v), 1e-4, 1.0);
     vec3 f0 = mix(vec3(0.08 * level), base, metal);
-    vec3 dc = base * (1.0 - metal);
+    vec3 dc = base * (1.0 - metal) * (submerged ? under_water_gain(f0w) : 1.0);
     vec2 ab = lut(nv, r);
     vec3 fss = f0 * ab.x + ab.y;
     vec3 ms = ms_term(f0, ab, fss);
@@ -213,7 +255,7 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
         irr = under_irradiance(n, nw, f0w);
         vec3 ra = dot(rd, nw) > 0.0 ? refract(rd, -nw, water_ior) : vec3(0.0);
         if (ra != vec3(0.0))
-            rad = env_spec(ra, r) * (1.0 - fresnel(f0w, dot(ra, nw)));
+            rad = env_spec(ra, r) * (1.0 - water_fresnel(f0w, dot(ra, nw)));
         else
             rad = irr * dc;
     }
@@ -248,17 +290,27 @@ void main()
         vec2 ab = lut(nv, rw);
         float fss = f0 * ab.x + ab.y;
         float ms = ms_term(vec3(f0), ab, vec3(fss)).x;
-        float e = fss + ms; // the lobe's albedo: Fresnel's F(n·v) when smooth
-        vec3 top = env_spec(dominant_dir(nw, reflect(d, nw), rw), rw) * fss + env_irr(nw) * ms;
+        // the table follows the index-1.5 curve: scaled to the water's own at n·v
+        float fc = fresnel(f0, nv), kf = fc > 1e-6 ? water_fresnel(f0, nv) / fc : 1.0;
+        fss *= kf;
+        ms *= kf;
+        float e = min(fss + ms, 1.0); // the lobe's albedo: Fresnel's F(n·v) when smooth
+        // the mirror image: the relief standing out of the water where the ray meets it, else
+        // the environment
+        vec3 rr = reflect(d, nw), q;
+        vec3 mirror = relief_above(pw, rr, q)
+                          ? shade(q.xy, -rr, false, vec3(0.0, 0.0, 1.0), 0.0, sun_dir, sun_radiance)
+                          : env_spec(dominant_dir(nw, rr, rw), rw);
+        vec3 top = mirror * fss + env_irr(nw) * ms;
         vec3 sun_l = sun_dir, sun_under = vec3(0.0);
         float nl = dot(nw, sun_dir);
         if (sun && nl > 0.0) {
             vec3 h = normalize(v + sun_dir);
             float a = max(rw * rw, 2e-3);
             top += sun_radiance * ggx(clamp(dot(nw, h), 0.0, 1.0), a) * vis_smith(nv, nl, a)
-                   * fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
+                   * water_fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
             sun_l = -refract(-sun_dir, nw, 1.0 / water_ior);
-            sun_under = sun_radiance * (1.0 - fresnel(f0, nl));
+            sun_under = sun_radiance * (1.0 - water_fresnel(f0, nl));
         }
         vec3 t = refract(d, nw, 1.0 / water_ior);
         if (t.z >= 0.0) t = d;

@@ -119,6 +119,20 @@ static void test_csv_rows_equal_single_renders(void **state)
     assert_row_equals_single("c3", "in1/gen_img.png", "0.9");
 }
 
+/* Columns named #... (an id, a comment) are carried along and ignored; the rows render as
+ * without them. */
+static void test_ignored_columns(void **state)
+{
+    (void)state;
+    put_file("ids.csv", "#id,input:tex,#note,set:level,out\n"
+                        "first,in1/gen_img.png,\"a note, with a comma\",0.2,i1\n"
+                        "second,in2/gen_img.png,,0.7,i2\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch ids.csv"), 0);
+    assert_true(contains("err", "2 rendered, 0 failed"));
+    assert_row_equals_single("i1", "in1/gen_img.png", "0.2");
+    assert_row_equals_single("i2", "in2/gen_img.png", "0.7");
+}
+
 /* JSON lines; relative paths are relative to the LIST's folder, not the current one; an
  * input left out keeps the graph's default; numbers, strings and booleans as values. */
 static void test_jsonl_rows(void **state)
@@ -229,6 +243,84 @@ static void test_shared_nodes_computed_once(void **state)
     assert_true(contains("out", "[\"s3/g_a.exr\", \"s3/g_b.png\"], \"computed\": 0,"));
 }
 
+/* The sum of the "computed" counts of the JSON lines in `name`, and the rows there. */
+static int computed_sum(const char *name, int *rows)
+{
+    FILE *f = fopen(path(name), "r");
+    assert_non_null(f);
+    char line[8192];
+    int sum = 0, n = 0;
+    while (fgets(line, sizeof line, f)) {
+        const char *k = strstr(line, "\"computed\": ");
+        assert_non_null(k);
+        sum += atoi(k + 12);
+        n++;
+    }
+    fclose(f);
+    if (rows) *rows = n;
+    return sum;
+}
+
+/* Shards are blocks of consecutive rows, so a material listed together stays on one shard and
+ * what its rows share is computed once: the shards together compute what the unsharded batch
+ * does. With --shard-by, rows of one value go together however the list interleaves them. */
+static void test_shard_blocks(void **state)
+{
+    (void)state;
+    put_file("blk.csv", "#material,input:tex,set:level,out\n"
+                        "one,in1/gen_img.png,0.1,b0\n"
+                        "one,in1/gen_img.png,0.2,b1\n"
+                        "one,in1/gen_img.png,0.3,b2\n"
+                        "two,in2/gen_img.png,0.1,b3\n"
+                        "two,in2/gen_img.png,0.2,b4\n"
+                        "two,in2/gen_img.png,0.3,b5\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch blk.csv --batch-json > all.jsonl"), 0);
+    int all = computed_sum("all.jsonl", NULL), rows0, rows1;
+    for (int i = 0; i < 2; i++)
+        assert_int_equal(
+            sh("\"$WG\" render g.wetgraph --batch blk.csv --batch-json --shard %d/2 > s%d.jsonl", i,
+               i),
+            0);
+    int sharded = computed_sum("s0.jsonl", &rows0) + computed_sum("s1.jsonl", &rows1);
+    assert_int_equal(rows0, 3);
+    assert_int_equal(rows1, 3);
+    assert_int_equal(sharded, all);
+    assert_true(contains("s0.jsonl", "\"row\": 2,"));
+    assert_true(contains("s1.jsonl", "\"row\": 3,"));
+    /* the same materials interleaved: --shard-by keeps each on one shard */
+    put_file("mix.csv", "#material,input:tex,set:level,out\n"
+                        "one,in1/gen_img.png,0.1,m0\n"
+                        "two,in2/gen_img.png,0.1,m1\n"
+                        "one,in1/gen_img.png,0.2,m2\n"
+                        "two,in2/gen_img.png,0.2,m3\n"
+                        "three,in3/gen_img.png,0.2,m4\n");
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch mix.csv --batch-json > all.jsonl"), 0);
+    all = computed_sum("all.jsonl", NULL);
+    for (int by = 0; by < 2; by++) {
+        const char *column = by ? "input:tex" : "#material";
+        for (int i = 0; i < 2; i++)
+            assert_int_equal(sh("\"$WG\" render g.wetgraph --batch mix.csv --batch-json --shard "
+                                "%d/2 --shard-by '%s' > s%d.jsonl",
+                                i, column, i),
+                             0);
+        sharded = computed_sum("s0.jsonl", &rows0) + computed_sum("s1.jsonl", &rows1);
+        assert_int_equal(rows0 + rows1, 5);
+        assert_int_equal(sharded, all);
+        assert_true(contains("s0.jsonl", "\"row\": 0,"));
+        assert_true(contains("s0.jsonl", "\"row\": 2,"));
+        assert_true(contains("s1.jsonl", "\"row\": 1,"));
+        assert_true(contains("s1.jsonl", "\"row\": 3,"));
+    }
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch mix.csv --shard 0/2 --shard-by "
+                        "'#colour'"),
+                     2);
+    assert_true(contains("err", "--shard-by '#colour': the list has no such column"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch mix.csv --shard 0/2 --shard-by tex"), 2);
+    assert_true(contains("err", "bad --shard-by 'tex'"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch mix.csv --shard-by out"), 2);
+    assert_true(contains("err", "--shard-by needs --shard"));
+}
+
 static void list_files(const char *root, const char *sub, char *acc, size_t size)
 {
     char full[2048];
@@ -330,6 +422,15 @@ static void test_usage_errors(void **state)
          "u12.jsonl:1:13: the graph g has no image input 'text'"},
         {"u13.jsonl", "{\"set\": {\"level\": 1e}}\n",
          "u13.jsonl:1:21: a digit must follow the exponent"},
+        /* a header alone is checked against the graph all the same */
+        {"u14.csv", "#id,input:text,set:level,out\n",
+         "u14.csv:1:5: the graph g has no image input 'text'"},
+        {"u15.csv", "set:level,set:levl,out\n0.1,,u15\n",
+         "u15.csv:1:11: the graph g has no parameter 'levl'; did you mean 'level'?"},
+        /* a list saved with ';' between fields */
+        {"u16.csv", "input:tex;set:level;out\nin1/gen_img.png;0.2;u16\n",
+         "u16.csv:1:1: the header 'input:tex;set:level;out' is one column: its names are "
+         "separated by ';'"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         put_file(bad[i].name, bad[i].text);
@@ -446,15 +547,17 @@ static void test_options_apply_to_rows(void **state)
     }
 }
 
-/* An empty shard (more shards than rows) renders nothing and succeeds. */
+/* An empty shard (more shards than rows) renders nothing and succeeds: of 5 blocks of 2 rows,
+ * [⌊2I/5⌋, ⌊2(I+1)/5⌋), only the third and the fifth hold a row. */
 static void test_empty_shard(void **state)
 {
     (void)state;
     put_file("two.csv", "set:level,out\n0.1,e0\n0.2,e1\n");
-    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 4/5"), 0);
-    assert_true(contains("err", "batch: 0 rows (shard 4/5 of 2 rows)"));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 3/5"), 0);
+    assert_true(contains("err", "batch: 0 rows (shard 3/5 of 2 rows)"));
     assert_false(wgt_exists(path("e0")));
-    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 1/5"), 0);
+    assert_false(wgt_exists(path("e1")));
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch two.csv --shard 4/5"), 0);
     assert_false(wgt_exists(path("e0")));
     assert_true(wgt_exists(path("e1/g_a.exr")));
 }
@@ -463,11 +566,13 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_csv_rows_equal_single_renders),
+        cmocka_unit_test(test_ignored_columns),
         cmocka_unit_test(test_jsonl_rows),
         cmocka_unit_test(test_csv_quoting),
         cmocka_unit_test(test_failing_rows),
         cmocka_unit_test(test_warnings_per_row),
         cmocka_unit_test(test_shared_nodes_computed_once),
+        cmocka_unit_test(test_shard_blocks),
         cmocka_unit_test(test_concurrent_shards),
         cmocka_unit_test(test_usage_errors),
         cmocka_unit_test(test_shared_output_folders),

@@ -9,6 +9,7 @@
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -346,6 +347,52 @@ static void test_help_and_usage_errors(void **state)
     free_batch(c, n);
     /* nothing was written by any of them */
     assert_false(exists(at("g_mask.png")));
+}
+
+/* A misspelt option, graph input or output, or expression function gets the closest correct
+ * name, from the command's own --help for options (exit 2 each). */
+static void test_suggestions(void **state)
+{
+    (void)state;
+    wgt_write_file(at("fn.wetgraph"), "<wetgraph version=\"1\" size=\"8\">\n"
+                                      "  <node id=\"d\" type=\"pixel\" expr=\"sine(x)\"/>\n"
+                                      "  <output name=\"o\" from=\"d\"/>\n"
+                                      "</wetgraph>\n");
+    Cmd c[] = {
+        {"render g.wetgraph --thread 2"},
+        {"render g.wetgraph --cache-maxx=1G"},
+        {"watch g.wetgraph --serv 8080"},
+        {"info g.wetgraph --jsn"},
+        {"dot g.wetgraph --fusd"},
+        {"nodes --markdwn"},
+        {"render g.wetgraph --frobnicate"},
+        {"render g.wetgraph --output mas -o sg"},
+        {"render g.wetgraph --input bsae=a.png"},
+        {"check fn.wetgraph"},
+        {"graphs --pths"},
+        {"cache info . --mx 1"},
+    };
+    static const char *const want[] = {
+        "unknown option '--thread'; did you mean '--threads'?",
+        "unknown option '--cache-maxx=1G'; did you mean '--cache-max'?",
+        "unknown option '--serv'; did you mean '--serve'?",
+        "unknown option '--jsn'; did you mean '--json'?",
+        "unknown option '--fusd'; did you mean '--fused'?",
+        "unknown option '--markdwn'; did you mean '--markdown'?",
+        "unknown option '--frobnicate'\n",
+        "has no output 'mas'; did you mean 'mask'?",
+        "has no input 'bsae'; did you mean 'base'?",
+        "unknown function 'sine'; did you mean 'sin'?",
+        "unknown option '--pths'; did you mean '--paths'?",
+        "unknown option '--mx'; did you mean '--max'?",
+    };
+    int n = (int)(sizeof c / sizeof c[0]);
+    run_batch(c, n);
+    for (int i = 0; i < n; i++) {
+        expect_status(&c[i], 2);
+        ERR_HAS(&c[i], want[i]);
+    }
+    free_batch(c, n);
 }
 
 /* ---- render ------------------------------------------------------------------------------ */
@@ -969,6 +1016,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_help_and_usage_errors),
+        cmocka_unit_test(test_suggestions),
         cmocka_unit_test(test_render_outputs_and_options),
         cmocka_unit_test(test_render_failures_write_nothing),
         cmocka_unit_test(test_damaged_images_one_clear_line),

@@ -11,6 +11,7 @@
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -3,13 +3,14 @@
  * which makes the dynamic linker name on stderr every library it loads, at start-up or later by
  * dlopen. `nodes`, `--help`, `check` of graphs reading PNG, EXR and JPEG files, `info` and
  * `dot` of a graph with PNG inputs and outputs, a render whose files are all EXR, a render reading
- * a PNG (decoded natively) into an EXR and one writing PNGs (encoded natively) must not load
- * libOpenImageIO; a render writing a TIFF or reading a JPEG must (through the module
+ * a PNG or a JPEG (decoded natively) into an EXR and one writing PNGs (encoded natively) must not
+ * load libOpenImageIO; a render writing or reading a TIFF must (through the module
  * wetgraph-oiio.so), and when the module cannot be found
  * such a render fails with a message naming the image file and the module path tried. */
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 
 #include <signal.h>
 #include <stdio.h>
@@ -86,6 +87,10 @@ static const char *const jpg_graph = "<wetgraph version=\"1\" size=\"8\">\n"
                                      "  <node id=\"img\" type=\"image\" path=\"in.jpg\"/>\n"
                                      "  <output name=\"out\" from=\"img\" format=\"exr\"/>\n"
                                      "</wetgraph>\n";
+static const char *const tif_graph = "<wetgraph version=\"1\" size=\"8\">\n"
+                                     "  <node id=\"img\" type=\"image\" path=\"in.tif\"/>\n"
+                                     "  <output name=\"out\" from=\"img\" format=\"exr\"/>\n"
+                                     "</wetgraph>\n";
 static const char *const exr_graph =
     "<wetgraph version=\"1\" size=\"8\">\n"
     "  <node id=\"img\" type=\"image\" path=\"in.exr\"/>\n"
@@ -107,7 +112,10 @@ static void test_oiio_loaded_only_when_needed(void **state)
     char msg[512];
     if (wg__oiio_write(wgt_path("in.jpg"), "jpg", rgb, 8, 8, 3, 8, msg, sizeof msg))
         fail_msg("%s", msg);
+    if (wg__oiio_write(wgt_path("in.tif"), "tif", rgb, 8, 8, 3, 8, msg, sizeof msg))
+        fail_msg("%s", msg);
     wg_image_unref(img);
+    wgt_write_file(wgt_path("tif.wetgraph"), tif_graph);
     wgt_write_file(wgt_path("png.wetgraph"), png_graph);
     wgt_write_file(wgt_path("png_exr.wetgraph"), png_exr_graph);
     wgt_write_file(wgt_path("jpg.wetgraph"), jpg_graph);
@@ -126,7 +134,8 @@ static void test_oiio_loaded_only_when_needed(void **state)
         {{"render", "png_exr.wetgraph", "-q", "-o", "png_exr_out"}, false},
         {{"render", "png.wetgraph", "-q", "-o", "png_out"}, false},
         {{"render", "png.wetgraph", "-q", "-o", "tif_out", "--format", "tif16"}, true},
-        {{"render", "jpg.wetgraph", "-q", "-o", "jpg_out"}, true},
+        {{"render", "jpg.wetgraph", "-q", "-o", "jpg_out"}, false},
+        {{"render", "tif.wetgraph", "-q", "-o", "tif_in_out"}, true},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         Run r = run(NULL, cases[i].args);
@@ -153,21 +162,21 @@ static void test_missing_module_is_a_clear_error(void **state)
     snprintf(want, sizeof want, "%s/wetgraph-oiio.so", dir);
     static const struct {
         const char *graph, *file;
-    } need[] = {{"jpg.wetgraph", "in.jpg"}, {"png.wetgraph", "png_out.tif"}};
+    } need[] = {{"tif.wetgraph", "in.tif"}, {"png.wetgraph", "png_out.tif"}};
     for (int i = 0; i < 2; i++) {
         const char *args[] = {"render",      need[i].graph, "-q",    "-o",
                               "missing_out", "--format",    "tif16", NULL};
         if (i == 0) args[5] = NULL;
         Run r = run(dir, args);
         if (r.status != 1) fail_msg("'render %s' exited %d", need[i].graph, r.status);
-        if (!strstr(r.err, i == 0 ? "in.jpg" : "missing_out/png_out.tif") || !strstr(r.err, want) ||
+        if (!strstr(r.err, i == 0 ? "in.tif" : "missing_out/png_out.tif") || !strstr(r.err, want) ||
             !strstr(r.err, "OpenImageIO module"))
             fail_msg("expected the image, the module path and the reason in:\n%.3000s", r.err);
         free(r.err);
     }
-    /* PNG in, EXR out; EXR only; PNG in and out: no module needed */
-    const char *const ok[3] = {"png_exr.wetgraph", "exr.wetgraph", "png.wetgraph"};
-    for (int i = 0; i < 3; i++) {
+    /* PNG in, EXR out; EXR only; PNG in and out; JPEG in: no module needed */
+    const char *const ok[4] = {"png_exr.wetgraph", "exr.wetgraph", "png.wetgraph", "jpg.wetgraph"};
+    for (int i = 0; i < 4; i++) {
         const char *args[] = {"render", ok[i], "-q", "-o", "missing_out", NULL};
         Run r = run(dir, args);
         if (r.status != 0) fail_msg("'render %s' exited %d:\n%.3000s", ok[i], r.status, r.err);

@@ -9,7 +9,8 @@
  * NaN-free output on non-finite and huge inputs, and the atlas size check. The multiple-scattering
  * compensation: a white metal of any roughness in a white environment returns white; a rough
  * white metal under a sky over black ground reflects the sky (the dominant direction). A smooth
- * dielectric reflects as the exact Fresnel equations say, within 3 %. The
+ * dielectric reflects as the exact Fresnel equations say, within 3 %, and so does the water's
+ * surface for its own index. The
  * specular level: F0 = 0.08 x specular at normal incidence, 0.5 where the port is not connected,
  * and it acts under the water too. Under clear water (the default tint): a gold disc sunk in a
  * pit keeps its hue, is not brighter than dry and still reflects as a metal; a white material in
@@ -520,6 +521,123 @@ static void test_fresnel_exact(void **state)
     wg_image_unref(white);
 }
 
+/* The water's surface reflects as the exact Fresnel equations of its index say: smooth water of
+ * index 1.33 (water_specular = its F0) whose tint absorbs all the light that enters, so what is
+ * seen is the reflection alone, in a uniform white environment, returns F(θ) within 3 % from 40°
+ * to 75° of incidence (the rescaled index-1.5 curve was 19 % high at 60° and 15 % at 70°). */
+static void test_water_fresnel_exact(void **state)
+{
+    (void)state;
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    WgImage *grey = const_image(8, 8, 4, 0.5f), *floor0 = const_image(8, 8, 1, 0);
+    WgImage *surface = const_image(8, 8, 1, 1), *one = const_image(8, 8, 1, 1);
+    WgImage *zero = const_image(8, 8, 1, 0);
+    double n = 1.33, r0 = (n - 1) / (n + 1);
+    WgImage *f0 = const_image(8, 8, 1, (float)(r0 * r0));
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", grey);
+    in_add(&in, "height", floor0);
+    in_add(&in, "water_height", surface);
+    in_add(&in, "water_mask", one);
+    in_add(&in, "water_roughness", zero);
+    in_add(&in, "water_specular", f0);
+    static const int els[] = {50, 40, 30, 20, 15};
+    for (int i = 0; i < 5; i++) {
+        char attrs[256];
+        snprintf(attrs, sizeof attrs,
+                 LINEAR "elevation=\"%d\" fov=\"1\" zoom=\"20\" height_scale=\"0.3\" "
+                        "water_tint=\"0 0 0\" absorption_depth=\"0.01\"",
+                 els[i]);
+        WgImage *out = preview(attrs, AW, AH, &in, 1);
+        double f = wgt_px(out, AW / 2, AH / 2, 0);
+        double c = sin(els[i] * M_PI / 180), g = sqrt(n * n - 1 + c * c);
+        double a = (g - c) / (g + c), b = (c * (g + c) - 1) / (c * (g - c) + 1);
+        double exact = 0.5 * a * a * (1 + b * b);
+        print_message("water, incidence %d: %g, exact %g\n", 90 - els[i], f, exact);
+        if (fabs(f / exact - 1) > 0.03)
+            fail_msg("water, incidence %d degrees: reflectance %g, exact %g", 90 - els[i], f,
+                     exact);
+        wg_image_unref(out);
+    }
+    wg_image_unref(f0);
+    wg_image_unref(zero);
+    wg_image_unref(one);
+    wg_image_unref(surface);
+    wg_image_unref(floor0);
+    wg_image_unref(grey);
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
+/* A T x T map: height 1 on the rows above `wall_row` (the tile's far side, seen from azimuth 0),
+ * 0 below; or a constant. */
+static WgImage *wall_map(int t, int wall_row, float below, float above)
+{
+    WgImage *img = wgt_image(t, t, 1, NULL);
+    for (int y = 0; y < t; y++)
+        for (int x = 0; x < t; x++) wg_image_row(img, y)[x] = y < wall_row ? above : below;
+    return img;
+}
+
+/* The water's mirror sees the relief that stands out of it. A pool (the floor 0.3 tile widths
+ * down, the water halfway) against a black wall on the tile's far side, seen from 20° in a white
+ * environment, the water's tint absorbing what enters (so the reflection alone is seen): where
+ * the mirror ray meets the wall, the water reflects the dark wall (under half of what the same
+ * pool without the wall reflects); far from the wall it reflects the sky exactly as without it.
+ * Water pixels are those where the picture changes when the water's mask is 0. */
+static void test_water_mirrors_relief(void **state)
+{
+    (void)state;
+    enum { T = 64, WALL = 24 };
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    WgImage *black = const_image(T, T, 4, 0), *rough = const_image(T, T, 1, 0.5f);
+    WgImage *wall = wall_map(T, WALL, 0, 1), *flat = wall_map(T, WALL, 0, 0);
+    WgImage *surface = const_image(T, T, 1, 0.5f), *wzero = const_image(T, T, 1, 0);
+    WgImage *mask = wall_map(T, WALL + 1, 1, 0), *nomask = const_image(T, T, 1, 0);
+    const char *attrs = LINEAR "elevation=\"20\" azimuth=\"0\" fov=\"40\" height_scale=\"0.3\" "
+                               "water_tint=\"0 0 0\" absorption_depth=\"0.01\"";
+    WgImage *out[3];
+    const WgImage *heights[3] = {wall, flat, wall}, *masks[3] = {mask, mask, nomask};
+    for (int k = 0; k < 3; k++) {
+        Inputs in = {0};
+        in_add(&in, "environment", atlas);
+        in_add(&in, "basecolor", black);
+        in_add(&in, "roughness", rough);
+        in_add(&in, "height", heights[k]);
+        in_add(&in, "water_height", surface);
+        in_add(&in, "water_roughness", wzero);
+        in_add(&in, "water_mask", masks[k]);
+        out[k] = preview(attrs, AW, AH, &in, 2);
+    }
+    int water = 0, dark = 0, open = 0;
+    for (int y = 0; y < AH; y++)
+        for (int x = AW / 4; x < 3 * AW / 4; x++) {
+            double a = wgt_px(out[0], x, y, 0), b = wgt_px(out[1], x, y, 0);
+            double dry = wgt_px(out[2], x, y, 0);
+            if (a == dry) continue; /* not water */
+            water++;
+            if (a < 0.5 * b) dark++;
+            if (fabs(a - b) <= 1e-6 * b) open++;
+        }
+    print_message("water pixels %d, reflecting the wall %d, the sky as without it %d\n", water,
+                  dark, open);
+    assert_true(water > 200);
+    assert_true(dark > water / 10);
+    assert_true(open > water / 4);
+    for (int k = 0; k < 3; k++) wg_image_unref(out[k]);
+    wg_image_unref(nomask);
+    wg_image_unref(mask);
+    wg_image_unref(wzero);
+    wg_image_unref(surface);
+    wg_image_unref(flat);
+    wg_image_unref(wall);
+    wg_image_unref(rough);
+    wg_image_unref(black);
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
 /* F0 of a dielectric = 0.08 x specular: seen straight down, a smooth black material in a
  * white environment reflects F0 (plus the lobe's tiny bias); an unconnected port is 0.5. */
 static double spec_center(const WgImage *atlas, const WgImage *spec, const WgImage *black,
@@ -707,6 +825,52 @@ static void test_clear_water_neutral(void **state)
     wg_image_unref(grey);
 }
 
+/* The white furnace under water: a flat floor whose base colour is what the maps give a white
+ * material under water (Lekner and Dorf's albedo 1 − r_e, r_e = 0.067 for water), under smooth
+ * clear water in a white environment, returns 1 within 2 % seen from 90° to 20°: every bit of
+ * light comes back out, through the surface or reflected by it. Counting the surface twice (the
+ * base colour already holds the way in and out) returned 0.87. */
+static void test_under_water_furnace(void **state)
+{
+    (void)state;
+    WgImage *white = const_image(AW, AH, 4, 1), *atlas = prefilter(white, 2);
+    double n = 1.333, ri = -1.440 / (n * n) + 0.710 / n + 0.668 + 0.0636 * n;
+    double re = 1 - n * n * (1 - ri), r0 = (n - 1) / (n + 1);
+    WgImage *base = const_image(8, 8, 4, (float)(1 - re)), *floor0 = const_image(8, 8, 1, 0);
+    WgImage *surface = const_image(8, 8, 1, 1), *one = const_image(8, 8, 1, 1);
+    WgImage *zero = const_image(8, 8, 1, 0), *rough = const_image(8, 8, 1, 0.5f);
+    WgImage *f0 = const_image(8, 8, 1, (float)(r0 * r0));
+    Inputs in = {0};
+    in_add(&in, "environment", atlas);
+    in_add(&in, "basecolor", base);
+    in_add(&in, "roughness", rough);
+    in_add(&in, "height", floor0);
+    in_add(&in, "water_height", surface);
+    in_add(&in, "water_mask", one);
+    in_add(&in, "water_roughness", zero);
+    in_add(&in, "water_specular", f0);
+    static const int els[] = {90, 60, 40, 20};
+    for (int i = 0; i < 4; i++) {
+        char attrs[256];
+        snprintf(attrs, sizeof attrs,
+                 LINEAR "elevation=\"%d\" fov=\"1\" zoom=\"20\" height_scale=\"0.05\"", els[i]);
+        WgImage *out = preview(attrs, AW, AH, &in, 1);
+        double v = wgt_px(out, AW / 2, AH / 2, 0);
+        print_message("under water, elevation %d: %g\n", els[i], v);
+        if (fabs(v - 1) > 0.02) fail_msg("elevation %d: %g, expected 1 within 2 %%", els[i], v);
+        wg_image_unref(out);
+    }
+    wg_image_unref(f0);
+    wg_image_unref(rough);
+    wg_image_unref(zero);
+    wg_image_unref(one);
+    wg_image_unref(surface);
+    wg_image_unref(floor0);
+    wg_image_unref(base);
+    wg_image_unref(atlas);
+    wg_image_unref(white);
+}
+
 /* The specular level of the material under the water changes what is seen through it. */
 static void test_specular_under_water(void **state)
 {
@@ -834,6 +998,9 @@ int main(void)
         cmocka_unit_test(test_specular_under_water),
         cmocka_unit_test(test_rough_lobe_horizon),
         cmocka_unit_test(test_fresnel_exact),
+        cmocka_unit_test(test_water_mirrors_relief),
+        cmocka_unit_test(test_water_fresnel_exact),
+        cmocka_unit_test(test_under_water_furnace),
         cmocka_unit_test(test_tint_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -6,6 +6,7 @@
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 
 #include <dirent.h>
 #include <math.h>

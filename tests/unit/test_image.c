@@ -1,10 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /* WgImage: size limits, layout, reference counting, wg_image_convert (resampling against float64
  * references: a wrapping tent of half-width max(1, source/target), i.e. bilinear when enlarging;
- * constants kept exactly; gray/colour conversion) and the allocation hook, including a render under
+ * constants kept exactly; gray/colour conversion), wg_image_resample_into on the engine's threads
+ * (the same values for every thread count, an infinite sample reaching only the outputs its
+ * taps cover) and the allocation hook, including a render under
  * injected allocation failures. */
 #include "wgtest.h"
 
+#include "internal.h"
+
+#include <float.h>
 #include <math.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -301,6 +306,83 @@ static void test_upsample_is_bilinear_with_wrap(void **state)
     wg_image_unref(s);
 }
 
+/* wg_image_resample_into: the float64 reference within 1e-6 over sizes that enlarge, shrink
+ * and mix, gray and colour, and the same bits as wg_image_convert with no threads and with 2,
+ * 3 and 4 workers (each output value sums its taps in one order, whichever thread computes
+ * it). */
+static void test_resample_into_threads(void **state)
+{
+    (void)state;
+    static const int sizes[][4] = {{37, 23, 64, 64},  {64, 64, 37, 23}, {300, 17, 41, 70},
+                                   {5, 200, 128, 9},  {1, 1, 19, 7},    {257, 129, 256, 128},
+                                   {1024, 3, 100, 3}, {33, 65, 66, 130}};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        for (int c = 1; c <= 4; c += 3) {
+            WgImage *src = wg_image_new(sizes[i][0], sizes[i][1], c);
+            assert_non_null(src);
+            for (int y = 0; y < src->height; y++)
+                for (int x = 0; x < src->width; x++)
+                    for (int k = 0; k < c; k++)
+                        wg_image_row(src, y)[x * c + k] = (float)pattern(x, y, k);
+            int w = sizes[i][2], h = sizes[i][3];
+            check_resample(src, w, h, 1e-6);
+            WgImage *want = wg_image_convert(src, w, h, c);
+            assert_non_null(want);
+            for (int threads = 0; threads <= 4; threads++) {
+                if (threads == 1) continue;
+                WgNodeContext ctx = {0};
+                ctx.pool_ = threads ? wg__pool_new(threads) : NULL;
+                WgImage *got = wg_image_new(w, h, c);
+                assert_non_null(got);
+                assert_int_equal(wg_image_resample_into(threads ? &ctx : NULL, src, got), WG_OK);
+                wgt_assert_identical(got, want);
+                wg_image_unref(got);
+                if (ctx.pool_) wg__pool_free(ctx.pool_);
+            }
+            wg_image_unref(want);
+            wg_image_unref(src);
+        }
+    }
+    WgImage *a = wg_image_new(4, 4, 1), *b = wg_image_new(2, 2, 4);
+    assert_int_equal(wg_image_resample_into(NULL, a, b), WG_ERR_TYPE);
+    wg_image_unref(a);
+    wg_image_unref(b);
+}
+
+/* An infinite sample reaches only the outputs whose tent covers it (saturated to FLT_MAX there):
+ * enlarging 8 -> 16 is bilinear, so it touches the four outputs around it, and every other
+ * output is the finite
+ * interpolation of its two neighbours (a tap of zero weight must not turn it into NaN). */
+static void test_infinity_stays_local(void **state)
+{
+    (void)state;
+    WgImage *src = wg_image_new(8, 1, 1);
+    for (int x = 0; x < 8; x++) wg_image_row(src, 0)[x] = (float)x;
+    wg_image_row(src, 0)[4] = INFINITY;
+    WgImage *d = wg_image_convert(src, 16, 1, 1);
+    assert_non_null(d);
+    for (int x = 0; x < 16; x++) {
+        float v = wgt_px(d, x, 0, 0);
+        bool covered = x >= 7 && x <= 10; /* centres 3.25 .. 4.75 */
+        if (covered ? v != FLT_MAX : !isfinite(v))
+            fail_msg("output %d is %g (%s)", x, v,
+                     covered ? "expected FLT_MAX" : "expected finite");
+    }
+    /* 16 -> 8 with the infinity at 6 (taps of half-width 2): outputs 2 and 3 cover it */
+    WgImage *s2 = wg_image_new(16, 1, 1);
+    for (int x = 0; x < 16; x++) wg_image_row(s2, 0)[x] = 1;
+    wg_image_row(s2, 0)[6] = INFINITY;
+    WgImage *d2 = wg_image_convert(s2, 8, 1, 1);
+    for (int x = 0; x < 8; x++) {
+        float v = wgt_px(d2, x, 0, 0);
+        if (x == 2 || x == 3 ? v != FLT_MAX : v != 1.0f) fail_msg("output %d is %g", x, v);
+    }
+    wg_image_unref(d2);
+    wg_image_unref(s2);
+    wg_image_unref(d);
+    wg_image_unref(src);
+}
+
 static void test_same_size_is_a_copy(void **state)
 {
     (void)state;
@@ -530,6 +612,8 @@ int main(void)
         cmocka_unit_test(test_constant_stays_constant),
         cmocka_unit_test(test_downsample),
         cmocka_unit_test(test_upsample_is_bilinear_with_wrap),
+        cmocka_unit_test(test_resample_into_threads),
+        cmocka_unit_test(test_infinity_stays_local),
         cmocka_unit_test(test_same_size_is_a_copy),
         cmocka_unit_test(test_channel_conversion),
         cmocka_unit_test(test_convert_rejects_bad_targets),

@@ -7,6 +7,7 @@
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 
 #include <dirent.h>
 #include <fcntl.h>

@@ -11,10 +11,12 @@
 #include "wgtest.h"
 
 #include "internal.h"
+#include "wgio.h"
 #include "wgt_oiio.h"
 
 #include <fcntl.h>
 #include <math.h>
+#include <openexr.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -511,6 +513,94 @@ static void test_data_window_is_placed_in_the_display_window(void **state)
                              windows[i].fx, windows[i].fy, windows[i].fw, windows[i].fh, c,
                              layout == 1 ? 4 : 0, half ? "half" : "float", index++);
             }
+}
+
+/* Scanlines per chunk of an EXR file (OpenEXR's own answer). */
+static int exr_lines(const char *path)
+{
+    exr_context_t ctx;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    int32_t lines = 0;
+    assert_int_equal(exr_start_read(&ctx, path, &init), EXR_ERR_SUCCESS);
+    assert_int_equal(exr_get_scanlines_per_chunk(ctx, 0, &lines), EXR_ERR_SUCCESS);
+    exr_finish(&ctx);
+    return lines;
+}
+
+/* A data window whose rows start at an offset from the image's that is not a multiple of the
+ * chunk height: strips of the image then share chunks, and each chunk is decoded once, the
+ * pixels the same as OpenImageIO's. */
+static void test_windowed_exr_decodes_each_chunk_once(void **state)
+{
+    (void)state;
+    static const struct {
+        int dy, dh, fh, c;
+    } cases[] = {{5, 70, 80, 3}, {-3, 40, 33, 4}, {9, 17, 40, 1}, {1, 100, 101, 4}};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        int c = cases[i].c, dw = 19, fw = 21;
+        WgtOiioSpec s = {.w = dw,
+                         .h = cases[i].dh,
+                         .c = c,
+                         .x = 1,
+                         .y = cases[i].dy,
+                         .full_w = fw,
+                         .full_h = cases[i].fh};
+        float *px = random_pixels(dw, cases[i].dh, c);
+        char name[64];
+        snprintf(name, sizeof name, "offset%zu.exr", i);
+        const char *path = wgt_path(name);
+        write_file(path, &s, px);
+        int lines = exr_lines(path);
+        WgExrIn *in;
+        int w, h, fc, strip;
+        char msg[512];
+        if (wg__exr_open(path, &in, &w, &h, &fc, &strip, msg, sizeof msg))
+            fail_msg("%s is not read natively", path);
+        float *buf = malloc((size_t)w * (size_t)strip * (size_t)c * sizeof(float));
+        assert_non_null(buf);
+        for (int y0 = 0; y0 < h; y0 += strip) {
+            int y1 = h - y0 < strip ? h : y0 + strip;
+            if (wg__exr_read_rows(in, y0, y1, 0, c, buf, c * (ptrdiff_t)sizeof(float),
+                                  (ptrdiff_t)((size_t)w * (size_t)c * sizeof(float)), msg,
+                                  sizeof msg))
+                fail_msg("%s: %s", path, msg);
+        }
+        /* the chunks holding the data rows inside the image */
+        int first = cases[i].dy < 0 ? -cases[i].dy : 0;
+        int last =
+            cases[i].fh - cases[i].dy < cases[i].dh ? cases[i].fh - cases[i].dy : cases[i].dh;
+        long chunks = (last - 1) / lines - first / lines + 1;
+        if (wg__exr_decodes(in) != chunks)
+            fail_msg("%s: %ld chunks decoded, %ld hold the rows (%d rows a chunk, strips of %d)",
+                     path, wg__exr_decodes(in), chunks, lines, strip);
+        free(buf);
+        wg__exr_close(in);
+        free(px);
+        check_window(1, cases[i].dy, dw, cases[i].dh, 0, 0, fw, cases[i].fh, c, 0, "float",
+                     900 + (int)i);
+    }
+}
+
+/* Reading an EXR whose data window is far wider than the image: the decoder's chunk buffers are
+ * as wide as the data window, and wg_image_read_scratch says so. */
+static void test_exr_scratch_counts_the_data_window(void **state)
+{
+    (void)state;
+    int dw = 4000, dh = 20, fw = 16, fh = 16, c = 3;
+    WgtOiioSpec s = {.w = dw, .h = dh, .c = c, .x = -2000, .y = -2, .full_w = fw, .full_h = fh};
+    float *px = random_pixels(dw, dh, c);
+    const char *path = wgt_path("wide_window.exr");
+    write_file(path, &s, px);
+    free(px);
+    int lines = exr_lines(path), strip = lines < 16 ? 16 : lines;
+    size_t need = 2 * (size_t)dw * (size_t)strip * (size_t)c * sizeof(float) +
+                  (size_t)dw * (size_t)lines * (size_t)c * sizeof(float);
+    size_t got = wg_image_read_scratch(path);
+    if (got < need)
+        fail_msg("scratch %zu bytes for a %d-wide data window, needs %zu", got, dw, need);
+    WgImage *img = read_ok(path, 4);
+    assert_int_equal(img->width, fw);
+    wg_image_unref(img);
 }
 
 /* ---- hostile EXR headers ----------------------------------------------------------------- */
@@ -1304,6 +1394,8 @@ static void test_exr_zip_chunks_read_back_everywhere(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_windowed_exr_decodes_each_chunk_once),
+        cmocka_unit_test(test_exr_scratch_counts_the_data_window),
         cmocka_unit_test(test_tiled_files_read_as_openimageio),
         cmocka_unit_test(test_mipmapped_files_read_their_first_level),
         cmocka_unit_test(test_multipart_files_read_their_first_part),

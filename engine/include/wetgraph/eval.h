@@ -15,6 +15,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <time.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -40,6 +41,25 @@ typedef struct WgEngineOptions {
 /* The caller owns the engine. NULL options means defaults. */
 int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err);
 void wg_engine_free(WgEngine *e);
+/* The disk cache folder (WgEngineOptions.cache_dir) as a whole, for keeping it in bounds: its
+ * entries (the .wgc files the engine writes, in two-hex-digit subfolders) and their last use
+ * (an entry's modification time: reading an entry back sets it). Nothing else in the folder
+ * is counted or removed. */
+typedef struct WgCacheDirInfo {
+    long long entries;
+    uint64_t bytes;        /* the entries' file sizes */
+    time_t oldest, newest; /* the least and the most recent last use (0 when empty) */
+} WgCacheDirInfo;
+typedef struct WgCachePruned {
+    long long removed;
+    uint64_t freed, left; /* bytes removed, bytes of the entries left */
+} WgCachePruned;
+int wg_cache_dir_info(const char *dir, WgCacheDirInfo *info, WgError *err);
+/* Remove the least recently used entries until the folder's entries take at most max_bytes
+ * (0: remove them all), then the temporaries of processes that no longer exist. Safe beside
+ * renders using the folder: an entry removed under one is a miss, recomputed. */
+int wg_cache_dir_prune(const char *dir, uint64_t max_bytes, WgCachePruned *out, WgError *err);
+
 /* Drop every in-memory cache entry. */
 void wg_engine_clear_cache(WgEngine *e);
 size_t wg_engine_memory_budget(const WgEngine *e);

@@ -76,6 +76,7 @@ void wg_graph_free(WgGraph *g);
 
 const char *wg_graph_name(const WgGraph *g); /* file name without folder and extension */
 const char *wg_graph_path(const WgGraph *g);
+const char *wg_graph_label(const WgGraph *g); /* the root's `label`, or NULL */
 const char *wg_graph_size_text(const WgGraph *g); /* root `size` attribute */
 uint64_t wg_graph_seed(const WgGraph *g);
 
@@ -96,6 +97,25 @@ bool wg_parse_size(const char *text, int *width, int *height);
 
 /* Folder of the built-in graph library used as the last search location. */
 const char *wg_builtin_graphs_dir(void);
+
+/* The graph file a command line names: `name` itself when it exists (a folder is an error);
+ * else, when it holds no '/', <name>.wetgraph (or `name`, when it ends so) in each folder of
+ * WETGRAPH_PATH, then in the built-in folder, as a subgraph type is looked up. The caller
+ * frees *path with wg_free. Not found: WG_ERR_IO, with the closest graph name as a
+ * suggestion. */
+int wg_graph_find(const char *name, char **path, WgError *err);
+
+/* One graph of the library: its name (file name without .wetgraph) and file. */
+typedef struct WgGraphEntry {
+    char *name;
+    char *path;
+} WgGraphEntry;
+
+/* Every graph a name finds (wg_graph_find): the .wetgraph files of the WETGRAPH_PATH folders
+ * and of the built-in folder, each name once (the first folder holding it wins), sorted by
+ * name. Free with wg_graph_list_free. */
+int wg_graph_list(WgGraphEntry **out, int *count, WgError *err);
+void wg_graph_list_free(WgGraphEntry *list, int count);
 
 /* "did you mean" helper: the candidate closest to `word` (edit distance <= 2 or a prefix
  * match), or NULL. */

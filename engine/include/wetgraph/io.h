@@ -38,10 +38,15 @@ int wg_image_probe(const char *path, int *width, int *height, int *channels, WgE
  * saturate at FLT_MAX). Non-finite values are an error.
  * The caller owns *out. */
 int wg_image_read(const char *path, int channels, WgColorspace cs, WgImage **out, WgError *err);
-/* Read a file into an existing image of the file's size, converting to its channel count as
- * wg_image_read does. Decodes a strip of rows at a time: beside `dst` it needs only what
- * wg_image_read_scratch says. */
+/* Read a file into an existing image of the file's size (or of a size wg_image_decode_size
+ * gives), converting to its channel count as wg_image_read does. Decodes a strip of rows at a
+ * time: beside `dst` it needs only what wg_image_read_scratch says. */
 int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err);
+/* The size wg_image_read_into reads `path` at for a picture of width x height: the file's own
+ * size, or, for a JPEG larger than that, the smallest of its DCT scales (each side n/8 of the
+ * file's, rounded up, n = 1..7) with both sides at least width and height, which libjpeg decodes
+ * in a fraction of the time of the whole. Resample the result to the size wanted. */
+int wg_image_decode_size(const char *path, int width, int height, int *dw, int *dh, WgError *err);
 /* Memory that reading this file needs beyond the destination image: the decoder's own buffer
  * (the whole file at its native type for formats decoded at once, such as PNG) and a strip of
  * rows. 0 when the file cannot be opened. */
@@ -69,13 +74,13 @@ uint8_t wg_quantize8(float v, bool srgb);
 
 /* Write sets: several files replaced together. Each add writes one complete file to a
  * temporary beside its target (same folder, hidden name ".NAME.tmpPID-N-HOST.EXT" with this
- * process's id and 8 hex digits identifying this machine) and flushes it to the disk; the targets are untouched. Commit then renames
- * every temporary over its target in one tight loop, after checking that no target is a folder,
- * and flushes the folders. If an add fails, the caller frees the set and no target changes. If a
- * rename fails (rare: the target changed meanwhile), the files before it are replaced and the
- * ones from it on are not; their temporaries are removed and the error names the file, the cause
- * and both lists. Freeing a set removes the temporaries it still holds. A target whose name has
- * the form of a temporary is refused. */
+ * process's id and 8 hex digits identifying this machine) and flushes it to the disk; the targets
+ * are untouched. Commit then renames every temporary over its target in one tight loop, after
+ * checking that no target is a folder, and flushes the folders. If an add fails, the caller frees
+ * the set and no target changes. If a rename fails (rare: the target changed meanwhile), the files
+ * before it are replaced and the ones from it on are not; their temporaries are removed and the
+ * error names the file, the cause and both lists. Freeing a set removes the temporaries it still
+ * holds. A target whose name has the form of a temporary is refused. */
 typedef struct WgWriteSet WgWriteSet;
 WgWriteSet *wg_write_set_new(void); /* NULL when out of memory; free with wg_write_set_free */
 /* Same conversions as wg_image_write. */

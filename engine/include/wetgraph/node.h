@@ -36,7 +36,8 @@
  *    outputs; writing row 0 fills them.
  * 11. A node that never calls wg_parallel_rows (its work is one thread's) declares
  *    WG_NODE_SERIAL, so the scheduler runs it beside the row-parallel nodes rather than alone
- *    (docs/engine.md, Threads). */
+ *    (docs/engine.md, Threads). One whose work is mostly one thread's may still split a last
+ *    step over rows (`image` resampling what it decoded): the workers help when they are idle. */
 #ifndef WETGRAPH_NODE_H
 #define WETGRAPH_NODE_H
 
@@ -248,6 +249,11 @@ void wg_scratch_free(const WgNodeContext *ctx, void *ptr, size_t bytes);
 /* An intermediate image from the same pool (undefined pixels); release it with wg_image_unref
  * before eval returns. NULL when out of memory or for an invalid size. */
 WgImage *wg_scratch_image(const WgNodeContext *ctx, int width, int height, int channels);
+/* src resampled to dst's size (both with the same channels) with the engine's wrapping tent
+ * filter, as wg_image_convert resamples, the rows split over the render's threads (the same
+ * values for any thread count); its intermediate (dst's width x src's height) comes from the
+ * buffer pool. WG_ERR_NOMEM, WG_ERR_CANCELLED, or WG_ERR_TYPE for different channel counts. */
+int wg_image_resample_into(const WgNodeContext *ctx, const WgImage *src, WgImage *dst);
 
 /* Deterministic hashing for procedural nodes. */
 static inline uint32_t wg_hash_u32(uint32_t x)

@@ -21,6 +21,7 @@
  * reader refuses) is left to OpenImageIO (io_oiio.cpp), which places the data window the same
  * way. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <errno.h>
 #include <libdeflate.h>
@@ -464,6 +465,13 @@ struct WgExrIn {
     int dw, dh;
     int32_t data_y;
     float *chunk;
+    /* what `chunk` holds: the chunk from data row chunk_r, channels [chunk_cb, chunk_ce), when
+     * chunk_ok; a chunk that two strips share (the data window's offset in the image is not a
+     * multiple of the chunk height) is decoded once */
+    bool chunk_ok;
+    int64_t chunk_r;
+    int chunk_cb, chunk_ce, chunk_h;
+    long decodes; /* chunks decoded (for tests) */
 };
 
 void wg__exr_close(WgExrIn *in)
@@ -559,6 +567,18 @@ size_t wg__exr_chunk_bytes(const WgExrIn *in)
     return in->windowed ? (size_t)in->dw * (size_t)in->lines * (size_t)in->c * sizeof(float) : 0;
 }
 
+size_t wg__exr_decoder_bytes(const WgExrIn *in, int strip)
+{
+    /* one chunk compressed and unpacked, rows of the data window, whatever the image's width */
+    return 2 * (size_t)in->dw * (size_t)strip * (size_t)in->c * sizeof(float) +
+           wg__exr_chunk_bytes(in);
+}
+
+long wg__exr_decodes(const WgExrIn *in)
+{
+    return in->decodes;
+}
+
 /* Set up the decoder for the chunk holding file row y; channel k of [cb, ce) is decoded to
  * `to(k)`: base + (k - cb) * kstep, pixels xstride and rows ystride bytes apart. */
 static exr_result_t decode_chunk(WgExrIn *in, int32_t y, int cb, int ce, uint8_t *base,
@@ -623,12 +643,22 @@ static int read_windowed(WgExrIn *in, int y0, int y1, int cb, int ce, float *dat
     }
     int64_t xa = in->x0 < 0 ? -in->x0 : 0, xb = in->w - in->x0 < in->dw ? in->w - in->x0 : in->dw;
     for (int64_t r = r0 - r0 % in->lines; r < r1; r += in->lines) {
-        exr_chunk_info_t ci;
-        exr_result_t rv = decode_chunk(in, (int32_t)(in->data_y + r), cb, ce, (uint8_t *)in->chunk,
-                                       (ptrdiff_t)(plane * sizeof(float)), sizeof(float),
-                                       (ptrdiff_t)in->dw * sizeof(float), false, &ci);
-        if (rv) return damaged(in, r, rv, msg, msg_size);
-        for (int rr = 0; rr < ci.height; rr++) {
+        if (!in->chunk_ok || in->chunk_r != r || in->chunk_cb != cb || in->chunk_ce != ce) {
+            exr_chunk_info_t ci;
+            in->chunk_ok = false;
+            exr_result_t rv =
+                decode_chunk(in, (int32_t)(in->data_y + r), cb, ce, (uint8_t *)in->chunk,
+                             (ptrdiff_t)(plane * sizeof(float)), sizeof(float),
+                             (ptrdiff_t)in->dw * sizeof(float), false, &ci);
+            if (rv) return damaged(in, r, rv, msg, msg_size);
+            in->decodes++;
+            in->chunk_ok = true;
+            in->chunk_r = r;
+            in->chunk_cb = cb;
+            in->chunk_ce = ce;
+            in->chunk_h = ci.height;
+        }
+        for (int rr = 0; rr < in->chunk_h; rr++) {
             int64_t row = r + rr;
             if (row < r0 || row >= r1) continue;
             uint8_t *dst = (uint8_t *)data + (ptrdiff_t)(in->y0 + row - y0) * ystride;
@@ -665,6 +695,7 @@ int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, 
         exr_result_t rv = decode_chunk(in, in->data_y + y, cb, ce,
                                        (uint8_t *)data + (ptrdiff_t)(y - y0) * ystride,
                                        (ptrdiff_t)sizeof(float), xstride, ystride, split, &ci);
+        in->decodes++;
         for (int r = 0; !rv && split && r < ci.height; r++) {
             uint8_t *row = (uint8_t *)data + (ptrdiff_t)(y - y0 + r) * ystride;
             const float *a = in->alpha + (size_t)r * (size_t)in->w;

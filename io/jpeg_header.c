@@ -8,6 +8,7 @@
  * OpenImageIO, so it is refused or read exactly as before. The tables' contents are not checked
  * here; a JPEG whose tables are damaged is refused when it is read. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <stdio.h>
 
@@ -16,7 +17,8 @@ static bool is_frame(int m)
     return m >= 0xc0 && m <= 0xcf && m != 0xc4 && m != 0xc8 && m != 0xcc;
 }
 
-int wg__jpeg_probe(const char *path, int *w, int *h, int *c)
+/* The frame's marker in *frame (0xc2, 0xc6, 0xca and 0xce are progressive). */
+static int probe(const char *path, int *w, int *h, int *c, int *frame)
 {
     FILE *f = fopen(path, "rb");
     if (!f) return 1;
@@ -44,6 +46,7 @@ int wg__jpeg_probe(const char *path, int *w, int *h, int *c)
         }
         if (is_frame(m)) {
             if (len < 8 || fread(b, 1, 6, f) != 6) goto out;
+            *frame = m;
             precision = b[0];
             fh = b[1] << 8 | b[2];
             fw = b[3] << 8 | b[4];
@@ -57,4 +60,21 @@ int wg__jpeg_probe(const char *path, int *w, int *h, int *c)
 out:
     fclose(f);
     return rc;
+}
+
+int wg__jpeg_probe(const char *path, int *w, int *h, int *c)
+{
+    int frame;
+    return probe(path, w, h, c, &frame);
+}
+
+size_t wg__jpeg_decoder_bytes(const char *path)
+{
+    int w, h, c, m;
+    if (probe(path, &w, &h, &c, &m)) return 0;
+    /* a progressive file's coefficients for the whole image (16 bits each, at most one per
+     * sample, blocks padded to 16x16 pixels); otherwise libjpeg holds a few rows of blocks */
+    size_t padded = (size_t)(w + 15) / 16 * 16 * (size_t)c, rows = (size_t)(h + 15) / 16 * 16;
+    if (m == 0xc2 || m == 0xc6 || m == 0xca || m == 0xce) return padded * rows * 2;
+    return padded * (rows < 64 ? rows : 64);
 }

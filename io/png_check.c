@@ -17,6 +17,7 @@
  * 9) and handed over as soon as it is complete, so a PNG is inflated once, with two rows of memory.
  * Other PNGs are only checked (one inflate thrown away) and then read by OpenImageIO. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <stdio.h>
 #include <stdlib.h>

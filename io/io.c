@@ -16,6 +16,7 @@
  * PNG files are checked (png_check.c) before the library sees them, because libpng prints its
  * own errors to stderr. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -383,11 +384,7 @@ static int reader_open(const char *path, Reader *r, size_t *decoder, char *msg, 
     bool exr = wg__exr_is_exr(path);
     if (exr && wg__exr_check(path, msg, msg_size)) return -1;
     if (exr && !wg__exr_open(path, &r->exr, &r->w, &r->h, &r->c, &r->strip, msg, msg_size)) {
-        /* one chunk compressed and unpacked, and one of the data window when it is not the
-         * image */
-        if (decoder)
-            *decoder = 2 * (size_t)r->w * (size_t)r->strip * (size_t)r->c * sizeof(float) +
-                       wg__exr_chunk_bytes(r->exr);
+        if (decoder) *decoder = wg__exr_decoder_bytes(r->exr, r->strip);
         return 0;
     }
     return wg__oiio_open(path, &r->oiio, &r->w, &r->h, &r->c, &r->bits, decoder, msg, msg_size);
@@ -417,6 +414,9 @@ size_t wg_image_read_scratch(const char *path)
     /* a PNG decoded here holds two rows of the file */
     if (wg__png_decodable(path) && !wg__png_probe(path, &w, &h, &c, msg, sizeof msg))
         return (size_t)w * (size_t)c * 2 * 3 + 2;
+    /* a JPEG decoded here: libjpeg's buffers and a row of codes */
+    if (!wg__jpeg_probe(path, &w, &h, &c))
+        return wg__jpeg_decoder_bytes(path) + (size_t)w * (size_t)c * 16;
     if (reader_open(path, &r, &decoder, msg, sizeof msg)) return 0;
     reader_close(&r);
     /* the strip of the general path; a direct read needs none */
@@ -531,15 +531,25 @@ static int read_direct(Reader *r, WgColorspace cs, WgImage *dst, BadValues *bad,
  * k/255), and for sRGB colour channels srgb_decode of that value, so every path, native or
  * OpenImageIO, gives the same floats. */
 static float code_lin8[256], code_srgb8[256], code_lin16[65536], code_srgb16[65536];
-static pthread_once_t code_once = PTHREAD_ONCE_INIT;
+static pthread_once_t code_once = PTHREAD_ONCE_INIT, code8_once = PTHREAD_ONCE_INIT;
+
+/* The 8-bit tables alone for 8-bit files (every JPEG): 256 curve evaluations, where the 16-bit
+ * ones take 65536 and the sRGB table 65536 more, a few milliseconds a process would pay on its
+ * first image. srgb_decode of a value in [0, 1] is wg_srgb_to_linear of it, through its table
+ * or not. */
+static void code8_tables_build(void)
+{
+    volatile float r8 = 1.0f / 255.0f; /* rounded to float first */
+    for (int i = 0; i < 256; i++) code_lin8[i] = (float)i * r8;
+    for (int i = 0; i < 256; i++) code_srgb8[i] = wg_srgb_to_linear(code_lin8[i]);
+}
 
 static void code_tables_build(void)
 {
+    pthread_once(&code8_once, code8_tables_build);
     pthread_once(&srgb_once, srgb_lut_build);
-    volatile float r8 = 1.0f / 255.0f, r16 = 1.0f / 65535.0f; /* rounded to float first */
-    for (int i = 0; i < 256; i++) code_lin8[i] = (float)i * r8;
+    volatile float r16 = 1.0f / 65535.0f; /* rounded to float first */
     for (int i = 0; i < 65536; i++) code_lin16[i] = (float)i * r16;
-    for (int i = 0; i < 256; i++) code_srgb8[i] = srgb_decode(code_lin8[i]);
     for (int i = 0; i < 65536; i++) code_srgb16[i] = srgb_decode(code_lin16[i]);
 }
 
@@ -637,11 +647,90 @@ static int read_png(const char *path, WgColorspace cs, WgImage *dst, WgError *er
     return rc;
 }
 
+/* The DCT scale (1..8, the largest) at which a w x h JPEG decodes to dw x dh, or 0. */
+static int jpeg_scale_for(int w, int h, int dw, int dh)
+{
+    for (int s = 8; s >= 1; s--)
+        if (wg__jpeg_scaled_side(w, s) == dw && wg__jpeg_scaled_side(h, s) == dh) return s;
+    return 0;
+}
+
+int wg_image_decode_size(const char *path, int width, int height, int *dw, int *dh, WgError *err)
+{
+    int w, h, c;
+    int rc = wg_image_probe(path, &w, &h, &c, err);
+    if (rc) return rc;
+    *dw = w;
+    *dh = h;
+    if (wg__jpeg_probe(path, &w, &h, &c)) return WG_OK;
+    for (int s = 1; s < 8; s++) {
+        int sw = wg__jpeg_scaled_side(w, s), sh = wg__jpeg_scaled_side(h, s);
+        if (sw >= width && sh >= height) {
+            *dw = sw;
+            *dh = sh;
+            break;
+        }
+    }
+    return WG_OK;
+}
+
+/* JPEG rows are 8-bit gray or RGB codes; the two common cases (gray to gray, RGB to colour)
+ * in loops of their own, the values convert_codes gives. */
+static void jpeg_row(void *user, int y, const unsigned char *data, int depth)
+{
+    PngRows *p = user;
+    float *dst = wg_image_row(p->dst, y);
+    int w = p->dst->width;
+    const float *col = p->cs == WG_SRGB ? code_srgb8 : code_lin8;
+    /* linear values are the table's own arithmetic, code times the float reciprocal of 255,
+     * which vectorises where the lookup does not */
+    const float r8 = code_lin8[1];
+    if (p->cs != WG_SRGB && p->c == 1 && p->dst->channels == 1) {
+        for (int x = 0; x < w; x++) dst[x] = (float)data[x] * r8;
+    } else if (p->cs != WG_SRGB && p->c == 3 && p->dst->channels == 4) {
+        for (int x = 0; x < w; x++, data += 3, dst += 4) {
+            dst[0] = (float)data[0] * r8;
+            dst[1] = (float)data[1] * r8;
+            dst[2] = (float)data[2] * r8;
+            dst[3] = 1.0f;
+        }
+    } else if (p->c == 3 && p->dst->channels == 4) {
+        for (int x = 0; x < w; x++, data += 3, dst += 4) {
+            dst[0] = col[data[0]];
+            dst[1] = col[data[1]];
+            dst[2] = col[data[2]];
+            dst[3] = 1.0f;
+        }
+    } else if (p->c == 1 && p->dst->channels == 1) {
+        for (int x = 0; x < w; x++) dst[x] = col[data[x]];
+    } else {
+        convert_codes(data, depth, p->c, p->cs, dst, w, p->dst->channels);
+    }
+}
+
+/* 1 when the file is not a JPEG decoded natively at the destination's size. */
+static int read_jpeg(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
+{
+    int w, h, c;
+    if (wg__jpeg_probe(path, &w, &h, &c)) return 1;
+    int scale = jpeg_scale_for(w, h, dst->width, dst->height);
+    if (!scale) return 1; /* the general path says the file changed */
+    pthread_once(&code8_once, code8_tables_build);
+    PngRows rows = {dst, cs, c, NULL};
+    WgPngSink sink = {dst->width, dst->height, c, jpeg_row, &rows};
+    char msg[512];
+    int rc = wg__jpeg_read(path, scale, &sink, msg, sizeof msg);
+    if (rc < 0)
+        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    return rc;
+}
+
 int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
 {
     int rc = check_regular(path, err);
     if (rc) return rc;
     if ((rc = read_png(path, cs, dst, err)) <= 0) return rc;
+    if ((rc = read_jpeg(path, cs, dst, err)) <= 0) return rc;
     char msg[512];
     Reader r;
     if (wg__png_check(path, true, msg, sizeof msg) || reader_open(path, &r, NULL, msg, sizeof msg))

@@ -14,6 +14,7 @@
  * When no candidate loads, every call fails with a message that lists the paths tried and why
  * (the caller adds the image file's name). */
 #include "internal.h"
+#include "wgio.h"
 #include "io_oiio.h"
 
 #include <dlfcn.h>

@@ -7,6 +7,7 @@
  * written through OpenImageIO. The caller hands over packed samples (16-bit ones in host
  * order); readers of every kind decode the files, the tests check them with libpng. */
 #include "internal.h"
+#include "wgio.h"
 
 #include <ctype.h>
 #include <errno.h>

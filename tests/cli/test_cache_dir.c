@@ -1,0 +1,181 @@
+/* SPDX-License-Identifier: MIT */
+/* The result cache folder kept in bounds: `wetgraph cache info` counts the entries and their
+ * bytes (and nothing else in the folder), `cache prune --max` removes the least recently used
+ * first (an entry read back by a render counts as used), `render --cache-max` holds the cap
+ * after every render, `cache clear` removes every entry and only entries, and bad folders,
+ * sizes and combinations are usage errors (exit 2). */
+#include "wgtest.h"
+
+#include <dirent.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define SH(d, want, ...)                                                                           \
+    do {                                                                                           \
+        int st_ = wgt_shell(d, __VA_ARGS__);                                                       \
+        if (st_ != (want)) {                                                                       \
+            char dump_[1200];                                                                      \
+            snprintf(dump_, sizeof dump_, "cat '%s/out' '%s/err' >&2", d, d);                      \
+            if (system(dump_)) {                                                                   \
+            }                                                                                      \
+            fail_msg("exit %d, expected %d: %s", st_, want, #__VA_ARGS__);                         \
+        }                                                                                          \
+    } while (0)
+
+/* noise -> blur -> levels(p): a render with a new p reuses the first two from the cache */
+static const char *const graph =
+    "<wetgraph version=\"1\" size=\"64\">\n"
+    "  <param name=\"p\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <param name=\"s\" type=\"int\" default=\"1\" min=\"0\" max=\"100\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"=4 + s\"/>\n"
+    "  <node id=\"b\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"l\" type=\"levels\" in_high=\"=0.5 + p / 2\"><in name=\"source\" "
+    "from=\"b\"/></node>\n"
+    "  <output name=\"o\" from=\"l\"/>\n"
+    "</wetgraph>\n";
+
+static const char *fresh(const char *name)
+{
+    static char buf[4][1024];
+    static int next;
+    char *p = buf[next++ & 3];
+    snprintf(p, sizeof buf[0], "%s/%s", wgt_tmpdir(), name);
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", p, p);
+    assert_int_equal(system(cmd), 0);
+    wgt_write_file(wgt_join(p, "g.wetgraph"), graph);
+    return p;
+}
+
+/* Entry files (<32 hex digits>-<port>.wgc) under dir/c and their bytes. */
+static long long entries(const char *d, long long *bytes)
+{
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd,
+             "find '%s/c' -regextype posix-extended -regex '.*/[0-9a-f]{32}-[0-9]+\\.wgc' -printf "
+             "'%%s\\n' | awk '{n++; b+=$1} END "
+             "{printf \"%%d %%d\\n\", n, b}' > '%s/count'",
+             d, d);
+    assert_int_equal(system(cmd), 0);
+    FILE *f = fopen(wgt_join(d, "count"), "r");
+    assert_non_null(f);
+    long long n = 0, b = 0;
+    assert_int_equal(fscanf(f, "%lld %lld", &n, &b), 2);
+    fclose(f);
+    if (bytes) *bytes = b;
+    return n;
+}
+
+/* Nodes a render computed (not read from a cache), from --stats=json. */
+static int computed(const char *d)
+{
+    FILE *f = fopen(wgt_join(d, "out"), "r");
+    assert_non_null(f);
+    char buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = 0;
+    const char *k = strstr(buf, "\"evaluated\":");
+    assert_non_null(k);
+    return atoi(k + 12);
+}
+
+static void test_info_prune_clear(void **state)
+{
+    (void)state;
+    const char *d = fresh("prune");
+    for (int s = 0; s < 3; s++) {
+        SH(d, 0, "$WG render g.wetgraph -o r%d -q --cache c --set s=%d", s, s);
+        wgt_sleep_ms(30); /* distinct last uses */
+    }
+    long long bytes, n = entries(d, &bytes);
+    assert_int_equal(n, 9);
+    /* not entries: left alone and not counted */
+    wgt_write_file(wgt_join(d, "c/notes.txt"), "mine");
+    mkdir(wgt_join(d, "c/zz"), 0777);
+    wgt_write_file(wgt_join(d, "c/zz/0123.wgc"), "not an entry");
+    SH(d, 0, "$WG cache info c");
+    char want[128];
+    snprintf(want, sizeof want, "c: 9 entries, %.1f MiB", bytes / 1048576.0);
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), want), 1);
+    /* the first render's entries are the oldest: reading them back makes them the newest */
+    SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
+    assert_int_equal(computed(d), 0);
+    /* keep about one render's worth: the entries used last are what stays */
+    long long per = bytes / 9;
+    SH(d, 0, "$WG cache prune c --max %lld", 3 * per + per / 2);
+    assert_int_equal(entries(d, NULL), 3);
+    SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
+    assert_int_equal(computed(d), 0);
+    SH(d, 0, "$WG render g.wetgraph -o r1 -q --cache c --set s=1 --stats=json");
+    assert_int_equal(computed(d), 3);
+    /* clear: every entry, nothing else */
+    SH(d, 0, "$WG cache clear c");
+    assert_int_equal(entries(d, NULL), 0);
+    assert_true(wgt_exists(wgt_join(d, "c/notes.txt")));
+    assert_true(wgt_exists(wgt_join(d, "c/zz/0123.wgc")));
+    SH(d, 0, "$WG cache info c");
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "c: 0 entries, 0.0 MiB"), 1);
+}
+
+static void test_cache_max(void **state)
+{
+    (void)state;
+    const char *d = fresh("cap");
+    SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=0");
+    long long bytes;
+    entries(d, &bytes);
+    long long cap = bytes * 2; /* two renders' worth (three nodes each) */
+    for (int s = 1; s < 6; s++) {
+        SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=%d --cache-max %lld", s, cap);
+        long long now;
+        entries(d, &now);
+        if (now > cap)
+            fail_msg("render %d: the cache holds %lld bytes, over the cap %lld", s, now, cap);
+    }
+    /* the last render's own entries are kept: its re-render computes nothing */
+    SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=5 --stats=json");
+    assert_int_equal(computed(d), 0);
+    /* and what a render prunes is reported with --stats */
+    SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=9 --cache-max 1 --stats");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "entries removed"), 1);
+    assert_int_equal(entries(d, NULL), 0);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    const char *d = fresh("errors");
+    SH(d, 2, "$WG cache info nowhere");
+    assert_int_equal(
+        wgt_count_in(wgt_join(d, "err"), "nowhere: cannot open the cache folder: no such folder"),
+        1);
+    SH(d, 2, "$WG cache info g.wetgraph");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "it is not a folder"), 1);
+    SH(d, 2, "$WG cache prune .");
+    SH(d, 2, "$WG cache clear . --max 1K");
+    SH(d, 2, "$WG cache purge .");
+    SH(d, 2, "$WG cache");
+    SH(d, 2, "$WG render g.wetgraph --cache-max 1G");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "--cache-max needs --cache DIR"), 1);
+    static const char *const bad[] = {"-1", "K", "1X", "1e30", "", "1.5.5M"};
+    for (int i = 0; i < 6; i++) {
+        SH(d, 2, "$WG render g.wetgraph --cache c --cache-max '%s'", bad[i]);
+        assert_int_equal(wgt_count_in(wgt_join(d, "err"), "bad --cache-max"), 1);
+    }
+    static const char *const good[] = {"0", "1536", "1.5K", "2M", "1MiB", "3G", "1T"};
+    for (int i = 0; i < 7; i++)
+        SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --cache-max %s", good[i]);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_info_prune_clear),
+        cmocka_unit_test(test_cache_max),
+        cmocka_unit_test(test_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
