@@ -783,6 +783,9 @@ static size_t job_need(Run *run, int i)
 /* Jobs are ordered greedily for memory when there are at most this many; beyond it the
  * quadratic search would cost more than it saves, and plan order is kept. */
 #define ORDER_LIMIT 2000
+/* ... and improved by moving jobs (sink_jobs) when there are at most this many (each try is a
+ * run of the whole order). */
+#define SINK_LIMIT 300
 
 static bool is_job(const Node *n)
 {
@@ -811,6 +814,65 @@ static size_t job_frees(Run *run, int i, int *left)
             }
         }
     return freed;
+}
+
+/* The peak of a sequential run of the `count` jobs of `order`, as plan_work counts it;
+ * left[] is scratch. */
+static size_t order_peak(Run *run, const int *order, int count, int *left)
+{
+    const WgPlan *p = run->plan;
+    size_t live = 0, peak = 0;
+    for (int i = 0; i < p->n_insts; i++) {
+        left[i] = run->nodes[i].consumers;
+        if (run->nodes[i].needed && !run->nodes[i].evaluate) live += run->nodes[i].out_bytes;
+    }
+    peak = live;
+    for (int r = 0; r < count; r++) {
+        Node *n = &run->nodes[order[r]];
+        if (live + n->need > peak) peak = live + n->need;
+        live += n->out_bytes;
+        for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
+            const WgInst *mi = &p->insts[n->n_members ? n->members[m] : order[r]];
+            for (int k = 0; k < mi->n_in; k++) {
+                int src = mi->in[k].inst;
+                if (src >= 0 && --left[src] == 0 && !keeps(run, &run->nodes[src]))
+                    live -= run->nodes[src].out_bytes;
+            }
+        }
+        if (n->consumers == 0 && !keeps(run, n)) live -= n->out_bytes;
+    }
+    return peak;
+}
+
+/* The greedy order looks one step ahead only: it may make an image early that waits long for a
+ * consumer whose other inputs come much later (a normal map made before the base colour's whole
+ * branch, read only at the end with a picture decoded last). So each job in turn is tried right
+ * before its first consumer instead, and kept there when that lowers the peak; a few passes. */
+static void sink_jobs(Run *run, int *order, int count, int *left, int *trial)
+{
+    size_t best = order_peak(run, order, count, left);
+    for (int pass = 0; pass < 3; pass++) {
+        bool moved = false;
+        for (int r = 0; r < count; r++) {
+            Node *n = &run->nodes[order[r]];
+            int first = count; /* the place of its first consumer */
+            for (int k = 0; k < n->n_dependents; k++)
+                for (int q = r + 1; q < first; q++)
+                    if (order[q] == n->dependents[k]) first = q;
+            if (first == count || first == r + 1) continue;
+            memcpy(trial, order, (size_t)count * sizeof *trial);
+            memmove(trial + r, trial + r + 1, (size_t)(first - 1 - r) * sizeof *trial);
+            trial[first - 1] = order[r];
+            size_t peak = order_peak(run, trial, count, left);
+            if (peak < best) {
+                best = peak;
+                memcpy(order, trial, (size_t)count * sizeof *trial);
+                moved = true;
+                r--; /* another job is at place r now */
+            }
+        }
+        if (!moved) break;
+    }
 }
 
 /* The order of the sequential run the memory guarantee is built on, which is also the order
@@ -865,6 +927,13 @@ static int plan_order(Run *run, int *left, WgError *err)
                 if (mi->in[k].inst >= 0) left[mi->in[k].inst]--;
         }
         for (int k = 0; k < b->n_dependents; k++) pend[b->dependents[k]]--;
+    }
+    int *trial = at == jobs && jobs <= SINK_LIMIT ? wg_calloc((size_t)jobs + 1, sizeof(int)) : NULL;
+    if (trial) {
+        for (int i = 0; i < n; i++)
+            if (is_job(&run->nodes[i])) run->nodes[i].need = job_need(run, i);
+        sink_jobs(run, run->by_rank, jobs, left, trial);
+        wg_free(trial);
     }
     if (at == jobs) { /* the other nodes after the jobs, in plan order */
         for (int i = 0; i < n; i++)

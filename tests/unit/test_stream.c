@@ -270,6 +270,73 @@ static void test_sources_wait_until_they_are_needed(void **state)
     }
 }
 
+/* A colour image made early from a small source waits for a consumer whose other input, a
+ * picture, comes last; meanwhile another picture's branch runs. Making it just before its
+ * consumer instead holds one colour image less through that branch. */
+static const char *const near_graph =
+    "<wetgraph version=\"1\" size=\"%dx%d\">\n"
+    "  <input name=\"b\" type=\"color\"/>\n"
+    "  <input name=\"n\" type=\"color\"/>\n"
+    "  <node id=\"g\" type=\"pixel\" expr=\"u * v\"/>\n"
+    "  <node id=\"wc\" type=\"pixel\" kind=\"color\" expr=\"rgb(g, 1 - g, g * g)\">"
+    "<in name=\"g\" from=\"g\"/></node>\n"
+    "  <node id=\"uc\" type=\"pixel\" kind=\"color\" expr=\"b * 0.5\">"
+    "<in name=\"b\" from=\"$b\"/></node>\n"
+    "  <node id=\"a\" type=\"pixel\" expr=\"c.r + c.g\"><in name=\"c\" from=\"uc\"/></node>\n"
+    "  <node id=\"f\" type=\"pixel\" expr=\"m.r * n.g\"><in name=\"m\" from=\"wc\"/>"
+    "<in name=\"n\" from=\"$n\"/></node>\n"
+    "  <output name=\"u\" from=\"uc\" format=\"png\"/>\n"
+    "  <output name=\"a\" from=\"a\" format=\"png16\"/>\n"
+    "  <output name=\"f\" from=\"f\" format=\"png16\"/>\n"
+    "</wetgraph>\n";
+
+static void test_images_are_made_when_their_consumer_is_near(void **state)
+{
+    (void)state;
+    static const int sizes[][2] = {{64, 48}, {33, 70}};
+    for (int v = 0; v < 2; v++) {
+        int w = sizes[v][0], h = sizes[v][1];
+        WgError err = {0};
+        for (int i = 0; i < 2; i++) {
+            WgImage *pic = wgt_image(w, h, 4, NULL);
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < 4 * w; x++)
+                    wg_image_row(pic, y)[x] = (float)((x * 7 + y * 3 + i) % 13) / 12;
+            char name[32];
+            snprintf(name, sizeof name, "col%d.png", i);
+            assert_int_equal(wg_image_write(wgt_path(name), pic, WG_FORMAT_PNG, WG_LINEAR, &err),
+                             WG_OK);
+            wg_image_unref(pic);
+        }
+        char xml[2048];
+        snprintf(xml, sizeof xml, near_graph, w, h);
+        WgGraph *g = wgt_load_at(xml, wgt_path("near.wetgraph"));
+        size_t colour = wg_image_bytes_for(w, h, 4);
+        WgEngineOptions opt = {1, 0, NULL, true, true}; /* one worker, unfused */
+        WgEngine *e = NULL;
+        assert_int_equal(wg_engine_new(&opt, &e, &err), WG_OK);
+        WgRequest *r = wg_request_new(g);
+        assert_non_null(r);
+        assert_int_equal(wg_request_set_input_file(r, "b", wgt_path("col0.png"), &err), WG_OK);
+        assert_int_equal(wg_request_set_input_file(r, "n", wgt_path("col1.png"), &err), WG_OK);
+        Seen s;
+        seen_init(&s, -1);
+        wg_request_set_output_fn(r, take_output, &s);
+        WgResult *res = wgt_render_request(e, r);
+        for (int i = 0; i < 3; i++) assert_int_equal(atomic_load(&s.calls[i]), 1);
+        /* two colour images and a few gray ones at once (a picture and its half, or the made
+         * colour image and the last picture), never three colour images */
+        if (wg_result_peak_bytes(res) > 2 * colour + colour / 2 + colour / 8)
+            fail_msg("%dx%d: peak %zu bytes; a colour image is %zu", w, h,
+                     wg_result_peak_bytes(res), colour);
+        wg_result_free(res);
+        seen_free(&s);
+        wg_request_free(r);
+        wg_engine_free(e);
+        wg_graph_free(g);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -277,6 +344,7 @@ int main(void)
         cmocka_unit_test(test_outputs_are_let_go_once_handed_over),
         cmocka_unit_test(test_failing_output_fails_the_render),
         cmocka_unit_test(test_sources_wait_until_they_are_needed),
+        cmocka_unit_test(test_images_are_made_when_their_consumer_is_near),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
