@@ -829,17 +829,23 @@ static size_t order_peak(Run *run, const int *order, int count, int *left)
     peak = live;
     for (int r = 0; r < count; r++) {
         Node *n = &run->nodes[order[r]];
+        /* a job materialises its node, or its group's members that have bytes */
+        int n_members = n->n_members ? n->n_members : 1;
+        const int *members = n->n_members ? n->members : &order[r];
         if (live + n->need > peak) peak = live + n->need;
-        live += n->out_bytes;
-        for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
-            const WgInst *mi = &p->insts[n->n_members ? n->members[m] : order[r]];
+        for (int m = 0; m < n_members; m++) live += run->nodes[members[m]].out_bytes;
+        for (int m = 0; m < n_members; m++) {
+            const WgInst *mi = &p->insts[members[m]];
             for (int k = 0; k < mi->n_in; k++) {
                 int src = mi->in[k].inst;
                 if (src >= 0 && --left[src] == 0 && !keeps(run, &run->nodes[src]))
                     live -= run->nodes[src].out_bytes;
             }
         }
-        if (n->consumers == 0 && !keeps(run, n)) live -= n->out_bytes;
+        for (int m = 0; m < n_members; m++) {
+            const Node *mn = &run->nodes[members[m]];
+            if (mn->consumers == 0 && !keeps(run, mn)) live -= mn->out_bytes;
+        }
     }
     return peak;
 }
@@ -910,7 +916,11 @@ static int plan_order(Run *run, int *left, WgError *err)
         for (int i = 0; i < n; i++) {
             Node *c = &run->nodes[i];
             if (!is_job(c) || placed[i] || pend[i]) continue;
-            size_t own = c->consumers > 0 || keeps(run, c) ? c->out_bytes : 0;
+            size_t own = 0; /* what it materialises that is read later or kept */
+            for (int m = 0; m < (c->n_members ? c->n_members : 1); m++) {
+                const Node *mn = &run->nodes[c->n_members ? c->members[m] : i];
+                if (mn->consumers > 0 || keeps(run, mn)) own += mn->out_bytes;
+            }
             long long delta = (long long)own - (long long)job_frees(run, i, left);
             if (best < 0 || delta < best_delta) {
                 best = i;
