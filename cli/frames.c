@@ -25,6 +25,8 @@ typedef struct {
     int n, cap, frames;
     double ms;
     size_t peak;
+    size_t held;      /* the most the memory cache and the buffer pool held after a frame */
+    double output_ms; /* the outputs' hashing, encoding and flushing, summed over the workers */
 } Totals;
 
 /* The distinct warnings of the sequence so far (own copies). */
@@ -70,8 +72,11 @@ static void seen_free(Seen *s)
     free(s->w);
 }
 
-static int totals_add(Totals *t, const WgResult *res)
+static int totals_add(Totals *t, const WgResult *res, const WgEngine *e)
 {
+    WgMemoryStats m;
+    wg_engine_memory_stats(e, &m);
+    if (m.cache_bytes + m.pool_bytes > t->held) t->held = m.cache_bytes + m.pool_bytes;
     int n = wg_result_stat_count(res);
     for (int i = 0; i < n; i++) {
         const WgNodeStat *s = wg_result_stat(res, i);
@@ -106,9 +111,9 @@ static int totals_add(Totals *t, const WgResult *res)
 static void totals_print(const Totals *t, const Seen *seen, bool json)
 {
     if (json) {
-        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"peak_bytes\": %zu,\n  \"nodes\": "
-               "[\n",
-               t->frames, t->ms, t->peak);
+        printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"output_ms\": %.3f,\n  "
+               "\"peak_bytes\": %zu,\n  \"held_bytes\": %zu,\n  \"nodes\": [\n",
+               t->frames, t->ms, t->output_ms, t->peak, t->held);
         for (int i = 0; i < t->n; i++) {
             const NodeTotal *n = &t->nodes[i];
             printf("    {\"id\": ");
@@ -132,8 +137,11 @@ static void totals_print(const Totals *t, const Seen *seen, bool json)
         fprintf(stderr, "%-32s %-12s %9d %9d %10.2f\n", n->id, n->type, n->computed, n->reused,
                 n->ms);
     }
-    fprintf(stderr, "%d frames, %.1f ms in all, peak image memory %.1f MiB\n", t->frames, t->ms,
-            t->peak / 1048576.0);
+    fprintf(stderr,
+            "%d frames, %.1f ms in all (with %.1f ms of output work during the renders), peak "
+            "image memory %.1f MiB; between frames the cache and the buffer pool held at most "
+            "%.1f MiB\n",
+            t->frames, t->ms, t->output_ms, t->peak / 1048576.0, t->held / 1048576.0);
 }
 
 static void totals_free(Totals *t)
@@ -164,21 +172,45 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
     for (int f = o->frame_first; !rc && f <= o->frame_last; f++) {
         double t = (o->has_time ? o->time : 0) + f / o->fps;
         WgResult *res = NULL;
+        Stream *stream = NULL;
         wg_request_set_time(r, t);
-        rc = wg_render(e, r, &res, err);
+        /* separate files are written while the frame renders; a layered EXR wants them all */
+        if (!o->layered) {
+            rc = stream_new(o, g, f, o->contact_sheet != NULL, &stream, err);
+            wg_request_set_output_fn(r, rc ? NULL : stream_output, stream);
+        }
+        if (!rc) rc = wg_render(e, r, &res, err);
         if (!rc && seen_add(&seen, res, o->quiet))
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-        if (!rc) rc = write_outputs(o, g, res, f, err);
-        if (!rc && o->contact_sheet && wg_result_output_count(res) > 0) {
-            const WgImage *img = wg_result_output_image(res, 0);
+        const WgImage *img = NULL;
+        WgColorspace img_space = WG_LINEAR;
+        if (!rc && !stream) {
+            rc = write_outputs(o, g, res, f, err);
+            if (wg_result_output_count(res) > 0) {
+                img = wg_result_output_image(res, 0);
+                img_space = wg_result_output_colorspace(res, 0);
+            }
+        }
+        if (!rc && stream && o->contact_sheet && (img = stream_first(stream, &img_space)))
+            img = wg_image_ref(img); /* outlives the stream */
+        if (stream) {
+            rc = stream_finish(stream, rc, err);
+            totals.output_ms += rc ? 0 : stream_last_output_ms();
+            wg_request_set_output_fn(r, NULL, NULL);
+        }
+        if (!rc && o->contact_sheet && img) {
             if (!sheet) {
                 sheet = contact_sheet_new(count, img->width, img->height, img->channels);
-                sheet_space = wg_result_output_colorspace(res, 0);
+                sheet_space = img_space;
                 if (!sheet) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
             }
-            contact_sheet_add(sheet, f - o->frame_first, img);
+            if (sheet) contact_sheet_add(sheet, f - o->frame_first, img);
         }
-        if (!rc && o->stats && totals_add(&totals, res))
+        if (!o->layered) wg_image_unref(img);
+        /* what earlier frames' times computed is never read again: only what this frame used
+         * stays cached (the nodes that do not depend on $time, and this frame's results) */
+        wg_engine_drop_unused(e);
+        if (!rc && o->stats && totals_add(&totals, res, e))
             rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         if (rc && err && err->message[0]) { /* say which frame failed */
             char msg[sizeof err->message];

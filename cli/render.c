@@ -5,6 +5,7 @@
 #include "render.h"
 
 #include <errno.h>
+#include <pthread.h>
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
@@ -357,7 +358,9 @@ static struct {
     int n;
     char (*paths)[4096];
     bool *kept;
-    double ms; /* from the first key to the last rename */
+    double ms;        /* from the first key to the last rename; streamed: from the render's end */
+    double output_ms; /* streamed: the time of the output calls (hash, encode, flush), summed */
+    bool streamed;
 } last_write;
 
 void print_stats(const WgEngine *e, const WgResult *res, bool json)
@@ -400,7 +403,9 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             cli_json_string(stdout, last_write.paths[k]);
             printf(", \"file\": \"%s\"}", last_write.kept[k] ? "kept" : "written");
         }
-        printf("\n  ],\n  \"write_ms\": %.3f,\n  \"warnings\": [", last_write.ms);
+        printf("\n  ],\n  \"write_ms\": %.3f,\n", last_write.ms);
+        if (last_write.streamed) printf("  \"output_ms\": %.3f,\n", last_write.output_ms);
+        printf("  \"warnings\": [");
         for (int k = 0; k < wg_result_warning_count(res); k++) {
             printf("%s\n    ", k ? "," : "");
             cli_json_warning(stdout, wg_result_warning(res, k));
@@ -447,7 +452,12 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             fprintf(stderr, "kept %s (it already holds these pixels)\n", last_write.paths[k]);
             n_kept++;
         }
-    if (last_write.n)
+    if (last_write.n && last_write.streamed)
+        fprintf(stderr,
+                "outputs: %d written, %d kept, %.1f ms after the render to put them in place; "
+                "%.1f ms of hashing, encoding and flushing in all, during the render\n",
+                last_write.n - n_kept, n_kept, last_write.ms, last_write.output_ms);
+    else if (last_write.n)
         fprintf(stderr, "outputs: %d written, %d kept, %.1f ms\n", last_write.n - n_kept, n_kept,
                 last_write.ms);
 }
@@ -483,17 +493,23 @@ static const char *layered_name(const Options *o, int frame)
     return buf;
 }
 
+/* The path of the output `name` written as `f` (the --format already applied). */
+static void output_path_of(const Options *o, const WgGraph *g, const char *name, WgFormat f,
+                           int frame, char *buf, size_t size)
+{
+    const char *dir = o->out_dir ? o->out_dir : ".";
+    if (frame >= 0)
+        snprintf(buf, size, "%s/%s_%s_%04d.%s", dir, wg_graph_name(g), name, frame,
+                 wg_format_extension(f));
+    else
+        snprintf(buf, size, "%s/%s_%s.%s", dir, wg_graph_name(g), name, wg_format_extension(f));
+}
+
 void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
                  char *buf, size_t size)
 {
-    const char *dir = o->out_dir ? o->out_dir : ".";
     WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
-    if (frame >= 0)
-        snprintf(buf, size, "%s/%s_%s_%04d.%s", dir, wg_graph_name(g),
-                 wg_result_output_name(res, i), frame, wg_format_extension(f));
-    else
-        snprintf(buf, size, "%s/%s_%s.%s", dir, wg_graph_name(g), wg_result_output_name(res, i),
-                 wg_format_extension(f));
+    output_path_of(o, g, wg_result_output_name(res, i), f, frame, buf, size);
 }
 
 /* ---- outputs kept: a key per written file, in an extended attribute of the file -------------
@@ -568,6 +584,190 @@ static void last_write_clear(void)
     last_write.paths = NULL;
     last_write.kept = NULL;
     last_write.n = 0;
+    last_write.streamed = false;
+    last_write.output_ms = 0;
+}
+
+static double now_ms(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
+}
+
+/* ---- outputs streamed: each one hashed and encoded as soon as the render has it ------------
+ * The engine calls stream_output on one of its workers for each output as soon as its image is
+ * final (wg_request_set_output_fn), while other nodes still run. Each output is staged in a
+ * write set of its own, so the calls need no lock; when the render has succeeded the sets are
+ * gathered in output order and committed together, so that, as with write_outputs, a failed
+ * render or a failed output leaves every target as it was and no temporary behind. */
+
+struct Stream {
+    const Options *o;
+    const WgGraph *g;
+    int frame;
+    int n; /* slots: one per output of the graph */
+    char (*paths)[4096];
+    WgWriteSet **sets; /* each output's staged temporary (NULL: none) */
+    OutKey *keys;
+    bool *seen, *skip, *wrote;
+    double *ms;
+    bool keep_first; /* keep output 0's image (for the contact sheet) */
+    /* The output folder is made by the first output call, so that a render that fails before
+     * any output is final creates nothing, and removed again when the render fails after
+     * making it. */
+    pthread_mutex_t mu;
+    bool folder_tried, folder_made;
+    int folder_rc;
+    WgError folder_err;
+    const WgImage *first;
+    WgColorspace first_cs;
+};
+
+static void stream_free(Stream *s)
+{
+    if (!s) return;
+    for (int i = 0; s->sets && i < s->n; i++) wg_write_set_free(s->sets[i]);
+    pthread_mutex_destroy(&s->mu);
+    wg_image_unref(s->first);
+    free(s->paths);
+    free(s->sets);
+    free(s->keys);
+    free(s->seen);
+    free(s->skip);
+    free(s->wrote);
+    free(s->ms);
+    free(s);
+}
+
+int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, Stream **out,
+               WgError *err)
+{
+    Stream *s = *out = calloc(1, sizeof *s);
+    if (!s) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    s->o = o;
+    s->g = g;
+    s->frame = frame;
+    s->keep_first = keep_first;
+    pthread_mutex_init(&s->mu, NULL);
+    s->n = wg_graph_output_count(g);
+    size_t n = (size_t)s->n + 1;
+    s->paths = calloc(n, sizeof *s->paths);
+    s->sets = calloc(n, sizeof *s->sets);
+    s->keys = calloc(n, sizeof *s->keys);
+    s->seen = calloc(n, sizeof *s->seen);
+    s->skip = calloc(n, sizeof *s->skip);
+    s->wrote = calloc(n, sizeof *s->wrote);
+    s->ms = calloc(n, sizeof *s->ms);
+    if (!s->paths || !s->sets || !s->keys || !s->seen || !s->skip || !s->wrote || !s->ms) {
+        stream_free(s);
+        *out = NULL;
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    return WG_OK;
+}
+
+/* Once per stream, from whichever output call comes first. */
+static int stream_folder(Stream *s, WgError *err)
+{
+    pthread_mutex_lock(&s->mu);
+    if (!s->folder_tried) {
+        const char *dir = s->o->out_dir ? s->o->out_dir : ".";
+        struct stat st;
+        bool existed = stat(dir, &st) == 0;
+        s->folder_tried = true;
+        if (mkdir_p(dir)) {
+            s->folder_rc = wg_error_set_at(&s->folder_err, WG_ERR_IO, dir, 0, 0,
+                                           "cannot create the output folder: %s", strerror(errno));
+        } else {
+            s->folder_made = !existed;
+            wg_remove_stale_temporaries(dir);
+        }
+    }
+    int rc = s->folder_rc;
+    if (rc && err) *err = s->folder_err;
+    pthread_mutex_unlock(&s->mu);
+    return rc;
+}
+
+/* The engine's output function: on a worker, concurrently with other outputs and nodes. */
+int stream_output(void *user, const WgOutputInfo *out, WgError *err)
+{
+    Stream *s = user;
+    int i = out->index;
+    double t0 = now_ms();
+    int rc = stream_folder(s, err);
+    if (rc) return rc;
+    WgFormat f = s->o->format >= 0 ? (WgFormat)s->o->format : out->format;
+    output_path_of(s->o, s->g, out->name, f, s->frame, s->paths[i], sizeof s->paths[i]);
+    s->seen[i] = true;
+    if (i == 0 && s->keep_first) {
+        s->first = wg_image_ref(out->image);
+        s->first_cs = out->colorspace;
+    }
+    s->keys[i] = output_key(out->image, f, out->colorspace);
+    if (key_matches(s->paths[i], s->keys[i])) {
+        s->skip[i] = true;
+    } else if (!(s->sets[i] = wg_write_set_new())) {
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    } else {
+        rc = wg_write_set_image(s->sets[i], s->paths[i], out->image, f, out->colorspace, err);
+        s->wrote[i] = !rc;
+    }
+    s->ms[i] = now_ms() - t0;
+    return rc;
+}
+
+/* After the render (render_rc its outcome): on success the staged files are renamed into place
+ * together and listed; in any case the stream is freed, and with it every temporary left. */
+int stream_finish(Stream *s, int render_rc, WgError *err)
+{
+    double t0 = now_ms();
+    int rc = render_rc;
+    WgWriteSet *set = NULL;
+    if (!rc && !(set = wg_write_set_new()))
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; !rc && i < s->n; i++)
+        if (s->sets[i]) rc = wg_write_set_move(set, s->sets[i], err);
+    if (!rc) rc = wg_write_set_commit(set, err);
+    wg_write_set_free(set);
+    for (int i = 0; !rc && i < s->n; i++)
+        if (s->wrote[i]) key_store(s->paths[i], s->keys[i]);
+    if (!rc && !s->o->quiet)
+        for (int i = 0; i < s->n; i++)
+            if (s->seen[i] && !s->skip[i]) printf("%s\n", s->paths[i]);
+    last_write_clear();
+    if (!rc) {
+        /* the outputs in order: the stream's slots are the result's output indexes */
+        int n = 0;
+        while (n < s->n && s->seen[n]) n++;
+        last_write.n = n;
+        last_write.paths = s->paths;
+        last_write.kept = s->skip;
+        last_write.streamed = true;
+        for (int i = 0; i < n; i++) last_write.output_ms += s->ms[i];
+        s->paths = NULL;
+        s->skip = NULL;
+    }
+    last_write.ms = now_ms() - t0;
+    for (int i = 0; rc && i < s->n; i++) { /* the temporaries first, then the folder */
+        wg_write_set_free(s->sets[i]);
+        s->sets[i] = NULL;
+    }
+    if (rc && s->folder_made) rmdir(s->o->out_dir ? s->o->out_dir : ".");
+    stream_free(s);
+    return rc;
+}
+
+double stream_last_output_ms(void)
+{
+    return last_write.streamed ? last_write.output_ms : 0;
+}
+
+const WgImage *stream_first(const Stream *s, WgColorspace *cs)
+{
+    *cs = s->first_cs;
+    return s->first;
 }
 
 /* Every file is first written whole to a temporary beside its target; only when all of them
@@ -743,12 +943,22 @@ int cmd_render(int argc, char **argv)
     if (wg_engine_new(&eo, &e, &err)) goto fail;
     if (o.has_frames) {
         if (render_frames(&o, g, r, e, &err)) goto fail;
-    } else {
+    } else if (o.layered) { /* every image at once, for the one file */
         if (wg_render(e, r, &res, &err)) goto fail;
         if (!o.quiet)
             for (int i = 0; i < wg_result_warning_count(res); i++)
                 cli_warning(wg_result_warning(res, i), NULL);
         if (write_outputs(&o, g, res, -1, &err)) goto fail;
+        if (o.stats) print_stats(e, res, o.stats_json);
+    } else { /* each output written while the rest renders */
+        Stream *s = NULL;
+        if (stream_new(&o, g, -1, false, &s, &err)) goto fail;
+        wg_request_set_output_fn(r, stream_output, s);
+        int rc = wg_render(e, r, &res, &err);
+        if (!rc && !o.quiet)
+            for (int i = 0; i < wg_result_warning_count(res); i++)
+                cli_warning(wg_result_warning(res, i), NULL);
+        if (stream_finish(s, rc, &err)) goto fail;
         if (o.stats) print_stats(e, res, o.stats_json);
     }
     status = EXIT_OK;

@@ -56,6 +56,20 @@ int write_outputs(const Options *o, const WgGraph *g, const WgResult *res, int f
  * kept[i] true: their files already hold these images. kept NULL: none. */
 int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res, int frame,
                          const bool *kept, WgError *err);
+/* Outputs streamed (cli/render.c): written while the render runs, all or none. stream_new
+ * makes the output folder and the state for one render (frame >= 0: with "_<frame>" in the
+ * names; keep_first: keep output 0's image for stream_first); give the request
+ * wg_request_set_output_fn(r, stream_output, s), render, then stream_finish(s, the render's
+ * status) renames the files into place (only when that status is WG_OK) and frees s. */
+typedef struct Stream Stream;
+int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, Stream **out,
+               WgError *err);
+int stream_output(void *user, const WgOutputInfo *out, WgError *err);
+int stream_finish(Stream *s, int render_rc, WgError *err);
+/* The time of the output calls of the last stream_finish that succeeded, summed (ms). */
+double stream_last_output_ms(void);
+/* Output 0's image (NULL unless kept) and its colour space; owned by the stream. */
+const WgImage *stream_first(const Stream *s, WgColorspace *cs);
 /* The per-node table (stderr) or JSON (stdout) of one render. */
 void print_stats(const WgEngine *e, const WgResult *res, bool json);
 /* path with "_<frame>" (4 digits at least) before its extension; path itself for frame < 0. */

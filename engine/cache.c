@@ -32,6 +32,7 @@ typedef struct Entry {
     int port;
     const WgImage *img;
     int newer, older; /* the recency list, -1 at its ends */
+    unsigned used;    /* the cache's `round` when it was last stored or read */
 } Entry;
 
 /* Entries sit densely in an array (removal moves the last one into the hole), found through a
@@ -44,6 +45,7 @@ struct WgCache {
     WgKeyIndex index;   /* (key, port) -> entry */
     int newest, oldest; /* ends of the recency list, -1 when empty */
     size_t held;        /* bytes of all entries' images */
+    unsigned round;     /* advanced by wg__cache_drop_unused */
     char *dir;
 };
 
@@ -159,6 +161,7 @@ static void link_newest(WgCache *c, int i)
 
 static void touch(WgCache *c, int i)
 {
+    c->entries[i].used = c->round;
     if (c->newest == i) return;
     unlink_entry(c, i);
     link_newest(c, i);
@@ -223,6 +226,7 @@ void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *i
     e->key[1] = key[1];
     e->port = port;
     e->img = wg_image_ref(img);
+    e->used = c->round;
     c->held += wg_image_bytes(img);
     link_newest(c, i);
 out:
@@ -242,6 +246,24 @@ void wg__cache_trim(WgCache *c, size_t max_bytes)
     pthread_mutex_lock(&c->mu);
     while (c->held > max_bytes && c->oldest >= 0) remove_entry(c, c->oldest);
     pthread_mutex_unlock(&c->mu);
+}
+
+/* Every use moves an entry to the newest end of the recency list: the entries not used in this
+ * round are the oldest ones. */
+void wg__cache_drop_unused(WgCache *c)
+{
+    pthread_mutex_lock(&c->mu);
+    while (c->oldest >= 0 && c->entries[c->oldest].used != c->round) remove_entry(c, c->oldest);
+    c->round++;
+    pthread_mutex_unlock(&c->mu);
+}
+
+int wg__cache_count(WgCache *c)
+{
+    pthread_mutex_lock(&c->mu);
+    int n = c->count;
+    pthread_mutex_unlock(&c->mu);
+    return n;
 }
 
 char *wg__cache_entry_path(const WgCache *c, const uint64_t key[2], int port)

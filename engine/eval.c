@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /* Rendering a request: build the plan, decide what must be computed (walking back from the
- * requested outputs, stopping at cache hits), check that the working set fits the memory
- * budget, then run ready nodes on the worker pool. Intermediates are released as soon as their
- * last consumer has run; the in-memory cache keeps what fits in the budget. The first failing
+ * requested outputs, stopping at cache hits), order the jobs for memory and check that the
+ * working set fits the memory budget, then run ready nodes on the worker pool. Intermediates
+ * are released as soon as their last consumer has run; the in-memory cache keeps what fits in
+ * the budget. With an output function on the request, each output is handed to it by a job of
+ * its own as soon as it is final, and then released like an intermediate. The first failing
  * node cancels the rest and its error is reported; so does the request's cancel token, from
  * another thread: wg_cancel_request sets the cancel flag of every render registered with the
  * token, which the scheduler, wg_parallel_rows' chunks and the fused bands already check. */
@@ -38,6 +40,8 @@ typedef struct Node {
     bool needed, evaluate, requested, done;
     int pending;   /* inputs still being computed */
     int consumers; /* evaluations that still have to read this node */
+    int holds;     /* output calls (WgRequest.output_fn) not yet returned that read it */
+    bool released;
     int *dependents;
     int n_dependents;
     const WgImage **out;
@@ -74,19 +78,31 @@ struct Run {
     int *dependents;   /* storage of every node's dependents list */
     int *members;      /* storage of every fused group's members list */
     size_t live, peak; /* outputs held and needs of the running nodes */
-    /* The memory guarantee. A sequential run in plan order needs at most seq_peak[i] from node i
-     * on. Nodes started ahead of the frontier (the first node not yet started) hold `ahead`
-     * bytes. Keeping ahead + seq_peak[frontier] within the budget means that once the running
-     * nodes finish, the rest can always run in plan order within the budget, so the render
-     * never waits for memory it cannot get. */
+    /* The memory guarantee. A sequential run in the order of plan_order needs at most
+     * seq_peak[r] from place r on. Nodes started ahead of the frontier (the place of the first
+     * node not yet started) hold `ahead` bytes. Keeping ahead + seq_peak[frontier] within the
+     * ceiling means that once the running jobs finish, the rest can always run in that order
+     * within it, so the render never waits for memory it cannot get. */
     size_t *seq_peak;
+    int biggest, largest; /* the node with the largest need, and the largest image */
+    size_t biggest_bytes;
     size_t ahead;
     int frontier;
+    size_t ceiling; /* the least of the budget and the sequential run's peak (Run.need) */
+    /* The order that sequential run follows (plan_order): rank[i] is node i's place in it,
+     * by_rank[r] the node at place r. The ready heaps hold ranks, and seq_peak and frontier
+     * count in ranks. */
+    int *rank, *by_rank;
     volatile int cancel;
     WgCancel *token; /* the request's cancel token, with this run registered in it */
     Run *token_next; /* the token's other running renders */
     int rc;
     bool skipped; /* a node ended with WG_ERR_CANCELLED: counted as completed, but not done */
+    /* Outputs streamed to the request's output function: one job per output, submitted to the
+     * pool when its node is done and counted in `running` while it runs. The node's image is
+     * held (Node.holds) until the job has returned, then released like an intermediate. */
+    struct OutputJob *output_jobs;
+    int outputs_left; /* output jobs not yet returned */
     WgError err;
     bool fuse;   /* fuse point operations (fuse.c) */
     size_t need; /* the sequential peak the plan needs */
@@ -260,6 +276,13 @@ size_t wg_engine_memory_budget(const WgEngine *e)
 void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out)
 {
     wg__mempool_stats(e->mem, out);
+    out->cache_bytes = wg__cache_bytes(e->cache);
+    out->cache_entries = wg__cache_count(e->cache);
+}
+
+void wg_engine_drop_unused(WgEngine *e)
+{
+    wg__cache_drop_unused(e->cache);
 }
 
 WgMemPool *wg__engine_mempool(WgEngine *e)
@@ -288,6 +311,18 @@ static void fit_budget(WgEngine *e, size_t live)
     wg__cache_trim(e->cache, room);
     cached = wg__cache_bytes(e->cache);
     wg__mempool_trim(e->mem, cached < room ? room - cached : 0);
+}
+
+/* With the run's lock held, when a job has let go of memory. An engine without a memory cache
+ * renders once: idle buffers are kept only within what the render itself needs (Run.ceiling),
+ * not up to the whole budget, so that buffers of sizes the rest of the render does not ask for
+ * are given back. What is left is at least the need of the next job that may start (the
+ * scheduler keeps live + need within the ceiling), which takes its buffers from there. */
+static void fit_run(Run *run)
+{
+    fit_budget(run->e, run->live);
+    if (!run->e->memory_cache && run->ceiling)
+        wg__mempool_trim(run->e->mem, run->live < run->ceiling ? run->ceiling - run->live : 0);
 }
 
 /* ---- evaluating one node ----------------------------------------------------------------- */
@@ -447,13 +482,20 @@ static bool parallel_job(const Run *run, const Node *n)
 
 static void ready_push(Run *run, int index)
 {
-    heap_push(&run->ready[parallel_job(run, &run->nodes[index]) ? 0 : 1], index);
+    heap_push(&run->ready[parallel_job(run, &run->nodes[index]) ? 0 : 1], run->rank[index]);
+}
+
+/* A requested node's image stays with the result, unless an output function takes it. */
+static bool keeps(const Run *run, const Node *n)
+{
+    return n->requested && !run->r->output_fn;
 }
 
 static void release(Run *run, int index)
 {
     Node *n = &run->nodes[index];
-    if (n->requested || !n->out) return;
+    if (keeps(run, n) || n->holds > 0 || n->released || !n->out) return;
+    n->released = true;
     WgInst *in = &run->plan->insts[index];
     for (int o = 0; o < in->n_out; o++) {
         wg_image_unref(n->out[o]);
@@ -465,6 +507,55 @@ static void release(Run *run, int index)
         size_t b = n->out_bytes < j->ahead_bytes ? n->out_bytes : j->ahead_bytes;
         run->ahead -= b;
         j->ahead_bytes -= b;
+    }
+}
+
+typedef struct OutputJob {
+    Run *run;
+    int index; /* in plan->outputs */
+} OutputJob;
+
+static void output_job(void *user)
+{
+    OutputJob *j = user;
+    Run *run = j->run;
+    const WgPlanOutput *po = &run->plan->outputs[j->index];
+    Node *src = &run->nodes[po->ref.inst];
+    WgOutputInfo info = {j->index, po->name, src->out[po->ref.port], po->format, po->colorspace};
+    WgError err = {0};
+    int rc = run->cancel ? WG_ERR_CANCELLED : run->r->output_fn(run->r->output_user, &info, &err);
+    if (rc && !err.code) rc = wg_error_set(&err, rc, NULL, "writing output '%s' failed", po->name);
+    pthread_mutex_lock(&run->mu);
+    run->running--;
+    run->outputs_left--;
+    if (rc) {
+        if (run->rc == WG_OK && rc != WG_ERR_CANCELLED) {
+            run->rc = rc;
+            run->err = err;
+        }
+        if (rc == WG_ERR_CANCELLED) run->skipped = true;
+        run->cancel = 1;
+    }
+    if (--src->holds == 0 && src->consumers == 0) release(run, po->ref.inst);
+    fit_run(run);
+    pthread_cond_signal(&run->cv);
+    pthread_mutex_unlock(&run->mu);
+}
+
+/* With run->mu held: hand the outputs of node `index` (done, or from the cache) to the output
+ * function. A job that cannot be submitted fails the render like a node out of memory. */
+static void submit_outputs(Run *run, int index)
+{
+    if (!run->r->output_fn) return;
+    for (int k = 0; k < run->plan->n_outputs; k++) {
+        if (run->plan->outputs[k].ref.inst != index) continue;
+        run->running++;
+        if (wg__pool_submit(run->e->pool, output_job, &run->output_jobs[k])) {
+            run->running--;
+            if (run->rc == WG_OK)
+                run->rc = wg_error_set(&run->err, WG_ERR_NOMEM, NULL, "out of memory");
+            run->cancel = 1;
+        }
     }
 }
 
@@ -536,11 +627,13 @@ static void node_job(void *user)
             if (--d->pending == 0) ready_push(run, node->dependents[k]);
         }
         for (int m = 0; m < n_members; m++)
+            if (run->nodes[members[m]].requested) submit_outputs(run, members[m]);
+        for (int m = 0; m < n_members; m++)
             if (run->nodes[members[m]].consumers == 0) release(run, members[m]);
     }
     /* The cache and the pool may hold what the working set leaves of the budget (images in the
      * cache and the working set are counted twice, so this errs towards evicting). */
-    fit_budget(run->e, run->live);
+    fit_run(run);
     pthread_cond_signal(&run->cv);
     pthread_mutex_unlock(&run->mu);
 }
@@ -699,24 +792,188 @@ static size_t job_need(Run *run, int i)
     return need;
 }
 
-static int plan_work(Run *run, WgError *err)
+/* Jobs are ordered greedily for memory when there are at most this many; beyond it the
+ * quadratic search would cost more than it saves, and plan order is kept. */
+#define ORDER_LIMIT 2000
+/* ... and improved by moving jobs (sink_jobs) when there are at most this many (each try is a
+ * run of the whole order). */
+#define SINK_LIMIT 300
+
+static bool is_job(const Node *n)
+{
+    return n->evaluate && !n->fused;
+}
+
+/* Bytes that running job i frees: its inputs (of all its members) that no other evaluation
+ * reads afterwards; left[] holds how many reads each node still has. */
+static size_t job_frees(Run *run, int i, int *left)
+{
+    const WgPlan *p = run->plan;
+    Node *n = &run->nodes[i];
+    size_t freed = 0;
+    for (int pass = 0; pass < 2; pass++)
+        for (int m = 0; m < (n->n_members ? n->n_members : 1); m++) {
+            const WgInst *mi = &p->insts[n->n_members ? n->members[m] : i];
+            for (int k = 0; k < mi->n_in; k++) {
+                int src = mi->in[k].inst;
+                if (src < 0) continue;
+                if (pass == 1) { /* put the counts back */
+                    left[src]++;
+                    continue;
+                }
+                if (--left[src] == 0 && !keeps(run, &run->nodes[src]))
+                    freed += run->nodes[src].out_bytes;
+            }
+        }
+    return freed;
+}
+
+/* The peak of a sequential run of the `count` jobs of `order`, as plan_work counts it;
+ * left[] is scratch. */
+static size_t order_peak(Run *run, const int *order, int count, int *left)
+{
+    const WgPlan *p = run->plan;
+    size_t live = 0, peak = 0;
+    for (int i = 0; i < p->n_insts; i++) {
+        left[i] = run->nodes[i].consumers;
+        if (run->nodes[i].needed && !run->nodes[i].evaluate) live += run->nodes[i].out_bytes;
+    }
+    peak = live;
+    for (int r = 0; r < count; r++) {
+        Node *n = &run->nodes[order[r]];
+        /* a job materialises its node, or its group's members that have bytes */
+        int n_members = n->n_members ? n->n_members : 1;
+        const int *members = n->n_members ? n->members : &order[r];
+        if (live + n->need > peak) peak = live + n->need;
+        for (int m = 0; m < n_members; m++) live += run->nodes[members[m]].out_bytes;
+        for (int m = 0; m < n_members; m++) {
+            const WgInst *mi = &p->insts[members[m]];
+            for (int k = 0; k < mi->n_in; k++) {
+                int src = mi->in[k].inst;
+                if (src >= 0 && --left[src] == 0 && !keeps(run, &run->nodes[src]))
+                    live -= run->nodes[src].out_bytes;
+            }
+        }
+        for (int m = 0; m < n_members; m++) {
+            const Node *mn = &run->nodes[members[m]];
+            if (mn->consumers == 0 && !keeps(run, mn)) live -= mn->out_bytes;
+        }
+    }
+    return peak;
+}
+
+/* The greedy order looks one step ahead only: it may make an image early that waits long for a
+ * consumer whose other inputs come much later (a normal map made before the base colour's whole
+ * branch, read only at the end with a picture decoded last). So each job in turn is tried right
+ * before its first consumer instead, and kept there when that lowers the peak; a few passes. */
+static void sink_jobs(Run *run, int *order, int count, int *left, int *trial)
+{
+    size_t best = order_peak(run, order, count, left);
+    for (int pass = 0; pass < 3; pass++) {
+        bool moved = false;
+        for (int r = 0; r < count; r++) {
+            Node *n = &run->nodes[order[r]];
+            int first = count; /* the place of its first consumer */
+            for (int k = 0; k < n->n_dependents; k++)
+                for (int q = r + 1; q < first; q++)
+                    if (order[q] == n->dependents[k]) first = q;
+            if (first == count || first == r + 1) continue;
+            memcpy(trial, order, (size_t)count * sizeof *trial);
+            memmove(trial + r, trial + r + 1, (size_t)(first - 1 - r) * sizeof *trial);
+            trial[first - 1] = order[r];
+            size_t peak = order_peak(run, trial, count, left);
+            if (peak < best) {
+                best = peak;
+                memcpy(order, trial, (size_t)count * sizeof *trial);
+                moved = true;
+                r--; /* another job is at place r now */
+            }
+        }
+        if (!moved) break;
+    }
+}
+
+/* The order of the sequential run the memory guarantee is built on, which is also the order
+ * the scheduler prefers among ready jobs. Plan order (the file's order, subgraphs in place)
+ * makes every input image first and keeps it until its last reader, however late; instead,
+ * each step takes, among the jobs whose inputs are done, the one whose run leaves the least
+ * memory held (its output, unless no one reads it and it is handed over, less the inputs it is
+ * the last to read), the earliest in plan order on ties. So outputs that are written and let
+ * go of run early and free their inputs, and large sources wait until they are needed. The
+ * images are the same in any order. */
+static int plan_order(Run *run, int *left, WgError *err)
+{
+    const WgPlan *p = run->plan;
+    int n = p->n_insts, jobs = 0;
+    for (int i = 0; i < n; i++) {
+        run->rank[i] = run->by_rank[i] = i;
+        jobs += is_job(&run->nodes[i]);
+    }
+    if (jobs > ORDER_LIMIT) return WG_OK;
+    int *pend = wg_calloc((size_t)n + 1, sizeof(int));
+    bool *placed = wg_calloc((size_t)n + 1, sizeof(bool));
+    if (!pend || !placed) {
+        wg_free(pend);
+        wg_free(placed);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    for (int i = 0; i < n; i++) {
+        left[i] = run->nodes[i].consumers;
+        pend[i] = run->nodes[i].pending;
+    }
+    int at = 0;
+    for (int step = 0; step < jobs; step++) {
+        int best = -1;
+        long long best_delta = 0;
+        for (int i = 0; i < n; i++) {
+            Node *c = &run->nodes[i];
+            if (!is_job(c) || placed[i] || pend[i]) continue;
+            size_t own = 0; /* what it materialises that is read later or kept */
+            for (int m = 0; m < (c->n_members ? c->n_members : 1); m++) {
+                const Node *mn = &run->nodes[c->n_members ? c->members[m] : i];
+                if (mn->consumers > 0 || keeps(run, mn)) own += mn->out_bytes;
+            }
+            long long delta = (long long)own - (long long)job_frees(run, i, left);
+            if (best < 0 || delta < best_delta) {
+                best = i;
+                best_delta = delta;
+            }
+        }
+        if (best < 0) break; /* cannot happen: the plan is acyclic */
+        Node *b = &run->nodes[best];
+        placed[best] = true;
+        run->by_rank[at++] = best;
+        for (int m = 0; m < (b->n_members ? b->n_members : 1); m++) {
+            const WgInst *mi = &p->insts[b->n_members ? b->members[m] : best];
+            for (int k = 0; k < mi->n_in; k++)
+                if (mi->in[k].inst >= 0) left[mi->in[k].inst]--;
+        }
+        for (int k = 0; k < b->n_dependents; k++) pend[b->dependents[k]]--;
+    }
+    int *trial = at == jobs && jobs <= SINK_LIMIT ? wg_calloc((size_t)jobs + 1, sizeof(int)) : NULL;
+    if (trial) {
+        for (int i = 0; i < n; i++)
+            if (is_job(&run->nodes[i])) run->nodes[i].need = job_need(run, i);
+        sink_jobs(run, run->by_rank, jobs, left, trial);
+        wg_free(trial);
+    }
+    if (at == jobs) { /* the other nodes after the jobs, in plan order */
+        for (int i = 0; i < n; i++)
+            if (!placed[i]) run->by_rank[at++] = i;
+        for (int r = 0; r < n; r++) run->rank[run->by_rank[r]] = r;
+    } else {
+        for (int i = 0; i < n; i++) run->rank[i] = run->by_rank[i] = i;
+    }
+    wg_free(pend);
+    wg_free(placed);
+    return WG_OK;
+}
+
+/* The jobs of the work (fused groups, their dependents), their order and the sequential peak
+ * run->need; done again by plan_work without fusion, undone by unplan_jobs. */
+static int plan_jobs(Run *run, WgError *err)
 {
     WgPlan *p = run->plan;
-    for (int k = 0; k < p->n_outputs; k++) {
-        run->nodes[p->outputs[k].ref.inst].needed = true;
-        run->nodes[p->outputs[k].ref.inst].requested = true;
-    }
-    for (int i = p->n_insts - 1; i >= 0; i--) {
-        Node *n = &run->nodes[i];
-        WgInst *in = &p->insts[i];
-        if (!n->needed) continue;
-        n->out_bytes = inst_bytes(in);
-        if (!in->constant && lookup_cache(run, i)) continue;
-        n->evaluate = true;
-        run->total++;
-        for (int k = 0; k < in->n_in; k++)
-            if (in->in[k].inst >= 0) run->nodes[in->in[k].inst].needed = true;
-    }
     int rc = plan_fusion(run, err);
     if (rc) return rc;
     /* dependents lists: counted, then laid out in one array and filled */
@@ -763,12 +1020,18 @@ static int plan_work(Run *run, WgError *err)
     if (!left) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     int biggest = -1, largest = -1;
     size_t biggest_bytes = 0;
+    rc = plan_order(run, left, err);
+    if (rc) {
+        wg_free(left);
+        return rc;
+    }
     for (int i = 0; i < p->n_insts; i++) {
         left[i] = run->nodes[i].consumers;
         if (run->nodes[i].needed && !run->nodes[i].evaluate) live += run->nodes[i].out_bytes;
     }
     peak = live;
-    for (int i = 0; i < p->n_insts; i++) {
+    for (int r = 0; r < p->n_insts; r++) {
+        int i = run->by_rank[r];
         Node *n = &run->nodes[i];
         if (!n->evaluate || n->fused) continue; /* a group runs at its sink's place */
         WgInst *in = &p->insts[i];
@@ -785,7 +1048,7 @@ static int plan_work(Run *run, WgError *err)
             biggest = i;
             biggest_bytes = own;
         }
-        run->seq_peak[i] = live + n->need;
+        run->seq_peak[r] = live + n->need;
         if (live + n->need > peak) peak = live + n->need;
         int n_members = n->n_members ? n->n_members : 1;
         const int *members = n->n_members ? n->members : &n->index;
@@ -794,26 +1057,95 @@ static int plan_work(Run *run, WgError *err)
             const WgInst *mi = &p->insts[members[m]];
             for (int k = 0; k < mi->n_in; k++) {
                 int s = mi->in[k].inst;
-                if (s >= 0 && --left[s] == 0 && !run->nodes[s].requested)
+                if (s >= 0 && --left[s] == 0 && !keeps(run, &run->nodes[s]))
                     live -= run->nodes[s].out_bytes;
             }
         }
         for (int m = 0; m < n_members; m++) {
             const Node *mn = &run->nodes[members[m]];
-            if (mn->consumers == 0 && !mn->requested) live -= mn->out_bytes;
+            if (mn->consumers == 0 && !keeps(run, mn)) live -= mn->out_bytes;
         }
     }
     wg_free(left);
-    for (int i = p->n_insts - 1, after = -1; i >= 0; i--) { /* from node i on */
+    for (int r = p->n_insts - 1, after = -1; r >= 0; r--) { /* from place r on */
         size_t later = after >= 0 ? run->seq_peak[after] : 0;
-        if (!run->nodes[i].evaluate || run->nodes[i].fused) {
-            run->seq_peak[i] = later;
+        const Node *n = &run->nodes[run->by_rank[r]];
+        if (!n->evaluate || n->fused) {
+            run->seq_peak[r] = later;
             continue;
         }
-        if (later > run->seq_peak[i]) run->seq_peak[i] = later;
-        after = i;
+        if (later > run->seq_peak[r]) run->seq_peak[r] = later;
+        after = r;
     }
     run->need = peak;
+    run->biggest = biggest, run->largest = largest, run->biggest_bytes = biggest_bytes;
+    return WG_OK;
+}
+
+/* What plan_jobs set, back to before it: every node a job of its own again. */
+static void unplan_jobs(Run *run)
+{
+    const WgPlan *p = run->plan;
+    for (int i = 0; i < p->n_insts; i++) {
+        Node *n = &run->nodes[i];
+        n->job = i;
+        n->members = NULL;
+        n->n_members = 0;
+        n->fused = n->whole = false;
+        n->stat.fused = 0;
+        n->consumers = n->pending = n->n_dependents = 0;
+        n->dependents = NULL;
+        n->need = 0;
+        if (n->needed) n->out_bytes = inst_bytes(&p->insts[i]);
+    }
+    wg_free(run->members);
+    wg_free(run->dependents);
+    run->members = NULL;
+    run->dependents = NULL;
+    memset(run->seq_peak, 0, sizeof(size_t) * (size_t)p->n_insts);
+}
+
+static int plan_work(Run *run, WgError *err)
+{
+    WgPlan *p = run->plan;
+    for (int k = 0; k < p->n_outputs; k++) {
+        run->nodes[p->outputs[k].ref.inst].needed = true;
+        run->nodes[p->outputs[k].ref.inst].requested = true;
+    }
+    for (int i = p->n_insts - 1; i >= 0; i--) {
+        Node *n = &run->nodes[i];
+        WgInst *in = &p->insts[i];
+        if (!n->needed) continue;
+        n->out_bytes = inst_bytes(in);
+        if (!in->constant && lookup_cache(run, i)) continue;
+        n->evaluate = true;
+        run->total++;
+        for (int k = 0; k < in->n_in; k++)
+            if (in->in[k].inst >= 0) run->nodes[in->in[k].inst].needed = true;
+    }
+    int rc = plan_jobs(run, err);
+    /* Fused groups that raise the peak in the order the scheduler runs the jobs are given up:
+     * a group materialises its members together, where the unfused order can free one image
+     * before the next is made. The jobs are planned both ways and stay fused when that needs at
+     * most one image more (the largest of the render) than unfused: a group that only moves
+     * when one image is freed keeps its bands, groups that hold several more images at once
+     * (the wet material's, 10 float planes more) run unfused. */
+    if (!rc && run->fuse && run->members) {
+        size_t fused = run->need;
+        unplan_jobs(run);
+        run->fuse = false;
+        rc = plan_jobs(run, err);
+        size_t slack = run->largest >= 0 ? run->nodes[run->largest].out_bytes : 0;
+        if (!rc && fused <= run->need + slack && fused <= run->e->budget) {
+            unplan_jobs(run);
+            run->fuse = true;
+            rc = plan_jobs(run, err);
+        }
+    }
+    if (rc) return rc;
+    size_t peak = run->need;
+    int biggest = run->biggest, largest = run->largest;
+    size_t biggest_bytes = run->biggest_bytes;
     if (peak > run->e->budget) {
         char detail[1024] = "";
         if (biggest >= 0) {
@@ -871,7 +1203,8 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     for (int k = 0; k < p->n_outputs; k++) {
         WgPlanOutput *po = &p->outputs[k];
         ok &= (r->names[k] = wg_strdup(po->name)) != NULL;
-        r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
+        if (!run->r->output_fn)
+            r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
         r->formats[k] = po->format;
         r->colorspaces[k] = po->colorspace;
     }
@@ -925,7 +1258,10 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     run.ready[0].h = run.ready_storage;
     run.ready[1].h = run.ready_storage ? run.ready_storage + plan->n_insts + 1 : NULL;
     run.seq_peak = wg_calloc((size_t)plan->n_insts + 1, sizeof(size_t));
-    if (!run.nodes || !run.ready_storage || !run.seq_peak) {
+    run.rank = wg_calloc(2 * ((size_t)plan->n_insts + 1), sizeof(int));
+    run.by_rank = run.rank ? run.rank + plan->n_insts + 1 : NULL;
+    run.output_jobs = wg_calloc((size_t)plan->n_outputs + 1, sizeof(OutputJob));
+    if (!run.nodes || !run.ready_storage || !run.seq_peak || !run.output_jobs || !run.rank) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto done;
     }
@@ -938,22 +1274,37 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
             goto done;
         }
     }
+    if (req->output_fn)
+        for (int k = 0; k < plan->n_outputs; k++) {
+            run.output_jobs[k] = (OutputJob){&run, k};
+            run.nodes[plan->outputs[k].ref.inst].holds++;
+            run.outputs_left++;
+        }
     if ((rc = plan_work(&run, err))) goto done;
     for (int i = 0; i < plan->n_insts; i++)
         if (run.nodes[i].needed && !run.nodes[i].evaluate) run.live += run.nodes[i].out_bytes;
     run.peak = run.live;
+    pthread_mutex_lock(&run.mu); /* outputs that are cache hits go first */
+    for (int i = 0; i < plan->n_insts; i++)
+        if (run.nodes[i].requested && !run.nodes[i].evaluate) submit_outputs(&run, i);
+    pthread_mutex_unlock(&run.mu);
     for (int i = 0; i < plan->n_insts; i++)
         if (run.nodes[i].evaluate && !run.nodes[i].fused && run.nodes[i].pending == 0)
             ready_push(&run, i);
 
+    /* Starting a job ahead of the frontier must not take the render past what the sequential
+     * run needs: overlap uses the room below that peak, never more memory than the budget or
+     * than rendering in order would take. */
+    run.ceiling = run.need < e->budget ? run.need : e->budget;
     int reported = 0;
     pthread_mutex_lock(&run.mu);
-    while (run.completed < run.total) {
+    while (run.completed < run.total || run.outputs_left > 0) {
         while (!run.cancel && run.ready[0].n + run.ready[1].n > 0) {
             while (run.frontier < plan->n_insts &&
-                   (!run.nodes[run.frontier].evaluate || run.nodes[run.frontier].started ||
-                    run.nodes[run.frontier].fused)) {
-                Node *f = &run.nodes[run.frontier++];
+                   (!run.nodes[run.by_rank[run.frontier]].evaluate ||
+                    run.nodes[run.by_rank[run.frontier]].started ||
+                    run.nodes[run.by_rank[run.frontier]].fused)) {
+                Node *f = &run.nodes[run.by_rank[run.frontier++]];
                 if (f->ahead) { /* now in plan order: covered by seq_peak */
                     run.ahead -= f->ahead_bytes;
                     f->ahead = false;
@@ -971,14 +1322,14 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
             } else if (from->n == 0 || (run.ready[0].n > 0 && run.ready[0].h[0] < from->h[0])) {
                 from = &run.ready[0];
             }
-            Node *n = &run.nodes[from->h[0]];
+            Node *n = &run.nodes[run.by_rank[from->h[0]]];
             bool parallel = from == &run.ready[0];
-            bool ahead = n->index != run.frontier;
+            bool ahead = run.rank[n->index] != run.frontier;
             size_t after = run.live + n->need;
             /* wait for memory; the frontier node can always run once the others are done */
             if (run.running > 0 &&
-                (after > e->budget ||
-                 (ahead && run.ahead + n->need + run.seq_peak[run.frontier] > e->budget)))
+                (after > run.ceiling ||
+                 (ahead && run.ahead + n->need + run.seq_peak[run.frontier] > run.ceiling)))
                 break;
             /* make room: the cache and the pool keep only what the working set leaves */
             fit_budget(e, after);
@@ -1038,7 +1389,8 @@ done:
     size_t kept = 0;
     if (rc == WG_OK)
         for (int k = 0; k < plan->n_outputs; k++)
-            kept += wg_image_bytes(wg_result_output_image(*out, k));
+            if (wg_result_output_image(*out, k))
+                kept += wg_image_bytes(wg_result_output_image(*out, k));
     fit_budget(e, kept);
     token_unregister(&run);
     wg_free(run.nodes);
@@ -1046,6 +1398,8 @@ done:
     wg_free(run.dependents);
     wg_free(run.members);
     wg_free(run.seq_peak);
+    wg_free(run.rank);
+    wg_free(run.output_jobs);
     pthread_mutex_destroy(&run.mu);
     pthread_cond_destroy(&run.cv);
     *need = run.need;

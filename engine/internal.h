@@ -257,7 +257,9 @@ struct WgRequest {
     double time;
     WgProgressFn progress;
     void *progress_user;
-    WgCancel *cancel; /* borrowed; NULL: none */
+    WgCancel *cancel;     /* borrowed; NULL: none */
+    WgOutputFn output_fn; /* NULL: the result keeps the outputs */
+    void *output_user;
 };
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);
@@ -285,6 +287,9 @@ bool wg__cache_has_disk(const WgCache *c);
 void wg__cache_trim(WgCache *c, size_t max_bytes);
 /* Bytes of the memory entries' images (shared ones too). */
 size_t wg__cache_bytes(WgCache *c);
+int wg__cache_count(WgCache *c);
+/* Remove the entries not stored or read since the previous call. */
+void wg__cache_drop_unused(WgCache *c);
 void wg__cache_clear(WgCache *c);
 /* The disk file of an entry (for tests and tools); caller frees. */
 char *wg__cache_entry_path(const WgCache *c, const uint64_t key[2], int port);

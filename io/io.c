@@ -109,6 +109,11 @@ static int quantize8_formula(float v, bool srgb)
  * whose code is k; each is found by bisection over the bit patterns of the positive floats,
  * which order as the floats do. */
 static float srgb8_threshold[256];
+/* The code of the smallest float of each run of 2^16 floats (same sign, exponent and top 7
+ * mantissa bits) below 1: a run spans at most a few codes, so the thresholds after it settle
+ * the rest (quantize8_srgb). */
+#define SRGB8_RUNS (0x3f800000u >> 16)
+static uint8_t srgb8_run_code[SRGB8_RUNS];
 static pthread_once_t srgb8_once = PTHREAD_ONCE_INIT;
 
 static void srgb8_build(void)
@@ -126,17 +131,41 @@ static void srgb8_build(void)
         }
         memcpy(&srgb8_threshold[k], &hi, sizeof hi);
     }
+    for (uint32_t run = 0; run < SRGB8_RUNS; run++) {
+        uint32_t bits = run << 16;
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        int k = 0; /* the last threshold at or below f: binary search */
+        for (int step = 128; step > 0; step >>= 1)
+            if (srgb8_threshold[k + step] <= f) k += step;
+        srgb8_run_code[run] = (uint8_t)k;
+    }
+}
+
+/* After pthread_once(&srgb8_once, srgb8_build). */
+static inline uint8_t quantize8_srgb(float v)
+{
+    if (!(v > 0)) return 0; /* NaN, zero and negative values */
+    if (v >= 1) return 255;
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    int k = srgb8_run_code[bits >> 16];
+    while (k < 255 && srgb8_threshold[k + 1] <= v) k++;
+    return (uint8_t)k;
+}
+
+/* quantize8_formula without sRGB, in float compares and one multiply (the same rounding) */
+static inline uint8_t quantize8_linear(float v)
+{
+    double d = v > 0 ? (v < 1 ? (double)v : 1.0) : 0.0;
+    return (uint8_t)(uint32_t)(d * 255.0 + 0.5);
 }
 
 uint8_t wg_quantize8(float v, bool srgb)
 {
-    if (!srgb) return (uint8_t)quantize8_formula(v, false);
+    if (!srgb) return quantize8_linear(v);
     pthread_once(&srgb8_once, srgb8_build);
-    if (!(v > 0)) return 0; /* NaN, zero and negative values */
-    int k = 0;              /* the last threshold at or below v: binary search */
-    for (int step = 128; step > 0; step >>= 1)
-        if (srgb8_threshold[k + step] <= v) k += step;
-    return (uint8_t)k;
+    return quantize8_srgb(v);
 }
 
 /* Temporary files. A write to "<dir>/<stem><ext>" (<ext>: the last ".suffix" of the file name,
@@ -813,6 +842,18 @@ static void pack_rows(const WgImage *img, WgColorspace cs, int c, int bits, int 
         }
         return;
     }
+    if (bits == 8) { /* wg_quantize8's codes, without a call per sample */
+        pthread_once(&srgb8_once, srgb8_build);
+        int srgb = cs == WG_SRGB ? (c < 3 ? c : 3) : 0; /* channels encoded as sRGB */
+        uint8_t *o = buf;
+        for (int y = y0; y < y1; y++) {
+            const float *r = wg_image_row(img, y);
+            for (int x = 0; x < img->width; x++, r += img->channels)
+                for (int k = 0; k < c; k++)
+                    *o++ = k < srgb ? quantize8_srgb(r[k]) : quantize8_linear(r[k]);
+        }
+        return;
+    }
     for (int y = y0; y < y1; y++) {
         const float *r = wg_image_row(img, y);
         for (int x = 0; x < img->width; x++) {
@@ -1120,6 +1161,22 @@ int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const ch
     if ((rc = stage_begin(s, path, &tmp, err))) return rc;
     rc = wg__exr_write_file(tmp, path, count, names, images, half, err);
     return stage_end(s, rc, err);
+}
+
+int wg_write_set_move(WgWriteSet *into, WgWriteSet *from, WgError *err)
+{
+    if (!from->count) return WG_OK;
+    if (into->count + from->count > into->cap) {
+        int cap = into->count + from->count;
+        Staged *f = wg_realloc_array(into->files, (size_t)into->cap, (size_t)cap, sizeof *f);
+        if (!f) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        into->files = f;
+        into->cap = cap;
+    }
+    memcpy(into->files + into->count, from->files, (size_t)from->count * sizeof *from->files);
+    into->count += from->count;
+    from->count = 0;
+    return WG_OK;
 }
 
 /* Append "a, b, c" (the targets [from, to)) to buf, cut with "..." when it does not fit. */

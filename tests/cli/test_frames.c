@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph render --frames`: file names, each frame equal to a single render at its $time,
- * nodes that do not depend on $time computed once for the sequence (from --stats=json), the
+ * nodes that do not depend on $time computed once for the sequence (from --stats=json), what
+ * the engine holds between frames not growing with their number, the
  * contact sheet's layout and pixels, layered EXR names, and usage errors. Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
@@ -134,6 +135,40 @@ static void test_untimed_nodes_run_once(void **state)
     free(json);
 }
 
+/* "held_bytes" of a --stats=json report */
+static long long held_bytes(const char *json)
+{
+    const char *h = strstr(json, "\"held_bytes\": ");
+    if (!h) fail_msg("no held_bytes in:\n%s", json);
+    return atoll(h + 14);
+}
+
+/* What the engine holds between frames (its memory cache and its idle buffers, by its own
+ * accounting) does not grow with the number of frames: 20 frames hold what 5 do, for several
+ * sizes and with one and two workers. */
+static void test_memory_does_not_grow_with_frames(void **state)
+{
+    (void)state;
+    static const char *const sizes[] = {"64x32", "96x80"};
+    for (int v = 0; v < 2; v++)
+        for (int t = 1; t <= 2; t++) {
+            long long held[2];
+            static const char *const ranges[] = {"0:4", "0:19"};
+            for (int k = 0; k < 2; k++) {
+                assert_int_equal(run("render anim.wetgraph --frames %s --size %s --threads %d "
+                                     "-o mem -q --stats=json",
+                                     ranges[k], sizes[v], t),
+                                 0);
+                char *json = wgt_read_file(path("out"), NULL);
+                held[k] = held_bytes(json);
+                free(json);
+            }
+            if (held[0] <= 0 || held[1] > held[0])
+                fail_msg("%s, %d threads: %lld bytes held after 5 frames, %lld after 20", sizes[v],
+                         t, held[0], held[1]);
+        }
+}
+
 /* 5 frames of 64×32 on a grid of 3 columns and 2 rows, cells 64×32 with 4-pixel gaps; each
  * cell is its frame (box average of 1 pixel: the frame itself). */
 static void test_contact_sheet(void **state)
@@ -204,6 +239,7 @@ int main(void)
         cmocka_unit_test(test_frames_match_single_renders),
         cmocka_unit_test(test_time_offset_and_numbering),
         cmocka_unit_test(test_untimed_nodes_run_once),
+        cmocka_unit_test(test_memory_does_not_grow_with_frames),
         cmocka_unit_test(test_contact_sheet),
         cmocka_unit_test(test_layered_frames),
         cmocka_unit_test(test_usage_errors),

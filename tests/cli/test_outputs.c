@@ -1,7 +1,10 @@
 /* SPDX-License-Identifier: MIT */
-/* How `wetgraph render` (WETGRAPH_BIN) replaces its output files: all of them or none. A render
- * that cannot write its last output leaves the previous render's files byte for byte and no
- * temporaries; temporaries left by writers killed with SIGKILL are removed by the next render
+/* How `wetgraph render` (WETGRAPH_BIN) replaces its output files: all of them or none. Outputs
+ * are written while the render runs, and the files are byte for byte those the library writes
+ * after a whole render, at 1 and 4 threads and from a cold and a warm cache; an output that
+ * fails mid-render (after others were staged) leaves the previous set and no temporaries. A
+ * render that cannot write its last output leaves the previous render's files byte for byte and
+ * no temporaries; temporaries left by writers killed with SIGKILL are removed by the next render
  * into the folder while those of live processes stay; on a full disk (a small tmpfs in a private
  * mount namespace, skipped where namespaces are not allowed) the error says so and nothing is
  * replaced. */
@@ -547,6 +550,208 @@ static void test_unchanged_outputs_are_kept(void **state)
     expect_same_file(in("kd", files[1]), in("kfresh", files[1]));
 }
 
+/* ---- outputs written while the render runs ----------------------------------------------- */
+
+static int count_words(const char *text)
+{
+    int n = 0;
+    for (const char *p = text; *p; p++)
+        if (*p != ' ' && (p == text || p[-1] == ' ')) n++;
+    return n;
+}
+
+/* Outputs of every kind the writers handle, from nodes computed at different times: gray and
+ * colour, opaque and with alpha, sRGB and linear, 8 and 16 bits, half and float EXR, TIFF, and
+ * a uniform image. */
+static const char *const graph_kinds =
+    "<wetgraph version=\"1\" size=\"37x23\" seed=\"5\">\n"
+    "  <param name=\"k\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\" octaves=\"3\"/>\n"
+    "  <node id=\"b\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"c\" type=\"pixel\" kind=\"color\" expr=\"rgb(n, b * k, 1 - n)\">"
+    "<in name=\"n\" from=\"n\"/><in name=\"b\" from=\"b\"/></node>\n"
+    "  <node id=\"a\" type=\"pixel\" kind=\"color\" expr=\"rgba(b, n, k, n * 0.9)\">"
+    "<in name=\"n\" from=\"n\"/><in name=\"b\" from=\"b\"/></node>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=k * 0.3\"/>\n"
+    "  <output name=\"gray16\" from=\"n\" format=\"png16\"/>\n"
+    "  <output name=\"gray8\" from=\"b\" format=\"png\" colorspace=\"srgb\"/>\n"
+    "  <output name=\"rgb8\" from=\"c\" format=\"png\" colorspace=\"srgb\"/>\n"
+    "  <output name=\"rgba8\" from=\"a\" format=\"png\"/>\n"
+    "  <output name=\"rgba16\" from=\"a\" format=\"png16\" colorspace=\"srgb\"/>\n"
+    "  <output name=\"half\" from=\"c\" format=\"exr\"/>\n"
+    "  <output name=\"float\" from=\"b\" format=\"exr32\"/>\n"
+    "  <output name=\"tiff\" from=\"c\" format=\"tif16\"/>\n"
+    "  <output name=\"flat\" from=\"u\" format=\"png16\"/>\n"
+    "</wetgraph>\n";
+static const char *const kinds[] = {"gray16", "gray8", "rgb8", "rgba8", "rgba16",
+                                    "half",   "float", "tiff", "flat"};
+#define N_KINDS ((int)(sizeof kinds / sizeof *kinds))
+
+/* The files a render of graph_kinds writes, as the library writes them when the whole render
+ * is done: each output of the result through wg_image_write. */
+static void write_after_render(const char *dir, const char *size, const char *k)
+{
+    WgGraph *g = wgt_load_at(graph_kinds, at("kinds.wetgraph"));
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    WgError err = {0};
+    int w, h;
+    assert_true(wg_parse_size(size, &w, &h));
+    wg_request_set_size(r, w, h);
+    assert_int_equal(wg_request_set(r, "k", k, &err), WG_OK);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    mkdir(at(dir), 0777);
+    for (int i = 0; i < wg_result_output_count(res); i++) {
+        WgFormat f = wg_result_output_format(res, i);
+        char name[256];
+        snprintf(name, sizeof name, "kinds_%s.%s", wg_result_output_name(res, i),
+                 wg_format_extension(f));
+        assert_non_null(wg_result_output_image(res, i));
+        if (wg_image_write(in(dir, name), wg_result_output_image(res, i), f,
+                           wg_result_output_colorspace(res, i), &err))
+            fail_msg("writing %s: %s", name, err.message);
+    }
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
+/* Byte for byte; a TIFF holds the time it was written (OpenImageIO's DateTime tag), so two
+ * TIFFs are compared by their decoded samples. */
+static bool same_output(const char *a, const char *b)
+{
+    size_t n = strlen(a);
+    if (n < 4 || strcmp(a + n - 4, ".tif")) return wgt_same_file(a, b);
+    WgImage *x = NULL, *y = NULL;
+    WgError err = {0};
+    if (wg_image_read(a, 0, WG_LINEAR, &x, &err) || wg_image_read(b, 0, WG_LINEAR, &y, &err))
+        fail_msg("cannot read: %s", err.message);
+    bool same = x->width == y->width && x->height == y->height && x->channels == y->channels &&
+                wgt_max_abs_diff(x, y) == 0;
+    wg_image_unref(x);
+    wg_image_unref(y);
+    return same;
+}
+
+static void test_streamed_outputs_are_the_files_written_after_the_render(void **state)
+{
+    (void)state;
+    static const char *const ext[N_KINDS] = {"png", "png", "png", "png", "png",
+                                             "exr", "exr", "tif", "png"};
+    static const char *const sizes[] = {"37x23", "64x5", "3x41"};
+    static const char *const ks[] = {"0.5", "0.83", "0.1"};
+    wgt_write_file(at("kinds.wetgraph"), graph_kinds);
+    for (int v = 0; v < 3; v++) {
+        rm_rf(at("ref"));
+        write_after_render("ref", sizes[v], ks[v]);
+        char set[32];
+        snprintf(set, sizeof set, "k=%s", ks[v]);
+        rm_rf(at("stcache"));
+        /* 1 and 4 threads, then twice with a cache folder: cold, then every node from it */
+        for (int t = 0; t < 4; t++) {
+            static const char *const dirs[] = {"st1", "st4", "stcold", "stwarm"};
+            const char *threads = t == 1 ? "4" : t == 3 ? "3" : "1", *dir = dirs[t];
+            rm_rf(at(dir));
+            Run r = t < 2 ? run("render", "kinds.wetgraph", "-o", dir, "--size", sizes[v], "--set",
+                                set, "--threads", threads, NULL)
+                          : run("render", "kinds.wetgraph", "-o", dir, "--size", sizes[v], "--set",
+                                set, "--threads", threads, "--cache", "stcache", NULL);
+            expect(&r, 0, "streamed render");
+            for (int i = 0; i < N_KINDS; i++) {
+                char name[64];
+                snprintf(name, sizeof name, "kinds_%s.%s", kinds[i], ext[i]);
+                if (!strstr(r.out, name)) fail_msg("%s not printed:\n%s", name, r.out);
+                if (!same_output(in(dir, name), in("ref", name)))
+                    fail_msg("%s, %s, %s threads: %s differs from the file written after the "
+                             "render",
+                             sizes[v], set, threads, name);
+            }
+            run_free(&r);
+            assert_int_equal(count_hidden(at(dir)), 0);
+            char names[1024];
+            listing(at(dir), names, sizeof names);
+            assert_int_equal(count_words(names), N_KINDS);
+        }
+    }
+    rm_rf(at("ref"));
+    rm_rf(at("st1"));
+    rm_rf(at("st4"));
+    rm_rf(at("stcold"));
+    rm_rf(at("stwarm"));
+    rm_rf(at("stcache"));
+}
+
+/* The first outputs are final, encoded and staged long before the last one, which fails: its
+ * format needs the OpenImageIO module, which cannot be found. */
+static const char *const graph_late_failure =
+    "<wetgraph version=\"1\" size=\"48x40\">\n"
+    "  <param name=\"k\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+    "  <node id=\"m\" type=\"pixel\" expr=\"n * k\"><in name=\"n\" from=\"n\"/></node>\n"
+    "  <node id=\"b1\" type=\"blur\" sigma=\"3\"><in name=\"source\" from=\"m\"/></node>\n"
+    "  <node id=\"b2\" type=\"blur\" sigma=\"5\"><in name=\"source\" from=\"b1\"/></node>\n"
+    "  <node id=\"b3\" type=\"blur\" sigma=\"7\"><in name=\"source\" from=\"b2\"/></node>\n"
+    "  <output name=\"early\" from=\"m\" format=\"png16\"/>\n"
+    "  <output name=\"middle\" from=\"b1\" format=\"png\"/>\n"
+    "  <output name=\"late\" from=\"b3\" format=\"%s\"/>\n"
+    "</wetgraph>\n";
+
+static void test_failing_output_mid_render_replaces_nothing(void **state)
+{
+    (void)state;
+    static const char *const files[] = {"late_early.png", "late_middle.png", "late_late.tif"};
+    char xml[2048];
+    snprintf(xml, sizeof xml, graph_late_failure, "tif16");
+    wgt_write_file(at("late.wetgraph"), xml);
+    rm_rf(at("lf"));
+    rm_rf(at("lfkeep"));
+    Run r = run("render", "late.wetgraph", "-o", "lf", "--set", "k=0.3", "-q", NULL);
+    expect(&r, 0, "first render");
+    run_free(&r);
+    mkdir(at("lfkeep"), 0777);
+    for (int i = 0; i < 3; i++) copy_file(in("lf", files[i]), in("lfkeep", files[i]));
+
+    /* without the module, with one worker (so that the early outputs are staged before the
+     * last node runs) and with four */
+    static const char *const threads[] = {"1", "4"};
+    for (int t = 0; t < 2; t++) {
+        char cmd[1024];
+        snprintf(cmd, sizeof cmd,
+                 "WETGRAPH_MODULE_DIR=/nonexistent-module-dir \"%s\" render late.wetgraph -o lf "
+                 "--set k=0.9 --threads %s >lf.out 2>lf.err",
+                 bin(), threads[t]);
+        int rc = wgt_shell(wgt_tmpdir(), "%s", cmd);
+        char *err = wgt_read_file(at("lf.err"), NULL), *out = wgt_read_file(at("lf.out"), NULL);
+        if (rc != 1 || !strstr(err, "late_late.tif") || !strstr(err, "OpenImageIO"))
+            fail_msg("render without the module: exit %d, stderr:\n%s", rc, err);
+        assert_string_equal(out, ""); /* no path printed */
+        free(err);
+        free(out);
+        for (int i = 0; i < 3; i++) expect_same_file(in("lf", files[i]), in("lfkeep", files[i]));
+        assert_int_equal(count_hidden(at("lf")), 0);
+    }
+    /* the same failure into a folder that does not exist yet leaves no folder */
+    rm_rf(at("lfnew"));
+    int rc = wgt_shell(wgt_tmpdir(),
+                       "WETGRAPH_MODULE_DIR=/nonexistent-module-dir \"%s\" render late.wetgraph "
+                       "-o lfnew --threads 1 >lf.out 2>lf.err",
+                       bin());
+    assert_int_equal(rc, 1);
+    assert_false(exists(at("lfnew")));
+
+    /* with the module the same render replaces all three */
+    r = run("render", "late.wetgraph", "-o", "lf", "--set", "k=0.9", NULL);
+    expect(&r, 0, "render with the module");
+    run_free(&r);
+    for (int i = 0; i < 3; i++)
+        if (wgt_same_file(in("lf", files[i]), in("lfkeep", files[i])))
+            fail_msg("%s did not change", files[i]);
+    rm_rf(at("lf"));
+    rm_rf(at("lfkeep"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -555,6 +760,8 @@ int main(void)
         cmocka_unit_test(test_killed_writer_leaves_temporaries_the_next_render_removes),
         cmocka_unit_test(test_full_disk_replaces_nothing),
         cmocka_unit_test(test_unchanged_outputs_are_kept),
+        cmocka_unit_test(test_streamed_outputs_are_the_files_written_after_the_render),
+        cmocka_unit_test(test_failing_output_mid_render_replaces_nothing),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -1839,6 +1839,64 @@ static void test_quantize8_matches_the_formula(void **state)
     assert_true(checked > 1000000);
 }
 
+/* 8-bit files hold wg_quantize8's code of every sample (sRGB for the colour channels of an
+ * sRGB file, never for alpha), whatever the value: floats around every place a code changes,
+ * a sweep with values below 0 and above 1, NaN and infinities; colour with alpha, opaque colour
+ * (written as RGB) and gray; odd sizes. */
+static void test_png8_holds_quantize8_codes(void **state)
+{
+    (void)state;
+    /* the values: every float near each code change (found on a sweep), then the specials */
+    static float values[200000];
+    int nv = 0;
+    for (int srgb = 0; srgb < 2; srgb++) {
+        int last = 0;
+        for (uint32_t b = 0; b <= 0x3f900000u && nv < 190000; b += 4099) {
+            int code = wg_quantize8(float_of(b), srgb);
+            if (code != last)
+                for (uint32_t n = b - 40; n <= b + 40 && nv < 190000; n += 3)
+                    values[nv++] = float_of(n);
+            last = code;
+        }
+    }
+    static const float special[] = {0.0f,  -0.0f,  -1.0f,   -INFINITY, INFINITY, 1.0f, 2.0f,
+                                    1e30f, 1e-45f, -1e-45f, 0.5f,      NAN,      -NAN, 0.0031308f};
+    for (size_t i = 0; i < sizeof special / sizeof *special; i++) values[nv++] = special[i];
+    static const int sizes[][2] = {{37, 5}, {3, 64}, {256, 9}};
+    for (int v = 0; v < 3; v++)
+        for (int layout = 0; layout < 3; layout++) /* RGBA, RGB (alpha 1), gray */
+            for (int cs = 0; cs < 2; cs++) {
+                int w = sizes[v][0], h = sizes[v][1], ch = layout == 2 ? 1 : 4;
+                WgImage *img = wg_image_new(w, h, ch);
+                assert_non_null(img);
+                long at = v * 7919 + layout * 131 + cs;
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w; x++)
+                        for (int k = 0; k < ch; k++)
+                            wg_image_row(img, y)[x * ch + k] =
+                                layout == 1 && k == 3 ? 1.0f : values[at++ % nv];
+                WgError err = {0};
+                const char *path = wgt_path("codes8.png");
+                assert_int_equal(wg_image_write(path, img, WG_FORMAT_PNG, (WgColorspace)cs, &err),
+                                 WG_OK);
+                WgImage *back = NULL; /* read as linear: each sample is its code / 255 */
+                assert_int_equal(wg_image_read(path, ch, WG_LINEAR, &back, &err), WG_OK);
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w; x++)
+                        for (int k = 0; k < ch; k++) {
+                            float src = wg_image_row(img, y)[x * ch + k];
+                            int want = wg_quantize8(src, cs == WG_SRGB && k < 3);
+                            int got = (int)lrintf(wg_image_row(back, y)[x * ch + k] * 255.0f);
+                            if (got != want)
+                                fail_msg("%dx%d, %d channels, cs %d: (%d, %d, %d) holds %d for "
+                                         "%a, wg_quantize8 gives %d",
+                                         w, h, ch, cs, x, y, k, got, src, want);
+                        }
+                wg_image_unref(back);
+                wg_image_unref(img);
+            }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1882,6 +1940,7 @@ int main(void)
         cmocka_unit_test(test_integer_files_read_as_openimageio_floats),
         cmocka_unit_test(test_jpeg_probe_matches_openimageio),
         cmocka_unit_test(test_quantize8_matches_the_formula),
+        cmocka_unit_test(test_png8_holds_quantize8_codes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

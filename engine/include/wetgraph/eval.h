@@ -73,6 +73,8 @@ typedef struct WgMemoryStats {
     uint64_t pool_hits;   /* buffer requests served by an idle buffer */
     uint64_t pool_misses; /* requests that took new memory */
     size_t pool_released; /* bytes given back to the system (trimmed or not kept) */
+    size_t cache_bytes;   /* images held by the memory cache now */
+    int cache_entries;    /* how many */
 } WgMemoryStats;
 void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out);
 /* Keep at most max_cache bytes of images in the memory cache (the least recently used go
@@ -80,6 +82,13 @@ void wg_engine_memory_stats(const WgEngine *e, WgMemoryStats *out);
  * system). For a long session that only needs about what its last render used: `wetgraph
  * watch` keeps twice that. Not while a render of this engine runs. */
 void wg_engine_trim(WgEngine *e, size_t max_cache, size_t max_pool);
+/* Drop the memory cache's images that no render since the previous call (or since the engine
+ * was made) computed or read; their buffers go to the pool. For a sequence of renders each of
+ * which reuses what the one before it used, such as the frames of an animation: the results of
+ * an earlier frame's time are never read again, and dropping them after each frame keeps the
+ * cache at what one frame uses instead of growing with every frame. Not while a render of this
+ * engine runs. */
+void wg_engine_drop_unused(WgEngine *e);
 
 /* A request refers to the graph (which must outlive it). */
 WgRequest *wg_request_new(const WgGraph *g);
@@ -98,6 +107,29 @@ void wg_request_set_time(WgRequest *r, double time);
 /* Called from the engine's control thread after each node (done of total). */
 typedef void (*WgProgressFn)(void *user, int done, int total, const char *node_id);
 void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user);
+
+/* Outputs handed over as soon as they are final. With an output function set, a render calls
+ * it once for each requested output, on one of the engine's worker threads, as soon as the node
+ * that makes the output has run (at once for an output taken from the cache), while the rest of
+ * the graph is still being computed: encoding and writing files then overlaps the render. Calls
+ * for different outputs run concurrently, in no fixed order; the function must be thread-safe
+ * for that (each output's own state needs no lock). The image is borrowed for the call: after it
+ * the render lets go of it (the memory cache may keep it), and the result holds no images
+ * (wg_result_output_image returns NULL); take a reference (wg_image_ref) to keep one. A
+ * non-zero return (with err set) fails the render like a failing node: nothing else starts,
+ * wg_render returns that error, and the outputs already handed over are the caller's to undo.
+ * wg_render returns only when every call has returned. Memory the function allocates is not
+ * counted in the engine's budget. */
+typedef struct WgOutputInfo {
+    int index;        /* as in wg_result_output_name(res, index) */
+    const char *name; /* the output's name */
+    const WgImage *image;
+    WgFormat format; /* resolved, never DEFAULT */
+    WgColorspace colorspace;
+} WgOutputInfo;
+typedef int (*WgOutputFn)(void *user, const WgOutputInfo *out, WgError *err);
+/* fn NULL: the result keeps the output images (the default). */
+void wg_request_set_output_fn(WgRequest *r, WgOutputFn fn, void *user);
 
 /* Cancelling a render from another thread (or from its progress callback). A cancel token is
  * set on requests; wg_cancel_request makes every render of those requests that is running, and
@@ -165,8 +197,9 @@ typedef struct WgNodeStat {
 
 int wg_result_output_count(const WgResult *r);
 const char *wg_result_output_name(const WgResult *r, int i);
-const WgImage *wg_result_output_image(const WgResult *r, int i); /* owned by the result */
-WgFormat wg_result_output_format(const WgResult *r, int i);      /* resolved, never DEFAULT */
+/* Owned by the result; NULL when the request had an output function. */
+const WgImage *wg_result_output_image(const WgResult *r, int i);
+WgFormat wg_result_output_format(const WgResult *r, int i); /* resolved, never DEFAULT */
 WgColorspace wg_result_output_colorspace(const WgResult *r, int i);
 int wg_result_stat_count(const WgResult *r);
 const WgNodeStat *wg_result_stat(const WgResult *r, int i);

@@ -95,6 +95,10 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
 /* Same layout as wg_exr_write_layers. */
 int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
                             const WgImage *const *images, bool half, WgError *err);
+/* Move every file staged in `from` to the end of `into`, in order (a set per thread can be
+ * filled concurrently, then gathered for one commit); `from` is empty afterwards. When out of
+ * memory both sets are left as they were. */
+int wg_write_set_move(WgWriteSet *into, WgWriteSet *from, WgError *err);
 /* Rename everything into place; the set is empty afterwards, whatever the outcome. */
 /* Stage `size` bytes of `data` as the file `path`. */
 int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size,
