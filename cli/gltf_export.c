@@ -28,8 +28,19 @@ int gltf_request_outputs(const Options *o, const WgGraph *g, WgRequest *r, WgErr
     return WG_OK;
 }
 
-int gltf_stage(const Options *o, const WgGraph *g, const WgResult *res, int frame, WgWriteSet *set,
-               char (*paths)[4096], int *n_paths, WgError *err)
+bool gltf_needs_output(const Options *o, const WgGraph *g, const char *output)
+{
+    for (int i = 0; i < wg_graph_gltf_count(g); i++) {
+        if (!gltf_selected(o, g, i)) continue;
+        const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
+        for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++)
+            if (a->maps[k] && !strcmp(a->maps[k], output)) return true;
+    }
+    return false;
+}
+
+int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *user, int frame,
+               WgWriteSet *set, char (*paths)[4096], int *n_paths, WgError *err)
 {
     *n_paths = 0;
     const char *dir = o->out_dir ? o->out_dir : ".";
@@ -43,10 +54,7 @@ int gltf_stage(const Options *o, const WgGraph *g, const WgResult *res, int fram
                          .repeat = info->repeat};
         for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++) {
             if (!info->maps[k]) continue;
-            for (int j = 0; j < wg_result_output_count(res) && !a.maps[k]; j++)
-                if (!strcmp(wg_result_output_name(res, j), info->maps[k]))
-                    a.maps[k] = wg_result_output_image(res, j);
-            if (!a.maps[k])
+            if (!(a.maps[k] = image_of(user, info->maps[k])))
                 return wg_error_set(err, WG_ERR_EVAL, NULL,
                                     "gltf '%s': the output '%s' was not rendered", info->name,
                                     info->maps[k]);
@@ -61,4 +69,12 @@ int gltf_stage(const Options *o, const WgGraph *g, const WgResult *res, int fram
         if (rc) return rc;
     }
     return WG_OK;
+}
+
+const WgImage *gltf_image_of_result(void *user, const char *output)
+{
+    const WgResult *res = user;
+    for (int j = 0; j < wg_result_output_count(res); j++)
+        if (!strcmp(wg_result_output_name(res, j), output)) return wg_result_output_image(res, j);
+    return NULL;
 }
