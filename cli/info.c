@@ -15,6 +15,14 @@ static const char *type_name(WgParamType t)
     return (unsigned)t < 6 ? names[t] : "?";
 }
 
+static const char *gltf_slot_name(int k)
+{
+    static const char *const names[WG_GLTF_SLOT_COUNT] = {
+        "base_color", "metallic",  "roughness",           "occlusion",        "normal",
+        "specular",   "clearcoat", "clearcoat_roughness", "clearcoat_normal", "height"};
+    return names[k];
+}
+
 static void print_json(const WgGraph *g)
 {
     printf("{\n  \"name\": ");
@@ -74,6 +82,21 @@ static void print_json(const WgGraph *g)
                o->format ? wg_format_name(o->format) : "default",
                o->colorspace == WG_SRGB ? "srgb" : "linear");
     }
+    printf("\n  ],\n  \"gltf\": [");
+    for (int i = 0; i < wg_graph_gltf_count(g); i++) {
+        const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
+        printf("%s\n    {\"name\": ", i ? "," : "");
+        cli_json_string(stdout, a->name);
+        printf(", \"binary\": %s, \"grid\": %d, \"height_scale\": %.17g, \"repeat\": %.17g, "
+               "\"maps\": {",
+               a->binary ? "true" : "false", a->grid, a->height_scale, a->repeat);
+        for (int k = 0, n = 0; k < WG_GLTF_SLOT_COUNT; k++) {
+            if (!a->maps[k]) continue;
+            printf("%s\"%s\": ", n++ ? ", " : "", gltf_slot_name(k));
+            cli_json_string(stdout, a->maps[k]);
+        }
+        printf("}}");
+    }
     printf("\n  ],\n  \"nodes\": %d\n}\n", wg_graph_node_count(g));
 }
 
@@ -115,6 +138,16 @@ static void print_text(const WgGraph *g)
         printf("  %-20s from %-20s %s %s\n", o->name, o->from,
                o->format ? wg_format_name(o->format) : "default",
                o->colorspace == WG_SRGB ? "srgb" : "linear");
+    }
+    if (wg_graph_gltf_count(g)) printf("glTF assets:\n");
+    for (int i = 0; i < wg_graph_gltf_count(g); i++) {
+        const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
+        printf("  %-20s %s", a->name, a->binary ? ".glb" : ".gltf");
+        if (a->grid) printf(", grid %d, height scale %g", a->grid, a->height_scale);
+        if (a->repeat != 1) printf(", repeat %g", a->repeat);
+        for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++)
+            if (a->maps[k]) printf(", %s %s", gltf_slot_name(k), a->maps[k]);
+        printf("\n");
     }
 }
 

@@ -24,7 +24,8 @@ static const char help[] =
     "  -o, --out DIR          output folder (created if missing; default: .)\n"
     "  --set NAME=VALUE       set a graph parameter (repeatable)\n"
     "  --input NAME=PATH      feed a graph input from an image file (repeatable)\n"
-    "  --output NAME          render only this output (repeatable; default: all)\n"
+    "  --output NAME          render only this output, or this glTF asset and what it packs\n"
+    "                         (repeatable; default: all)\n"
     "  --size WxH | N         override the graph size\n"
     "  --seed N               override the graph seed\n"
     "  --time T               value of $time (seconds; for animation); with --frames, the\n"
@@ -612,7 +613,9 @@ struct Stream {
     OutKey *keys;
     bool *seen, *skip, *wrote;
     double *ms;
-    bool keep_first; /* keep output 0's image (for the contact sheet) */
+    bool keep_first;      /* keep output 0's image (for the contact sheet) */
+    const WgImage **held; /* the images of the outputs the render's glTF assets pack */
+    char **names;         /* their names */
     /* The output folder is made by the first output call, so that a render that fails before
      * any output is final creates nothing, and removed again when the render fails after
      * making it. */
@@ -628,6 +631,10 @@ static void stream_free(Stream *s)
 {
     if (!s) return;
     for (int i = 0; s->sets && i < s->n; i++) wg_write_set_free(s->sets[i]);
+    for (int i = 0; s->held && i < s->n; i++) wg_image_unref(s->held[i]);
+    for (int i = 0; s->names && i < s->n; i++) free(s->names[i]);
+    free(s->held);
+    free(s->names);
     pthread_mutex_destroy(&s->mu);
     wg_image_unref(s->first);
     free(s->paths);
@@ -659,7 +666,10 @@ int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, S
     s->skip = calloc(n, sizeof *s->skip);
     s->wrote = calloc(n, sizeof *s->wrote);
     s->ms = calloc(n, sizeof *s->ms);
-    if (!s->paths || !s->sets || !s->keys || !s->seen || !s->skip || !s->wrote || !s->ms) {
+    s->held = calloc(n, sizeof *s->held);
+    s->names = calloc(n, sizeof *s->names);
+    if (!s->paths || !s->sets || !s->keys || !s->seen || !s->skip || !s->wrote || !s->ms ||
+        !s->held || !s->names) {
         stream_free(s);
         *out = NULL;
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -701,6 +711,12 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
     WgFormat f = s->o->format >= 0 ? (WgFormat)s->o->format : out->format;
     output_path_of(s->o, s->g, out->name, f, s->frame, s->paths[i], sizeof s->paths[i]);
     s->seen[i] = true;
+    /* the name outlives the render's plan (the glTF assets are made after it) */
+    if (gltf_needs_output(s->o, s->g, out->name)) {
+        if (!(s->names[i] = strdup(out->name)))
+            return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        s->held[i] = wg_image_ref(out->image);
+    }
     if (i == 0 && s->keep_first) {
         s->first = wg_image_ref(out->image);
         s->first_cs = out->colorspace;
@@ -718,24 +734,41 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
     return rc;
 }
 
-/* After the render (render_rc its outcome): on success the staged files are renamed into place
- * together and listed; in any case the stream is freed, and with it every temporary left. */
+static const WgImage *stream_image_of(void *user, const char *output)
+{
+    const Stream *s = user;
+    for (int i = 0; i < s->n; i++)
+        if (s->held[i] && !strcmp(s->names[i], output)) return s->held[i];
+    return NULL;
+}
+
+/* After the render (render_rc its outcome): on success the staged files, and the glTF assets
+ * made from the images held for them, are renamed into place together and listed; in any case
+ * the stream is freed, and with it every temporary left. */
 int stream_finish(Stream *s, int render_rc, WgError *err)
 {
     double t0 = now_ms();
     int rc = render_rc;
     WgWriteSet *set = NULL;
-    if (!rc && !(set = wg_write_set_new()))
+    int n_gltf = 0;
+    char(*gltf_paths)[4096] = NULL;
+    if (!rc && (!(set = wg_write_set_new()) ||
+                !(gltf_paths = calloc((size_t)wg_graph_gltf_count(s->g) + 1, sizeof *gltf_paths))))
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     for (int i = 0; !rc && i < s->n; i++)
         if (s->sets[i]) rc = wg_write_set_move(set, s->sets[i], err);
+    if (!rc)
+        rc = gltf_stage(s->o, s->g, stream_image_of, s, s->frame, set, gltf_paths, &n_gltf, err);
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     for (int i = 0; !rc && i < s->n; i++)
         if (s->wrote[i]) key_store(s->paths[i], s->keys[i]);
-    if (!rc && !s->o->quiet)
+    if (!rc && !s->o->quiet) {
         for (int i = 0; i < s->n; i++)
             if (s->seen[i] && !s->skip[i]) printf("%s\n", s->paths[i]);
+        for (int k = 0; k < n_gltf; k++) printf("%s\n", gltf_paths[k]);
+    }
+    free(gltf_paths);
     last_write_clear();
     if (!rc) {
         /* the outputs in order: the stream's slots are the result's output indexes */
@@ -851,6 +884,12 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     }
     if (!rc && nw)
         rc = wg_write_set_images(set, nw, wpaths, wimages, wformats, wcs, o->threads, err);
+    int n_gltf = 0;
+    char(*gltf_paths)[4096] = calloc((size_t)wg_graph_gltf_count(g) + 1, sizeof *gltf_paths);
+    if (!rc && !gltf_paths) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    if (!rc && separate)
+        rc = gltf_stage(o, g, gltf_image_of_result, (void *)res, frame, set, gltf_paths, &n_gltf,
+                        err);
     free(wpaths);
     free(wimages);
     free(wformats);
@@ -863,7 +902,9 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", layered_name(o, frame), n);
         for (int i = 0; separate && i < n; i++)
             if (!skip[i]) printf("%s\n", paths[i]);
+        for (int k = 0; k < n_gltf; k++) printf("%s\n", gltf_paths[k]);
     }
+    free(gltf_paths);
     last_write_clear();
     clock_gettime(CLOCK_MONOTONIC, &t1);
     last_write.ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) / 1e6;
@@ -901,8 +942,30 @@ int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *
         snprintf(name, sizeof name, "%.*s", (int)(eq - o->inputs[i]), o->inputs[i]);
         if (wg_request_set_input_file(r, name, eq + 1, err)) return err->code;
     }
-    for (int i = 0; i < o->n_outputs; i++)
-        if (wg_request_add_output(r, o->outputs[i], err)) return err->code;
+    for (int i = 0; i < o->n_outputs; i++) {
+        const char *name = o->outputs[i];
+        if (wg_graph_find_gltf(g, name) >= 0) continue; /* gltf_request_outputs adds its maps */
+        bool output = false;
+        for (int k = 0; k < wg_graph_output_count(g) && !output; k++)
+            output = !strcmp(wg_graph_output_info(g, k)->name, name);
+        if (output || !wg_graph_gltf_count(g)) {
+            if (wg_request_add_output(r, name, err)) return err->code;
+            continue;
+        }
+        /* neither: the closest of the outputs and the glTF assets */
+        const char *names[512];
+        int n = 0;
+        for (int k = 0; k < wg_graph_output_count(g) && n < 512; k++)
+            names[n++] = wg_graph_output_info(g, k)->name;
+        for (int k = 0; k < wg_graph_gltf_count(g) && n < 512; k++)
+            names[n++] = wg_graph_gltf_info(g, k)->name;
+        const char *near = wg_suggest(name, names, n);
+        return wg_error_set(err, WG_ERR_USAGE, NULL,
+                            "graph '%s' has no output or glTF asset '%s'%s%s%s", wg_graph_name(g),
+                            name, near ? "; did you mean '" : "", near ? near : "",
+                            near ? "'?" : "");
+    }
+    if (gltf_request_outputs(o, g, *out, err)) return err->code;
     if (o->width) wg_request_set_size(r, o->width, o->height);
     if (o->has_seed) wg_request_set_seed(r, o->seed);
     if (o->has_time) wg_request_set_time(r, o->time);

@@ -40,6 +40,17 @@ int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *
 /* The path output i of res is written to (frame >= 0: with "_<frame>"). */
 void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
                  char *buf, size_t size);
+/* The graph's glTF assets (cli/gltf_export.c): whether asset i is rendered (no --output, or
+ * its name among them); whether an output is a map of one of those; the outputs of the maps of
+ * the assets named by --output, added to r; and the assets staged in `set`, each map's image
+ * from image_of(user, output name), their paths in paths[0..*n_paths). */
+typedef const WgImage *(*GltfImageOf)(void *user, const char *output);
+bool gltf_selected(const Options *o, const WgGraph *g, int i);
+bool gltf_needs_output(const Options *o, const WgGraph *g, const char *output);
+int gltf_request_outputs(const Options *o, const WgGraph *g, WgRequest *r, WgError *err);
+int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *user, int frame,
+               WgWriteSet *set, char (*paths)[4096], int *n_paths, WgError *err);
+const WgImage *gltf_image_of_result(void *user, const char *output); /* user: a WgResult */
 /* With --cache-max: remove the cache folder's least recently used entries until it holds at
  * most that much (with --stats, say what went, on stderr). */
 void prune_cache(const Options *o);

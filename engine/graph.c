@@ -72,6 +72,11 @@ void wg_graph_free(WgGraph *g)
         wg_free((char *)g->outputs[i].from);
     }
     wg_free(g->outputs);
+    for (int i = 0; i < g->n_gltfs; i++) {
+        wg_free((char *)g->gltfs[i].name);
+        for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++) wg_free((char *)g->gltfs[i].maps[k]);
+    }
+    wg_free(g->gltfs);
     wg_free(g->output_node);
     wg_free(g->output_port);
     wg_free(g->output_input);
@@ -128,6 +133,20 @@ void wg_graph_free(WgGraph *g)
 const char *wg_graph_name(const WgGraph *g)
 {
     return g->name;
+}
+int wg_graph_gltf_count(const WgGraph *g)
+{
+    return g->n_gltfs;
+}
+const WgGraphGltfInfo *wg_graph_gltf_info(const WgGraph *g, int i)
+{
+    return i >= 0 && i < g->n_gltfs ? &g->gltfs[i] : NULL;
+}
+int wg_graph_find_gltf(const WgGraph *g, const char *name)
+{
+    for (int i = 0; i < g->n_gltfs; i++)
+        if (!strcmp(g->gltfs[i].name, name)) return i;
+    return -1;
 }
 const char *wg_graph_label(const WgGraph *g)
 {

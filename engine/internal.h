@@ -170,6 +170,8 @@ struct WgGraph {
     int n_nodes;
     WarningDef *warnings;
     int n_warnings;
+    WgGraphGltfInfo *gltfs;
+    int n_gltfs;
     WgGraphNodeInfo *node_info;
     /* instances one instantiation of this graph can make: its built-in nodes and inputs plus,
      * per subgraph node, one and the subgraph's count (saturating at WG_MAX_INSTANCES + 1) */

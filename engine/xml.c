@@ -10,6 +10,7 @@
 #include "load.h"
 
 #include <ctype.h>
+#include <math.h>
 #include <stdint.h>
 #include <libxml/parser.h>
 #include <libxml/tree.h>
@@ -947,6 +948,101 @@ out:
     return rc;
 }
 
+/* ---- <gltf> ------------------------------------------------------------------------------ */
+
+/* The attribute of each map, in WgGltfSlot order. */
+static const char *const gltf_slots[WG_GLTF_SLOT_COUNT + 1] = {
+    "base_color", "metallic",  "roughness",           "occlusion",        "normal",
+    "specular",   "clearcoat", "clearcoat_roughness", "clearcoat_normal", "height",
+    NULL};
+
+static int gltf_number(Doc *d, xmlNodePtr x, const char *name, double lo, double hi, bool whole,
+                       double def, double *out)
+{
+    char *text = NULL;
+    int rc = attr(d, x, name, &text);
+    if (rc || !text) {
+        *out = def;
+        return rc;
+    }
+    double v;
+    if (!wg_parse_number(text, &v) || v < lo || v > hi || (whole && v != floor(v)))
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path,
+                             attr_line(xmlHasProp(x, (const xmlChar *)name), line_of(x)), 0,
+                             "gltf: '%s' must be %s from %g to %g, not '%s'", name,
+                             whole ? "a whole number" : "a number", lo, hi, text);
+    *out = v;
+    wg_free(text);
+    return rc;
+}
+
+static int parse_gltf(Doc *d, WgGraph *g, xmlNodePtr x)
+{
+    const char *allowed[WG_GLTF_SLOT_COUNT + 6];
+    int n_allowed = 0;
+    for (const char *const *a = (const char *const[]){"name", "binary", "grid", "height_scale",
+                                                      "repeat", NULL};
+         *a; a++)
+        allowed[n_allowed++] = *a;
+    for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++) allowed[n_allowed++] = gltf_slots[k];
+    allowed[n_allowed] = NULL;
+    int rc = check_attrs(d, x, allowed);
+    if (rc) return rc;
+    int line = line_of(x);
+    WgGraphGltfInfo *a = &g->gltfs[g->n_gltfs++]; /* counted so wg_graph_free releases it */
+    memset(a, 0, sizeof *a);
+    a->line = line;
+    char *name = NULL, *binary = NULL;
+    if ((rc = need_attr(d, x, "name", &name))) return rc;
+    a->name = name;
+    if (!wg__valid_id(name))
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "bad gltf name '%s'", name);
+    if (wg__graph_find_output(g, name) >= 0 || wg_graph_find_gltf(g, name) < g->n_gltfs - 1)
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                               "gltf '%s': the name is taken by an output or another gltf", name);
+    if ((rc = attr(d, x, "binary", &binary))) return rc;
+    if (binary && strcmp(binary, "true") && strcmp(binary, "false")) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "gltf '%s': binary must be true or false, not '%s'", name, binary);
+        wg_free(binary);
+        return rc;
+    }
+    a->binary = binary && !strcmp(binary, "true");
+    wg_free(binary);
+    double grid;
+    if ((rc = gltf_number(d, x, "grid", 0, 4096, true, 0, &grid)) ||
+        (rc = gltf_number(d, x, "height_scale", 0, 1e6, false, 0, &a->height_scale)) ||
+        (rc = gltf_number(d, x, "repeat", 1, 1e6, false, 1, &a->repeat)))
+        return rc;
+    a->grid = (int)grid;
+    for (int k = 0; k < WG_GLTF_SLOT_COUNT && !rc; k++) {
+        char *out = NULL;
+        if ((rc = attr(d, x, gltf_slots[k], &out)) || !out) continue;
+        a->maps[k] = out;
+        if (wg__graph_find_output(g, out) >= 0) continue;
+        const char *names[256];
+        int n = g->n_outputs < 256 ? g->n_outputs : 256;
+        for (int i = 0; i < n; i++) names[i] = g->outputs[i].name;
+        const char *near = wg_suggest(out, names, n);
+        char hint[300] = "";
+        if (near) snprintf(hint, sizeof hint, "; did you mean '%s'?", near);
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path,
+                             attr_line(xmlHasProp(x, (const xmlChar *)gltf_slots[k]), line), 0,
+                             "gltf '%s': %s names no output '%s'%s", name, gltf_slots[k], out,
+                             hint);
+    }
+    if (rc) return rc;
+    if (!a->maps[WG_GLTF_BASE_COLOR])
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                               "gltf '%s' needs base_color (the output of its base colour)", name);
+    if (a->grid > 0 && !a->maps[WG_GLTF_HEIGHT])
+        return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                               "gltf '%s': a grid (grid=\"%d\") needs height (the output of its "
+                               "relief)",
+                               name, a->grid);
+    return check_leaf(d, x);
+}
+
 /* ---- expansion --------------------------------------------------------------------------- */
 
 /* Instances one instantiation of g can make, from its subgraphs' counts (each file is counted
@@ -1085,19 +1181,20 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
         wg_free(seed);
     }
 
-    int counts[5] = {0};
-    static const char *const elements[] = {"param", "input", "node", "output", "warning", NULL};
+    int counts[6] = {0};
+    static const char *const elements[] = {"param",   "input", "node", "output",
+                                           "warning", "gltf",  NULL};
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
         if (c->type != XML_ELEMENT_NODE) continue;
         int k = -1;
         for (int i = 0; elements[i]; i++)
             if (!strcmp(elements[i], (const char *)c->name)) k = i;
         if (k < 0) {
-            const char *s = wg_suggest((const char *)c->name, elements, 5);
+            const char *s = wg_suggest((const char *)c->name, elements, 6);
             rc = wg_error_set_at(err, WG_ERR_PARSE, path, line_of(c), 0,
                                  "unknown element <%s>%s%s%s", (const char *)c->name,
                                  s ? "; did you mean <"
-                                   : " (expected param, input, node, output or warning)",
+                                   : " (expected param, input, node, output, warning or gltf)",
                                  s ? s : "", s ? ">?" : "");
             break;
         }
@@ -1111,6 +1208,8 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
         rc = nomem(err);
     if (!rc && !(g->warnings = wg_calloc((size_t)counts[4] + 1, sizeof(WarningDef))))
         rc = nomem(err);
+    if (!rc && !(g->gltfs = wg_calloc((size_t)counts[5] + 1, sizeof(WgGraphGltfInfo))))
+        rc = nomem(err);
     /* declarations first so node attributes can refer to any parameter */
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {
         if (c->type != XML_ELEMENT_NODE) continue;
@@ -1122,6 +1221,10 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
             rc = parse_output(&d, g, c);
         if (!rc && strcmp((const char *)c->name, "node")) rc = check_leaf(&d, c);
     }
+    /* glTF assets after the outputs they name */
+    for (xmlNodePtr c = root->children; c && !rc; c = c->next)
+        if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "gltf"))
+            rc = parse_gltf(&d, g, c);
     /* warnings after the declarations, so they may name any parameter */
     for (xmlNodePtr c = root->children; c && !rc; c = c->next)
         if (c->type == XML_ELEMENT_NODE && !strcmp((const char *)c->name, "warning"))

@@ -23,6 +23,80 @@ static bool ends_with(const char *s, const char *suffix)
     return a >= b && !strcmp(s + a - b, suffix);
 }
 
+/* ---- <gltf> ------------------------------------------------------------------------------ */
+
+/* A graph with outputs base, rough, h and coat whose line 7 is `gltf`. */
+static char *gltf_graph(const char *gltf)
+{
+    static char xml[2048];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"8\">\n"               /* 1 */
+             "  <node id=\"u\" type=\"uniform\" value=\"0.5\"/>\n" /* 2 */
+             "  <output name=\"base\" from=\"u\"/>\n"              /* 3 */
+             "  <output name=\"rough\" from=\"u\"/>\n"             /* 4 */
+             "  <output name=\"h\" from=\"u\"/>\n"                 /* 5 */
+             "  <output name=\"coat\" from=\"u\"/>\n"              /* 6 */
+             "  %s\n"                                              /* 7 */
+             "</wetgraph>\n",
+             gltf);
+    return xml;
+}
+
+static void test_gltf_element(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(gltf_graph(
+        "<gltf name=\"asset\" binary=\"true\" grid=\"64\" height_scale=\"0.0625\" "
+        "repeat=\"2\" base_color=\"base\" roughness=\"rough\" clearcoat=\"coat\" height=\"h\"/>"));
+    assert_int_equal(wg_graph_gltf_count(g), 1);
+    const WgGraphGltfInfo *a = wg_graph_gltf_info(g, 0);
+    assert_string_equal(a->name, "asset");
+    assert_true(a->binary);
+    assert_int_equal(a->grid, 64);
+    assert_true(a->height_scale == 0.0625 && a->repeat == 2);
+    assert_string_equal(a->maps[WG_GLTF_BASE_COLOR], "base");
+    assert_string_equal(a->maps[WG_GLTF_ROUGHNESS], "rough");
+    assert_string_equal(a->maps[WG_GLTF_CLEARCOAT], "coat");
+    assert_string_equal(a->maps[WG_GLTF_HEIGHT], "h");
+    assert_null(a->maps[WG_GLTF_NORMAL]);
+    assert_int_equal(a->line, 7);
+    assert_int_equal(wg_graph_find_gltf(g, "asset"), 0);
+    assert_int_equal(wg_graph_find_gltf(g, "base"), -1);
+    wg_graph_free(g);
+    /* the defaults: a text asset on a flat square, the texture once across */
+    g = wgt_load(gltf_graph("<gltf name=\"a\" base_color=\"base\"/>"));
+    a = wg_graph_gltf_info(g, 0);
+    assert_false(a->binary);
+    assert_int_equal(a->grid, 0);
+    assert_true(a->height_scale == 0 && a->repeat == 1);
+    wg_graph_free(g);
+
+    load_fails(gltf_graph("<gltf base_color=\"base\"/>"), WG_ERR_PARSE, 7,
+               "<gltf> needs a 'name' attribute");
+    load_fails(gltf_graph("<gltf name=\"a\" roughness=\"rough\"/>"), WG_ERR_PARSE, 7,
+               "gltf 'a' needs base_color");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"bsae\"/>"), WG_ERR_PARSE, 7,
+               "gltf 'a': base_color names no output 'bsae'; did you mean 'base'?");
+    load_fails(gltf_graph("<gltf name=\"rough\" base_color=\"base\"/>"), WG_ERR_PARSE, 7,
+               "the name is taken by an output or another gltf");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"base\" grid=\"8\"/>"), WG_ERR_PARSE, 7,
+               "a grid (grid=\"8\") needs height");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"base\" grid=\"8.5\" height=\"h\"/>"),
+               WG_ERR_PARSE, 7, "'grid' must be a whole number from 0 to 4096, not '8.5'");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"base\" repeat=\"0.5\"/>"), WG_ERR_PARSE, 7,
+               "'repeat' must be a number from 1 to 1e+06");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"base\" binary=\"yes\"/>"), WG_ERR_PARSE, 7,
+               "binary must be true or false, not 'yes'");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"base\" normals=\"h\"/>"), WG_ERR_PARSE, 7,
+               "'normals'");
+    load_fails(gltf_graph("<gltf name=\"a\" base_color=\"base\"><x/></gltf>"), WG_ERR_PARSE, 0, "");
+    /* two assets of one name */
+    char two[512];
+    snprintf(two, sizeof two, "%s",
+             "<gltf name=\"a\" base_color=\"base\"/>\n  <gltf name=\"a\" base_color=\"base\"/>");
+    load_fails(gltf_graph(two), WG_ERR_PARSE, 8, "the name is taken");
+}
+
 /* ---- <warning> --------------------------------------------------------------------------- */
 
 /* A graph with one param `k` (float) and `mode` (enum) whose line 4 is `warning`. */
@@ -312,7 +386,7 @@ static void test_unknown_elements(void **state)
                "  <texture/>\n"
                "</wetgraph>\n",
                WG_ERR_PARSE, 3,
-               "unknown element <texture> (expected param, input, node, output or warning)");
+               "unknown element <texture> (expected param, input, node, output, warning or gltf)");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\">\n"
                "    <input name=\"x\" from=\"v\"/>\n"
@@ -1468,6 +1542,7 @@ int main(void)
         cmocka_unit_test(test_graph_seed),
         cmocka_unit_test(test_suggest),
         cmocka_unit_test(test_warning_element),
+        cmocka_unit_test(test_gltf_element),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -86,6 +86,20 @@ int wg_graph_input_count(const WgGraph *g);
 const WgGraphInputInfo *wg_graph_input_info(const WgGraph *g, int i);
 int wg_graph_output_count(const WgGraph *g);
 const WgGraphOutputInfo *wg_graph_output_info(const WgGraph *g, int i);
+/* A glTF asset the graph declares (<gltf>): each map a graph output, by name (NULL where the
+ * asset has none); the rest as WgGltfAsset says. */
+typedef struct WgGraphGltfInfo {
+    const char *name;
+    const char *maps[WG_GLTF_SLOT_COUNT];
+    bool binary;
+    int grid;
+    double height_scale, repeat;
+    int line;
+} WgGraphGltfInfo;
+int wg_graph_gltf_count(const WgGraph *g);
+const WgGraphGltfInfo *wg_graph_gltf_info(const WgGraph *g, int i);
+/* The <gltf> named `name`, or -1. */
+int wg_graph_find_gltf(const WgGraph *g, const char *name);
 int wg_graph_node_count(const WgGraph *g);
 const WgGraphNodeInfo *wg_graph_node_info(const WgGraph *g, int i);
 
