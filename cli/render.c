@@ -91,12 +91,30 @@ static int mkdir_p(const char *path)
     return stat(buf, &st) == 0 && S_ISDIR(st.st_mode) ? 0 : -1;
 }
 
+static double now_ms(void);
+
+/* Where the progress line's render started: its start time, and the last count seen (a
+ * lower count is the next frame's render, which starts the clock again). */
+typedef struct {
+    double start;
+    int last;
+} Progress;
+
+/* The progress line on a terminal: nodes done, the share, the node that just finished, the
+ * time so far and, once a tenth is done, a guess of the time left (the time so far times the
+ * nodes left over the nodes done). */
 static void progress(void *user, int done, int total, const char *node)
 {
-    (void)user;
-    (void)node;
-    fprintf(stderr, "\r[%d/%d] rendering...", done, total);
-    if (done == total) fprintf(stderr, "\r%*s\r", 40, "");
+    Progress *p = user;
+    if (done < p->last) p->start = now_ms();
+    p->last = done;
+    double elapsed = (now_ms() - p->start) / 1e3;
+    char left[64] = "";
+    if (done > 0 && done < total && 10 * done >= total)
+        snprintf(left, sizeof left, ", about %.1f s left", elapsed * (total - done) / done);
+    fprintf(stderr, "\r\x1b[K[%d/%d] %3d%% %.40s, %.1f s%s", done, total,
+            total ? 100 * done / total : 100, node ? node : "", elapsed, left);
+    if (done == total) fprintf(stderr, "\r\x1b[K");
     fflush(stderr);
 }
 
@@ -763,7 +781,8 @@ int stream_finish(Stream *s, int render_rc, WgError *err)
     wg_write_set_free(set);
     for (int i = 0; !rc && i < s->n; i++)
         if (s->wrote[i]) key_store(s->paths[i], s->keys[i]);
-    if (!rc && !s->o->quiet) {
+    /* with --stats=json stdout holds the one JSON document, which lists the files itself */
+    if (!rc && !s->o->quiet && !s->o->stats_json) {
         for (int i = 0; i < s->n; i++)
             if (s->seen[i] && !s->skip[i]) printf("%s\n", s->paths[i]);
         for (int k = 0; k < n_gltf; k++) printf("%s\n", gltf_paths[k]);
@@ -900,6 +919,8 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         if (wrote[i]) key_store(paths[i], keys[i]);
     if (!rc && !o->quiet) {
         if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", layered_name(o, frame), n);
+    }
+    if (!rc && !o->quiet && !o->stats_json) {
         for (int i = 0; separate && i < n; i++)
             if (!skip[i]) printf("%s\n", paths[i]);
         for (int k = 0; k < n_gltf; k++) printf("%s\n", gltf_paths[k]);
@@ -992,7 +1013,8 @@ int cmd_render(int argc, char **argv)
         goto out;
     }
     if (build_request(&o, g, &r, &err)) goto fail;
-    if (!o.quiet && isatty(2)) wg_request_set_progress(r, progress, NULL);
+    Progress prog = {now_ms(), 0};
+    if (!o.quiet && isatty(2)) wg_request_set_progress(r, progress, &prog);
     if (wg_request_check(r, &err)) goto fail;
 
     status = EXIT_FAILED;

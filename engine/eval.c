@@ -84,6 +84,7 @@ struct Run {
      * ceiling means that once the running jobs finish, the rest can always run in that order
      * within it, so the render never waits for memory it cannot get. */
     size_t *seq_peak;
+    int last_done; /* the job that finished last (its sink's id names a fused group) */
     int biggest, largest; /* the node with the largest need, and the largest image */
     size_t biggest_bytes;
     size_t ahead;
@@ -599,6 +600,7 @@ static void node_job(void *user)
     run->running--;
     run->running_parallel -= node->parallel;
     run->completed += n_members;
+    run->last_done = node->index; /* named by the progress callback */
     node->done = true;
     if (rc) {
         if (run->rc == WG_OK && rc != WG_ERR_CANCELLED) {
@@ -1358,9 +1360,10 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
         pthread_cond_wait(&run.cv, &run.mu);
         if (req->progress && run.completed != before && !run.cancel) { /* not past a cancel */
             int done = run.completed, total = run.total;
+            const char *id = plan->insts[run.last_done].id; /* the plan outlives the call */
             reported = done;
             pthread_mutex_unlock(&run.mu);
-            req->progress(req->progress_user, done, total, NULL);
+            req->progress(req->progress_user, done, total, id);
             pthread_mutex_lock(&run.mu);
         }
     }

@@ -349,6 +349,28 @@ static void test_help_and_usage_errors(void **state)
     assert_false(exists(at("g_mask.png")));
 }
 
+/* --stats=json: stdout is the one JSON document (the files written are in it, not before it);
+ * on a terminal the progress line names the node that finished, the share and the time. */
+static void test_json_stdout_and_progress(void **state)
+{
+    (void)state;
+    Cmd c = {"render g.wetgraph -o js --stats=json"};
+    run1(&c);
+    expect_status(&c, 0);
+    if (c.out[0] != '{' || strcmp(c.out + strlen(c.out) - 2, "}\n") || strstr(c.out, "\njs/"))
+        fail_msg("stdout is not one JSON document:\n%s", c.out);
+    OUT_HAS(&c, "\"outputs\"");
+    OUT_HAS(&c, "js/g_mask.png");
+    free_batch(&c, 1);
+    /* a terminal for stderr, as `script` gives one */
+    assert_int_equal(wgt_shell(work(), "script -qec \"'$WG' render g.wetgraph -o pg\" /dev/null"),
+                     0);
+    const char *out = wgt_join(work(), "out");
+    if (!wgt_count_in(out, "%") || !wgt_count_in(out, "] ") || !wgt_count_in(out, " s"))
+        fail_msg("no progress line on a terminal");
+    assert_true(wgt_count_in(out, "100% ") > 0);
+}
+
 /* A misspelt option, graph input or output, or expression function gets the closest correct
  * name, from the command's own --help for options (exit 2 each). */
 static void test_suggestions(void **state)
@@ -1017,6 +1039,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_help_and_usage_errors),
         cmocka_unit_test(test_suggestions),
+        cmocka_unit_test(test_json_stdout_and_progress),
         cmocka_unit_test(test_render_outputs_and_options),
         cmocka_unit_test(test_render_failures_write_nothing),
         cmocka_unit_test(test_damaged_images_one_clear_line),

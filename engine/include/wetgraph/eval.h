@@ -104,7 +104,8 @@ int wg_request_add_output(WgRequest *r, const char *name, WgError *err);
 void wg_request_set_size(WgRequest *r, int width, int height); /* override root size */
 void wg_request_set_seed(WgRequest *r, uint64_t seed);
 void wg_request_set_time(WgRequest *r, double time);
-/* Called from the engine's control thread after each node (done of total). */
+/* Called from the engine's control thread after each job (done of total nodes); node_id is the
+ * node that finished last (a fused group's last node), valid during the call. */
 typedef void (*WgProgressFn)(void *user, int done, int total, const char *node_id);
 void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user);
 
