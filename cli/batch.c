@@ -234,11 +234,29 @@ int render_batch(const Options *o, const WgGraph *g)
         Options ro = *o;
         ro.quiet = o->quiet || o->batch_json; /* stdout holds only the JSON lines */
         if (row->out) ro.out_dir = row->out;
+        /* the row as --name's placeholders see it: its number and its columns' values */
+        char cols[64][300];
+        const char *col_names[64], *col_values[64];
+        int n_cols = 0;
+        for (int k = 0; k < row->n_fields && n_cols < 63; k++) {
+            const BatchField *f = &row->fields[k];
+            snprintf(cols[n_cols], sizeof cols[n_cols], "%s%s",
+                     f->kind == BATCH_INPUT ? "input:"
+                     : f->kind == BATCH_SET ? "set:"
+                                            : "",
+                     f->name);
+            col_names[n_cols] = cols[n_cols];
+            col_values[n_cols++] = f->value;
+        }
+        if (row->out) col_names[n_cols] = "out", col_values[n_cols++] = row->out;
+        BatchRowInfo info = {i, n_cols, col_names, col_values};
+        ro.row = &info;
         WgRequest *r = NULL;
         WgResult *res = NULL;
         double t0 = now_ms();
         wg_error_clear(&err);
         int rc = row_request(&ro, g, o->batch, row, &r, &err);
+        if (!rc) rc = output_files_check(&ro, g, r, -1, &err);
         if (!rc) rc = wg_render(e, r, &res, &err);
         if (progress) fprintf(stderr, "\r%*s\r", 60, ""); /* the paths go to the same terminal */
         if (!rc && !o->quiet) {

@@ -47,7 +47,11 @@ static const char help[] =
     "                         set:NAME, out or #NAME) go to one shard, so what they share\n"
     "                         is computed once\n"
     "  --batch-json           with --batch: one JSON line per row on stdout\n"
-    "  --format FMT           png | png16 | tif16 | exr | exr32 for every output\n"
+    "  --format FMT           png | png16 | tif16 | exr | exr32 for every output;\n"
+    "                         --format NAME=FMT for one output (repeatable)\n"
+    "  --name PATTERN         file names: {graph}, {output}, {frame}, {row} and a batch\n"
+    "                         row's {input:NAME} {set:NAME} {#NAME} {out}; '/' makes\n"
+    "                         folders (default {graph}_{output}, _{frame} in a sequence)\n"
     "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
     "                         (add -o to get both)\n"
     "  --threads N            worker threads (default: number of cores)\n"
@@ -265,10 +269,23 @@ int parse_args(int argc, char **argv, Options *o)
             o->batch_json = true;
         } else if (TAKE("--format")) {
             NEED;
-            o->format = wg_format_parse(val);
-            if (o->format < 0)
-                return cli_usage_error(
-                    "render", "unknown --format '%s' (png, png16, tif16, exr, exr32)", val);
+            const char *eq = strchr(val, '=');
+            if (wg_format_parse(eq ? eq + 1 : val) < 0)
+                return cli_usage_error(o->cmd,
+                                       "unknown --format '%s' (png, png16, tif16, exr, exr32; or "
+                                       "NAME=FORMAT for one output)",
+                                       val);
+            if (eq) {
+                const char **f = realloc(o->formats, sizeof *f * (size_t)(o->n_formats + 1));
+                if (!f) return cli_usage_error(o->cmd, "out of memory");
+                o->formats = f;
+                o->formats[o->n_formats++] = val;
+            } else {
+                o->format = wg_format_parse(val);
+            }
+        } else if (TAKE("--name")) {
+            NEED;
+            o->name = val;
         } else if (TAKE("--layered")) {
             NEED;
             o->layered = val;
@@ -320,6 +337,9 @@ int parse_args(int argc, char **argv, Options *o)
     if (!o->file) return cli_usage_error(o->cmd, "no graph file given");
     if (o->has_cache_max && !o->cache)
         return cli_usage_error(o->cmd, "--cache-max needs --cache DIR");
+    char why[400];
+    if (o->name && !name_pattern_check(o->name, o->has_frames, o->batch != NULL, why, sizeof why))
+        return cli_usage_error(o->cmd, "bad --name '%s': %s", o->name, why);
     if (!o->has_frames && (o->has_fps || o->contact_sheet))
         return cli_usage_error(o->cmd, "%s needs --frames",
                                o->has_fps ? "--fps" : "--contact-sheet");
@@ -513,21 +533,201 @@ static const char *layered_name(const Options *o, int frame)
 }
 
 /* The path of the output `name` written as `f` (the --format already applied). */
+WgFormat output_format(const Options *o, const char *output, WgFormat graph_format)
+{
+    size_t n = strlen(output);
+    for (int k = o->n_formats - 1; k >= 0; k--) /* the last one given wins */
+        if (!strncmp(o->formats[k], output, n) && o->formats[k][n] == '=')
+            return (WgFormat)wg_format_parse(o->formats[k] + n + 1);
+    return o->format >= 0 ? (WgFormat)o->format : graph_format;
+}
+
+/* The value of placeholder `key` ({graph}, {output}, {frame}, {row}, {input:NAME}, {set:NAME},
+ * {#NAME}, {out}) into buf; false when it has none here. */
+static bool placeholder(const Options *o, const WgGraph *g, const char *output, int frame,
+                        const char *key, size_t len, char *buf, size_t size)
+{
+    if (len == 5 && !strncmp(key, "graph", 5))
+        return snprintf(buf, size, "%s", wg_graph_name(g)) >= 0;
+    if (len == 6 && !strncmp(key, "output", 6)) return snprintf(buf, size, "%s", output) >= 0;
+    if (len == 5 && !strncmp(key, "frame", 5)) {
+        if (frame < 0) return false;
+        return snprintf(buf, size, "%04d", frame) >= 0;
+    }
+    if (len == 3 && !strncmp(key, "row", 3)) {
+        if (!o->row) return false;
+        return snprintf(buf, size, "%d", o->row->index) >= 0;
+    }
+    for (int k = 0; o->row && k < o->row->n; k++)
+        if (strlen(o->row->columns[k]) == len && !strncmp(o->row->columns[k], key, len)) {
+            /* a value with a folder (an input's path) gives its file name without extension */
+            const char *v = o->row->values[k], *slash = strrchr(v, '/'),
+                       *base = slash ? slash + 1 : v;
+            const char *dot = strncmp(key, "input:", 6) ? NULL : strrchr(base, '.');
+            return snprintf(buf, size, "%.*s", dot ? (int)(dot - base) : (int)strlen(base), base) >=
+                   0;
+        }
+    return false;
+}
+
+bool name_pattern_check(const char *pattern, bool frames, bool batch, char *why, size_t size)
+{
+    static const char *const plain[] = {"graph", "output", "frame", "row", NULL};
+    bool has_output = false, has_frame = false;
+    for (const char *p = pattern; *p; p++) {
+        if (*p == '}') return snprintf(why, size, "'}' without '{'") < 0;
+        if (*p != '{') continue;
+        const char *end = strchr(p, '}');
+        if (!end) return snprintf(why, size, "'{' without '}'") < 0;
+        size_t len = (size_t)(end - p - 1);
+        bool known = false;
+        for (int k = 0; plain[k] && !known; k++)
+            known = strlen(plain[k]) == len && !strncmp(plain[k], p + 1, len);
+        bool column = (len > 6 && !strncmp(p + 1, "input:", 6)) ||
+                      (len > 4 && !strncmp(p + 1, "set:", 4)) || (len > 1 && p[1] == '#') ||
+                      (len == 3 && !strncmp(p + 1, "out", 3));
+        if (!known && !column)
+            return snprintf(why, size,
+                            "unknown placeholder {%.*s} (graph, output, frame, row, and a batch "
+                            "row's input:NAME, set:NAME, #NAME or out)",
+                            (int)len, p + 1) < 0;
+        if ((column || !strncmp(p + 1, "row}", 4)) && !batch)
+            return snprintf(why, size, "{%.*s} takes a batch row: it needs --batch", (int)len,
+                            p + 1) < 0;
+        if (!strncmp(p + 1, "frame}", 6) && !frames)
+            return snprintf(why, size, "{frame} needs --frames") < 0;
+        has_output |= !strncmp(p + 1, "output}", 7);
+        has_frame |= !strncmp(p + 1, "frame}", 6);
+        p = end;
+    }
+    if (!pattern[0] || pattern[strlen(pattern) - 1] == '/')
+        return snprintf(why, size, "the pattern ends without a file name") < 0;
+    if (frames && !has_frame)
+        return snprintf(why, size, "a frame sequence needs {frame} in the name") < 0;
+    (void)has_output; /* without it several outputs collide: checked against the graph */
+    return true;
+}
+
+bool output_file(const Options *o, const WgGraph *g, const char *name, WgFormat f, int frame,
+                 char *buf, size_t size)
+{
+    const char *dir = o->out_dir ? o->out_dir : ".";
+    const char *pattern = o->name      ? o->name
+                          : frame >= 0 ? "{graph}_{output}_{frame}"
+                                       : "{graph}_{output}";
+    size_t at = (size_t)snprintf(buf, size, "%s/", dir);
+    for (const char *p = pattern; *p && at < size; p++) {
+        if (*p != '{') {
+            buf[at++] = *p;
+            continue;
+        }
+        const char *end = strchr(p, '}');
+        char value[1024];
+        if (!end ||
+            !placeholder(o, g, name, frame, p + 1, (size_t)(end - p - 1), value, sizeof value))
+            return false;
+        at += (size_t)snprintf(buf + at, size - at, "%s", value);
+        p = end;
+    }
+    if (at >= size) at = size - 1;
+    snprintf(buf + at, size - at, ".%s", wg_format_extension(f));
+    return true;
+}
+
+/* The folder of a file --name puts below the output folder, made when missing. */
+static int name_folder(const char *path, WgError *err)
+{
+    char folder[4096];
+    folder_of(path, folder, sizeof folder);
+    struct stat st;
+    if (stat(folder, &st) == 0) return WG_OK;
+    if (mkdir_p(folder))
+        return wg_error_set_at(err, WG_ERR_IO, folder, 0, 0, "cannot create the folder: %s",
+                               strerror(errno));
+    return WG_OK;
+}
+
 static void output_path_of(const Options *o, const WgGraph *g, const char *name, WgFormat f,
                            int frame, char *buf, size_t size)
 {
-    const char *dir = o->out_dir ? o->out_dir : ".";
-    if (frame >= 0)
-        snprintf(buf, size, "%s/%s_%s_%04d.%s", dir, wg_graph_name(g), name, frame,
-                 wg_format_extension(f));
-    else
-        snprintf(buf, size, "%s/%s_%s.%s", dir, wg_graph_name(g), name, wg_format_extension(f));
+    if (!output_file(o, g, name, f, frame, buf, size)) buf[0] = '\0';
+}
+
+int output_files_check(const Options *o, const WgGraph *g, const WgRequest *r, int frame,
+                       WgError *err)
+{
+    (void)r;
+    /* every --format NAME=FMT names an output */
+    for (int k = 0; k < o->n_formats; k++) {
+        const char *f = o->formats[k], *eq = strchr(f, '=');
+        bool found = false;
+        const char *names[512];
+        int n = 0;
+        for (int i = 0; i < wg_graph_output_count(g) && n < 512; i++) {
+            names[n++] = wg_graph_output_info(g, i)->name;
+            found |= strlen(names[n - 1]) == (size_t)(eq - f) &&
+                     !strncmp(names[n - 1], f, (size_t)(eq - f));
+        }
+        if (found) continue;
+        char given[256];
+        snprintf(given, sizeof given, "%.*s", (int)(eq - f), f);
+        const char *near = wg_suggest(given, names, n);
+        return wg_error_set(err, WG_ERR_USAGE, NULL,
+                            "--format %s: graph '%s' has no output '%s'%s%s%s", f, wg_graph_name(g),
+                            given, near ? "; did you mean '" : "", near ? near : "",
+                            near ? "'?" : "");
+    }
+    /* the files the outputs (those asked for, or all) and the glTF assets would be written to:
+     * two that are one file are refused before anything is rendered */
+    int n = wg_graph_output_count(g) + wg_graph_gltf_count(g);
+    char(*paths)[4096] = calloc((size_t)n + 1, sizeof *paths);
+    const char **owner = calloc((size_t)n + 1, sizeof *owner);
+    int rc = WG_OK, m = 0;
+    if (!paths || !owner) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; !rc && i < wg_graph_output_count(g); i++) {
+        const WgGraphOutputInfo *info = wg_graph_output_info(g, i);
+        bool asked = !o->n_outputs;
+        for (int k = 0; k < o->n_outputs && !asked; k++) asked = !strcmp(o->outputs[k], info->name);
+        asked |= gltf_needs_output(o, g, info->name);
+        if (!asked) continue;
+        WgFormat f = output_format(o, info->name, info->format ? info->format : WG_FORMAT_DEFAULT);
+        if (f == WG_FORMAT_DEFAULT) f = WG_FORMAT_PNG; /* the extension is all that matters here */
+        if (!output_file(o, g, info->name, f, frame, paths[m], sizeof paths[m]))
+            rc = wg_error_set(err, WG_ERR_USAGE, NULL,
+                              "--name '%s' names what this render does not have", o->name);
+        owner[m++] = info->name;
+    }
+    for (int i = 0; !rc && i < wg_graph_gltf_count(g); i++) {
+        if (!gltf_selected(o, g, i)) continue;
+        const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
+        const char *dir = o->out_dir ? o->out_dir : ".";
+        if (frame >= 0)
+            snprintf(paths[m], sizeof paths[m], "%s/%s_%s_%04d.%s", dir, wg_graph_name(g), a->name,
+                     frame, a->binary ? "glb" : "gltf");
+        else
+            snprintf(paths[m], sizeof paths[m], "%s/%s_%s.%s", dir, wg_graph_name(g), a->name,
+                     a->binary ? "glb" : "gltf");
+        owner[m++] = a->name;
+    }
+    for (int i = 0; !rc && i < m; i++)
+        for (int k = 0; !rc && k < i; k++)
+            if (!strcmp(paths[i], paths[k]))
+                rc = wg_error_set(err, WG_ERR_USAGE, NULL,
+                                  "'%s' and '%s' would both be written to %s%s%s", owner[k],
+                                  owner[i], paths[i], o->name ? " (--name '" : "",
+                                  o->name ? o->name : "");
+    if (rc == WG_ERR_USAGE && o->name && strstr(err->message, "(--name '"))
+        snprintf(err->message + strlen(err->message), sizeof err->message - strlen(err->message),
+                 "')");
+    free(paths);
+    free(owner);
+    return rc;
 }
 
 void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
                  char *buf, size_t size)
 {
-    WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+    WgFormat f = output_format(o, wg_result_output_name(res, i), wg_result_output_format(res, i));
     output_path_of(o, g, wg_result_output_name(res, i), f, frame, buf, size);
 }
 
@@ -726,8 +926,9 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
     double t0 = now_ms();
     int rc = stream_folder(s, err);
     if (rc) return rc;
-    WgFormat f = s->o->format >= 0 ? (WgFormat)s->o->format : out->format;
+    WgFormat f = output_format(s->o, out->name, out->format);
     output_path_of(s->o, s->g, out->name, f, s->frame, s->paths[i], sizeof s->paths[i]);
+    if ((rc = name_folder(s->paths[i], err))) return rc;
     s->seen[i] = true;
     /* the name outlives the render's plan (the glTF assets are made after it) */
     if (gltf_needs_output(s->o, s->g, out->name)) {
@@ -890,7 +1091,9 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     int nw = 0;
     for (int i = 0; !rc && separate && i < n; i++) {
         output_path(o, g, res, i, frame, paths[i], sizeof paths[i]);
-        WgFormat f = o->format >= 0 ? (WgFormat)o->format : wg_result_output_format(res, i);
+        if ((rc = name_folder(paths[i], err))) break;
+        WgFormat f =
+            output_format(o, wg_result_output_name(res, i), wg_result_output_format(res, i));
         keys[i] =
             output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i));
         skip[i] = (kept && kept[i]) || key_matches(paths[i], keys[i]);
@@ -1013,6 +1216,7 @@ int cmd_render(int argc, char **argv)
         goto out;
     }
     if (build_request(&o, g, &r, &err)) goto fail;
+    if (output_files_check(&o, g, r, o.has_frames ? o.frame_first : -1, &err)) goto fail;
     Progress prog = {now_ms(), 0};
     if (!o.quiet && isatty(2)) wg_request_set_progress(r, progress, &prog);
     if (wg_request_check(r, &err)) goto fail;
@@ -1058,5 +1262,6 @@ out:
     free(o.sets);
     free(o.inputs);
     free(o.outputs);
+    free(o.formats);
     return status;
 }

@@ -12,11 +12,23 @@
 
 enum { MAX_FRAME = 9999999, MAX_FRAMES = 100000, MAX_SHARDS = 1000000 };
 
+/* A batch row as file names see it: its number, and its fields' column names and values. */
+typedef struct {
+    int index;
+    int n;
+    const char *const *columns; /* "input:NAME", "set:NAME", "#NAME", "out" */
+    const char *const *values;
+} BatchRowInfo;
+
 typedef struct {
     const char *cmd, *help; /* the subcommand and its --help text (default: render's) */
     const char *file, *out_dir, *layered, *cache, *contact_sheet, *batch;
     const char **sets, **inputs, **outputs;
     int n_sets, n_inputs, n_outputs;
+    const char **formats; /* --format NAME=FMT: one output's format */
+    int n_formats;
+    const char *name; /* --name PATTERN (NULL: {graph}_{output}, with _{frame} in a sequence) */
+    const BatchRowInfo *row; /* the batch row being written, for {row} and its columns */
     int width, height, threads, format;
     bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json, no_fuse;
     bool has_shard, batch_json;
@@ -38,6 +50,20 @@ int parse_args(int argc, char **argv, Options *o);
  * --time; the caller owns *out (also on failure, when it is not NULL). */
 int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *err);
 /* The path output i of res is written to (frame >= 0: with "_<frame>"). */
+/* An output's format: its --format NAME=FMT, else --format FMT, else the graph's. */
+WgFormat output_format(const Options *o, const char *output, WgFormat graph_format);
+/* The file of output `name` (extension from f): --name's pattern, or {graph}_{output}[_{frame}],
+ * in the output folder. Returns false when the pattern names what is not there (a batch column
+ * outside a batch). */
+bool output_file(const Options *o, const WgGraph *g, const char *name, WgFormat f, int frame,
+                 char *buf, size_t size);
+/* --name's pattern holds only placeholders it can fill (frames and batch: whether the render
+ * has them); false with why otherwise. */
+bool name_pattern_check(const char *pattern, bool frames, bool batch, char *why, size_t size);
+/* Before rendering: every --format NAME=FMT names an output, and no two of the files the render
+ * writes (outputs and glTF assets; frame >= 0 in a sequence) are one file. */
+int output_files_check(const Options *o, const WgGraph *g, const WgRequest *r, int frame,
+                       WgError *err);
 void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i, int frame,
                  char *buf, size_t size);
 /* The graph's glTF assets (cli/gltf_export.c): whether asset i is rendered (no --output, or

@@ -687,5 +687,6 @@ out:
     free(o.sets);
     free(o.inputs);
     free(o.outputs);
+    free(o.formats);
     return status;
 }

@@ -1,0 +1,134 @@
+/* SPDX-License-Identifier: MIT */
+/* Output names and formats a pipeline sets: --name patterns ({graph}, {output}, {frame}, {row}
+ * and a batch row's columns, with '/' making sub-folders), --format NAME=FMT for one output
+ * beside the global --format, and files that two outputs would share refused before anything
+ * is rendered. */
+#include "wgtest.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SH(d, want, ...)                                                                           \
+    do {                                                                                           \
+        int st_ = wgt_shell(d, __VA_ARGS__);                                                       \
+        if (st_ != (want)) {                                                                       \
+            char dump_[1200];                                                                      \
+            snprintf(dump_, sizeof dump_, "cat '%s/out' '%s/err' >&2", d, d);                      \
+            if (system(dump_)) {                                                                   \
+            }                                                                                      \
+            fail_msg("exit %d, expected %d: %s", st_, want, #__VA_ARGS__);                         \
+        }                                                                                          \
+    } while (0)
+
+static const char *const graph = "<wetgraph version=\"1\" size=\"16\">\n"
+                                 "  <param name=\"lvl\" type=\"float\" default=\"0.5\" min=\"0\" "
+                                 "max=\"2\"/>\n"
+                                 "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+                                 "  <node id=\"c\" type=\"levels\" out_high=\"=lvl\"><in "
+                                 "name=\"source\" from=\"n\"/></node>\n"
+                                 "  <output name=\"base\" from=\"c\"/>\n"
+                                 "  <output name=\"h\" from=\"n\" format=\"exr\"/>\n"
+                                 "</wetgraph>\n";
+
+static const char *fresh(const char *name)
+{
+    static char buf[4][1024];
+    static int next;
+    char *p = buf[next++ & 3];
+    snprintf(p, sizeof buf[0], "%s/%s", wgt_tmpdir(), name);
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", p, p);
+    assert_int_equal(system(cmd), 0);
+    wgt_write_file(wgt_join(p, "g.wetgraph"), graph);
+    return p;
+}
+
+static void expect(const char *d, const char *file, bool there)
+{
+    if (wgt_exists(wgt_join(d, file)) != there)
+        fail_msg("%s %s", file, there ? "not written" : "written");
+}
+
+static void test_patterns(void **state)
+{
+    (void)state;
+    const char *d = fresh("patterns");
+    SH(d, 0, "$WG render g.wetgraph -o o --name 'maps/{output}/{graph}' -q");
+    expect(d, "o/maps/base/g.png", true);
+    expect(d, "o/maps/h/g.exr", true);
+    SH(d, 0, "$WG render g.wetgraph -o f --frames 2:3 --name '{output}_{frame}' -q");
+    expect(d, "f/base_0002.png", true);
+    expect(d, "f/h_0003.exr", true);
+    wgt_write_file(wgt_join(d, "l.csv"), "#mat,set:lvl,out\nstone,0.3,r0\nwood,0.7,r1\n");
+    SH(d, 0, "$WG render g.wetgraph --batch l.csv --name '{#mat}_{output}_{row}_{set:lvl}' -q");
+    expect(d, "r0/stone_base_0_0.3.png", true);
+    expect(d, "r1/wood_h_1_0.7.exr", true);
+}
+
+static void test_formats(void **state)
+{
+    (void)state;
+    const char *d = fresh("formats");
+    /* one output's own format over the global one, over the graph's */
+    SH(d, 0, "$WG render g.wetgraph -o a --format h=exr32 --format png16 -q");
+    expect(d, "a/g_base.png", true);
+    expect(d, "a/g_h.exr", true);
+    /* the PNG 16-bit (IHDR's bit depth), the EXR float (larger than the graph's half) */
+    FILE *f = fopen(wgt_join(d, "a/g_base.png"), "rb");
+    assert_non_null(f);
+    unsigned char head[26];
+    assert_int_equal(fread(head, 1, 26, f), 26);
+    fclose(f);
+    assert_int_equal(head[24], 16);
+    SH(d, 0, "$WG render g.wetgraph -o half -q");
+    SH(d, 0, "test $(stat -c %%s a/g_h.exr) -gt $(stat -c %%s half/g_h.exr)");
+    SH(d, 0, "$WG render g.wetgraph -o b --format base=exr -q");
+    expect(d, "b/g_base.exr", true);
+    SH(d, 2, "$WG render g.wetgraph -o c --format bsae=exr");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "graph 'g' has no output 'bsae'"), 1);
+    SH(d, 2, "$WG render g.wetgraph -o c --format base=jpeg2000");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "unknown --format 'base=jpeg2000'"), 1);
+}
+
+static void test_collisions_and_bad_patterns(void **state)
+{
+    (void)state;
+    const char *d = fresh("collide");
+    /* the two outputs would be one file: refused before rendering, nothing written */
+    SH(d, 2, "$WG render g.wetgraph -o x --name '{graph}' --format png");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "'base' and 'h' would both be written to "
+                                                      "x/g.png (--name '{graph}')"),
+                     1);
+    expect(d, "x", false);
+    /* different extensions keep them apart */
+    SH(d, 0, "$WG render g.wetgraph -o y --name '{graph}' -q");
+    expect(d, "y/g.png", true);
+    expect(d, "y/g.exr", true);
+    static const struct {
+        const char *args, *msg;
+    } bad[] = {
+        {"--name '{outptu}'", "unknown placeholder {outptu}"},
+        {"--name '{frame}'", "{frame} needs --frames"},
+        {"--name '{row}_{output}'", "{row} takes a batch row: it needs --batch"},
+        {"--name '{output'", "'{' without '}'"},
+        {"--name 'maps/'", "the pattern ends without a file name"},
+        {"--frames 0:1 --name '{output}'", "a frame sequence needs {frame} in the name"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        SH(d, 2, "$WG render g.wetgraph -o z %s", bad[i].args);
+        if (!wgt_count_in(wgt_join(d, "err"), bad[i].msg))
+            fail_msg("%s: expected '%s'", bad[i].args, bad[i].msg);
+    }
+    expect(d, "z", false);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_patterns),
+        cmocka_unit_test(test_formats),
+        cmocka_unit_test(test_collisions_and_bad_patterns),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
