@@ -78,9 +78,14 @@ static void print_json(const WgGraph *g)
         cli_json_string(stdout, o->name);
         printf(", \"from\": ");
         cli_json_string(stdout, o->from);
-        printf(", \"format\": \"%s\", \"colorspace\": \"%s\"}",
+        printf(", \"format\": \"%s\", \"colorspace\": \"%s\", \"group\": ",
                o->format ? wg_format_name(o->format) : "default",
                o->colorspace == WG_SRGB ? "srgb" : "linear");
+        if (o->group)
+            cli_json_string(stdout, o->group);
+        else
+            printf("null");
+        printf("}");
     }
     printf("\n  ],\n  \"gltf\": [");
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {
@@ -135,9 +140,10 @@ static void print_text(const WgGraph *g)
     printf("outputs:\n");
     for (int i = 0; i < wg_graph_output_count(g); i++) {
         const WgGraphOutputInfo *o = wg_graph_output_info(g, i);
-        printf("  %-20s from %-20s %s %s\n", o->name, o->from,
+        printf("  %-20s from %-20s %s %s%s%s\n", o->name, o->from,
                o->format ? wg_format_name(o->format) : "default",
-               o->colorspace == WG_SRGB ? "srgb" : "linear");
+               o->colorspace == WG_SRGB ? "srgb" : "linear", o->group ? " group " : "",
+               o->group ? o->group : "");
     }
     if (wg_graph_gltf_count(g)) printf("glTF assets:\n");
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {

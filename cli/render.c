@@ -49,7 +49,7 @@ static const char help[] =
     "  --batch-json           with --batch: one JSON line per row on stdout\n"
     "  --format FMT           png | png16 | tif16 | exr | exr32 for every output;\n"
     "                         --format NAME=FMT for one output (repeatable)\n"
-    "  --name PATTERN         file names: {graph}, {output}, {frame}, {row} and a batch\n"
+    "  --name PATTERN         file names: {graph}, {output}, {group}, {frame}, {row}, a batch\n"
     "                         row's {input:NAME} {set:NAME} {#NAME} {out}; '/' makes\n"
     "                         folders (default {graph}_{output}, _{frame} in a sequence)\n"
     "  --layered FILE.exr     write all outputs as layers of one EXR instead of separate files\n"
@@ -550,6 +550,13 @@ static bool placeholder(const Options *o, const WgGraph *g, const char *output, 
     if (len == 5 && !strncmp(key, "graph", 5))
         return snprintf(buf, size, "%s", wg_graph_name(g)) >= 0;
     if (len == 6 && !strncmp(key, "output", 6)) return snprintf(buf, size, "%s", output) >= 0;
+    if (len == 5 && !strncmp(key, "group", 5)) { /* the output's group, or "other" */
+        const char *group = NULL;
+        for (int i = 0; i < wg_graph_output_count(g) && !group; i++)
+            if (!strcmp(wg_graph_output_info(g, i)->name, output))
+                group = wg_graph_output_info(g, i)->group;
+        return snprintf(buf, size, "%s", group ? group : "other") >= 0;
+    }
     if (len == 5 && !strncmp(key, "frame", 5)) {
         if (frame < 0) return false;
         return snprintf(buf, size, "%04d", frame) >= 0;
@@ -572,7 +579,7 @@ static bool placeholder(const Options *o, const WgGraph *g, const char *output, 
 
 bool name_pattern_check(const char *pattern, bool frames, bool batch, char *why, size_t size)
 {
-    static const char *const plain[] = {"graph", "output", "frame", "row", NULL};
+    static const char *const plain[] = {"graph", "output", "group", "frame", "row", NULL};
     bool has_output = false, has_frame = false;
     for (const char *p = pattern; *p; p++) {
         if (*p == '}') return snprintf(why, size, "'}' without '{'") < 0;
@@ -588,8 +595,8 @@ bool name_pattern_check(const char *pattern, bool frames, bool batch, char *why,
                       (len == 3 && !strncmp(p + 1, "out", 3));
         if (!known && !column)
             return snprintf(why, size,
-                            "unknown placeholder {%.*s} (graph, output, frame, row, and a batch "
-                            "row's input:NAME, set:NAME, #NAME or out)",
+                            "unknown placeholder {%.*s} (graph, output, group, frame, row, and a "
+                            "batch row's input:NAME, set:NAME, #NAME or out)",
                             (int)len, p + 1) < 0;
         if ((column || !strncmp(p + 1, "row}", 4)) && !batch)
             return snprintf(why, size, "{%.*s} takes a batch row: it needs --batch", (int)len,

@@ -70,6 +70,7 @@ void wg_graph_free(WgGraph *g)
     for (int i = 0; i < g->n_outputs; i++) {
         wg_free((char *)g->outputs[i].name);
         wg_free((char *)g->outputs[i].from);
+        wg_free((char *)g->outputs[i].group);
     }
     wg_free(g->outputs);
     for (int i = 0; i < g->n_gltfs; i++) {

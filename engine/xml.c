@@ -761,17 +761,26 @@ fail:
 
 static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
 {
-    static const char *const allowed[] = {"name", "from", "format", "colorspace", "label", NULL};
+    static const char *const allowed[] = {"name",  "from",  "format", "colorspace",
+                                          "label", "group", NULL};
     int line = line_of(x);
     int rc = check_attrs(d, x, allowed);
     if (rc) return rc;
     WgGraphOutputInfo *o = &g->outputs[g->n_outputs];
     memset(o, 0, sizeof *o);
     o->line = line;
-    char *name = NULL, *from = NULL, *format = NULL, *cs = NULL;
+    char *name = NULL, *from = NULL, *format = NULL, *cs = NULL, *group = NULL;
     if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "from", &from)) ||
-        (rc = attr(d, x, "format", &format)) || (rc = attr(d, x, "colorspace", &cs)))
+        (rc = attr(d, x, "format", &format)) || (rc = attr(d, x, "colorspace", &cs)) ||
+        (rc = attr(d, x, "group", &group)))
         goto out;
+    if (group && !wg__valid_id(group)) {
+        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                             "output '%s': bad group '%s' (letters, digits, '_' and '-', "
+                             "starting with a letter)",
+                             name, group);
+        goto out;
+    }
     if (!wg__valid_id(name)) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0, "bad output name '%s'", name);
         goto out;
@@ -805,11 +814,13 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
     }
     o->name = name;
     o->from = from;
-    name = from = NULL;
+    o->group = group;
+    name = from = group = NULL;
     g->n_outputs++;
 out:
     wg_free(name);
     wg_free(from);
+    wg_free(group);
     wg_free(format);
     wg_free(cs);
     return rc;

@@ -27,7 +27,7 @@ static const char *const graph = "<wetgraph version=\"1\" size=\"16\">\n"
                                  "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
                                  "  <node id=\"c\" type=\"levels\" out_high=\"=lvl\"><in "
                                  "name=\"source\" from=\"n\"/></node>\n"
-                                 "  <output name=\"base\" from=\"c\"/>\n"
+                                 "  <output name=\"base\" from=\"c\" group=\"maps\"/>\n"
                                  "  <output name=\"h\" from=\"n\" format=\"exr\"/>\n"
                                  "</wetgraph>\n";
 
@@ -57,6 +57,10 @@ static void test_patterns(void **state)
     SH(d, 0, "$WG render g.wetgraph -o o --name 'maps/{output}/{graph}' -q");
     expect(d, "o/maps/base/g.png", true);
     expect(d, "o/maps/h/g.exr", true);
+    /* each output's group a folder, "other" without one */
+    SH(d, 0, "$WG render g.wetgraph -o k --name '{group}/{output}' -q");
+    expect(d, "k/maps/base.png", true);
+    expect(d, "k/other/h.exr", true);
     SH(d, 0, "$WG render g.wetgraph -o f --frames 2:3 --name '{output}_{frame}' -q");
     expect(d, "f/base_0002.png", true);
     expect(d, "f/h_0003.exr", true);

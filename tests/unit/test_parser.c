@@ -42,6 +42,18 @@ static char *gltf_graph(const char *gltf)
     return xml;
 }
 
+/* An output's group: an identifier, reported by the info accessors. */
+static void test_output_group(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(gltf_graph("<output name=\"g2\" from=\"u\" group=\"masks\"/>"));
+    assert_string_equal(wg_graph_output_info(g, 4)->group, "masks");
+    assert_null(wg_graph_output_info(g, 0)->group);
+    wg_graph_free(g);
+    load_fails(gltf_graph("<output name=\"g2\" from=\"u\" group=\"my masks\"/>"), WG_ERR_PARSE, 7,
+               "output 'g2': bad group 'my masks'");
+}
+
 static void test_gltf_element(void **state)
 {
     (void)state;
@@ -1543,6 +1555,7 @@ int main(void)
         cmocka_unit_test(test_suggest),
         cmocka_unit_test(test_warning_element),
         cmocka_unit_test(test_gltf_element),
+        cmocka_unit_test(test_output_group),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -45,6 +45,7 @@ typedef struct WgGraphOutputInfo {
     WgFormat format;  /* WG_FORMAT_DEFAULT when not given */
     WgColorspace colorspace;
     int line;
+    const char *group; /* the kind of map it is (`group`, e.g. maps, layers, masks), or NULL */
 } WgGraphOutputInfo;
 
 typedef struct WgGraphNodeInfo {
