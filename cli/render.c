@@ -16,6 +16,8 @@
 #include <unistd.h>
 #include <xxhash.h>
 
+static int jpeg_quality = 92; /* --jpeg-quality, also told to the writer */
+
 static const char help[] =
     "usage: wetgraph render FILE [options]\n"
     "\n"
@@ -47,8 +49,9 @@ static const char help[] =
     "                         set:NAME, out or #NAME) go to one shard, so what they share\n"
     "                         is computed once\n"
     "  --batch-json           with --batch: one JSON line per row on stdout\n"
-    "  --format FMT           png | png16 | tif16 | exr | exr32 for every output;\n"
+    "  --format FMT           png | png16 | tif16 | exr | exr32 | jpeg | tga for every output;\n"
     "                         --format NAME=FMT for one output (repeatable)\n"
+    "  --jpeg-quality Q       quality of JPEG outputs, 1..100 (default 92)\n"
     "  --name PATTERN         file names: {graph}, {output}, {group}, {frame}, {row}, a batch\n"
     "                         row's {input:NAME} {set:NAME} {#NAME} {out}; '/' makes\n"
     "                         folders (default {graph}_{output}, _{frame} in a sequence)\n"
@@ -271,10 +274,11 @@ int parse_args(int argc, char **argv, Options *o)
             NEED;
             const char *eq = strchr(val, '=');
             if (wg_format_parse(eq ? eq + 1 : val) < 0)
-                return cli_usage_error(o->cmd,
-                                       "unknown --format '%s' (png, png16, tif16, exr, exr32; or "
-                                       "NAME=FORMAT for one output)",
-                                       val);
+                return cli_usage_error(
+                    o->cmd,
+                    "unknown --format '%s' (png, png16, tif16, exr, exr32, jpeg, "
+                    "tga; or NAME=FORMAT for one output)",
+                    val);
             if (eq) {
                 const char **f = realloc(o->formats, sizeof *f * (size_t)(o->n_formats + 1));
                 if (!f) return cli_usage_error(o->cmd, "out of memory");
@@ -283,6 +287,14 @@ int parse_args(int argc, char **argv, Options *o)
             } else {
                 o->format = wg_format_parse(val);
             }
+        } else if (TAKE("--jpeg-quality")) {
+            NEED;
+            uint64_t q;
+            if (!wg_parse_whole(val, &q) || q < 1 || q > 100)
+                return cli_usage_error(o->cmd, "bad --jpeg-quality '%s' (a whole number, 1..100)",
+                                       val);
+            jpeg_quality = (int)q;
+            wg_set_jpeg_quality(jpeg_quality);
         } else if (TAKE("--name")) {
             NEED;
             o->name = val;
@@ -771,7 +783,14 @@ static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs)
     OutKey k = {0, 0};
     if (!st) return k;
     XXH3_128bits_reset(st);
-    int head[6] = {KEYS_VERSION, img->width, img->height, img->channels, (int)f, (int)cs};
+    /* a JPEG written at another quality is another file */
+    int head[7] = {KEYS_VERSION,
+                   img->width,
+                   img->height,
+                   img->channels,
+                   (int)f,
+                   (int)cs,
+                   f == WG_FORMAT_JPEG ? jpeg_quality : 0};
     XXH3_128bits_update(st, head, sizeof head);
     for (int y = 0; y < img->height; y++)
         XXH3_128bits_update(st, wg_image_row(img, y),

@@ -794,7 +794,8 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
         int f = wg_format_parse(format);
         if (f < 0) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
-                                 "unknown format '%s' (png, png16, tif16, exr, exr32)", format);
+                                 "unknown format '%s' (png, png16, tif16, exr, exr32, jpeg, tga)",
+                                 format);
             goto out;
         }
         o->format = (WgFormat)f;
@@ -963,9 +964,9 @@ out:
 
 /* The attribute of each map, in WgGltfSlot order. */
 static const char *const gltf_slots[WG_GLTF_SLOT_COUNT + 1] = {
-    "base_color", "metallic",  "roughness",           "occlusion",        "normal",
-    "specular",   "clearcoat", "clearcoat_roughness", "clearcoat_normal", "height",
-    NULL};
+    "base_color",       "metallic", "roughness", "occlusion",
+    "normal",           "specular", "clearcoat", "clearcoat_roughness",
+    "clearcoat_normal", "height",   NULL};
 
 static int gltf_number(Doc *d, xmlNodePtr x, const char *name, double lo, double hi, bool whole,
                        double def, double *out)
@@ -991,8 +992,8 @@ static int parse_gltf(Doc *d, WgGraph *g, xmlNodePtr x)
 {
     const char *allowed[WG_GLTF_SLOT_COUNT + 6];
     int n_allowed = 0;
-    for (const char *const *a = (const char *const[]){"name", "binary", "grid", "height_scale",
-                                                      "repeat", NULL};
+    for (const char *const *a =
+             (const char *const[]){"name", "binary", "grid", "height_scale", "repeat", NULL};
          *a; a++)
         allowed[n_allowed++] = *a;
     for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++) allowed[n_allowed++] = gltf_slots[k];
@@ -1037,10 +1038,10 @@ static int parse_gltf(Doc *d, WgGraph *g, xmlNodePtr x)
         const char *near = wg_suggest(out, names, n);
         char hint[300] = "";
         if (near) snprintf(hint, sizeof hint, "; did you mean '%s'?", near);
-        rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path,
-                             attr_line(xmlHasProp(x, (const xmlChar *)gltf_slots[k]), line), 0,
-                             "gltf '%s': %s names no output '%s'%s", name, gltf_slots[k], out,
-                             hint);
+        rc =
+            wg_error_set_at(d->err, WG_ERR_PARSE, d->path,
+                            attr_line(xmlHasProp(x, (const xmlChar *)gltf_slots[k]), line), 0,
+                            "gltf '%s': %s names no output '%s'%s", name, gltf_slots[k], out, hint);
     }
     if (rc) return rc;
     if (!a->maps[WG_GLTF_BASE_COLOR])

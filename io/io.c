@@ -36,18 +36,28 @@
 #include <unistd.h>
 #include <xxhash.h>
 
-static const char *const format_names[] = {"default", "png", "png16", "tif16", "exr", "exr32"};
+static const char *const format_names[] = {"default", "png",   "png16", "tif16",
+                                           "exr",     "exr32", "jpeg",  "tga"};
+enum { FORMAT_COUNT = 8 };
+
+static atomic_int jpeg_quality = 92;
+
+void wg_set_jpeg_quality(int quality)
+{
+    atomic_store(&jpeg_quality, quality < 1 ? 1 : quality > 100 ? 100 : quality);
+}
 
 int wg_format_parse(const char *name)
 {
-    for (int i = 1; i < 6; i++)
+    for (int i = 1; i < FORMAT_COUNT; i++)
         if (!strcmp(name, format_names[i])) return i;
+    if (!strcmp(name, "jpg")) return WG_FORMAT_JPEG;
     return -1;
 }
 
 const char *wg_format_name(WgFormat f)
 {
-    return (unsigned)f < 6 ? format_names[f] : "?";
+    return (unsigned)f < FORMAT_COUNT ? format_names[f] : "?";
 }
 
 const char *wg_format_extension(WgFormat f)
@@ -55,6 +65,10 @@ const char *wg_format_extension(WgFormat f)
     switch (f) {
     case WG_FORMAT_TIF16:
         return "tif";
+    case WG_FORMAT_JPEG:
+        return "jpg";
+    case WG_FORMAT_TGA:
+        return "tga";
     case WG_FORMAT_EXR:
     case WG_FORMAT_EXR32:
         return "exr";
@@ -806,11 +820,12 @@ static void file_layout(const WgImage *img, WgFormat format, int *channels, int 
         }
         if (opaque) c = 3;
     }
+    if (format == WG_FORMAT_JPEG && c == 4) c = 3; /* JPEG keeps no alpha */
     *channels = c;
-    *bits = format == WG_FORMAT_PNG     ? 8
-            : format == WG_FORMAT_EXR   ? -16
-            : format == WG_FORMAT_EXR32 ? 32
-                                        : 16;
+    *bits = format == WG_FORMAT_PNG || format == WG_FORMAT_JPEG || format == WG_FORMAT_TGA ? 8
+            : format == WG_FORMAT_EXR                                                      ? -16
+            : format == WG_FORMAT_EXR32                                                    ? 32
+                                                                                           : 16;
 }
 
 /* Quantise rows [y0, y1) of `img` into buf, packed: `c` channels of `bits` each. */
@@ -901,8 +916,12 @@ static int encode_to_file(const char *path, const WgImage *img, WgFormat format,
         return -1;
     }
     WgOiioOut *out;
-    bool ok = !wg__oiio_create(path, wg_format_extension(format), img->width, img->height, c, bits,
-                               &out, msg, msg_size);
+    char ext[32]; /* a JPEG's quality travels with its extension: "jpg:92" */
+    if (format == WG_FORMAT_JPEG)
+        snprintf(ext, sizeof ext, "jpg:%d", atomic_load(&jpeg_quality));
+    else
+        snprintf(ext, sizeof ext, "%s", wg_format_extension(format));
+    bool ok = !wg__oiio_create(path, ext, img->width, img->height, c, bits, &out, msg, msg_size);
     for (int y0 = 0; ok && y0 < img->height; y0 += STRIP_ROWS) {
         int y1 = img->height - y0 < STRIP_ROWS ? img->height : y0 + STRIP_ROWS;
         pack_rows(img, cs, c, bits, y0, y1, buf);
@@ -1035,8 +1054,7 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
     return rc;
 }
 
-int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size,
-                       WgError *err)
+int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size, WgError *err)
 {
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);

@@ -5,6 +5,7 @@
  * is rendered. */
 #include "wgtest.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -95,6 +96,46 @@ static void test_formats(void **state)
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "unknown --format 'base=jpeg2000'"), 1);
 }
 
+/* JPEG (its quality set on the command line) and Targa outputs, through OpenImageIO: a Targa is
+ * the 8-bit PNG's pixels exactly; a JPEG is close to them, smaller at a lower quality, and a
+ * new quality writes the file again. */
+static void test_jpeg_and_tga(void **state)
+{
+    (void)state;
+    const char *d = fresh("jpeg");
+    SH(d, 0, "$WG render g.wetgraph -o p --format png --size 64 -q");
+    SH(d, 0, "$WG render g.wetgraph -o t --format tga --size 64 -q");
+    SH(d, 0, "$WG render g.wetgraph -o lo --format jpeg --jpeg-quality 30 --size 64 -q");
+    SH(d, 0, "$WG render g.wetgraph -o hi --format base=jpg --jpeg-quality 95 --size 64 -q");
+    expect(d, "hi/g_h.exr", true);
+    WgImage *png = NULL, *tga = NULL, *lo = NULL, *hi = NULL;
+    WgError err = {0};
+    assert_int_equal(wg_image_read(wgt_join(d, "p/g_base.png"), 1, WG_LINEAR, &png, &err), 0);
+    assert_int_equal(wg_image_read(wgt_join(d, "t/g_base.tga"), 1, WG_LINEAR, &tga, &err), 0);
+    assert_int_equal(wg_image_read(wgt_join(d, "lo/g_base.jpg"), 1, WG_LINEAR, &lo, &err), 0);
+    assert_int_equal(wg_image_read(wgt_join(d, "hi/g_base.jpg"), 1, WG_LINEAR, &hi, &err), 0);
+    wgt_assert_identical(tga, png);
+    double e_lo = 0, e_hi = 0;
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < 64; x++) {
+            float v = wg_image_row(png, y)[x];
+            e_lo += fabs(wg_image_row(lo, y)[x] - v);
+            e_hi += fabs(wg_image_row(hi, y)[x] - v);
+        }
+    e_lo /= 64 * 64, e_hi /= 64 * 64;
+    if (!(e_hi < e_lo && e_hi < 0.01))
+        fail_msg("JPEG errors: quality 30 %g, quality 95 %g", e_lo, e_hi);
+    SH(d, 0, "test $(stat -c %%s lo/g_base.jpg) -lt $(stat -c %%s hi/g_base.jpg)");
+    /* another quality is another file: written again, not kept */
+    SH(d, 0, "$WG render g.wetgraph -o lo --format jpeg --jpeg-quality 95 --size 64");
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "lo/g_base.jpg"), 1);
+    SH(d, 2, "$WG render g.wetgraph -o x --jpeg-quality 101");
+    wg_image_unref(png);
+    wg_image_unref(tga);
+    wg_image_unref(lo);
+    wg_image_unref(hi);
+}
+
 static void test_collisions_and_bad_patterns(void **state)
 {
     (void)state;
@@ -132,6 +173,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_patterns),
         cmocka_unit_test(test_formats),
+        cmocka_unit_test(test_jpeg_and_tga),
         cmocka_unit_test(test_collisions_and_bad_patterns),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

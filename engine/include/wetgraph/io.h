@@ -21,11 +21,15 @@ typedef enum {
     WG_FORMAT_TIF16,
     WG_FORMAT_EXR,   /* half */
     WG_FORMAT_EXR32, /* float */
+    WG_FORMAT_JPEG,  /* 8-bit, lossy, no alpha (quality: wg_set_jpeg_quality) */
+    WG_FORMAT_TGA,   /* 8-bit Targa */
 } WgFormat;
 
 typedef enum { WG_LINEAR = 0, WG_SRGB = 1 } WgColorspace;
 
 /* "png", "png16", ... -> format; -1 when unknown. */
+/* The quality (1..100, default 92) of every JPEG this process writes from now on. */
+void wg_set_jpeg_quality(int quality);
 int wg_format_parse(const char *name);
 const char *wg_format_name(WgFormat f);
 const char *wg_format_extension(WgFormat f); /* "png", "tif", "exr" */
