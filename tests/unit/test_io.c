@@ -1161,16 +1161,17 @@ static void test_probe_reports_shape(void **state)
 static void test_format_names(void **state)
 {
     (void)state;
-    static const char *const names[] = {"png", "png16", "tif16", "exr", "exr32"};
-    static const char *const ext[] = {"png", "png", "tif", "exr", "exr"};
-    for (int i = 0; i < 5; i++) {
+    static const char *const names[] = {"png", "png16", "tif16", "exr", "exr32", "jpeg", "tga"};
+    static const char *const ext[] = {"png", "png", "tif", "exr", "exr", "jpg", "tga"};
+    for (int i = 0; i < 7; i++) {
         assert_int_equal(wg_format_parse(names[i]), i + 1);
         assert_string_equal(wg_format_name((WgFormat)(i + 1)), names[i]);
         assert_string_equal(wg_format_extension((WgFormat)(i + 1)), ext[i]);
     }
     assert_int_equal(wg_format_parse("PNG"), -1);
     assert_int_equal(wg_format_parse("tif"), -1);
-    assert_int_equal(wg_format_parse("jpg"), -1);
+    assert_int_equal(wg_format_parse("jpg"), WG_FORMAT_JPEG); /* the extension, as an alias */
+    assert_int_equal(wg_format_parse("JPEG"), -1);
     assert_int_equal(wg_format_parse(""), -1);
     assert_int_equal(wg_format_parse("default"), -1);
     assert_int_equal(wg_format_parse("png16 "), -1);

@@ -968,9 +968,9 @@ static void test_other_declaration_errors(void **state)
                WG_ERR_PARSE, 2, "colorspace must be 'linear' or 'srgb', not 'sRGB'");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\"/>\n"
-               "  <output name=\"o\" from=\"u\" format=\"jpg\"/>\n"
+               "  <output name=\"o\" from=\"u\" format=\"gif\"/>\n"
                "</wetgraph>\n",
-               WG_ERR_PARSE, 3, "unknown format 'jpg' (png, png16, tif16, exr, exr32)");
+               WG_ERR_PARSE, 3, "unknown format 'gif' (png, png16, tif16, exr, exr32, jpeg, tga)");
     load_fails("<wetgraph version=\"1\">\n"
                "  <node id=\"u\" type=\"uniform\"/>\n"
                "  <output name=\"o\" from=\"u\" colorspace=\"gamma\"/>\n"
