@@ -11,6 +11,7 @@ static const char help[] =
     "Validate graph files: syntax, node types, parameters, connections, types, cycles,\n"
     "subgraphs, and every value with the defaults (inputs without a default get a placeholder\n"
     "image). Nothing is evaluated. Prints 'FILE: ok' per valid file; exit 2 if any is not.\n"
+    "Every independent error of a file is reported (up to 20), not those that follow from one.\n"
     "The graph's warnings that apply with the defaults are printed on stderr (they do not\n"
     "make a file invalid).\n";
 
@@ -31,6 +32,21 @@ int cmd_check(int argc, char **argv)
         WgRequest *r = NULL;
         char *path = NULL;
         int rc = wg_graph_find(argv[i], &path, &err);
+        /* every independent error of the file, up to MAX_ERRORS, before its first is reported
+         * below as before */
+        if (!rc) {
+            enum { MAX_ERRORS = 20 };
+            WgError all[MAX_ERRORS];
+            int n = 0;
+            if (wg_graph_check_all(path, all, MAX_ERRORS, &n) && n > 1) {
+                for (int k = 0; k < n; k++) cli_report(&all[k]);
+                if (n == MAX_ERRORS)
+                    fprintf(stderr, "wetgraph: %s: stopped after %d errors\n", argv[i], n);
+                bad++;
+                wg_free(path);
+                continue;
+            }
+        }
         if (!rc) rc = wg_graph_load(path, &g, &err);
         wg_free(path);
         if (!rc && !(r = wg_request_new(g)))

@@ -18,6 +18,9 @@ typedef struct LoadCtx {
     char **loaded_real;
     int n_loaded, cap_loaded;
     WgNameIndex loaded_index; /* real path -> position in loaded */
+    /* wg_graph_check_all: the outermost file's errors, collected up to collect_max */
+    WgError *collected;
+    int n_collected, collect_max;
 } LoadCtx;
 
 /* The document being read: errors name its path. */

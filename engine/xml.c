@@ -1343,6 +1343,59 @@ static int xml_error(const char *path, xmlParserCtxtPtr ctxt, const xmlError *fi
     return wg_error_set_at(err, WG_ERR_PARSE, path, e->line, e->int2, "XML: %s", msg);
 }
 
+/* The element of the root that holds line `line` (the last one starting at or before it). */
+static xmlNodePtr element_at(xmlNodePtr root, int line)
+{
+    xmlNodePtr found = NULL;
+    for (xmlNodePtr c = root->children; c; c = c->next)
+        if (c->type == XML_ELEMENT_NODE && line_of(c) <= line) found = c;
+    return found;
+}
+
+/* Loading the outermost file for wg_graph_check_all: after an error in one of its elements,
+ * that element is taken out of the document and the file loaded again, so that the errors of
+ * the other elements are found too. An error that names an element taken out before (a node
+ * reading a node that was refused) follows from that one and is not counted. Stops at an error
+ * that no element holds (the root, a subgraph's file, memory) or at collect_max. */
+static int load_collecting(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
+                           WgError *err)
+{
+    char removed[64][128];
+    int n_removed = 0;
+    xmlNodePtr root = xmlDocGetRootElement(doc);
+    int rc = load_doc(lc, doc, path, out, err);
+    while (rc && lc->n_collected < lc->collect_max) {
+        bool cascade = false;
+        for (int k = 0; k < n_removed && !cascade; k++) cascade = strstr(err->message, removed[k]);
+        xmlNodePtr el = root && rc != WG_ERR_NOMEM && !strcmp(err->file, path) && err->line > 0 &&
+                                err->line > line_of(root)
+                            ? element_at(root, err->line)
+                            : NULL;
+        /* the root's own error after elements were set aside (no <output> left) follows too */
+        bool root_after =
+            !el && n_removed > 0 && root && err->line <= line_of(root) && !strcmp(err->file, path);
+        if ((!cascade || !el) && !root_after) lc->collected[lc->n_collected++] = *err;
+        if (!el || n_removed == 64) break;
+        xmlChar *id = xmlGetProp(el, (const xmlChar *)"id");
+        if (!id) id = xmlGetProp(el, (const xmlChar *)"name");
+        if (id) {
+            snprintf(removed[n_removed++], sizeof removed[0], "'%s'", (const char *)id);
+            xmlFree(id);
+        }
+        xmlUnlinkNode(el);
+        xmlFreeNode(el);
+        wg_error_clear(err);
+        rc = load_doc(lc, doc, path, out, err);
+    }
+    if (lc->n_collected) {
+        if (!rc) wg_graph_free(*out); /* what was left loads, but the file has errors */
+        *out = NULL;
+        *err = lc->collected[0];
+        return lc->collected[0].code;
+    }
+    return rc;
+}
+
 static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len, WgGraph **out,
                      WgError *err)
 {
@@ -1359,7 +1412,8 @@ static int parse_xml(LoadCtx *lc, const char *path, const char *mem, size_t len,
         rc = xml_error(path, ctxt, &first, err);
     } else {
         annotate_lines(doc, mem, len);
-        rc = load_doc(lc, doc, path, out, err);
+        rc = lc->collected && lc->depth == 1 ? load_collecting(lc, doc, path, out, err)
+                                             : load_doc(lc, doc, path, out, err);
     }
     xmlResetError(&first);
     if (doc) xmlFreeDoc(doc);
@@ -1434,6 +1488,22 @@ int wg_graph_load(const char *path, WgGraph **out, WgError *err)
         wg_graph_free(*out);
         *out = NULL;
     }
+    return rc;
+}
+
+int wg_graph_check_all(const char *path, WgError *errors, int max, int *count)
+{
+    LoadCtx lc = {0};
+    lc.collected = errors;
+    lc.collect_max = max > 0 ? max : 1;
+    WgGraph *g = NULL;
+    WgError err = {0};
+    int rc = wg__load_file(&lc, path, &g, &err);
+    load_ctx_free(&lc);
+    if (!rc && (rc = check_expansion(g, &err))) errors[lc.n_collected++] = err;
+    if (rc && !lc.n_collected) errors[lc.n_collected++] = err; /* before any element: the file */
+    wg_graph_free(g);
+    *count = lc.n_collected;
     return rc;
 }
 

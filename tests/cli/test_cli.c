@@ -349,6 +349,28 @@ static void test_help_and_usage_errors(void **state)
     assert_false(exists(at("g_mask.png")));
 }
 
+/* check reports every independent error of a file, one line each, not what follows from them. */
+static void test_check_reports_every_error(void **state)
+{
+    (void)state;
+    wgt_write_file(at("three.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"8\">\n"
+                   "  <param name=\"a\" type=\"float\" default=\"5\" min=\"0\" max=\"1\"/>\n"
+                   "  <node id=\"n\" type=\"noize\"/>\n"
+                   "  <node id=\"k\" type=\"invert\"><in name=\"source\" from=\"n\"/></node>\n"
+                   "  <output name=\"o\" from=\"k\" format=\"gif\"/>\n"
+                   "</wetgraph>\n");
+    Cmd c = {"check three.wetgraph g.wetgraph"};
+    run1(&c);
+    expect_status(&c, 2);
+    ERR_HAS(&c, "three.wetgraph:2: 'a' = 5 is outside [0, 1]");
+    ERR_HAS(&c, "three.wetgraph:5: unknown format 'gif'");
+    ERR_HAS(&c, "three.wetgraph:3: unknown node type 'noize'");
+    assert_int_equal(count_substr(c.err, "wetgraph: error:"), 3); /* not k's reading of n */
+    OUT_HAS(&c, "g.wetgraph: ok");
+    free_batch(&c, 1);
+}
+
 /* --stats=json: stdout is the one JSON document (the files written are in it, not before it);
  * on a terminal the progress line names the node that finished, the share and the time. */
 static void test_json_stdout_and_progress(void **state)
@@ -1040,6 +1062,7 @@ int main(void)
         cmocka_unit_test(test_help_and_usage_errors),
         cmocka_unit_test(test_suggestions),
         cmocka_unit_test(test_json_stdout_and_progress),
+        cmocka_unit_test(test_check_reports_every_error),
         cmocka_unit_test(test_render_outputs_and_options),
         cmocka_unit_test(test_render_failures_write_nothing),
         cmocka_unit_test(test_damaged_images_one_clear_line),

@@ -23,6 +23,56 @@ static bool ends_with(const char *s, const char *suffix)
     return a >= b && !strcmp(s + a - b, suffix);
 }
 
+/* ---- every independent error of a file ---------------------------------------------------- */
+
+/* A file with four independent errors (a default out of range, an unknown output format, an
+ * unknown node type, an unknown parameter) and errors that only follow from them (nodes and an
+ * output reading the refused nodes): wg_graph_check_all reports the four, in the order the
+ * loader meets them, each at its line; at most `max`; none for a valid file. */
+static void test_check_all(void **state)
+{
+    (void)state;
+    const char *path = wgt_path("errors.wetgraph");
+    wgt_write_file(
+        path, "<wetgraph version=\"1\" size=\"16\">\n"                                   /* 1 */
+              "  <param name=\"a\" type=\"float\" default=\"5\" min=\"0\" max=\"1\"/>\n" /* 2 */
+              "  <param name=\"b\" type=\"float\" default=\"0.5\"/>\n"                   /* 3 */
+              "  <node id=\"n\" type=\"noize\" scale=\"4\"/>\n"                          /* 4 */
+              "  <node id=\"m\" type=\"levels\" in_hi=\"1\"><in name=\"source\" "
+              "from=\"n\"/></node>\n"                                                      /* 5 */
+              "  <node id=\"k\" type=\"invert\"><in name=\"source\" from=\"m\"/></node>\n" /* 6 */
+              "  <node id=\"ok\" type=\"uniform\" value=\"=b\"/>\n"                        /* 7 */
+              "  <output name=\"o\" from=\"k\" format=\"gif\"/>\n"                         /* 8 */
+              "  <output name=\"p\" from=\"ok\"/>\n"                                       /* 9 */
+              "</wetgraph>\n");
+    WgError errs[20];
+    int n = 0;
+    assert_int_equal(wg_graph_check_all(path, errs, 20, &n), WG_ERR_RANGE);
+    static const int lines[] = {2, 8, 4, 5};
+    static const char *const msgs[] = {"'a' = 5 is outside [0, 1]", "unknown format 'gif'",
+                                       "unknown node type 'noize'", "no parameter 'in_hi'"};
+    for (int i = 0; i < n; i++) print_message("%d: %s\n", errs[i].line, errs[i].message);
+    assert_int_equal(n, 4);
+    for (int i = 0; i < 4; i++) {
+        assert_int_equal(errs[i].line, lines[i]);
+        if (!strstr(errs[i].message, msgs[i]))
+            fail_msg("error %d: '%s', expected '%s'", i, errs[i].message, msgs[i]);
+    }
+    assert_int_not_equal(wg_graph_check_all(path, errs, 2, &n), WG_OK);
+    assert_int_equal(n, 2);
+    /* a valid file, and one whose only error is the file itself */
+    wgt_write_file(path,
+                   "<wetgraph version=\"1\" size=\"8\">\n  <node id=\"u\" type=\"uniform\"/>\n"
+                   "  <output name=\"o\" from=\"u\"/>\n</wetgraph>\n");
+    assert_int_equal(wg_graph_check_all(path, errs, 20, &n), WG_OK);
+    assert_int_equal(n, 0);
+    wgt_write_file(path, "<wetgraph version=\"1\"><node id=\"u\"");
+    assert_int_not_equal(wg_graph_check_all(path, errs, 20, &n), WG_OK);
+    assert_int_equal(n, 1);
+    assert_int_not_equal(wg_graph_check_all(wgt_path("none.wetgraph"), errs, 20, &n), WG_OK);
+    assert_int_equal(n, 1);
+}
+
 /* ---- <gltf> ------------------------------------------------------------------------------ */
 
 /* A graph with outputs base, rough, h and coat whose line 7 is `gltf`. */
@@ -1555,6 +1605,7 @@ int main(void)
         cmocka_unit_test(test_suggest),
         cmocka_unit_test(test_warning_element),
         cmocka_unit_test(test_gltf_element),
+        cmocka_unit_test(test_check_all),
         cmocka_unit_test(test_output_group),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

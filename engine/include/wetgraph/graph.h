@@ -70,6 +70,11 @@ typedef struct WgGraphNodeInfo {
  * that would expand to more than WG_MAX_INSTANCES node instances is refused (WG_ERR_RANGE),
  * naming the chain of files from this one to the subgraph that crosses the limit. */
 int wg_graph_load(const char *path, WgGraph **out, WgError *err);
+/* Load the graph file at `path` only to find its errors: each one of its elements that fails is
+ * set aside and the rest loaded again, so that the independent errors of the file are found in
+ * one go (up to `max`, in errors[0..*count)); an error that follows from an element set aside
+ * (a reference to it) is not counted. WG_OK (and *count 0) when the file is valid. */
+int wg_graph_check_all(const char *path, WgError *errors, int max, int *count);
 /* Same from memory; `path` names the source in messages and anchors relative paths. */
 int wg_graph_load_memory(const char *xml, size_t len, const char *path, WgGraph **out,
                          WgError *err);
