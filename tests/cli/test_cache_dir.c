@@ -12,18 +12,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#define SH(d, want, ...)                                                                           \
-    do {                                                                                           \
-        int st_ = wgt_shell(d, __VA_ARGS__);                                                       \
-        if (st_ != (want)) {                                                                       \
-            char dump_[1200];                                                                      \
-            snprintf(dump_, sizeof dump_, "cat '%s/out' '%s/err' >&2", d, d);                      \
-            if (system(dump_)) {                                                                   \
-            }                                                                                      \
-            fail_msg("exit %d, expected %d: %s", st_, want, #__VA_ARGS__);                         \
-        }                                                                                          \
-    } while (0)
-
 /* noise -> blur -> levels(p): a render with a new p reuses the first two from the cache */
 static const char *const graph =
     "<wetgraph version=\"1\" size=\"64\">\n"
@@ -36,17 +24,12 @@ static const char *const graph =
     "  <output name=\"o\" from=\"l\"/>\n"
     "</wetgraph>\n";
 
+/* An empty folder holding g.wetgraph. */
 static const char *fresh(const char *name)
 {
-    static char buf[4][1024];
-    static int next;
-    char *p = buf[next++ & 3];
-    snprintf(p, sizeof buf[0], "%s/%s", wgt_tmpdir(), name);
-    char cmd[1200];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", p, p);
-    assert_int_equal(system(cmd), 0);
-    wgt_write_file(wgt_join(p, "g.wetgraph"), graph);
-    return p;
+    const char *d = wgt_fresh_dir(name);
+    wgt_write_file(wgt_join(d, "g.wetgraph"), graph);
+    return d;
 }
 
 /* Entry files (<32 hex digits>-<port>.wgc) under dir/c and their bytes. */
@@ -87,7 +70,7 @@ static void test_info_prune_clear(void **state)
     (void)state;
     const char *d = fresh("prune");
     for (int s = 0; s < 3; s++) {
-        SH(d, 0, "$WG render g.wetgraph -o r%d -q --cache c --set s=%d", s, s);
+        WGT_SH(d, 0, "$WG render g.wetgraph -o r%d -q --cache c --set s=%d", s, s);
         wgt_sleep_ms(30); /* distinct last uses */
     }
     long long bytes, n = entries(d, &bytes);
@@ -96,27 +79,27 @@ static void test_info_prune_clear(void **state)
     wgt_write_file(wgt_join(d, "c/notes.txt"), "mine");
     mkdir(wgt_join(d, "c/zz"), 0777);
     wgt_write_file(wgt_join(d, "c/zz/0123.wgc"), "not an entry");
-    SH(d, 0, "$WG cache info c");
+    WGT_SH(d, 0, "$WG cache info c");
     char want[128];
     snprintf(want, sizeof want, "c: 9 entries, %.1f MiB", bytes / 1048576.0);
     assert_int_equal(wgt_count_in(wgt_join(d, "out"), want), 1);
     /* the first render's entries are the oldest: reading them back makes them the newest */
-    SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
     assert_int_equal(computed(d), 0);
     /* keep about one render's worth: the entries used last are what stays */
     long long per = bytes / 9;
-    SH(d, 0, "$WG cache prune c --max %lld", 3 * per + per / 2);
+    WGT_SH(d, 0, "$WG cache prune c --max %lld", 3 * per + per / 2);
     assert_int_equal(entries(d, NULL), 3);
-    SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
     assert_int_equal(computed(d), 0);
-    SH(d, 0, "$WG render g.wetgraph -o r1 -q --cache c --set s=1 --stats=json");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r1 -q --cache c --set s=1 --stats=json");
     assert_int_equal(computed(d), 3);
     /* clear: every entry, nothing else */
-    SH(d, 0, "$WG cache clear c");
+    WGT_SH(d, 0, "$WG cache clear c");
     assert_int_equal(entries(d, NULL), 0);
     assert_true(wgt_exists(wgt_join(d, "c/notes.txt")));
     assert_true(wgt_exists(wgt_join(d, "c/zz/0123.wgc")));
-    SH(d, 0, "$WG cache info c");
+    WGT_SH(d, 0, "$WG cache info c");
     assert_int_equal(wgt_count_in(wgt_join(d, "out"), "c: 0 entries, 0.0 MiB"), 1);
 }
 
@@ -124,22 +107,22 @@ static void test_cache_max(void **state)
 {
     (void)state;
     const char *d = fresh("cap");
-    SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=0");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=0");
     long long bytes;
     entries(d, &bytes);
     long long cap = bytes * 2; /* two renders' worth (three nodes each) */
     for (int s = 1; s < 6; s++) {
-        SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=%d --cache-max %lld", s, cap);
+        WGT_SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=%d --cache-max %lld", s, cap);
         long long now;
         entries(d, &now);
         if (now > cap)
             fail_msg("render %d: the cache holds %lld bytes, over the cap %lld", s, now, cap);
     }
     /* the last render's own entries are kept: its re-render computes nothing */
-    SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=5 --stats=json");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=5 --stats=json");
     assert_int_equal(computed(d), 0);
     /* and what a render prunes is reported with --stats */
-    SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=9 --cache-max 1 --stats");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --set s=9 --cache-max 1 --stats");
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "entries removed"), 1);
     assert_int_equal(entries(d, NULL), 0);
 }
@@ -148,26 +131,26 @@ static void test_errors(void **state)
 {
     (void)state;
     const char *d = fresh("errors");
-    SH(d, 2, "$WG cache info nowhere");
+    WGT_SH(d, 2, "$WG cache info nowhere");
     assert_int_equal(
         wgt_count_in(wgt_join(d, "err"), "nowhere: cannot open the cache folder: no such folder"),
         1);
-    SH(d, 2, "$WG cache info g.wetgraph");
+    WGT_SH(d, 2, "$WG cache info g.wetgraph");
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "it is not a folder"), 1);
-    SH(d, 2, "$WG cache prune .");
-    SH(d, 2, "$WG cache clear . --max 1K");
-    SH(d, 2, "$WG cache purge .");
-    SH(d, 2, "$WG cache");
-    SH(d, 2, "$WG render g.wetgraph --cache-max 1G");
+    WGT_SH(d, 2, "$WG cache prune .");
+    WGT_SH(d, 2, "$WG cache clear . --max 1K");
+    WGT_SH(d, 2, "$WG cache purge .");
+    WGT_SH(d, 2, "$WG cache");
+    WGT_SH(d, 2, "$WG render g.wetgraph --cache-max 1G");
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "--cache-max needs --cache DIR"), 1);
     static const char *const bad[] = {"-1", "K", "1X", "1e30", "", "1.5.5M"};
     for (int i = 0; i < 6; i++) {
-        SH(d, 2, "$WG render g.wetgraph --cache c --cache-max '%s'", bad[i]);
+        WGT_SH(d, 2, "$WG render g.wetgraph --cache c --cache-max '%s'", bad[i]);
         assert_int_equal(wgt_count_in(wgt_join(d, "err"), "bad --cache-max"), 1);
     }
     static const char *const good[] = {"0", "1536", "1.5K", "2M", "1MiB", "3G", "1T"};
     for (int i = 0; i < 7; i++)
-        SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --cache-max %s", good[i]);
+        WGT_SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --cache-max %s", good[i]);
 }
 
 int main(void)

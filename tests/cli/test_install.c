@@ -12,19 +12,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-/* A fresh folder under the test's scratch folder. */
-static const char *fresh(const char *name)
-{
-    static char buf[4][1024];
-    static int next;
-    char *p = buf[next++ & 3];
-    snprintf(p, sizeof buf[0], "%s/%s", wgt_tmpdir(), name);
-    char cmd[1200];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", p, p);
-    assert_int_equal(system(cmd), 0);
-    return p;
-}
-
 static void expect_file_has(const char *dir, const char *file, const char *needle)
 {
     if (wgt_count_in(wgt_join(dir, file), needle) == 0) {
@@ -36,19 +23,6 @@ static void expect_file_has(const char *dir, const char *file, const char *needl
     }
 }
 
-/* Run a shell command in d (wgt_shell); a status other than `want` fails with its output. */
-#define SH(d, want, ...)                                                                           \
-    do {                                                                                           \
-        int st_ = wgt_shell(d, __VA_ARGS__);                                                       \
-        if (st_ != (want)) {                                                                       \
-            char dump_[1200];                                                                      \
-            snprintf(dump_, sizeof dump_, "cat '%s/out' '%s/err' >&2", d, d);                      \
-            if (system(dump_)) {                                                                   \
-            }                                                                                      \
-            fail_msg("exit %d, expected %d: %s", st_, want, #__VA_ARGS__);                         \
-        }                                                                                          \
-    } while (0)
-
 static const char *const tiny_graph = "<wetgraph version=\"1\" size=\"8\" label=\"Tiny\">\n"
                                       "  <param name=\"v\" type=\"float\" default=\"0.25\"/>\n"
                                       "  <node id=\"c\" type=\"uniform\" value=\"=v\"/>\n"
@@ -58,43 +32,43 @@ static const char *const tiny_graph = "<wetgraph version=\"1\" size=\"8\" label=
 static void test_names(void **state)
 {
     (void)state;
-    const char *d = fresh("names");
+    const char *d = wgt_fresh_dir("names");
     /* from a folder holding no graph, by name, with and without the extension */
-    SH(d, 0, "$WG info wet_material");
+    WGT_SH(d, 0, "$WG info wet_material");
     expect_file_has(d, "out", "graph wet_material");
-    SH(d, 0, "$WG check foam.wetgraph texturing");
+    WGT_SH(d, 0, "$WG check foam.wetgraph texturing");
     expect_file_has(d, "out", "texturing: ok");
     /* a misspelt name: exit 2, where it looked, and the closest name */
-    SH(d, 2, "$WG render wet_materal -o x");
+    WGT_SH(d, 2, "$WG render wet_materal -o x");
     expect_file_has(d, "err", "did you mean 'wet_material'?");
     expect_file_has(d, "err", "WETGRAPH_PATH");
-    SH(d, 2, "$WG check nothing_like_it");
+    WGT_SH(d, 2, "$WG check nothing_like_it");
     expect_file_has(d, "err", "'wetgraph graphs' lists them");
     /* a path is never looked up by name; a missing file and a folder are bad input (exit 2)
      * for every command */
     static const char *const cmds[] = {"render", "check", "info", "dot", "watch"};
     for (int i = 0; i < 5; i++) {
-        SH(d, 2, "$WG %s ./wet_material", cmds[i]);
+        WGT_SH(d, 2, "$WG %s ./wet_material", cmds[i]);
         expect_file_has(d, "err", "./wet_material: cannot open the graph file: no such file");
-        SH(d, 2, "mkdir -p sub && $WG %s sub", cmds[i]);
+        WGT_SH(d, 2, "mkdir -p sub && $WG %s sub", cmds[i]);
         expect_file_has(d, "err", "sub: cannot open the graph file: it is a folder");
     }
     /* a file in the current folder comes before a graph of the same name */
     wgt_write_file(wgt_join(d, "wet_material"), tiny_graph);
-    SH(d, 0, "$WG info wet_material");
+    WGT_SH(d, 0, "$WG info wet_material");
     expect_file_has(d, "out", "Tiny");
 }
 
 static void test_path(void **state)
 {
     (void)state;
-    const char *lib = fresh("library"), *d = fresh("elsewhere");
+    const char *lib = wgt_fresh_dir("library"), *d = wgt_fresh_dir("elsewhere");
     wgt_write_file(wgt_join(lib, "tiny.wetgraph"), tiny_graph);
     wgt_write_file(wgt_join(lib, "foam.wetgraph"), tiny_graph); /* shadows the built-in one */
-    SH(d, 2, "$WG render tiny -o maps");
-    SH(d, 0, "WETGRAPH_PATH='/nonexistent:%s' $WG render tiny -o maps --set v=0.5", lib);
+    WGT_SH(d, 2, "$WG render tiny -o maps");
+    WGT_SH(d, 0, "WETGRAPH_PATH='/nonexistent:%s' $WG render tiny -o maps --set v=0.5", lib);
     assert_true(wgt_exists(wgt_join(d, "maps/tiny_flat.png")));
-    SH(d, 0, "WETGRAPH_PATH='%s' $WG graphs --paths", lib);
+    WGT_SH(d, 0, "WETGRAPH_PATH='%s' $WG graphs --paths", lib);
     char line[1200];
     snprintf(line, sizeof line, "%s/foam.wetgraph", lib);
     expect_file_has(d, "out", line);
@@ -102,10 +76,10 @@ static void test_path(void **state)
     expect_file_has(d, "out", line);
     expect_file_has(d, "out", "wet_material");
     assert_int_equal(wgt_count_in(wgt_join(d, "out"), "foam "), 1); /* listed once */
-    SH(d, 0, "WETGRAPH_PATH='%s' $WG graphs", lib);
+    WGT_SH(d, 0, "WETGRAPH_PATH='%s' $WG graphs", lib);
     expect_file_has(d, "out", "Tiny");
     expect_file_has(d, "out", "Wet material");
-    SH(d, 2, "$WG graphs --bogus");
+    WGT_SH(d, 2, "$WG graphs --bogus");
 }
 
 static void test_manual(void **state)
@@ -114,9 +88,9 @@ static void test_manual(void **state)
     const char *man = getenv("WETGRAPH_MAN");
     if (!man || !man[0])
         fail_msg("the manual page was not built: install help2man (scripts/install-deps.sh)");
-    const char *d = fresh("manual");
+    const char *d = wgt_fresh_dir("manual");
     /* every command's usage, from the same text as its --help */
-    SH(d, 0, "$WG --help-all");
+    WGT_SH(d, 0, "$WG --help-all");
     static const char *const cmds[] = {"render", "check", "info",  "nodes",
                                        "dot",    "watch", "graphs"};
     for (int i = 0; i < 7; i++) {
@@ -147,13 +121,13 @@ static void complete(const char *d, const char *words)
     fputs(script, f);
     fclose(f);
     snprintf(cmd, sizeof cmd, "bash complete.sh");
-    SH(d, 0, "%s", cmd);
+    WGT_SH(d, 0, "%s", cmd);
 }
 
 static void test_completion(void **state)
 {
     (void)state;
-    const char *d = fresh("completion");
+    const char *d = wgt_fresh_dir("completion");
     static const struct {
         const char *words, *want, *not_want;
     } cases[] = {
@@ -184,15 +158,15 @@ static void test_installed(void **state)
     const char *build = getenv("WETGRAPH_BUILD_ROOT"), *shared = getenv("WETGRAPH_SHARED");
     assert_non_null(build);
     assert_non_null(shared);
-    const char *dest = fresh("dest"), *d = fresh("user");
-    SH(d, 0, "meson install -C '%s' --no-rebuild --quiet --destdir '%s'", build, dest);
+    const char *dest = wgt_fresh_dir("dest"), *d = wgt_fresh_dir("user");
+    WGT_SH(d, 0, "meson install -C '%s' --no-rebuild --quiet --destdir '%s'", build, dest);
     /* where things went: the prefix is the build's, under dest */
-    SH(d, 0,
-       "cd '%s' && find . -path '*/bin/wetgraph' -o -name "
-       "'libwetgraph.so*' -o -name 'wetgraph-oiio.so' -o -name "
-       "wet_material.wetgraph -o -name wetgraph.1 -o -path "
-       "'*/completions/wetgraph' -o -name graph.h -o -name wetgraph.pc",
-       dest);
+    WGT_SH(d, 0,
+           "cd '%s' && find . -path '*/bin/wetgraph' -o -name "
+           "'libwetgraph.so*' -o -name 'wetgraph-oiio.so' -o -name "
+           "wet_material.wetgraph -o -name wetgraph.1 -o -path "
+           "'*/completions/wetgraph' -o -name graph.h -o -name wetgraph.pc",
+           dest);
     static const char *const want[] = {"bin/wetgraph",           "libwetgraph.so",
                                        "wetgraph-oiio.so",       "wetgraph/graphs/wet_material",
                                        "man1/wetgraph.1",        "completions/wetgraph",
@@ -203,15 +177,15 @@ static void test_installed(void **state)
     /* the installed program, library, module and graphs render a graph by name from another
      * folder (the prefix lives under dest, so the loader and the library are told where) */
     const char *mat = "bricks102_stonewall_1k/Bricks102_1K-JPG";
-    SH(d, 0,
-       "bin=$(find '%s' -path '*/bin/wetgraph'); lib=$(dirname \"$(find '%s' -name "
-       "'libwetgraph.so*' | head -1)\"); graphs=$(dirname \"$(find '%s' -name "
-       "wet_material.wetgraph)\"); LD_LIBRARY_PATH=$lib WETGRAPH_MODULE_DIR=$lib/wetgraph "
-       "WETGRAPH_GRAPHS_DIR=$graphs \"$bin\" render wet_material -o maps --size 32 -q "
-       "--input basecolor='%s/materials/%s_Color.jpg' "
-       "--input height='%s/materials/%s_Displacement.jpg' --output basecolor && "
-       "LD_LIBRARY_PATH=$lib WETGRAPH_GRAPHS_DIR=$graphs \"$bin\" graphs --paths",
-       dest, dest, dest, shared, mat, shared, mat);
+    WGT_SH(d, 0,
+           "bin=$(find '%s' -path '*/bin/wetgraph'); lib=$(dirname \"$(find '%s' -name "
+           "'libwetgraph.so*' | head -1)\"); graphs=$(dirname \"$(find '%s' -name "
+           "wet_material.wetgraph)\"); LD_LIBRARY_PATH=$lib WETGRAPH_MODULE_DIR=$lib/wetgraph "
+           "WETGRAPH_GRAPHS_DIR=$graphs \"$bin\" render wet_material -o maps --size 32 -q "
+           "--input basecolor='%s/materials/%s_Color.jpg' "
+           "--input height='%s/materials/%s_Displacement.jpg' --output basecolor && "
+           "LD_LIBRARY_PATH=$lib WETGRAPH_GRAPHS_DIR=$graphs \"$bin\" graphs --paths",
+           dest, dest, dest, shared, mat, shared, mat);
     assert_true(wgt_exists(wgt_join(d, "maps/wet_material_basecolor.png")));
     expect_file_has(d, "out", dest); /* the graphs listed are the installed ones */
 }

@@ -10,18 +10,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define SH(d, want, ...)                                                                           \
-    do {                                                                                           \
-        int st_ = wgt_shell(d, __VA_ARGS__);                                                       \
-        if (st_ != (want)) {                                                                       \
-            char dump_[1200];                                                                      \
-            snprintf(dump_, sizeof dump_, "cat '%s/out' '%s/err' >&2", d, d);                      \
-            if (system(dump_)) {                                                                   \
-            }                                                                                      \
-            fail_msg("exit %d, expected %d: %s", st_, want, #__VA_ARGS__);                         \
-        }                                                                                          \
-    } while (0)
-
 static const char *const graph = "<wetgraph version=\"1\" size=\"16\">\n"
                                  "  <param name=\"lvl\" type=\"float\" default=\"0.5\" min=\"0\" "
                                  "max=\"2\"/>\n"
@@ -32,17 +20,12 @@ static const char *const graph = "<wetgraph version=\"1\" size=\"16\">\n"
                                  "  <output name=\"h\" from=\"n\" format=\"exr\"/>\n"
                                  "</wetgraph>\n";
 
+/* An empty folder holding g.wetgraph. */
 static const char *fresh(const char *name)
 {
-    static char buf[4][1024];
-    static int next;
-    char *p = buf[next++ & 3];
-    snprintf(p, sizeof buf[0], "%s/%s", wgt_tmpdir(), name);
-    char cmd[1200];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", p, p);
-    assert_int_equal(system(cmd), 0);
-    wgt_write_file(wgt_join(p, "g.wetgraph"), graph);
-    return p;
+    const char *d = wgt_fresh_dir(name);
+    wgt_write_file(wgt_join(d, "g.wetgraph"), graph);
+    return d;
 }
 
 static void expect(const char *d, const char *file, bool there)
@@ -55,18 +38,18 @@ static void test_patterns(void **state)
 {
     (void)state;
     const char *d = fresh("patterns");
-    SH(d, 0, "$WG render g.wetgraph -o o --name 'maps/{output}/{graph}' -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o o --name 'maps/{output}/{graph}' -q");
     expect(d, "o/maps/base/g.png", true);
     expect(d, "o/maps/h/g.exr", true);
     /* each output's group a folder, "other" without one */
-    SH(d, 0, "$WG render g.wetgraph -o k --name '{group}/{output}' -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o k --name '{group}/{output}' -q");
     expect(d, "k/maps/base.png", true);
     expect(d, "k/other/h.exr", true);
-    SH(d, 0, "$WG render g.wetgraph -o f --frames 2:3 --name '{output}_{frame}' -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o f --frames 2:3 --name '{output}_{frame}' -q");
     expect(d, "f/base_0002.png", true);
     expect(d, "f/h_0003.exr", true);
     wgt_write_file(wgt_join(d, "l.csv"), "#mat,set:lvl,out\nstone,0.3,r0\nwood,0.7,r1\n");
-    SH(d, 0, "$WG render g.wetgraph --batch l.csv --name '{#mat}_{output}_{row}_{set:lvl}' -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph --batch l.csv --name '{#mat}_{output}_{row}_{set:lvl}' -q");
     expect(d, "r0/stone_base_0_0.3.png", true);
     expect(d, "r1/wood_h_1_0.7.exr", true);
 }
@@ -76,7 +59,7 @@ static void test_formats(void **state)
     (void)state;
     const char *d = fresh("formats");
     /* one output's own format over the global one, over the graph's */
-    SH(d, 0, "$WG render g.wetgraph -o a --format h=exr32 --format png16 -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o a --format h=exr32 --format png16 -q");
     expect(d, "a/g_base.png", true);
     expect(d, "a/g_h.exr", true);
     /* the PNG 16-bit (IHDR's bit depth), the EXR float (larger than the graph's half) */
@@ -86,13 +69,13 @@ static void test_formats(void **state)
     assert_int_equal(fread(head, 1, 26, f), 26);
     fclose(f);
     assert_int_equal(head[24], 16);
-    SH(d, 0, "$WG render g.wetgraph -o half -q");
-    SH(d, 0, "test $(stat -c %%s a/g_h.exr) -gt $(stat -c %%s half/g_h.exr)");
-    SH(d, 0, "$WG render g.wetgraph -o b --format base=exr -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o half -q");
+    WGT_SH(d, 0, "test $(stat -c %%s a/g_h.exr) -gt $(stat -c %%s half/g_h.exr)");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o b --format base=exr -q");
     expect(d, "b/g_base.exr", true);
-    SH(d, 2, "$WG render g.wetgraph -o c --format bsae=exr");
+    WGT_SH(d, 2, "$WG render g.wetgraph -o c --format bsae=exr");
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "graph 'g' has no output 'bsae'"), 1);
-    SH(d, 2, "$WG render g.wetgraph -o c --format base=jpeg2000");
+    WGT_SH(d, 2, "$WG render g.wetgraph -o c --format base=jpeg2000");
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "unknown --format 'base=jpeg2000'"), 1);
 }
 
@@ -103,10 +86,10 @@ static void test_jpeg_and_tga(void **state)
 {
     (void)state;
     const char *d = fresh("jpeg");
-    SH(d, 0, "$WG render g.wetgraph -o p --format png --size 64 -q");
-    SH(d, 0, "$WG render g.wetgraph -o t --format tga --size 64 -q");
-    SH(d, 0, "$WG render g.wetgraph -o lo --format jpeg --jpeg-quality 30 --size 64 -q");
-    SH(d, 0, "$WG render g.wetgraph -o hi --format base=jpg --jpeg-quality 95 --size 64 -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o p --format png --size 64 -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o t --format tga --size 64 -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o lo --format jpeg --jpeg-quality 30 --size 64 -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o hi --format base=jpg --jpeg-quality 95 --size 64 -q");
     expect(d, "hi/g_h.exr", true);
     WgImage *png = NULL, *tga = NULL, *lo = NULL, *hi = NULL;
     WgError err = {0};
@@ -125,11 +108,11 @@ static void test_jpeg_and_tga(void **state)
     e_lo /= 64 * 64, e_hi /= 64 * 64;
     if (!(e_hi < e_lo && e_hi < 0.01))
         fail_msg("JPEG errors: quality 30 %g, quality 95 %g", e_lo, e_hi);
-    SH(d, 0, "test $(stat -c %%s lo/g_base.jpg) -lt $(stat -c %%s hi/g_base.jpg)");
+    WGT_SH(d, 0, "test $(stat -c %%s lo/g_base.jpg) -lt $(stat -c %%s hi/g_base.jpg)");
     /* another quality is another file: written again, not kept */
-    SH(d, 0, "$WG render g.wetgraph -o lo --format jpeg --jpeg-quality 95 --size 64");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o lo --format jpeg --jpeg-quality 95 --size 64");
     assert_int_equal(wgt_count_in(wgt_join(d, "out"), "lo/g_base.jpg"), 1);
-    SH(d, 2, "$WG render g.wetgraph -o x --jpeg-quality 101");
+    WGT_SH(d, 2, "$WG render g.wetgraph -o x --jpeg-quality 101");
     wg_image_unref(png);
     wg_image_unref(tga);
     wg_image_unref(lo);
@@ -141,13 +124,13 @@ static void test_collisions_and_bad_patterns(void **state)
     (void)state;
     const char *d = fresh("collide");
     /* the two outputs would be one file: refused before rendering, nothing written */
-    SH(d, 2, "$WG render g.wetgraph -o x --name '{graph}' --format png");
+    WGT_SH(d, 2, "$WG render g.wetgraph -o x --name '{graph}' --format png");
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "'base' and 'h' would both be written to "
                                                       "x/g.png (--name '{graph}')"),
                      1);
     expect(d, "x", false);
     /* different extensions keep them apart */
-    SH(d, 0, "$WG render g.wetgraph -o y --name '{graph}' -q");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o y --name '{graph}' -q");
     expect(d, "y/g.png", true);
     expect(d, "y/g.exr", true);
     static const struct {
@@ -161,7 +144,7 @@ static void test_collisions_and_bad_patterns(void **state)
         {"--frames 0:1 --name '{output}'", "a frame sequence needs {frame} in the name"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
-        SH(d, 2, "$WG render g.wetgraph -o z %s", bad[i].args);
+        WGT_SH(d, 2, "$WG render g.wetgraph -o z %s", bad[i].args);
         if (!wgt_count_in(wgt_join(d, "err"), bad[i].msg))
             fail_msg("%s: expected '%s'", bad[i].args, bad[i].msg);
     }

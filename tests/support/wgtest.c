@@ -361,6 +361,47 @@ int wgt_shell(const char *dir, const char *fmt, ...)
     return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
 }
 
+void wgt_shell_expect(const char *dir, int want, const char *what, const char *fmt, ...)
+{
+    char command[4096];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(command, sizeof command, fmt, ap);
+    va_end(ap);
+    int st = wgt_shell(dir, "%s", command);
+    if (st == want) return;
+    char dump[2200];
+    snprintf(dump, sizeof dump, "cat '%s/out' '%s/err' >&2", dir, dir);
+    if (system(dump)) {
+    }
+    fail_msg("exit %d, expected %d: %s", st, want, what);
+}
+
+const char *wgt_fresh_dir(const char *name)
+{
+    static char buf[8][1024];
+    static int next;
+    char *p = buf[next++ & 7];
+    snprintf(p, sizeof buf[0], "%s/%s", wgt_tmpdir(), name);
+    char cmd[2200];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", p, p);
+    if (system(cmd) != 0) fail_msg("cannot make the folder %s", p);
+    return p;
+}
+
+void wgt_gltf_validate(const char *dir, const char *files)
+{
+    const char *src = getenv("WETGRAPH_SOURCE");
+    if (!src || !src[0]) fail_msg("WETGRAPH_SOURCE is not set");
+    char check[1200];
+    snprintf(check, sizeof check,
+             "%s/tools/gltf-validator/node_modules/gltf-validator/package.json", src);
+    if (!wgt_exists(check))
+        fail_msg("Khronos' glTF-Validator is not installed: run scripts/install-deps.sh (npm ci in "
+                 "tools/gltf-validator)");
+    wgt_shell_expect(dir, 0, files, "node '%s/tools/gltf-validator/validate.js' %s", src, files);
+}
+
 bool wgt_exists(const char *path)
 {
     struct stat st;

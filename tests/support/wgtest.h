@@ -28,6 +28,17 @@ void wgt_write_file(const char *path, const char *text);
  * /dev/null, stdout and stderr into dir/out and dir/err. Returns its exit status (-1 if it did
  * not exit). */
 int wgt_shell(const char *dir, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* wgt_shell that must exit `want`: otherwise its stdout and stderr are printed and the test
+ * fails naming `what` (WGT_SH passes the command's own text). */
+void wgt_shell_expect(const char *dir, int want, const char *what, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+#define WGT_SH(dir, want, ...) wgt_shell_expect(dir, want, #__VA_ARGS__, __VA_ARGS__)
+/* An empty folder wgt_tmpdir()/name, made again if it was there (static rotating buffer, valid
+ * for the next 8 calls). */
+const char *wgt_fresh_dir(const char *name);
+/* Khronos' glTF-Validator (tools/gltf-validator) on `files`, relative to dir: no error and no
+ * warning, or the test fails with its report (and says how to install it when it is not). */
+void wgt_gltf_validate(const char *dir, const char *files);
 /* Does the path exist? */
 bool wgt_exists(const char *path);
 /* Occurrences of needle in the file at path (0 when the file does not exist). */
