@@ -38,7 +38,7 @@ command -v blender >/dev/null || {
 }
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
 ninja -C "$build" cli/wetgraph >/dev/null
-mat=$root/../shared/materials/bricks102_stonewall_1k
+. "$root/bench/bricks.sh"
 env=$root/../shared/env/$envname.hdr
 [[ -f "$env" ]] || { echo "run_cycles.sh: $env: no such environment map" >&2; exit 1; }
 if [[ -n "${OUT:-}" ]]; then
@@ -56,11 +56,7 @@ for el in $elevations; do
     "$build/cli/wetgraph" render "$root/bench/cycles_scene.wetgraph" -o "$d" -q \
         --size "$size" \
         --input environment="$env" \
-        --input basecolor="$mat/Bricks102_1K-JPG_Color.jpg" \
-        --input height="$mat/Bricks102_1K-JPG_Displacement.jpg" \
-        --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg" \
-        --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg" \
-        --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" \
+        "${bricks_inputs[@]}" \
         --set water_level="$level" --set elevation="$el"
     for l in $layers; do
         pv=$d/cycles_scene_preview.exr

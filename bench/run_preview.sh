@@ -20,7 +20,7 @@ threads=${3:-2}
 runs=${4:-3}
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
 ninja -C "$build" cli/wetgraph bench/preview_reference >/dev/null
-mat=$root/../shared/materials/bricks102_stonewall_1k
+. "$root/bench/bricks.sh"
 env=$root/../shared/env
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -28,11 +28,7 @@ render() {
     "$build/cli/wetgraph" render "$root/graphs/wet_preview.wetgraph" -o "$tmp/out" -q \
         --size "$size" --threads "$threads" --stats=json \
         --input environment="$env/venice_sunset_1k.hdr" \
-        --input basecolor="$mat/Bricks102_1K-JPG_Color.jpg" \
-        --input height="$mat/Bricks102_1K-JPG_Displacement.jpg" \
-        --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg" \
-        --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg" \
-        --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" \
+        "${bricks_inputs[@]}" \
         --set water_level=0.6 "$@"
 }
 # times (ms) of the preview nodes and of env_prefilter in a --stats=json report

@@ -23,17 +23,13 @@ threads=${3:-2}
 runs=${4:-3}
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
 ninja -C "$build" cli/wetgraph bench/bench_wet >/dev/null
-mat=$root/../shared/materials/bricks102_stonewall_1k
+. "$root/bench/bricks.sh"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 render() {
     "$build/cli/wetgraph" render "$root/graphs/wet_material.wetgraph" -o "$tmp/out" -q \
         --size "$size" --threads "$threads" --stats=json \
-        --input basecolor="$mat/Bricks102_1K-JPG_Color.jpg" \
-        --input height="$mat/Bricks102_1K-JPG_Displacement.jpg" \
-        --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg" \
-        --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg" \
-        --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" \
+        "${bricks_inputs[@]}" \
         --set water_level=0.65 "$@"
 }
 # node time (ms) of a --stats=json report, image loading excluded; then the computed count

@@ -26,25 +26,16 @@ runs=${4:-3}
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
 ninja -C "$build" cli/wetgraph bench/bench_wet >/dev/null
 py=${PYTHON:-/usr/bin/python3}  # the system python, which python3-opencv installs into
-mat=$root/../shared/materials/bricks102_stonewall_1k
+. "$root/bench/bricks.sh"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-inputs=(--input basecolor="$mat/Bricks102_1K-JPG_Color.jpg"
-    --input height="$mat/Bricks102_1K-JPG_Displacement.jpg"
-    --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg"
-    --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg"
-    --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" --set water_level=0.65)
+inputs=("${bricks_inputs[@]}" --set water_level=0.65)
 render() { # out-folder, extra args...
     local out=$1
     shift
     "$build/cli/wetgraph" render "$root/graphs/wet_material.wetgraph" -o "$out" -q \
         --size "$size" --threads "$threads" --stats=json \
-        --input basecolor="$mat/Bricks102_1K-JPG_Color.jpg" \
-        --input height="$mat/Bricks102_1K-JPG_Displacement.jpg" \
-        --input normal="$mat/Bricks102_1K-JPG_NormalGL.jpg" \
-        --input roughness="$mat/Bricks102_1K-JPG_Roughness.jpg" \
-        --input ao="$mat/Bricks102_1K-JPG_AmbientOcclusion.jpg" \
-        --set water_level=0.65 "$@"
+        "${inputs[@]}" "$@"
 }
 # "wall_ms total_ms write_ms kept written output_ms node_ms cpu_ms rss_mib" of one render
 timed() {
