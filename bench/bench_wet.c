@@ -168,7 +168,7 @@ int main(int argc, char **argv)
     printf("# first touch of new memory: %.1f ms of the first render's node time\n",
            first.node_ms - m->node_ms);
     double copy = bench_memcpy_ms((size_t)a.size * (size_t)a.size * sizeof(float), 9, false);
-    printf("# memcpy of a %dx%d float plane: %.2f ms; node time in such copies: first %.0f, "
+    printf("# memcpy of a %dx%d float plane: %.4f ms; node time in such copies: first %.0f, "
            "pooled %.0f\n",
            a.size, a.size, copy, first.node_ms / copy, m->node_ms / copy);
     /* per node, slowest pooled first */

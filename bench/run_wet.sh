@@ -74,7 +74,7 @@ def read(path):
 s, l, n = read(sys.argv[1]), read(sys.argv[2]), int(sys.argv[3])
 for (first, pooled, copy, hosts), size in ((s, n), (l, 2 * n)):
     print("%d²: node time first render %.0f ms (%.0f copies of a %d² plane), pooled %.0f ms "
-          "(%.0f copies), first touch %.0f ms; memcpy %.2f ms" % (size, first, first / copy, size,
+          "(%.0f copies), first touch %.0f ms; memcpy %.4f ms" % (size, first, first / copy, size,
           pooled, pooled / copy, first - pooled, copy))
     for h in hosts: print("  " + h[2:])
 print("%d² over %d²: first render %.2fx, pooled %.2fx (target at most 4.5x)" % (2 * n, n,
