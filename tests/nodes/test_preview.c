@@ -677,9 +677,7 @@ static void test_specular_level(void **state)
     wg_image_unref(white);
 }
 
-/* A tile with a round pit (height `floor` within radius 0.3 of the centre, 1 around it), a
- * disc of `inner` colour within radius 0.2 on its floor and `outer` elsewhere, and with water
- * the pit filled to height 0.85. */
+/* A PT x PT tile that is `inner` within radius r of the centre and `outer` around it. */
 enum { PT = 48 };
 static WgImage *pit_map(int ch, float inner, float outer, float r)
 {
@@ -692,6 +690,33 @@ static WgImage *pit_map(int ch, float inner, float outer, float r)
             for (int k = 0; k < ch; k++) p[k] = (ch == 4 && k == 3) ? 1 : v;
         }
     return img;
+}
+
+/* The scene the under-water cases look into: a round pit (floor at height 0.3 within radius 0.3
+ * of the centre, 1 around it), filled with water to height 0.85. */
+typedef struct {
+    WgImage *height, *water_height, *water_mask;
+} Pit;
+
+static Pit pit_open(void)
+{
+    return (Pit){pit_map(1, 0.3f, 1, 0.3f), pit_map(1, 0.85f, 1, 0.3f), pit_map(1, 1, 0, 0.3f)};
+}
+
+/* Connects the pit's height and, with water, its water. */
+static void pit_add(Inputs *in, const Pit *pit, bool water)
+{
+    in_add(in, "height", pit->height);
+    if (!water) return;
+    in_add(in, "water_height", pit->water_height);
+    in_add(in, "water_mask", pit->water_mask);
+}
+
+static void pit_close(Pit *pit)
+{
+    wg_image_unref(pit->water_mask);
+    wg_image_unref(pit->water_height);
+    wg_image_unref(pit->height);
 }
 
 static WgImage *gold_map(void)
@@ -720,29 +745,22 @@ static void centre_mean(const WgImage *img, double c[3])
 static WgImage *render_pit(const WgImage *atlas, const WgImage *base, const WgImage *metal,
                            bool water, const char *camera)
 {
-    WgImage *height = pit_map(1, 0.3f, 1, 0.3f), *rough = const_image(PT, PT, 1, 0.3f);
-    WgImage *wh = pit_map(1, 0.85f, 1, 0.3f), *mask = pit_map(1, 1, 0, 0.3f);
-    WgImage *wr = const_image(PT, PT, 1, 0.02f);
+    Pit pit = pit_open();
+    WgImage *rough = const_image(PT, PT, 1, 0.3f), *wr = const_image(PT, PT, 1, 0.02f);
     Inputs in = {0};
     in_add(&in, "environment", atlas);
     in_add(&in, "basecolor", base);
-    in_add(&in, "height", height);
     in_add(&in, "roughness", rough);
     in_add(&in, "metallic", metal);
-    if (water) {
-        in_add(&in, "water_height", wh);
-        in_add(&in, "water_roughness", wr);
-        in_add(&in, "water_mask", mask);
-    }
+    pit_add(&in, &pit, water);
+    if (water) in_add(&in, "water_roughness", wr);
     char attrs[256];
     snprintf(attrs, sizeof attrs, LINEAR "azimuth=\"0\" fov=\"30\" height_scale=\"0.1\" %s",
              camera);
     WgImage *out = preview(attrs, AW, AH, &in, 2);
     wg_image_unref(wr);
-    wg_image_unref(mask);
-    wg_image_unref(wh);
     wg_image_unref(rough);
-    wg_image_unref(height);
+    pit_close(&pit);
     return out;
 }
 
@@ -877,19 +895,16 @@ static void test_specular_under_water(void **state)
     (void)state;
     WgImage *env = wgt_image_fn(AW, AH, 4, env_sky), *atlas = prefilter(env, 2);
     WgImage *black = const_image(PT, PT, 4, 0.02f), *zero = const_image(PT, PT, 1, 0);
-    WgImage *height = pit_map(1, 0.3f, 1, 0.3f), *wh = pit_map(1, 0.85f, 1, 0.3f);
-    WgImage *mask = pit_map(1, 1, 0, 0.3f);
+    Pit pit = pit_open();
     double c[2][3];
     for (int i = 0; i < 2; i++) {
         WgImage *sp = const_image(PT, PT, 1, i ? 1.0f : 0.0f);
         Inputs in = {0};
         in_add(&in, "environment", atlas);
         in_add(&in, "basecolor", black);
-        in_add(&in, "height", height);
         in_add(&in, "roughness", zero);
         in_add(&in, "specular", sp);
-        in_add(&in, "water_height", wh);
-        in_add(&in, "water_mask", mask);
+        pit_add(&in, &pit, true);
         WgImage *out = preview(LINEAR "elevation=\"70\" azimuth=\"0\" fov=\"30\" zoom=\"2\" "
                                       "height_scale=\"0.1\"",
                                AW, AH, &in, 2);
@@ -900,9 +915,7 @@ static void test_specular_under_water(void **state)
     print_message("under water, specular 0: %g, specular 1: %g\n", c[0][1], c[1][1]);
     if (!(c[1][1] > c[0][1] * 1.5))
         fail_msg("specular 1 under water %g is not well above specular 0 %g", c[1][1], c[0][1]);
-    wg_image_unref(mask);
-    wg_image_unref(wh);
-    wg_image_unref(height);
+    pit_close(&pit);
     wg_image_unref(zero);
     wg_image_unref(black);
     wg_image_unref(atlas);
@@ -914,14 +927,12 @@ static void test_specular_under_water(void **state)
  * tint darkens the blue of a white floor under the water far more than its red. */
 static WgImage *render_tinted(const WgImage *atlas, const char *tint_attr, const WgImage *tint)
 {
-    WgImage *white = const_image(PT, PT, 4, 1), *height = pit_map(1, 0.3f, 1, 0.3f);
-    WgImage *wh = pit_map(1, 0.85f, 1, 0.3f), *mask = pit_map(1, 1, 0, 0.3f);
+    WgImage *white = const_image(PT, PT, 4, 1);
+    Pit pit = pit_open();
     Inputs in = {0};
     in_add(&in, "environment", atlas);
     in_add(&in, "basecolor", white);
-    in_add(&in, "height", height);
-    in_add(&in, "water_height", wh);
-    in_add(&in, "water_mask", mask);
+    pit_add(&in, &pit, true);
     if (tint) in_add(&in, "water_tint", tint);
     char attrs[256];
     snprintf(attrs, sizeof attrs,
@@ -929,9 +940,7 @@ static WgImage *render_tinted(const WgImage *atlas, const char *tint_attr, const
                     "zoom=\"2\" absorption_depth=\"1\" %s",
              tint_attr);
     WgImage *out = preview(attrs, AW, AH, &in, 2);
-    wg_image_unref(mask);
-    wg_image_unref(wh);
-    wg_image_unref(height);
+    pit_close(&pit);
     wg_image_unref(white);
     return out;
 }
