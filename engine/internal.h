@@ -47,6 +47,9 @@ void wg__key_index_free(WgKeyIndex *ix);
 const WgNodeType *wg__node_type_lookup(const char *name);
 /* The first `max` names of that table, in order; returns how many. */
 int wg__node_type_names(const char **names, int max);
+/* The identity of the plugin a type came from (plugin.c), which enters its cache keys, or
+ * NULL for a type of the table the library started with. */
+const uint64_t *wg__node_type_plugin_key(const WgNodeType *t);
 
 /* ---- values ------------------------------------------------------------------------------ */
 
