@@ -85,9 +85,10 @@ typedef struct WgTestkitHardReport {
 /* Each case replaces every input (keeping its channels): zeros (an empty mask), ones (a full
  * mask), flat 0.5, huge (1e6), negative (-1), nan and inf (a noise with one NaN or +Inf
  * pixel), 1x1 and 13x5 (noise at that size, the node at that size); a source runs at 1x1, 13x5
- * and 1x64. A finite case passes when the render succeeds with a finite output; nan and inf
- * pass when the render refuses them with an error or returns; every case fails on a crash or
- * after 60 s. */
+ * and 1x64. A case of values passes when the render succeeds with a finite output; nan and inf
+ * pass when the render refuses them with an error or returns; a case of size passes when the
+ * render succeeds with a finite output or refuses the size with an error (a node may need
+ * sizes, as env_prefilter a square); every case fails on a crash or after 60 s. */
 bool wg_testkit_check_hard_inputs(const WgTestkitNode *n, WgTestkitHardReport *rep);
 
 /* Images for tests (the caller owns them; NULL for a bad size). */
