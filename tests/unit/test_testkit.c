@@ -8,6 +8,7 @@
 
 #include <math.h>
 #include <signal.h>
+#include <unistd.h>
 #include <string.h>
 #include <wetgraph/testkit.h>
 
@@ -65,7 +66,7 @@ static int off_eval(WgNodeContext *ctx, WgError *err)
 }
 
 /* Adds how many chunks this worker thread has done before: the same work, another answer on
- * another number of threads. */
+ * another number of threads. Each chunk takes a millisecond, so that every worker gets some. */
 static _Thread_local int chunks_done;
 
 typedef struct {
@@ -76,6 +77,7 @@ static void threads_rows(void *user, int y0, int y1)
 {
     WgNodeContext *ctx = ((Rows *)user)->ctx;
     float add = (float)chunks_done++;
+    usleep(1000);
     for (int y = y0; y < y1; y++) {
         const float *s = wg_image_row(ctx->inputs[0], y);
         float *d = wg_image_row(ctx->outputs[0], y);
