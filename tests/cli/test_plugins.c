@@ -3,8 +3,9 @@
  * `--plugin LIB` and WETGRAPH_PLUGIN_PATH add its type to `nodes`, `info` and renders; every
  * fault the loader refuses (no such file, not a library, no entry point, another ABI, an
  * invalid descriptor, no eval, a built-in's name, another plugin's name) is a usage error
- * naming the file and what is wrong; and a replaced plugin never gets its predecessor's cached
- * results. */
+ * naming the file and what is wrong; a replaced plugin never gets its predecessor's cached
+ * results; and the plugin template (examples/node-plugin) builds against the installed library
+ * with pkg-config, passes its own test-kit tests and renders from the CLI through --plugin. */
 #include "wgtest.h"
 
 #include <stdio.h>
@@ -135,12 +136,37 @@ static void test_replaced_plugin_is_not_served_from_the_cache(void **state)
     assert_float_equal(value_of(d, "c2/g_out.exr"), 0.875f, 1e-7);
 }
 
+static void test_template_builds_against_the_installed_tree(void **state)
+{
+    (void)state;
+    const char *build = getenv("WETGRAPH_BUILD_ROOT"), *src = getenv("WETGRAPH_SOURCE"),
+               *san = getenv("WETGRAPH_SANITIZE");
+    assert_non_null(build);
+    assert_non_null(src);
+    const char *d = wgt_fresh_dir("template");
+    WGT_SH(d, 0, "meson install -C '%s' --no-rebuild --quiet --destdir \"$PWD/dest\"", build);
+    /* the installed .pc names the prefix: the sysroot puts it under dest */
+    WGT_SH(d, 0,
+           "pc=$(dirname \"$(find \"$PWD/dest\" -name wetgraph.pc)\") && "
+           "PKG_CONFIG_SYSROOT_DIR=\"$PWD/dest\" PKG_CONFIG_PATH=\"$pc\" meson setup ex "
+           "'%s/examples/node-plugin' -Db_sanitize=%s > setup.log && ninja -C ex > build.log",
+           src, san && san[0] ? san : "none");
+    WGT_SH(d, 0,
+           "LD_LIBRARY_PATH=\"$(dirname \"$(find \"$PWD/dest\" -name 'libwetgraph.so' | head -1)\")\" "
+           "meson test -C ex --print-errorlogs > test.log || { cat test.log; exit 1; }");
+    assert_int_equal(wgt_count_in(wgt_join(d, "ex/meson-logs/testlog.txt"), "0 checks failed"), 1);
+    WGT_SH(d, 0, "$WG render '%s/examples/node-plugin/slope_demo.wetgraph' --plugin ex/dir_slope.so "
+           "-o rendered -q", src);
+    assert_true(wgt_exists(wgt_join(d, "rendered/slope_demo_slope.png")));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_plugin_types_are_everywhere),
         cmocka_unit_test(test_loader_errors),
         cmocka_unit_test(test_replaced_plugin_is_not_served_from_the_cache),
+        cmocka_unit_test(test_template_builds_against_the_installed_tree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
