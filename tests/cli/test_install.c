@@ -140,6 +140,8 @@ static void test_completion(void **state)
         {"render -o out --threads 2 wet_material --set water_level = 0.5 --output wat",
          "watermask", "basecolor"},
         {"render wet_material --input he", "height=", "water_level"},
+        {"render wet_material --plug", "--plugin", NULL},
+        {"nodes --plugin ", NULL, "blur"},
         {"nodes bl", "blur", "noise"},
         {"info texturing --json", NULL, NULL},
     };
