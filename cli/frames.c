@@ -194,7 +194,7 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
         if (!rc && stream && o->contact_sheet && (img = stream_first(stream, &img_space)))
             img = wg_image_ref(img); /* outlives the stream */
         if (stream) {
-            rc = stream_finish(stream, rc, err);
+            rc = stream_finish(stream, res, rc, err);
             totals.output_ms += rc ? 0 : stream_last_output_ms();
             wg_request_set_output_fn(r, NULL, NULL);
         }

@@ -40,8 +40,9 @@ bool gltf_needs_output(const Options *o, const WgGraph *g, const char *output)
     return false;
 }
 
-int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *user, int frame,
-               WgWriteSet *set, char (*paths)[4096], int *n_paths, WgError *err)
+int gltf_stage(const Options *o, const WgGraph *g, const WgResult *res, GltfImageOf image_of,
+               void *user, int frame, WgWriteSet *set, char (*paths)[4096], int *n_paths,
+               WgError *err)
 {
     *n_paths = 0;
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {
@@ -50,7 +51,7 @@ int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *u
         WgGltfAsset a = {.name = info->name,
                          .binary = info->binary,
                          .grid = info->grid,
-                         .height_scale = info->height_scale,
+                         .height_scale = wg_result_gltf_height_scale(res, i),
                          .repeat = info->repeat};
         for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++) {
             if (!info->maps[k]) continue;

@@ -92,9 +92,16 @@ static void print_json(const WgGraph *g)
         const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
         printf("%s\n    {\"name\": ", i ? "," : "");
         cli_json_string(stdout, a->name);
-        printf(", \"binary\": %s, \"grid\": %d, \"height_scale\": %.17g, \"repeat\": %.17g, "
-               "\"maps\": {",
-               a->binary ? "true" : "false", a->grid, a->height_scale, a->repeat);
+        printf(", \"binary\": %s, \"grid\": %d, \"height_scale\": ", a->binary ? "true" : "false",
+               a->grid);
+        if (a->height_scale_expr) { /* an expression: its text, as written */
+            char text[1100];
+            snprintf(text, sizeof text, "=%s", a->height_scale_expr);
+            cli_json_string(stdout, text);
+        } else {
+            printf("%.17g", a->height_scale);
+        }
+        printf(", \"repeat\": %.17g, \"maps\": {", a->repeat);
         for (int k = 0, n = 0; k < WG_GLTF_SLOT_COUNT; k++) {
             if (!a->maps[k]) continue;
             printf("%s\"%s\": ", n++ ? ", " : "", gltf_slot_name(k));
@@ -149,7 +156,10 @@ static void print_text(const WgGraph *g)
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {
         const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
         printf("  %-20s %s", a->name, a->binary ? ".glb" : ".gltf");
-        if (a->grid) printf(", grid %d, height scale %g", a->grid, a->height_scale);
+        if (a->grid && a->height_scale_expr)
+            printf(", grid %d, height scale =%s", a->grid, a->height_scale_expr);
+        else if (a->grid)
+            printf(", grid %d, height scale %g", a->grid, a->height_scale);
         if (a->repeat != 1) printf(", repeat %g", a->repeat);
         for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++)
             if (a->maps[k]) printf(", %s %s", gltf_slot_name(k), a->maps[k]);

@@ -999,7 +999,7 @@ static const WgImage *stream_image_of(void *user, const char *output)
 /* After the render (render_rc its outcome): on success the staged files, and the glTF assets
  * made from the images held for them, are renamed into place together and listed; in any case
  * the stream is freed, and with it every temporary left. */
-int stream_finish(Stream *s, int render_rc, WgError *err)
+int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err)
 {
     double t0 = now_ms();
     int rc = render_rc;
@@ -1012,7 +1012,8 @@ int stream_finish(Stream *s, int render_rc, WgError *err)
     for (int i = 0; !rc && i < s->n; i++)
         if (s->sets[i]) rc = wg_write_set_move(set, s->sets[i], err);
     if (!rc)
-        rc = gltf_stage(s->o, s->g, stream_image_of, s, s->frame, set, gltf_paths, &n_gltf, err);
+        rc = gltf_stage(s->o, s->g, res, stream_image_of, s, s->frame, set, gltf_paths, &n_gltf,
+                        err);
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     for (int i = 0; !rc && i < s->n; i++)
@@ -1145,7 +1146,7 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     char(*gltf_paths)[4096] = calloc((size_t)wg_graph_gltf_count(g) + 1, sizeof *gltf_paths);
     if (!rc && !gltf_paths) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     if (!rc && separate)
-        rc = gltf_stage(o, g, gltf_image_of_result, (void *)res, frame, set, gltf_paths, &n_gltf,
+        rc = gltf_stage(o, g, res, gltf_image_of_result, (void *)res, frame, set, gltf_paths, &n_gltf,
                         err);
     free(wpaths);
     free(wimages);
@@ -1279,7 +1280,7 @@ int cmd_render(int argc, char **argv)
         if (!rc && !o.quiet)
             for (int i = 0; i < wg_result_warning_count(res); i++)
                 cli_warning(wg_result_warning(res, i), NULL);
-        if (stream_finish(s, rc, &err)) goto fail;
+        if (stream_finish(s, res, rc, &err)) goto fail;
         if (o.stats) print_stats(e, res, o.stats_json);
     }
     status = EXIT_OK;

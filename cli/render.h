@@ -79,8 +79,10 @@ typedef const WgImage *(*GltfImageOf)(void *user, const char *output);
 bool gltf_selected(const Options *o, const WgGraph *g, int i);
 bool gltf_needs_output(const Options *o, const WgGraph *g, const char *output);
 int gltf_request_outputs(const Options *o, const WgGraph *g, WgRequest *r, WgError *err);
-int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *user, int frame,
-               WgWriteSet *set, char (*paths)[4096], int *n_paths, WgError *err);
+/* Stage the selected assets of res's render (their height_scale is res's) into set. */
+int gltf_stage(const Options *o, const WgGraph *g, const WgResult *res, GltfImageOf image_of,
+               void *user, int frame, WgWriteSet *set, char (*paths)[4096], int *n_paths,
+               WgError *err);
 const WgImage *gltf_image_of_result(void *user, const char *output); /* user: a WgResult */
 /* With --cache-max: remove the cache folder's least recently used entries until it holds at
  * most that much (with --stats, say what went, on stderr). */
@@ -95,12 +97,12 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
  * makes the output folder and the state for one render (frame >= 0: with "_<frame>" in the
  * names; keep_first: keep output 0's image for stream_first); give the request
  * wg_request_set_output_fn(r, stream_output, s), render, then stream_finish(s, the render's
- * status) renames the files into place (only when that status is WG_OK) and frees s. */
+ * result and status) renames the files into place (only when that status is WG_OK) and frees s. */
 typedef struct Stream Stream;
 int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, Stream **out,
                WgError *err);
 int stream_output(void *user, const WgOutputInfo *out, WgError *err);
-int stream_finish(Stream *s, int render_rc, WgError *err);
+int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err);
 /* The time of the output calls of the last stream_finish that succeeded, summed (ms). */
 double stream_last_output_ms(void);
 /* Output 0's image (NULL unless kept) and its colour space; owned by the stream. */

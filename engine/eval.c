@@ -123,6 +123,8 @@ struct WgResult {
     double total_ms;
     WgWarning *warnings; /* taken over from the plan */
     int n_warnings;
+    double *gltf_height_scales; /* taken over from the plan */
+    int n_gltfs;
 };
 
 double wg__now_ms(void)
@@ -1171,6 +1173,11 @@ static int plan_work(Run *run, WgError *err)
 
 /* ---- render ------------------------------------------------------------------------------ */
 
+double wg_result_gltf_height_scale(const WgResult *r, int i)
+{
+    return r && i >= 0 && i < r->n_gltfs ? r->gltf_height_scales[i] : 0;
+}
+
 void wg_result_free(WgResult *r)
 {
     if (!r) return;
@@ -1185,6 +1192,7 @@ void wg_result_free(WgResult *r)
     for (int i = 0; i < r->n_stats; i++) wg_free((char *)r->stats[i].id);
     wg_free(r->stats);
     wg_warnings_free(r->warnings, r->n_warnings);
+    wg_free(r->gltf_height_scales);
     wg_free(r);
 }
 
@@ -1237,6 +1245,9 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     r->n_warnings = p->n_warnings;
     p->warnings = NULL;
     p->n_warnings = 0;
+    r->gltf_height_scales = p->gltf_height_scales;
+    r->n_gltfs = p->n_gltfs;
+    p->gltf_height_scales = NULL;
     *out = r;
     return WG_OK;
 }

@@ -76,8 +76,11 @@ void wg_graph_free(WgGraph *g)
     for (int i = 0; i < g->n_gltfs; i++) {
         wg_free((char *)g->gltfs[i].name);
         for (int k = 0; k < WG_GLTF_SLOT_COUNT; k++) wg_free((char *)g->gltfs[i].maps[k]);
+        wg_free((char *)g->gltfs[i].height_scale_expr);
+        if (g->gltf_height_exprs) wg_expr_free(g->gltf_height_exprs[i]);
     }
     wg_free(g->gltfs);
+    wg_free(g->gltf_height_exprs);
     wg_free(g->output_node);
     wg_free(g->output_port);
     wg_free(g->output_input);

@@ -174,6 +174,7 @@ struct WgGraph {
     WarningDef *warnings;
     int n_warnings;
     WgGraphGltfInfo *gltfs;
+    WgExpr **gltf_height_exprs; /* per gltf: its height_scale expression, or NULL */
     int n_gltfs;
     WgGraphNodeInfo *node_info;
     /* instances one instantiation of this graph can make: its built-in nodes and inputs plus,
@@ -244,6 +245,9 @@ typedef struct WgPlan {
     bool reads_time;     /* an instance reads $time (a timed node, an expression, a node's scope) */
     WgWarning *warnings; /* the <warning>s that apply, in instantiation order (owned strings) */
     int n_warnings;
+    double *gltf_height_scales; /* per <gltf> of the top graph: its height_scale for this
+                                   request (an expression evaluated), or NULL without any */
+    int n_gltfs;
 } WgPlan;
 
 struct WgRequest {

@@ -138,6 +138,7 @@ void wg__plan_free(WgPlan *plan)
     for (int i = 0; i < plan->n_outputs; i++) wg_free(plan->outputs[i].name);
     wg_free(plan->outputs);
     wg_warnings_free(plan->warnings, plan->n_warnings);
+    wg_free(plan->gltf_height_scales);
     memset(plan, 0, sizeof *plan);
 }
 
@@ -1095,6 +1096,35 @@ static int top_size(Builder *b, const WgGraph *g, int *w, int *h)
                            s, s + 1, s + 1);
 }
 
+/* The height_scale of each <gltf> of the top graph for this request: a number as written, an
+ * expression evaluated over the parameters' values, which must give 0 .. 1e6. */
+static int gltf_height_scales(Builder *b, const Frame *f)
+{
+    const WgGraph *g = f->g;
+    if (g->n_gltfs == 0) return WG_OK;
+    double *slots = wg_calloc((size_t)g->n_params + WG_SCOPE_COUNT_, sizeof(double));
+    b->plan->gltf_height_scales = wg_calloc((size_t)g->n_gltfs, sizeof(double));
+    if (!slots || !b->plan->gltf_height_scales) {
+        wg_free(slots);
+        return wg_error_set(b->err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    fill_scope(f, slots, f->seed, f->width, f->height);
+    b->plan->n_gltfs = g->n_gltfs;
+    int rc = WG_OK;
+    for (int i = 0; i < g->n_gltfs && !rc; i++) {
+        const WgGraphGltfInfo *a = &g->gltfs[i];
+        double v = a->height_scale;
+        if (g->gltf_height_exprs[i]) v = wg_expr_eval(g->gltf_height_exprs[i], slots);
+        if (!(v >= 0 && v <= 1e6))
+            rc = wg_error_set_at(b->err, WG_ERR_RANGE, g->path, a->line, 0,
+                                 "gltf '%s': height_scale =%s gives %g, outside 0 .. 1e6", a->name,
+                                 a->height_scale_expr, v);
+        b->plan->gltf_height_scales[i] = v;
+    }
+    wg_free(slots);
+    return rc;
+}
+
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
 {
     memset(plan, 0, sizeof *plan);
@@ -1115,6 +1145,7 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
         if ((rc = wg__value_copy(&top->values[i], &r->values[i]))) goto out;
     }
     if ((rc = frame_warnings(&b, top))) goto out;
+    if ((rc = gltf_height_scales(&b, top))) goto out;
     for (int i = 0; i < g->n_inputs; i++) {
         const InputDef *d = &g->inputs[i];
         char id[300];

@@ -1022,8 +1022,23 @@ static int parse_gltf(Doc *d, WgGraph *g, xmlNodePtr x)
     a->binary = binary && !strcmp(binary, "true");
     wg_free(binary);
     double grid;
+    char *hs = NULL;
+    if ((rc = attr(d, x, "height_scale", &hs))) return rc;
+    if (hs && hs[0] == '=') {
+        /* an expression over the graph's parameters, evaluated for each render; the graph
+         * owns its text (the '=' dropped) from here */
+        memmove(hs, hs + 1, strlen(hs));
+        a->height_scale_expr = hs;
+        rc = parse_scope_expr(d, g, hs,
+                              attr_line(xmlHasProp(x, (const xmlChar *)"height_scale"), line),
+                              "gltf, attribute 'height_scale'",
+                              &g->gltf_height_exprs[g->n_gltfs - 1]);
+        if (rc) return rc;
+    } else {
+        wg_free(hs);
+        if ((rc = gltf_number(d, x, "height_scale", 0, 1e6, false, 0, &a->height_scale))) return rc;
+    }
     if ((rc = gltf_number(d, x, "grid", 0, 4096, true, 0, &grid)) ||
-        (rc = gltf_number(d, x, "height_scale", 0, 1e6, false, 0, &a->height_scale)) ||
         (rc = gltf_number(d, x, "repeat", 1, 1e6, false, 1, &a->repeat)))
         return rc;
     a->grid = (int)grid;
@@ -1221,6 +1236,8 @@ static int load_doc(LoadCtx *lc, xmlDocPtr doc, const char *path, WgGraph **out,
     if (!rc && !(g->warnings = wg_calloc((size_t)counts[4] + 1, sizeof(WarningDef))))
         rc = nomem(err);
     if (!rc && !(g->gltfs = wg_calloc((size_t)counts[5] + 1, sizeof(WgGraphGltfInfo))))
+        rc = nomem(err);
+    if (!rc && !(g->gltf_height_exprs = wg_calloc((size_t)counts[5] + 1, sizeof(WgExpr *))))
         rc = nomem(err);
     /* declarations first so node attributes can refer to any parameter */
     for (xmlNodePtr c = root->children; c && !rc; c = c->next) {

@@ -116,6 +116,70 @@ static void test_assets_follow_the_name_pattern(void **state)
     assert_false(wgt_exists(wgt_join(d, "x")));
 }
 
+/* The z extent (min, max) of the grid's POSITION accessor in a written .gltf. */
+static void grid_depth(const char *d, const char *gltf, double *lo, double *hi)
+{
+    WGT_SH(d, 0,
+           "python3 -c 'import json,sys; a=json.load(open(sys.argv[1])); "
+           "p=a[\"accessors\"][a[\"meshes\"][0][\"primitives\"][0][\"attributes\"][\"POSITION\"]]; "
+           "print(p[\"min\"][1], p[\"max\"][1])' %s > depth.txt",
+           gltf);
+    FILE *f = fopen(wgt_join(d, "depth.txt"), "r");
+    assert_non_null(f);
+    assert_int_equal(fscanf(f, "%lf %lf", lo, hi), 2);
+    fclose(f);
+}
+
+/* height_scale="=expression" follows the graph's parameters, render by render; a value out of
+ * range is an error naming the asset and the expression; a bad name is refused at load. */
+static void test_height_scale_follows_the_parameters(void **state)
+{
+    (void)state;
+    const char *d = wgt_fresh_dir("depth");
+    wgt_write_file(wgt_join(d, "h.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"32\">\n"
+                   "  <param name=\"depth\" type=\"float\" default=\"8\" min=\"-100\" "
+                   "max=\"100\"/>\n"
+                   "  <node id=\"n\" type=\"noise\" scale=\"2\"/>\n"
+                   "  <node id=\"c\" type=\"uniform\" kind=\"color\" color=\"0.5 0.4 0.3 1\"/>\n"
+                   "  <output name=\"base\" from=\"c\"/>\n"
+                   "  <output name=\"h\" from=\"n\"/>\n"
+                   "  <gltf name=\"relief\" base_color=\"base\" height=\"h\" grid=\"8\"\n"
+                   "        height_scale=\"=depth / 256\"/>\n"
+                   "</wetgraph>\n");
+    double lo1, hi1, lo2, hi2;
+    WGT_SH(d, 0, "$WG render h.wetgraph -o a -q");
+    grid_depth(d, "a/h_relief.gltf", &lo1, &hi1);
+    WGT_SH(d, 0, "$WG render h.wetgraph -o b -q --set depth=32");
+    grid_depth(d, "b/h_relief.gltf", &lo2, &hi2);
+    /* the relief lies below the plane, height_scale · (h − 1): four times deeper */
+    assert_true(lo1 < -0.001);
+    assert_float_equal(lo2, 4 * lo1, 1e-6);
+    wgt_gltf_validate(d, "b/h_relief.gltf");
+    WGT_SH(d, 0, "$WG info h.wetgraph");
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "height scale =depth / 256"), 1);
+    WGT_SH(d, 0, "$WG info h.wetgraph --json > info.json && python3 -c 'import json; "
+           "print(json.load(open(\"info.json\"))[\"gltf\"][0][\"height_scale\"])'");
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "=depth / 256"), 1);
+    /* a negative depth: refused before anything is written */
+    WGT_SH(d, 2, "$WG render h.wetgraph -o c -q --set depth=-10");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "gltf 'relief': height_scale =depth / 256 "
+                                                      "gives -0.0390625, outside 0 .. 1e6"),
+                     1);
+    assert_false(wgt_exists(wgt_join(d, "c")));
+    /* a name the graph does not have */
+    wgt_write_file(wgt_join(d, "bad.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"32\">\n"
+                   "  <param name=\"depth\" type=\"float\" default=\"8\"/>\n"
+                   "  <node id=\"c\" type=\"uniform\" kind=\"color\" color=\"0.5 0.4 0.3 1\"/>\n"
+                   "  <output name=\"base\" from=\"c\"/>\n"
+                   "  <gltf name=\"relief\" base_color=\"base\" height_scale=\"=dept / 256\"/>\n"
+                   "</wetgraph>\n");
+    WGT_SH(d, 2, "$WG check bad.wetgraph");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "bad.wetgraph:5"), 1);
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "did you mean 'depth'?"), 1);
+}
+
 static void test_frames_batches_and_failures(void **state)
 {
     (void)state;
@@ -161,6 +225,7 @@ int main(void)
         cmocka_unit_test(test_render_writes_the_assets),
         cmocka_unit_test(test_output_selects_an_asset),
         cmocka_unit_test(test_assets_follow_the_name_pattern),
+        cmocka_unit_test(test_height_scale_follows_the_parameters),
         cmocka_unit_test(test_frames_batches_and_failures),
         cmocka_unit_test(test_wet_gltf),
     };

@@ -213,6 +213,9 @@ double wg_result_total_ms(const WgResult *r);
 /* The warnings that applied to the render (as wg_request_warnings), owned by the result. */
 int wg_result_warning_count(const WgResult *r);
 const WgWarning *wg_result_warning(const WgResult *r, int i);
+/* The height_scale of the graph's glTF asset i (wg_graph_gltf_info) for this render: its
+ * expression evaluated with the request's parameters, or the number written. */
+double wg_result_gltf_height_scale(const WgResult *r, int i);
 void wg_result_free(WgResult *r);
 
 #ifdef __cplusplus

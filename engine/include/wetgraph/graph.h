@@ -100,6 +100,9 @@ typedef struct WgGraphGltfInfo {
     bool binary;
     int grid;
     double height_scale, repeat;
+    /* height_scale written as "=expression" over the graph's parameters: its text (after '=');
+     * height_scale is then 0 and a render's value is wg_result_gltf_height_scale */
+    const char *height_scale_expr;
     int line;
 } WgGraphGltfInfo;
 int wg_graph_gltf_count(const WgGraph *g);
