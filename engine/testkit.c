@@ -237,6 +237,46 @@ int wg_testkit_run(const WgTestkitNode *n, int threads, WgImage **out, WgError *
     return run_how(n, &how, w, h, out, err);
 }
 
+int wg_testkit_run_graph(const char *xml, const char *path, const char *const *params,
+                         const char *const *input_names, const WgImage *const *inputs,
+                         const char *output, int threads, WgImage **out, WgError *err)
+{
+    *out = NULL;
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgEngine *e = NULL;
+    WgResult *res = NULL;
+    int rc = wg_graph_load_memory(xml, strlen(xml), path ? path : "testkit.wetgraph", &g, err);
+    if (!rc && !(r = wg_request_new(g))) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int k = 0; !rc && params && params[k]; k++) {
+        const char *eq = strchr(params[k], '=');
+        char name[256];
+        if (!eq || (size_t)(eq - params[k]) >= sizeof name) {
+            rc = wg_error_set(err, WG_ERR_USAGE, NULL, "parameter '%s' is not name=value",
+                              params[k]);
+            break;
+        }
+        snprintf(name, sizeof name, "%.*s", (int)(eq - params[k]), params[k]);
+        rc = wg_request_set(r, name, eq + 1, err);
+    }
+    for (int i = 0; !rc && input_names && input_names[i]; i++)
+        rc = wg_request_set_input_image(r, input_names[i], inputs[i], err);
+    if (!rc && output) rc = wg_request_add_output(r, output, err);
+    WgEngineOptions opt = {0};
+    opt.threads = threads;
+    opt.no_memory_cache = true;
+    if (!rc) rc = wg_engine_new(&opt, &e, err);
+    if (!rc) rc = wg_render(e, r, &res, err);
+    if (!rc && wg_result_output_count(res) < 1)
+        rc = wg_error_set(err, WG_ERR_USAGE, NULL, "the graph has no output");
+    if (!rc) *out = wg_image_ref(wg_result_output_image(res, 0));
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(r);
+    wg_graph_free(g);
+    return rc;
+}
+
 /* ---- comparing ----------------------------------------------------------------------------- */
 
 static bool same_value(double got, double want, double tol, double *diff)

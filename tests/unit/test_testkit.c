@@ -208,6 +208,43 @@ static void test_reference_comparison(void **state)
     wg_image_unref(in);
 }
 
+/* A small graph: a node of the kit's types between two built-in ones, a parameter set, an
+ * image fed; its output against a float64 reference. */
+static void test_run_graph(void **state)
+{
+    (void)state;
+    static const char *const xml =
+        "<wetgraph version=\"1\" size=\"40x36\">\n"
+        "  <param name=\"k\" type=\"float\" default=\"1\" min=\"0\" max=\"10\"/>\n"
+        "  <input name=\"src\" type=\"gray\"/>\n"
+        "  <node id=\"a\" type=\"kit_off\" gain=\"=k\"><in name=\"source\" from=\"$src\"/></node>\n"
+        "  <node id=\"b\" type=\"pixel\" expr=\"x - 1e-3\"><in name=\"x\" from=\"a\"/></node>\n"
+        "  <output name=\"out\" from=\"b\"/>\n"
+        "  <output name=\"raw\" from=\"a\"/>\n"
+        "</wetgraph>\n";
+    static const char *const k2[] = {"k=2", NULL};
+    static const char *const names[] = {"src", NULL};
+    WgImage *in = wg_testkit_image_noise(40, 36, 1, 7);
+    const WgImage *inputs[] = {in};
+    WgImage *out = NULL;
+    WgError err = {0};
+    if (wg_testkit_run_graph(xml, NULL, k2, names, inputs, NULL, 2, &out, &err))
+        fail_msg("%s", err.message);
+    WgTestkitReport rep;
+    if (!wg_testkit_compare_fn(out, times_two, in, 1e-6, &rep)) fail_msg("%s", rep.message);
+    wg_image_unref(out);
+    /* another output by name: off by the 1e-3 */
+    if (wg_testkit_run_graph(xml, NULL, k2, names, inputs, "raw", 1, &out, &err))
+        fail_msg("%s", err.message);
+    assert_false(wg_testkit_compare_fn(out, times_two, in, 1e-4, &rep));
+    wg_image_unref(out);
+    /* errors come back as the engine's */
+    static const char *const bad[] = {"k=20", NULL};
+    assert_int_not_equal(wg_testkit_run_graph(xml, NULL, bad, names, inputs, NULL, 1, &out, &err), 0);
+    assert_null(out);
+    wg_image_unref(in);
+}
+
 static void test_tiling(void **state)
 {
     (void)state;
@@ -286,6 +323,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_reference_comparison),
+        cmocka_unit_test(test_run_graph),
         cmocka_unit_test(test_tiling),
         cmocka_unit_test(test_seamless),
         cmocka_unit_test(test_invariance),

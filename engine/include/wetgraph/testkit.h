@@ -5,6 +5,7 @@
  * images fed to its input ports. The kit renders it through a small graph with the engine (so
  * parameters are parsed, checked and resampled exactly as in a .wetgraph file) and checks:
  *
+ *   wg_testkit_run_graph      a small graph of several nodes, rendered the same way;
  *   wg_testkit_compare_fn     the output against a float64 reference function, within a
  *                             tolerance, reporting the worst pixel;
  *   wg_testkit_check_tiling   wrap-around: a rolled input gives the rolled output;
@@ -51,6 +52,15 @@ typedef struct WgTestkitReport {
 /* Render the node with `threads` workers (0: the machine's). *out is the checked output port's
  * image (the caller owns it). The engine's error otherwise. */
 int wg_testkit_run(const WgTestkitNode *n, int threads, WgImage **out, WgError *err);
+
+/* Render a small graph given as text (a .wetgraph document; `path` names it in errors and
+ * resolves relative files, may be NULL) with `threads` workers: its parameters set from
+ * "name=value" texts (NULL-terminated, or NULL), its image inputs fed (input_names and inputs,
+ * NULL-terminated names), and *out the image of its output `output` (NULL: the first). The
+ * caller owns *out. The engine's error otherwise. */
+int wg_testkit_run_graph(const char *xml, const char *path, const char *const *params,
+                         const char *const *input_names, const WgImage *const *inputs,
+                         const char *output, int threads, WgImage **out, WgError *err);
 
 /* got against ref(user, x, y, c), computed in double: |got - ref| <= tol everywhere (NaN only
  * where ref is NaN). */
