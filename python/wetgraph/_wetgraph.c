@@ -1109,22 +1109,27 @@ static int Graph_set_size(GraphObject *self, PyObject *value, void *closure)
         self->width = self->height = 0;
         return 0;
     }
-    int w, h;
+    long w, h;
     if (PyLong_Check(value)) {
-        w = h = PyLong_AsLong(value) > INT_MAX ? INT_MAX : (int)PyLong_AsLong(value);
-    } else if (!PyArg_ParseTuple(value, "ii;size is (width, height), a number or None", &w, &h)) {
+        w = h = PyLong_AsLong(value);
+    } else if (PyTuple_Check(value)) {
+        if (!PyArg_ParseTuple(value, "ll;size is (width, height), a number or None", &w, &h))
+            return -1;
+    } else {
+        PyErr_Format(PyExc_TypeError, "size is (width, height), a number or None, not %.100s",
+                     Py_TYPE(value)->tp_name);
         return -1;
     }
     if (PyErr_Occurred()) return -1;
     if (w < 1 || h < 1 || w > WG_MAX_SIDE || h > WG_MAX_SIDE) {
         WgError err = {0};
-        wg_error_set(&err, WG_ERR_RANGE, NULL, "size %dx%d is outside 1..%d per side", w, h,
+        wg_error_set(&err, WG_ERR_RANGE, NULL, "size %ldx%ld is outside 1..%d per side", w, h,
                      WG_MAX_SIDE);
         raise_error(&err);
         return -1;
     }
-    self->width = w;
-    self->height = h;
+    self->width = (int)w;
+    self->height = (int)h;
     return 0;
 }
 
