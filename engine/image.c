@@ -148,8 +148,13 @@ WgImage *wg_image_wrap(int width, int height, int channels, size_t stride, float
     if (stride < (size_t)width * (size_t)channels) return NULL;
     WgImage *img = wg_malloc(sizeof *img);
     if (!img) return NULL;
-    *img = (WgImage){.width = width, .height = height, .channels = channels, .stride = stride,
-                     .data = data, .refcount_ = 1, .release_ = release ? release : release_nothing,
+    *img = (WgImage){.width = width,
+                     .height = height,
+                     .channels = channels,
+                     .stride = stride,
+                     .data = data,
+                     .refcount_ = 1,
+                     .release_ = release ? release : release_nothing,
                      .release_user_ = user};
     return img;
 }

@@ -108,8 +108,8 @@ static PyMethodDef Cancel_methods[] = {
 };
 
 static PyGetSetDef Cancel_getset[] = {
-    {"requested", (getter)Cancel_requested, NULL, "Whether request() was called since the last reset().",
-     NULL},
+    {"requested", (getter)Cancel_requested, NULL,
+     "Whether request() was called since the last reset().", NULL},
     {NULL},
 };
 
@@ -117,8 +117,9 @@ static PyTypeObject CancelType = {
     PyVarObject_HEAD_INIT(NULL, 0).tp_name = "wetgraph.Cancel",
     .tp_basicsize = sizeof(CancelObject),
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "Cancel()\n--\n\nA cancel token: pass it to Graph.render(cancel=...) and call request() "
-              "from any thread to stop the render, which then raises Cancelled.",
+    .tp_doc =
+        "Cancel()\n--\n\nA cancel token: pass it to Graph.render(cancel=...) and call request() "
+        "from any thread to stop the render, which then raises Cancelled.",
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)Cancel_init,
     .tp_dealloc = (destructor)Cancel_dealloc,
@@ -179,17 +180,20 @@ static void Engine_dealloc(EngineObject *self)
 static int engine_ready(EngineObject *self)
 {
     if (self->engine) return 0;
-    PyErr_SetString(PyExc_RuntimeError, "the Engine was not initialised (Engine.__init__ not called)");
+    PyErr_SetString(PyExc_RuntimeError,
+                    "the Engine was not initialised (Engine.__init__ not called)");
     return -1;
 }
 
 static PyObject *Engine_clear_cache(EngineObject *self, PyObject *unused)
 {
     if (engine_ready(self)) return NULL;
-    Py_BEGIN_ALLOW_THREADS PyThread_acquire_lock(self->lock, WAIT_LOCK);
+    PyThreadState *ts = PyEval_SaveThread();
+    PyThread_acquire_lock(self->lock, WAIT_LOCK);
     wg_engine_clear_cache(self->engine);
     PyThread_release_lock(self->lock);
-    Py_END_ALLOW_THREADS Py_RETURN_NONE;
+    PyEval_RestoreThread(ts);
+    Py_RETURN_NONE;
 }
 
 static PyObject *Engine_memory_stats(EngineObject *self, PyObject *unused)
@@ -287,16 +291,16 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
     if (nd == 2)
         snprintf(shape_text, sizeof shape_text, "(%ld, %ld)", (long)shape[0], (long)shape[1]);
     else if (nd == 3)
-        snprintf(shape_text, sizeof shape_text, "(%ld, %ld, %ld)", (long)shape[0],
-                 (long)shape[1], (long)shape[2]);
+        snprintf(shape_text, sizeof shape_text, "(%ld, %ld, %ld)", (long)shape[0], (long)shape[1],
+                 (long)shape[2]);
     else
         snprintf(shape_text, sizeof shape_text, "of %d dimensions", nd);
     int type = PyArray_TYPE(a);
     if (type != NPY_UINT8 && type != NPY_UINT16 && type != NPY_FLOAT32) {
         PyArray_Descr *d = PyArray_DESCR(a);
         return (WgImage *)input_error(g, input, WG_ERR_TYPE,
-                                      "array of dtype %c%d: give uint8, uint16 or float32",
-                                      d->kind, (int)d->elsize);
+                                      "array of dtype %c%d: give uint8, uint16 or float32", d->kind,
+                                      (int)d->elsize);
     }
     if (nd != 2 && nd != 3)
         return (WgImage *)input_error(
@@ -307,8 +311,8 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
     int c = nd == 2 ? 1 : (int)shape[2];
     if (c != 1 && c != 3 && c != 4)
         return (WgImage *)input_error(
-            g, input, WG_ERR_TYPE,
-            "array %s has %d channels: give 1 (gray), 3 (RGB) or 4 (RGBA)", shape_text, c);
+            g, input, WG_ERR_TYPE, "array %s has %d channels: give 1 (gray), 3 (RGB) or 4 (RGBA)",
+            shape_text, c);
     if (shape[0] < 1 || shape[1] < 1)
         return (WgImage *)input_error(g, input, WG_ERR_RANGE, "array %s holds no pixels",
                                       shape_text);
@@ -334,8 +338,8 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
     if (type == NPY_FLOAT32) { /* non-finite values are refused, as in files */
         long bad_x = -1, bad_y = -1;
         float bad = 0;
-        Py_BEGIN_ALLOW_THREADS for (int y = 0; y < h && bad_y < 0; y++)
-        {
+        PyThreadState *ts = PyEval_SaveThread();
+        for (int y = 0; y < h && bad_y < 0; y++) {
             const float *r = (const float *)(base + (size_t)y * row_bytes);
             for (long i = 0; i < (long)w * c; i++)
                 if (!isfinite(r[i])) {
@@ -345,9 +349,11 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
                     break;
                 }
         }
-        Py_END_ALLOW_THREADS if (bad_y >= 0) return (WgImage *)input_error(
-            g, input, WG_ERR_RANGE, "array %s holds %s at pixel (x %ld, y %ld)", shape_text,
-            isnan(bad) ? "NaN" : "an infinite value", bad_x, bad_y);
+        PyEval_RestoreThread(ts);
+        if (bad_y >= 0)
+            return (WgImage *)input_error(g, input, WG_ERR_RANGE,
+                                          "array %s holds %s at pixel (x %ld, y %ld)", shape_text,
+                                          isnan(bad) ? "NaN" : "an infinite value", bad_x, bad_y);
         if ((c == 1 || c == 4) && row_bytes % sizeof(float) == 0) {
             WgImage *img = wg_image_wrap(w, h, c, row_bytes / sizeof(float), (float *)base,
                                          release_array, obj);
@@ -358,8 +364,8 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
     }
     WgImage *img = wg_image_new(w, h, c == 1 ? 1 : 4);
     if (!img) return (WgImage *)PyErr_NoMemory();
-    Py_BEGIN_ALLOW_THREADS for (int y = 0; y < h; y++)
-    {
+    PyThreadState *ts = PyEval_SaveThread();
+    for (int y = 0; y < h; y++) {
         const char *src = base + (size_t)y * row_bytes;
         float *dst = wg_image_row(img, y);
         int dc = img->channels;
@@ -381,7 +387,8 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
             if (c == 3) dst[(size_t)x * 4 + 3] = 1.0f;
         }
     }
-    Py_END_ALLOW_THREADS return img;
+    PyEval_RestoreThread(ts);
+    return img;
 }
 
 /* ---- arrays out -------------------------------------------------------------------------- */
@@ -408,8 +415,8 @@ static PyObject *array_from_image(const WgImage *img, WgColorspace cs, int kind)
             wg_image_unref(img);
             return NULL;
         }
-        PyObject *arr = PyArray_New(&PyArray_Type, nd, dims, NPY_FLOAT32, strides, img->data, 0,
-                                    0, NULL); /* flags 0: read-only, the engine's image */
+        PyObject *arr = PyArray_New(&PyArray_Type, nd, dims, NPY_FLOAT32, strides, img->data, 0, 0,
+                                    NULL); /* flags 0: read-only, the engine's image */
         if (!arr) {
             Py_DECREF(cap);
             return NULL;
@@ -424,8 +431,8 @@ static PyObject *array_from_image(const WgImage *img, WgColorspace cs, int kind)
     if (!arr) return NULL;
     void *out = PyArray_DATA((PyArrayObject *)arr);
     bool srgb = cs == WG_SRGB;
-    Py_BEGIN_ALLOW_THREADS for (int y = 0; y < img->height; y++)
-    {
+    PyThreadState *ts = PyEval_SaveThread();
+    for (int y = 0; y < img->height; y++) {
         const float *r = wg_image_row(img, y);
         size_t n = (size_t)img->width * (size_t)c, o = (size_t)y * n;
         for (size_t i = 0; i < n; i++) {
@@ -441,7 +448,8 @@ static PyObject *array_from_image(const WgImage *img, WgColorspace cs, int kind)
             }
         }
     }
-    Py_END_ALLOW_THREADS return arr;
+    PyEval_RestoreThread(ts);
+    return arr;
 }
 
 /* ---- Graph ------------------------------------------------------------------------------- */
@@ -516,9 +524,11 @@ static int Graph_init(GraphObject *self, PyObject *args, PyObject *kw)
     WgError err = {0};
     char *path = NULL;
     int rc;
-    Py_BEGIN_ALLOW_THREADS rc = wg_graph_find(PyBytes_AS_STRING(name_bytes), &path, &err);
+    PyThreadState *ts = PyEval_SaveThread();
+    rc = wg_graph_find(PyBytes_AS_STRING(name_bytes), &path, &err);
     if (!rc) rc = wg_graph_load(path, &self->graph, &err);
-    Py_END_ALLOW_THREADS wg_free(path);
+    PyEval_RestoreThread(ts);
+    wg_free(path);
     Py_DECREF(name_bytes);
     if (rc) {
         raise_error(&err);
@@ -578,8 +588,8 @@ static WgRequest *build_request(GraphObject *self, WgError *err, int *rc)
     *rc = WG_OK;
     for (int i = 0; i < self->n_params && !*rc; i++)
         if (self->values[i])
-            *rc = wg_request_set(r, wg_graph_param_info(self->graph, i)->name, self->values[i],
-                                 err);
+            *rc =
+                wg_request_set(r, wg_graph_param_info(self->graph, i)->name, self->values[i], err);
     for (int i = 0; i < self->n_inputs && !*rc; i++) {
         const char *name = wg_graph_input_info(self->graph, i)->name;
         if (self->input_paths[i])
@@ -646,8 +656,9 @@ static PyObject *Graph_value(GraphObject *self, PyObject *args)
     const char *name;
     if (!PyArg_ParseTuple(args, "s:value", &name) || graph_ready(self)) return NULL;
     int i = find_param(self, name);
-    if (i < 0) return PyErr_Format(PyExc_KeyError, "graph '%s' has no parameter '%s'",
-                                   wg_graph_name(self->graph), name);
+    if (i < 0)
+        return PyErr_Format(PyExc_KeyError, "graph '%s' has no parameter '%s'",
+                            wg_graph_name(self->graph), name);
     if (self->values[i]) return PyUnicode_FromString(self->values[i]);
     return PyUnicode_FromString(wg_graph_param_info(self->graph, i)->default_text);
 }
@@ -680,8 +691,9 @@ static PyObject *Graph_set_input(GraphObject *self, PyObject *args)
         WgRequest *r = wg_request_new(self->graph);
         int rc = r ? WG_OK : wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
         if (!rc) {
-            Py_BEGIN_ALLOW_THREADS rc = wg_request_set_input_file(r, name, PyBytes_AS_STRING(b), &err);
-            Py_END_ALLOW_THREADS
+            PyThreadState *ts = PyEval_SaveThread();
+            rc = wg_request_set_input_file(r, name, PyBytes_AS_STRING(b), &err);
+            PyEval_RestoreThread(ts);
         }
         wg_request_free(r);
         if (rc) {
@@ -696,8 +708,8 @@ static PyObject *Graph_set_input(GraphObject *self, PyObject *args)
         if (!path) return PyErr_NoMemory();
     } else {
         return PyErr_Format(PyExc_TypeError,
-                            "input '%s': give a file path, a numpy array or None, not %.100s",
-                            name, Py_TYPE(value)->tp_name);
+                            "input '%s': give a file path, a numpy array or None, not %.100s", name,
+                            Py_TYPE(value)->tp_name);
     }
     PyMem_Free(self->input_paths[i]);
     wg_image_unref(self->input_imgs[i]);
@@ -709,12 +721,18 @@ static PyObject *Graph_set_input(GraphObject *self, PyObject *args)
 static const char *type_name(WgParamType t)
 {
     switch (t) {
-    case WG_PARAM_FLOAT_T: return "float";
-    case WG_PARAM_INT_T: return "int";
-    case WG_PARAM_BOOL_T: return "bool";
-    case WG_PARAM_ENUM_T: return "enum";
-    case WG_PARAM_COLOR_T: return "color";
-    case WG_PARAM_STRING_T: return "string";
+    case WG_PARAM_FLOAT_T:
+        return "float";
+    case WG_PARAM_INT_T:
+        return "int";
+    case WG_PARAM_BOOL_T:
+        return "bool";
+    case WG_PARAM_ENUM_T:
+        return "enum";
+    case WG_PARAM_COLOR_T:
+        return "color";
+    case WG_PARAM_STRING_T:
+        return "string";
     }
     return "unknown";
 }
@@ -744,11 +762,11 @@ static PyObject *Graph_param_info(GraphObject *self, PyObject *unused)
             for (int k = 0; values && k < n; k++)
                 PyTuple_SET_ITEM(values, k, PyUnicode_FromString(p->values[k]));
         }
-        PyObject *t = values ? Py_BuildValue("(sssNNNNi)", p->name, type_name(p->type),
-                                             p->default_text, opt_float(p->has_min, p->min),
-                                             opt_float(p->has_max, p->max), opt_str(p->label),
-                                             values, p->line)
-                             : NULL;
+        PyObject *t =
+            values ? Py_BuildValue("(sssNNNNi)", p->name, type_name(p->type), p->default_text,
+                                   opt_float(p->has_min, p->min), opt_float(p->has_max, p->max),
+                                   opt_str(p->label), values, p->line)
+                   : NULL;
         if (!t) {
             Py_DECREF(list);
             return NULL;
@@ -830,10 +848,10 @@ static PyObject *stats_of(const WgResult *res)
     PyObject *nodes = PyList_New(n);
     for (int i = 0; nodes && i < n; i++) {
         const WgNodeStat *s = wg_result_stat(res, i);
-        PyObject *d = Py_BuildValue("{s:s,s:s,s:d,s:s,s:(iii),s:n,s:i}", "id", s->id, "type",
-                                    s->type, "ms", s->ms, "cache", cache_name(s->cache), "shape",
-                                    s->height, s->width, s->channels, "bytes",
-                                    (Py_ssize_t)s->bytes, "fused", s->fused);
+        PyObject *d =
+            Py_BuildValue("{s:s,s:s,s:d,s:s,s:(iii),s:n,s:i}", "id", s->id, "type", s->type, "ms",
+                          s->ms, "cache", cache_name(s->cache), "shape", s->height, s->width,
+                          s->channels, "bytes", (Py_ssize_t)s->bytes, "fused", s->fused);
         if (!d) {
             Py_DECREF(nodes);
             return NULL;
@@ -870,13 +888,15 @@ static WgResult *graph_render(GraphObject *self, PyObject *outputs, PyObject *pr
     if (graph_ready(self)) return NULL;
     if (progress != Py_None && !PyCallable_Check(progress))
         return (WgResult *)PyErr_Format(PyExc_TypeError, "progress must be callable, not %.100s",
-                            Py_TYPE(progress)->tp_name);
+                                        Py_TYPE(progress)->tp_name);
     if (cancel != Py_None && !PyObject_TypeCheck(cancel, &CancelType))
-        return (WgResult *)PyErr_Format(PyExc_TypeError, "cancel must be a wetgraph.Cancel, not %.100s",
-                            Py_TYPE(cancel)->tp_name);
+        return (WgResult *)PyErr_Format(PyExc_TypeError,
+                                        "cancel must be a wetgraph.Cancel, not %.100s",
+                                        Py_TYPE(cancel)->tp_name);
     if (self->running) {
-        PyErr_SetString(PyExc_RuntimeError,
-                        "this Graph is rendering in another thread; give each thread its own Graph");
+        PyErr_SetString(
+            PyExc_RuntimeError,
+            "this Graph is rendering in another thread; give each thread its own Graph");
         return NULL;
     }
     WgError err = {0};
@@ -917,10 +937,12 @@ static WgResult *graph_render(GraphObject *self, PyObject *outputs, PyObject *pr
     Py_INCREF(self->engine);
     EngineObject *e = self->engine;
     WgResult *res = NULL;
-    Py_BEGIN_ALLOW_THREADS PyThread_acquire_lock(e->lock, WAIT_LOCK);
+    PyThreadState *ts = PyEval_SaveThread();
+    PyThread_acquire_lock(e->lock, WAIT_LOCK);
     rc = wg_render(e->engine, r, &res, &err);
     PyThread_release_lock(e->lock);
-    Py_END_ALLOW_THREADS self->running = NULL;
+    PyEval_RestoreThread(ts);
+    self->running = NULL;
     self->progress_fn = NULL;
     wg_request_free(r);
     Py_DECREF(e);
@@ -953,9 +975,12 @@ static int parse_dtype(PyObject *obj, int *kind)
     if (!PyArray_DescrConverter(obj, &d)) return -1;
     int t = d->type_num;
     Py_DECREF(d);
-    if (t == NPY_FLOAT32) *kind = OUT_FLOAT32;
-    else if (t == NPY_UINT8) *kind = OUT_UINT8;
-    else if (t == NPY_UINT16) *kind = OUT_UINT16;
+    if (t == NPY_FLOAT32)
+        *kind = OUT_FLOAT32;
+    else if (t == NPY_UINT8)
+        *kind = OUT_UINT8;
+    else if (t == NPY_UINT16)
+        *kind = OUT_UINT16;
     else {
         PyErr_SetString(PyExc_TypeError, "dtype must be float32, uint8 or uint16");
         return -1;
@@ -967,8 +992,8 @@ static PyObject *Graph_render(GraphObject *self, PyObject *args, PyObject *kw)
 {
     static char *names[] = {"outputs", "dtype", "progress", "cancel", NULL};
     PyObject *outputs = Py_None, *dtype = Py_None, *progress = Py_None, *cancel = Py_None;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "|O$OOO:render", names, &outputs, &dtype,
-                                     &progress, &cancel))
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "|O$OOO:render", names, &outputs, &dtype, &progress,
+                                     &cancel))
         return NULL;
     int kind;
     if (parse_dtype(dtype, &kind)) return NULL;
@@ -988,8 +1013,7 @@ static PyObject *Graph_render(GraphObject *self, PyObject *args, PyObject *kw)
 static PyObject *Graph_render_files(GraphObject *self, PyObject *args, PyObject *kw)
 {
     static char *names[] = {"folder", "outputs", "format", "progress", "cancel", NULL};
-    PyObject *folder, *outputs = Py_None, *format = Py_None, *progress = Py_None,
-                      *cancel = Py_None;
+    PyObject *folder, *outputs = Py_None, *format = Py_None, *progress = Py_None, *cancel = Py_None;
     if (!PyArg_ParseTupleAndKeywords(args, kw, "O|O$OOO:render_files", names, &folder, &outputs,
                                      &format, &progress, &cancel))
         return NULL;
@@ -1032,9 +1056,9 @@ static PyObject *Graph_render_files(GraphObject *self, PyObject *args, PyObject 
         }
         images[i] = wg_result_output_image(res, i);
         spaces[i] = wg_result_output_colorspace(res, i);
-        PyObject *p = PyUnicode_FromFormat("%s/%s_%s.%s", PyBytes_AS_STRING(folder_b),
-                                           wg_graph_name(self->graph), name,
-                                           wg_format_extension(formats[i]));
+        PyObject *p =
+            PyUnicode_FromFormat("%s/%s_%s.%s", PyBytes_AS_STRING(folder_b),
+                                 wg_graph_name(self->graph), name, wg_format_extension(formats[i]));
         if (!p) goto out;
         PyObject *pb = NULL;
         int ok = PyUnicode_FSConverter(p, &pb);
@@ -1048,15 +1072,16 @@ static PyObject *Graph_render_files(GraphObject *self, PyObject *args, PyObject 
         }
     }
     int rc;
-    Py_BEGIN_ALLOW_THREADS WgWriteSet *set = wg_write_set_new();
+    PyThreadState *ts = PyEval_SaveThread();
+    WgWriteSet *set = wg_write_set_new();
     rc = set ? WG_OK : wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
     if (!rc)
         rc = wg_write_set_images(set, n, (const char *const *)paths, images, formats, spaces, 0,
                                  &err);
     if (!rc) rc = wg_write_set_commit(set, &err);
     wg_write_set_free(set);
-    Py_END_ALLOW_THREADS if (rc)
-    {
+    PyEval_RestoreThread(ts);
+    if (rc) {
         raise_error(&err);
         goto out;
     }
@@ -1084,8 +1109,10 @@ static PyObject *Graph_check(GraphObject *self, PyObject *unused)
     int rc;
     WgRequest *r = build_request(self, &err, &rc);
     if (!r) return raise_error(&err);
-    Py_BEGIN_ALLOW_THREADS rc = wg_request_check(r, &err);
-    Py_END_ALLOW_THREADS wg_request_free(r);
+    PyThreadState *ts = PyEval_SaveThread();
+    rc = wg_request_check(r, &err);
+    PyEval_RestoreThread(ts);
+    wg_request_free(r);
     if (rc) return raise_error(&err);
     Py_RETURN_NONE;
 }
@@ -1173,10 +1200,14 @@ static PyObject *Graph_get_text(GraphObject *self, void *closure)
 {
     if (graph_ready(self)) return NULL;
     const char *which = closure, *s;
-    if (!strcmp(which, "name")) s = wg_graph_name(self->graph);
-    else if (!strcmp(which, "path")) s = wg_graph_path(self->graph);
-    else if (!strcmp(which, "label")) s = wg_graph_label(self->graph);
-    else s = wg_graph_size_text(self->graph);
+    if (!strcmp(which, "name"))
+        s = wg_graph_name(self->graph);
+    else if (!strcmp(which, "path"))
+        s = wg_graph_path(self->graph);
+    else if (!strcmp(which, "label"))
+        s = wg_graph_label(self->graph);
+    else
+        s = wg_graph_size_text(self->graph);
     return opt_str(s);
 }
 
@@ -1214,8 +1245,7 @@ static PyMethodDef Graph_methods[] = {
      "the engine's images; uint8 and uint16 the codes of a PNG of that depth (sRGB-encoded where "
      "the output is srgb). progress(done, total, node) is called after each job; cancel is a "
      "Cancel token."},
-    {"render_files", (PyCFunction)(void (*)(void))Graph_render_files,
-     METH_VARARGS | METH_KEYWORDS,
+    {"render_files", (PyCFunction)(void (*)(void))Graph_render_files, METH_VARARGS | METH_KEYWORDS,
      "render_files(folder, outputs=None, *, format=None, progress=None, cancel=None)\n--\n\n"
      "Render and write each output to folder/<graph>_<output>.<ext> in its format (or format: "
      "one name for all, or {output: name}); the files are replaced together. Returns {name: "
@@ -1234,8 +1264,8 @@ static PyGetSetDef Graph_getset[] = {
      "name"},
     {"path", (getter)Graph_get_text, NULL, "The graph's file.", "path"},
     {"label", (getter)Graph_get_text, NULL, "The graph's label, or None.", "label"},
-    {"size_text", (getter)Graph_get_text, NULL, "The graph's own size attribute ('512', '$height').",
-     "size"},
+    {"size_text", (getter)Graph_get_text, NULL,
+     "The graph's own size attribute ('512', '$height').", "size"},
     {"size", (getter)Graph_get_size, (setter)Graph_set_size,
      "The size of the next render, (width, height), or None for the graph's own.", NULL},
     {"seed", (getter)Graph_get_seed, (setter)Graph_set_seed,

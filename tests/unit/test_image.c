@@ -3,8 +3,8 @@
  * references: a wrapping tent of half-width max(1, source/target), i.e. bilinear when enlarging;
  * constants kept exactly; gray/colour conversion), wg_image_resample_into on the engine's threads
  * (the same values for every thread count, an infinite sample reaching only the outputs its
- * taps cover), images over the caller's memory (wg_image_wrap) and the allocation hook, including a render under
- * injected allocation failures. */
+ * taps cover), images over the caller's memory (wg_image_wrap) and the allocation hook, including a
+ * render under injected allocation failures. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -203,7 +203,8 @@ static void test_wrap(void **state)
     float *buf = malloc(sizeof(float) * STRIDE * H);
     assert_non_null(buf);
     for (int y = 0; y < H; y++)
-        for (int i = 0; i < STRIDE; i++) buf[y * STRIDE + i] = i < W * C ? (float)(y * W * C + i) / 256.0f : NAN;
+        for (int i = 0; i < STRIDE; i++)
+            buf[y * STRIDE + i] = i < W * C ? (float)(y * W * C + i) / 256.0f : NAN;
     int one = 1;
     released = 0;
     /* bad sizes and strides: NULL, and the release is not called */
@@ -218,10 +219,11 @@ static void test_wrap(void **state)
     assert_ptr_equal(img->data, buf); /* no copy */
     assert_true(wgt_px(img, 3, 2, 1) == (float)(2 * W * C + 3 * C + 1) / 256.0f);
     /* a request holds its own reference: the pixels stay lent until it lets go */
-    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"$src\">"
-                          "<input name=\"src\" type=\"color\"/>"
-                          "<node id=\"copy\" type=\"levels\"><in name=\"source\" from=\"$src\"/></node>"
-                          "<output name=\"out\" from=\"copy\"/></wetgraph>");
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"$src\">"
+                 "<input name=\"src\" type=\"color\"/>"
+                 "<node id=\"copy\" type=\"levels\"><in name=\"source\" from=\"$src\"/></node>"
+                 "<output name=\"out\" from=\"copy\"/></wetgraph>");
     WgRequest *r = wg_request_new(g);
     assert_non_null(r);
     WgError err = {0};

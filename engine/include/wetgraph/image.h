@@ -21,9 +21,9 @@ typedef struct WgImage {
     size_t stride; /* floats between the starts of two rows; 0 when every row is the same
                       memory (an image of one value, as a WG_NODE_UNIFORM node outputs) */
     float *data;
-    int refcount_;           /* private: use wg_image_ref / wg_image_unref */
-    int mapped_;             /* private: data is a memory mapping of its own */
-    struct WgMemPool *pool_; /* private: the buffer pool data goes back to, or NULL */
+    int refcount_;                /* private: use wg_image_ref / wg_image_unref */
+    int mapped_;                  /* private: data is a memory mapping of its own */
+    struct WgMemPool *pool_;      /* private: the buffer pool data goes back to, or NULL */
     void (*release_)(void *user); /* private: wg_image_wrap's release, or NULL */
     void *release_user_;          /* private: its argument */
 } WgImage;
