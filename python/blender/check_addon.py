@@ -115,6 +115,7 @@ wet_base = pixels(nt.nodes[W + "basecolor"])[..., :3]
 mask = pixels(nt.nodes[W + "water_mask"])[..., 0]
 assert nt.nodes[W + "basecolor"].image.colorspace_settings.name == "Linear"
 assert nt.nodes[W + "water_mask"].image.colorspace_settings.name == "Non-Color"
+assert nt.nodes[W + "basecolor"].image.packed_file is not None, "the wet maps are not packed"
 assert 0.05 < mask.mean() < 0.95, f"water mask mean {mask.mean()} at water level 0.7"
 # the same maps as the module gives for the same files and values
 import wetgraph  # noqa: E402
