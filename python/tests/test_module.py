@@ -283,6 +283,7 @@ def test_outputs_are_read_only_views_of_the_engines_images(write_graph):
     (np.zeros((8, 0, 4), np.uint8), r"array \(8, 0, 4\) holds no pixels"),
     (np.zeros((4, 4), np.float64), r"array of dtype f8: give uint8, uint16 or float32"),
     (np.zeros((4, 4), np.int32), r"array of dtype i4"),
+    (np.zeros((4, 4), ">u2"), r"array \(4, 4\) is in the other byte order"),
 ])
 def test_bad_arrays_are_refused_with_the_inputs_line(write_graph, bad, match):
     path = write_graph(PASS)

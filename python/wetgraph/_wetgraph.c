@@ -302,6 +302,11 @@ static WgImage *image_from_array(const WgGraph *g, int input, PyObject *obj)
                                       "array of dtype %c%d: give uint8, uint16 or float32", d->kind,
                                       (int)d->elsize);
     }
+    if (!PyArray_ISNOTSWAPPED(a))
+        return (WgImage *)input_error(g, input, WG_ERR_TYPE,
+                                      "array %s is in the other byte order: pass "
+                                      "a.astype(a.dtype.newbyteorder('='))",
+                                      shape_text);
     if (nd != 2 && nd != 3)
         return (WgImage *)input_error(
             g, input, WG_ERR_TYPE,
