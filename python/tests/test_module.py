@@ -308,6 +308,10 @@ def test_other_bad_inputs(write_graph, tmp_path):
         g.render()  # the size comes from $l, which nothing feeds
     with pytest.raises(wetgraph.Error, match=r"no output 'x'"):
         g.render(["x"])
+    with pytest.raises(wetgraph.Error, match=r"no output 'xy'"):
+        g.render("xy")  # one name, not its letters
+    with pytest.raises(TypeError, match="outputs must be a list of output names"):
+        g.render(3)
     with pytest.raises(TypeError, match="dtype must be float32, uint8 or uint16"):
         g.render(dtype=np.float64)
     with pytest.raises(wetgraph.Error, match=r"size 0x3 is outside 1..16384 per side"):

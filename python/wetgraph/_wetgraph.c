@@ -32,7 +32,10 @@ static PyObject *raise_error(const WgError *err)
     char text[4096];
     wg_error_format(err, text, sizeof text);
     PyObject *type = err->code == WG_ERR_CANCELLED ? Cancelled : Error;
-    PyObject *exc = PyObject_CallFunction(type, "s", text);
+    /* paths need not be UTF-8: undecodable bytes are shown escaped, not refused */
+    PyObject *str = PyUnicode_DecodeUTF8(text, (Py_ssize_t)strlen(text), "backslashreplace");
+    PyObject *exc = str ? PyObject_CallOneArg(type, str) : NULL;
+    Py_XDECREF(str);
     if (!exc) return NULL;
     PyObject *v;
 #define SET(name, obj)                                                                             \
@@ -47,8 +50,9 @@ static PyObject *raise_error(const WgError *err)
     } while (0)
     SET("code", PyLong_FromLong(err->code));
     SET("status", PyUnicode_FromString(wg_status_name(err->code)));
-    SET("message", PyUnicode_FromString(err->message));
-    SET("file", err->file[0] ? PyUnicode_FromString(err->file) : Py_NewRef(Py_None));
+    SET("message",
+        PyUnicode_DecodeUTF8(err->message, (Py_ssize_t)strlen(err->message), "backslashreplace"));
+    SET("file", err->file[0] ? PyUnicode_DecodeFSDefault(err->file) : Py_NewRef(Py_None));
     SET("line", PyLong_FromLong(err->line));
     SET("column", PyLong_FromLong(err->column));
     SET("node", err->node[0] ? PyUnicode_FromString(err->node) : Py_NewRef(Py_None));
@@ -909,7 +913,9 @@ static WgResult *graph_render(GraphObject *self, PyObject *outputs, PyObject *pr
     WgRequest *r = build_request(self, &err, &rc);
     if (!r) return (WgResult *)raise_error(&err);
     if (outputs != Py_None) {
-        PyObject *seq = PySequence_Fast(outputs, "outputs must be a list of output names");
+        PyObject *seq = PyUnicode_Check(outputs) ? PyTuple_Pack(1, outputs)
+                                                 : PySequence_Fast(outputs, "outputs must be a "
+                                                                            "list of output names");
         if (!seq) {
             wg_request_free(r);
             return NULL;
