@@ -486,12 +486,67 @@ def test_two_engines_render_in_two_threads(wet, bricks):
 def test_one_graph_refuses_a_second_render_at_once(write_graph):
     g = wetgraph.Graph(slow_graph(write_graph), wetgraph.Engine(threads=1))
     started = threading.Event()
-    t = threading.Thread(target=lambda: pytest.raises(
-        wetgraph.Cancelled, g.render, progress=lambda *a: started.set()))
+    outcome = []
+
+    def run():
+        try:
+            g.render(progress=lambda *a: started.set())
+            outcome.append("finished")
+        except wetgraph.Cancelled as e:
+            outcome.append(e)
+
+    t = threading.Thread(target=run)
     t.start()
     assert started.wait(10)
     with pytest.raises(RuntimeError, match="rendering in another thread"):
         g.render()
-    g.cancel()
+    assert g.cancel() is True
     t.join(30)
-    assert not t.is_alive()
+    assert not t.is_alive() and isinstance(outcome[0], wetgraph.Cancelled), outcome
+
+
+def test_two_graphs_on_one_engine_render_one_at_a_time(write_graph):
+    engine = wetgraph.Engine(threads=2)
+    text = ('<wetgraph version="1" size="256"><param name="s" type="float" default="4"/>'
+            '<node id="n" type="noise" scale="=s"/>'
+            '<node id="b" type="blur" sigma="3"><in name="source" from="n"/></node>'
+            '<output name="o" from="b"/></wetgraph>')
+    graphs = [wetgraph.Graph(write_graph(text, "shared"), engine) for _ in range(2)]
+    graphs[1].set(s=9)
+    want = [g.render()["o"].copy() for g in graphs]
+    engine.clear_cache()
+    got = [None, None]
+
+    def run(i):
+        for _ in range(5):
+            got[i] = graphs[i].render()["o"]
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert all(np.array_equal(got[i], want[i]) for i in range(2))
+    assert not np.array_equal(want[0], want[1])
+    # the two graphs share the engine's cache: the same values are not computed again
+    graphs[1].set(s=4)
+    graphs[1].render()
+    assert graphs[1].stats["evaluated"] == 0
+
+
+def test_seed_and_time(write_graph):
+    g = wetgraph.Graph(write_graph('<wetgraph version="1" size="32" seed="3">'
+                                   '<node id="n" type="noise" scale="4"/>'
+                                   '<output name="o" from="n"/></wetgraph>', "seeded"))
+    assert g.seed is None and g.time == 0.0
+    own = g.render()["o"].copy()
+    g.seed = 3
+    assert np.array_equal(g.render()["o"], own)  # the graph's own seed
+    g.seed = 4
+    assert not np.array_equal(g.render()["o"], own)
+    g.seed = None
+    assert np.array_equal(g.render()["o"], own)
+    with pytest.raises(ValueError, match="time must be a finite number"):
+        g.time = float("nan")
+    g.time = 2.5
+    assert g.time == 2.5
