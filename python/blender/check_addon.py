@@ -167,6 +167,29 @@ assert source(disp.inputs["Height"]).name == "Displacement"
 assert not bsdf.inputs["Clearcoat"].is_linked
 assert not bsdf.inputs["Clearcoat Normal"].is_linked
 
+# height through a Bump node, no normal map: the bump reads the wet height, the wet film's
+# normal goes under the bump
+bumpy = bpy.data.materials.new("bumpy")
+bumpy.use_nodes = True
+bt = bumpy.node_tree
+bb = bt.nodes["Principled BSDF"]
+c2 = bt.nodes.new("ShaderNodeTexImage")
+c2.image = base.image
+bt.links.new(c2.outputs["Color"], bb.inputs["Base Color"])
+h2 = bt.nodes.new("ShaderNodeTexImage")
+h2.image = height.image
+bump = bt.nodes.new("ShaderNodeBump")
+bt.links.new(h2.outputs["Color"], bump.inputs["Height"])
+bt.links.new(bump.outputs["Normal"], bb.inputs["Normal"])
+bumpy.wetgraph.resolution = SIZE
+wetgraph_wet.wet(bumpy)
+assert bumpy.wetgraph.dry_height == h2.name and bumpy.wetgraph.dry_normal == ""
+assert source(bump.inputs["Height"]).name == W + "height"
+assert source(bb.inputs["Normal"]) == bump
+assert source(bump.inputs["Normal"]).name == W + "normal map"
+assert bumpy.wetgraph.dry_ao == ""  # no AO map in this material
+print("bump:", bumpy.wetgraph.report)
+
 # a material without a height map: a clear error, nothing rewired
 flat = bpy.data.materials.new("flat")
 flat.use_nodes = True

@@ -13,6 +13,7 @@ reaches are computed again. The wetgraph Python module must be importable (insta
 into the site folder Debian's Blender reads).
 """
 import os
+import re
 import time
 
 import bpy
@@ -37,7 +38,8 @@ OUTPUTS = {
     "height": "Non-Color", "ao": "Non-Color", "water_mask": "Non-Color",
     "water_roughness": "Non-Color", "water_normal": "Non-Color",
 }
-AO_WORDS = ("ambientocclusion", "ambient_occlusion", "occlusion", "_ao", " ao", "ao_", "ao.")
+# an ambient occlusion map's node or image name: "AO" as a word of its own, or "occlusion"
+AO_NAME = re.compile(r"(^|[^a-z])ao([^a-z]|$)|occlusion")
 
 # per material name: the Graph (and so the engine and its cache) kept for the session
 _sessions = {}
@@ -124,8 +126,7 @@ def _upstream_images(socket, depth=4):
 
 
 def _is_ao(node):
-    text = f" {node.label} {node.name} {node.image.name} ".lower()
-    return any(w in text for w in AO_WORDS)
+    return any(AO_NAME.search(t.lower()) for t in (node.label, node.name, node.image.name))
 
 
 def _find_dry(tree, settings):
@@ -293,7 +294,10 @@ def wet(material, context=None):
         _move_links(tree, node, wet_nodes[role])
     if "normal" not in dry:  # the wet film's relief, also on a material without a normal map
         nm = _normal_map(tree, "normal map", wet_nodes["normal"], bsdf)
-        tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+        target = bsdf.inputs["Normal"]
+        if target.is_linked and target.links[0].from_node.type == "BUMP":
+            target = target.links[0].from_node.inputs["Normal"]  # under the bump, not instead
+        tree.links.new(nm.outputs["Normal"], target)
     if "roughness" not in dry:
         tree.links.new(wet_nodes["roughness"].outputs["Color"], bsdf.inputs["Roughness"])
     # the water layer as the clear coat
