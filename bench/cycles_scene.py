@@ -6,7 +6,7 @@
 # MAPS is the folder bench/cycles_scene.wetgraph wrote (cycles_scene_<map>.png). The scene:
 # - the tile is the square [0,1]² of the plane z = 0 (x right, y towards the top of the maps),
 #   a grid mesh with a vertex per texel corner displaced to z = height_scale·(h − 1) from
-#   under_height (bilinear between texel centres, wrapping), as the preview's parallax search
+#   underheight (bilinear between texel centres, wrapping), as the preview's parallax search
 #   puts the relief below the plane (height_scale in tile widths);
 # - the material (brdf=preview, the default) is the preview's model: Principled BSDF's specular
 #   lobe (Multiscatter GGX, Fresnel per microfacet, specular 0.5: F0 0.04, or the metal's
@@ -16,8 +16,8 @@
 #   normal map in object space, which is the preview's frame (the maps' tangent space of a flat
 #   tile): the relief's geometry gives parallax and occlusion, its shading normals come from the
 #   map as in the preview;
-# - the water is a second grid from water_height, kept where water_mask > 0, a Glass BSDF of
-#   IOR 1.33 (GGX, water_roughness, object-space water_normal) mixed with a
+# - the water is a second grid from waterheight, kept where watermask > 0, a Glass BSDF of
+#   IOR 1.33 (GGX, waterroughness, object-space waternormal) mixed with a
 #   Transparent BSDF by the mask: clear water, as the preview's default;
 # - the world is the HDR through Blender's equirectangular mapping, which is the preview's
 #   (u = 0.5 − φ/2π, φ from +x towards +y), turned by env_rotation about z;
@@ -154,7 +154,7 @@ scene.render.image_settings.color_depth = "32"
 scene.render.image_settings.color_mode = "RGB"
 
 # the material
-prefix = "under_" if two_layers else ""
+prefix = "under" if two_layers else ""
 floor = grid("tile", gray_array(prefix + "height"))
 mat = bpy.data.materials.new("material")
 mat.use_nodes = True
@@ -246,14 +246,14 @@ links.new(shader, nodes["Material Output"].inputs["Surface"])
 floor.data.materials.append(mat)
 
 # the water
-mask = gray_array("water_mask") if two_layers else np.zeros((1, 1))
+mask = gray_array("watermask") if two_layers else np.zeros((1, 1))
 wet = mask > 0
 keep = wet.copy()  # face (r, c) holds texel (r, c); one texel more all round
 for axis in (0, 1):
     for step in (-1, 1):
         keep |= np.roll(wet, step, axis)
 if two_layers and keep.any():
-    water = grid("water", gray_array("water_height"), keep)
+    water = grid("water", gray_array("waterheight"), keep)
     wm = bpy.data.materials.new("water")
     wm.use_nodes = True
     nodes, links = wm.node_tree.nodes, wm.node_tree.links
@@ -267,11 +267,11 @@ if two_layers and keep.any():
     # over a black floor: 0.036 with Multiscatter GGX, 0.075 with Sharp glass, 0.076 with GGX)
     glass.distribution = "GGX"
     glass.inputs["IOR"].default_value = 1.33
-    links.new(tex(nodes, links, "water_roughness").outputs["Color"], glass.inputs["Roughness"])
-    links.new(object_normal(nodes, links, "water_normal"), glass.inputs["Normal"])
+    links.new(tex(nodes, links, "waterroughness").outputs["Color"], glass.inputs["Roughness"])
+    links.new(object_normal(nodes, links, "waternormal"), glass.inputs["Normal"])
     clear = nodes.new("ShaderNodeBsdfTransparent")
     mix = nodes.new("ShaderNodeMixShader")
-    links.new(tex(nodes, links, "water_mask").outputs["Color"], mix.inputs["Fac"])
+    links.new(tex(nodes, links, "watermask").outputs["Color"], mix.inputs["Fac"])
     links.new(clear.outputs["BSDF"], mix.inputs[1])
     links.new(glass.outputs["BSDF"], mix.inputs[2])
     links.new(mix.outputs["Shader"], nodes["Material Output"].inputs["Surface"])

@@ -422,7 +422,8 @@ int main(int argc, char **argv)
     if (do_check) return check();
     cv::setNumThreads(g_threads);
     WgError err = {};
-    WgEngineOptions opt = {g_threads, 0, nullptr, false, false};
+    WgEngineOptions opt = {};
+    opt.threads = g_threads;
     if (wg_engine_new(&opt, &g_engine, &err)) die("engine", err.message);
     printf("# %dx%d gray float, %d threads (wetgraph and OpenCV), median of %d; OpenCV %s\n",
            g_size, g_size, g_threads, g_reps, CV_VERSION);

@@ -2,7 +2,8 @@
 /* The glTF assets a graph declares (<gltf>, docs/format.md), written by `render` beside its
  * outputs and in the same write set, so that the maps, the textures and the asset are replaced
  * together or not at all: which assets a render covers, the outputs they need, and their files
- * (DIR/<graph>_<name>.gltf with its .bin and PNGs, or .glb; _<frame> before the extension in a
+ * (named as the outputs are, by --name with {output} the asset's name, by default
+ * DIR/<graph>_<name>.gltf with its .bin and PNGs, or .glb; _<frame> before the extension in a
  * sequence). */
 #include "render.h"
 
@@ -43,7 +44,6 @@ int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *u
                WgWriteSet *set, char (*paths)[4096], int *n_paths, WgError *err)
 {
     *n_paths = 0;
-    const char *dir = o->out_dir ? o->out_dir : ".";
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {
         if (!gltf_selected(o, g, i)) continue;
         const WgGraphGltfInfo *info = wg_graph_gltf_info(g, i);
@@ -60,12 +60,11 @@ int gltf_stage(const Options *o, const WgGraph *g, GltfImageOf image_of, void *u
                                     info->maps[k]);
         }
         char *path = paths[(*n_paths)++];
-        const char *ext = info->binary ? "glb" : "gltf";
-        if (frame >= 0)
-            snprintf(path, 4096, "%s/%s_%s_%04d.%s", dir, wg_graph_name(g), info->name, frame, ext);
-        else
-            snprintf(path, 4096, "%s/%s_%s.%s", dir, wg_graph_name(g), info->name, ext);
-        int rc = wg_gltf_write(set, path, &a, err);
+        if (!gltf_file(o, g, i, frame, path, 4096))
+            return wg_error_set(err, WG_ERR_USAGE, NULL,
+                                "--name '%s' names what this render does not have", o->name);
+        int rc = name_folder(path, err);
+        if (!rc) rc = wg_gltf_write(set, path, &a, err);
         if (rc) return rc;
     }
     return WG_OK;

@@ -2,6 +2,7 @@
 /* wetgraph: command-line entry point and subcommand dispatch. */
 #include "cli.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 static const char usage[] =
@@ -23,11 +24,47 @@ static const char usage[] =
     "FILE is a graph file, or the name of a graph in WETGRAPH_PATH or the built-in folder\n"
     "(wetgraph render wet_material; 'wetgraph graphs' lists them).\n"
     "\n"
+    "Node plugins: every command takes --plugin LIB (repeatable), a shared library of node\n"
+    "types, and loads those of the WETGRAPH_PLUGIN_PATH folders (colon-separated, every *.so).\n"
+    "\n"
     "'wetgraph COMMAND --help' describes a command ('wetgraph --help-all': all of them).\n"
     "Exit codes: 0 ok, 1 evaluation or I/O failure, 2 usage or graph error.\n";
 
+/* Load the plugins of WETGRAPH_PLUGIN_PATH and of every --plugin LIB (or --plugin=LIB), which
+ * are taken out of argv: a node plugin's types are there for every command. */
+static int load_plugins(int *argc, char **argv)
+{
+    WgError err = {0};
+    if (wg_plugin_load_dirs(getenv("WETGRAPH_PLUGIN_PATH"), &err)) {
+        cli_report(&err);
+        return EXIT_USAGE;
+    }
+    int kept = 1;
+    for (int i = 1; i < *argc; i++) {
+        const char *lib = NULL;
+        if (!strcmp(argv[i], "--plugin")) {
+            if (i + 1 >= *argc) return cli_usage_error(argv[1], "--plugin needs a file");
+            lib = argv[++i];
+        } else if (!strncmp(argv[i], "--plugin=", 9)) {
+            lib = argv[i] + 9;
+        } else {
+            argv[kept++] = argv[i];
+            continue;
+        }
+        if (wg_plugin_load(lib, &err)) {
+            cli_report(&err);
+            return EXIT_USAGE;
+        }
+    }
+    *argc = kept;
+    argv[kept] = NULL;
+    return EXIT_OK;
+}
+
 int main(int argc, char **argv)
 {
+    int rc = load_plugins(&argc, argv);
+    if (rc) return rc;
     if (argc < 2) {
         fputs(usage, stderr);
         return EXIT_USAGE;

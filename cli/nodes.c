@@ -116,6 +116,7 @@ static void text(const WgNodeType *t)
     printf("%s - %s\n", t->name, t->summary);
     flags_text(t->flags, a, sizeof a);
     printf("category: %s%s%s\n", t->category, a[0] ? "; " : "", a);
+    if (wg_node_type_origin(t)) printf("plugin: %s\n", wg_node_type_origin(t));
     if (t->doc) printf("\n%s\n", t->doc);
     printf("\nparameters:%s\n", t->params && t->params[0].name ? "" : " none");
     for (int i = 0; t->params && t->params[i].name; i++) {
@@ -138,6 +139,7 @@ int cmd_nodes(int argc, char **argv)
 {
     const char *type = NULL;
     bool md = false;
+    const WgNodeType *const *types = wg_node_types_active();
     for (int i = 1; i < argc; i++) {
         if (cli_is_help(argv[i])) {
             fputs(help, stdout);
@@ -157,7 +159,7 @@ int cmd_nodes(int argc, char **argv)
         if (!t) {
             const char *names[256];
             int n = 0;
-            for (; wg_node_types[n] && n < 256; n++) names[n] = wg_node_types[n]->name;
+            for (; types[n] && n < 256; n++) names[n] = types[n]->name;
             const char *s = wg_suggest(type, names, n);
             fprintf(stderr, "wetgraph nodes: unknown node type '%s'%s%s%s\n", type,
                     s ? "; did you mean '" : "", s ? s : "", s ? "'?" : "");
@@ -177,15 +179,17 @@ int cmd_nodes(int argc, char **argv)
                "generators tile unless their description says otherwise. Inputs of another "
                "size are resampled to the node's size; a gray image fed to a colour input is "
                "promoted (R = G = B, alpha 1); colour fed to a gray input is an error.\n\n");
-        for (int i = 0; wg_node_types[i]; i++)
-            printf("- [`%s`](#%s): %s\n", wg_node_types[i]->name, wg_node_types[i]->name,
-                   wg_node_types[i]->summary);
+        for (int i = 0; types[i]; i++)
+            printf("- [`%s`](#%s): %s\n", types[i]->name, types[i]->name, types[i]->summary);
         printf("\n");
-        for (int i = 0; wg_node_types[i]; i++) markdown(wg_node_types[i]);
+        for (int i = 0; types[i]; i++) markdown(types[i]);
         return EXIT_OK;
     }
-    for (int i = 0; wg_node_types[i]; i++)
-        printf("%-14s %-9s %s\n", wg_node_types[i]->name, wg_node_types[i]->category,
-               wg_node_types[i]->summary);
+    for (int i = 0; types[i]; i++)
+        if (wg_node_type_origin(types[i]))
+            printf("%-14s %-9s %s  [plugin %s]\n", types[i]->name, types[i]->category,
+                   types[i]->summary, wg_node_type_origin(types[i]));
+        else
+            printf("%-14s %-9s %s\n", types[i]->name, types[i]->category, types[i]->summary);
     return EXIT_OK;
 }

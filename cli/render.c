@@ -556,14 +556,15 @@ WgFormat output_format(const Options *o, const char *output, WgFormat graph_form
 
 /* The value of placeholder `key` ({graph}, {output}, {frame}, {row}, {input:NAME}, {set:NAME},
  * {#NAME}, {out}) into buf; false when it has none here. */
-static bool placeholder(const Options *o, const WgGraph *g, const char *output, int frame,
-                        const char *key, size_t len, char *buf, size_t size)
+/* `group` is the file's kind when it is not one of the graph's outputs (a glTF asset), else
+ * NULL: the output's own group is looked up. */
+static bool placeholder(const Options *o, const WgGraph *g, const char *output, const char *group,
+                        int frame, const char *key, size_t len, char *buf, size_t size)
 {
     if (len == 5 && !strncmp(key, "graph", 5))
         return snprintf(buf, size, "%s", wg_graph_name(g)) >= 0;
     if (len == 6 && !strncmp(key, "output", 6)) return snprintf(buf, size, "%s", output) >= 0;
     if (len == 5 && !strncmp(key, "group", 5)) { /* the output's group, or "other" */
-        const char *group = NULL;
         for (int i = 0; i < wg_graph_output_count(g) && !group; i++)
             if (!strcmp(wg_graph_output_info(g, i)->name, output))
                 group = wg_graph_output_info(g, i)->group;
@@ -627,8 +628,9 @@ bool name_pattern_check(const char *pattern, bool frames, bool batch, char *why,
     return true;
 }
 
-bool output_file(const Options *o, const WgGraph *g, const char *name, WgFormat f, int frame,
-                 char *buf, size_t size)
+/* DIR/<pattern>.<ext> for the file named `name` (an output, or a glTF asset of kind `group`). */
+static bool pattern_file(const Options *o, const WgGraph *g, const char *name, const char *group,
+                         int frame, const char *ext, char *buf, size_t size)
 {
     const char *dir = o->out_dir ? o->out_dir : ".";
     const char *pattern = o->name      ? o->name
@@ -643,18 +645,30 @@ bool output_file(const Options *o, const WgGraph *g, const char *name, WgFormat 
         const char *end = strchr(p, '}');
         char value[1024];
         if (!end ||
-            !placeholder(o, g, name, frame, p + 1, (size_t)(end - p - 1), value, sizeof value))
+            !placeholder(o, g, name, group, frame, p + 1, (size_t)(end - p - 1), value,
+                         sizeof value))
             return false;
         at += (size_t)snprintf(buf + at, size - at, "%s", value);
         p = end;
     }
     if (at >= size) at = size - 1;
-    snprintf(buf + at, size - at, ".%s", wg_format_extension(f));
+    snprintf(buf + at, size - at, ".%s", ext);
     return true;
 }
 
-/* The folder of a file --name puts below the output folder, made when missing. */
-static int name_folder(const char *path, WgError *err)
+bool output_file(const Options *o, const WgGraph *g, const char *name, WgFormat f, int frame,
+                 char *buf, size_t size)
+{
+    return pattern_file(o, g, name, NULL, frame, wg_format_extension(f), buf, size);
+}
+
+bool gltf_file(const Options *o, const WgGraph *g, int i, int frame, char *buf, size_t size)
+{
+    const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
+    return pattern_file(o, g, a->name, "gltf", frame, a->binary ? "glb" : "gltf", buf, size);
+}
+
+int name_folder(const char *path, WgError *err)
 {
     char folder[4096];
     folder_of(path, folder, sizeof folder);
@@ -718,15 +732,10 @@ int output_files_check(const Options *o, const WgGraph *g, const WgRequest *r, i
     }
     for (int i = 0; !rc && i < wg_graph_gltf_count(g); i++) {
         if (!gltf_selected(o, g, i)) continue;
-        const WgGraphGltfInfo *a = wg_graph_gltf_info(g, i);
-        const char *dir = o->out_dir ? o->out_dir : ".";
-        if (frame >= 0)
-            snprintf(paths[m], sizeof paths[m], "%s/%s_%s_%04d.%s", dir, wg_graph_name(g), a->name,
-                     frame, a->binary ? "glb" : "gltf");
-        else
-            snprintf(paths[m], sizeof paths[m], "%s/%s_%s.%s", dir, wg_graph_name(g), a->name,
-                     a->binary ? "glb" : "gltf");
-        owner[m++] = a->name;
+        if (!gltf_file(o, g, i, frame, paths[m], sizeof paths[m]))
+            rc = wg_error_set(err, WG_ERR_USAGE, NULL,
+                              "--name '%s' names what this render does not have", o->name);
+        owner[m++] = wg_graph_gltf_info(g, i)->name;
     }
     for (int i = 0; !rc && i < m; i++)
         for (int k = 0; !rc && k < i; k++)

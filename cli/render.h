@@ -57,6 +57,11 @@ WgFormat output_format(const Options *o, const char *output, WgFormat graph_form
  * outside a batch). */
 bool output_file(const Options *o, const WgGraph *g, const char *name, WgFormat f, int frame,
                  char *buf, size_t size);
+/* The file of glTF asset i (extension .gltf or .glb): --name's pattern with {output} the
+ * asset's name and {group} "gltf", or {graph}_{name}[_{frame}]; false as output_file. */
+bool gltf_file(const Options *o, const WgGraph *g, int i, int frame, char *buf, size_t size);
+/* The folder of a file --name puts below the output folder, made when missing. */
+int name_folder(const char *path, WgError *err);
 /* --name's pattern holds only placeholders it can fill (frames and batch: whether the render
  * has them); false with why otherwise. */
 bool name_pattern_check(const char *pattern, bool frames, bool batch, char *why, size_t size);

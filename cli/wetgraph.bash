@@ -42,7 +42,8 @@ _wetgraph()
     # options taking a value, and the graph: the first word that is neither an option nor one
     # of their values (bash splits NAME=VALUE at '=' into NAME, =, VALUE)
     local opts with_value=" " graph="" i w
-    opts=$(_wetgraph_options "$sub")
+    # every command takes --plugin LIB (the overview's "Node plugins")
+    opts=$(_wetgraph_options "$sub")$'\n'"--plugin LIB"
     while read -r w rest; do
         [[ -n $rest ]] && with_value+="$w "
         [[ -n $rest && $w == --out ]] && with_value+="-o "
@@ -83,6 +84,10 @@ _wetgraph()
         ;;
     --format)
         mapfile -t COMPREPLY < <(compgen -W "png png16 tif16 exr exr32" -- "$cur")
+        return
+        ;;
+    --plugin)
+        mapfile -t COMPREPLY < <(compgen -d -- "$cur"; compgen -f -X '!*.so' -- "$cur")
         return
         ;;
     -o | --out | --cache)

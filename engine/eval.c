@@ -25,6 +25,7 @@ struct WgEngine {
     size_t budget;
     bool memory_cache;
     bool fuse;
+    int band_rows; /* rows of a fused band, 0: the engine's choice */
 };
 
 typedef struct Run Run;
@@ -237,6 +238,7 @@ int wg_engine_new(const WgEngineOptions *opt, WgEngine **out, WgError *err)
     e->budget = opt->memory_budget ? opt->memory_budget : default_budget();
     e->memory_cache = !opt->no_memory_cache;
     e->fuse = !opt->no_fuse;
+    e->band_rows = opt->band_rows > 0 ? opt->band_rows : 0;
     e->pool = wg__pool_new(threads);
     e->cache = wg__cache_new(opt->cache_dir);
     int cache_errno = errno;
@@ -440,7 +442,8 @@ static int eval_group(Run *run, Node *node, WgError *err)
             outputs[k] = m->whole ? (WgImage **)m->out : NULL;
         }
         rc = wg__fuse_eval(run->plan, node->members, node->n_members, outputs, run->e->mem,
-                           group_source, run, run->e->pool, &run->cancel, ms, &failed, err);
+                           group_source, run, run->e->pool, &run->cancel, run->e->band_rows, ms,
+                           &failed, err);
         for (int k = 0; k < node->n_members; k++) run->nodes[node->members[k]].stat.ms = ms[k];
     }
     wg_free(ms);

@@ -810,8 +810,8 @@ static void run_bands(void *user, int b0, int b1)
 }
 
 int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgImage ***out, WgMemPool *mem,
-                  WgFuseSourceFn source, void *user, WgPool *pool, volatile int *cancel, double *ms,
-                  int *failed, WgError *err)
+                  WgFuseSourceFn source, void *user, WgPool *pool, volatile int *cancel,
+                  int band_rows, double *ms, int *failed, WgError *err)
 {
     const WgInst *sink = &p->insts[members[n - 1]];
     Group g = {.p = p, .members = members, .n = n, .cancel = cancel, .ms = ms, .out = out};
@@ -842,7 +842,8 @@ int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgImage ***out, Wg
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
         goto out;
     }
-    g.band_rows = band_rows_for(p, members, n, whole, g.n_slots);
+    g.band_rows = band_rows > 0 ? (band_rows < g.height ? band_rows : g.height)
+                                : band_rows_for(p, members, n, whole, g.n_slots);
     g.n_bands = (g.height + g.band_rows - 1) / g.band_rows;
     g.slot_floats = (size_t)g.band_rows * stride_for(g.width, slot_channels(p, members, n));
     /* inputs from outside the group: whole images, converted here when the node needs it */

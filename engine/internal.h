@@ -47,6 +47,9 @@ void wg__key_index_free(WgKeyIndex *ix);
 const WgNodeType *wg__node_type_lookup(const char *name);
 /* The first `max` names of that table, in order; returns how many. */
 int wg__node_type_names(const char **names, int max);
+/* The identity of the plugin a type came from (plugin.c), which enters its cache keys, or
+ * NULL for a type of the table the library started with. */
+const uint64_t *wg__node_type_plugin_key(const WgNodeType *t);
 
 /* ---- values ------------------------------------------------------------------------------ */
 
@@ -353,11 +356,12 @@ typedef const WgImage *(*WgFuseSourceFn)(void *user, int inst, int port);
 /* Evaluate a group (members: plan indexes, ascending, the sink last) band by band. out[k] is
  * NULL for a member that exists only in bands, else an array of its n_out outputs that this
  * fills (images from `mem`; the caller owns them). ms[k] is the time member k took, summed over
- * its bands and threads. On failure the outputs are released and *failed is the member the
+ * its bands and threads. band_rows > 0 sets the rows of a band (else they are chosen for the
+ * memory they touch). On failure the outputs are released and *failed is the member the
  * error belongs to. */
 int wg__fuse_eval(const WgPlan *p, const int *members, int n, WgImage ***out, WgMemPool *mem,
-                  WgFuseSourceFn source, void *user, WgPool *pool, volatile int *cancel, double *ms,
-                  int *failed, WgError *err);
+                  WgFuseSourceFn source, void *user, WgPool *pool, volatile int *cancel,
+                  int band_rows, double *ms, int *failed, WgError *err);
 /* Graphviz description of the request's graph with a cluster around each group of its own
  * nodes that a render with nothing cached fuses (graph.c writes it). */
 void wg__graph_write_dot(const WgGraph *g, const int *cluster, FILE *f);

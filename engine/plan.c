@@ -245,6 +245,8 @@ static int compute_key(Builder *b, WgInst *in)
 #define ADD_STR(s) ADD((s), strlen(s) + 1)
     ADD_STR(KEY_VERSION);
     ADD_STR(in->type->name);
+    const uint64_t *plugin = wg__node_type_plugin_key(in->type);
+    if (plugin) ADD(plugin, 2 * sizeof *plugin);
     int dims[2] = {in->width, in->height};
     ADD(dims, sizeof dims);
     ADD(in->out_channels, sizeof(int) * (size_t)in->n_out);

@@ -7,6 +7,8 @@
  * the same name the first in the table wins, as in a linear search. */
 #include "internal.h"
 
+#include <wetgraph/plugin.h>
+
 #include <string.h>
 
 enum { TYPE_SLOTS = 512 }; /* a name index is at most half full */
@@ -50,4 +52,10 @@ int wg__node_type_names(const char **names, int max)
     int count = 0;
     for (; types && types[count] && count < max; count++) names[count] = types[count]->name;
     return count;
+}
+
+const WgNodeType *const *wg_node_types_active(void)
+{
+    static const WgNodeType *const none[] = {NULL};
+    return types ? types : none;
 }

@@ -2,6 +2,7 @@
 /* The node registry: every built-in node type, in a fixed order (the order of `wetgraph nodes`
  * and docs/nodes.md). Add a node by declaring its descriptor here and listing it below. */
 #include "wetgraph/node.h"
+#include "wetgraph/plugin.h"
 
 #include <string.h>
 
@@ -105,7 +106,8 @@ __attribute__((constructor)) static void register_builtin_types(void)
 
 const WgNodeType *wg_node_type_find(const char *name)
 {
-    for (int i = 0; wg_node_types[i]; i++)
-        if (!strcmp(wg_node_types[i]->name, name)) return wg_node_types[i];
+    const WgNodeType *const *types = wg_node_types_active();
+    for (int i = 0; types[i]; i++)
+        if (!strcmp(types[i]->name, name)) return types[i];
     return NULL;
 }

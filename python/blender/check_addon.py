@@ -97,10 +97,10 @@ assert source(disp.inputs["Height"]).name == W + "height"
 for dry_node in (base, ao, rough, normal, height):
     assert not any(o.is_linked for o in dry_node.outputs), f"{dry_node.name} is still wired"
 # the water layer is the clear coat
-assert source(bsdf.inputs["Clearcoat"]).name == W + "water_mask"
-assert source(bsdf.inputs["Clearcoat Roughness"]).name == W + "water_roughness"
+assert source(bsdf.inputs["Clearcoat"]).name == W + "watermask"
+assert source(bsdf.inputs["Clearcoat Roughness"]).name == W + "waterroughness"
 cn = source(bsdf.inputs["Clearcoat Normal"])
-assert cn.type == "NORMAL_MAP" and source(cn.inputs["Color"]).name == W + "water_normal"
+assert cn.type == "NORMAL_MAP" and source(cn.inputs["Color"]).name == W + "waternormal"
 
 
 def pixels(node):
@@ -112,9 +112,9 @@ def pixels(node):
 
 
 wet_base = pixels(nt.nodes[W + "basecolor"])[..., :3]
-mask = pixels(nt.nodes[W + "water_mask"])[..., 0]
+mask = pixels(nt.nodes[W + "watermask"])[..., 0]
 assert nt.nodes[W + "basecolor"].image.colorspace_settings.name == "Linear"
-assert nt.nodes[W + "water_mask"].image.colorspace_settings.name == "Non-Color"
+assert nt.nodes[W + "watermask"].image.colorspace_settings.name == "Non-Color"
 assert nt.nodes[W + "basecolor"].image.packed_file is not None, "the wet maps are not packed"
 assert 0.05 < mask.mean() < 0.95, f"water mask mean {mask.mean()} at water level 0.7"
 # the same maps as the module gives for the same files and values
@@ -127,9 +127,9 @@ g.set_inputs(basecolor=bpy.path.abspath(base.image.filepath),
              ao=bpy.path.abspath(ao.image.filepath))
 g.size = (SIZE, SIZE)
 g.set(water_level=0.7, normal_format="opengl")
-want = g.render(["basecolor", "water_mask"])
+want = g.render(["basecolor", "watermask"])
 assert np.array_equal(wet_base, want["basecolor"][..., :3]), "the wet base colour differs"
-assert np.array_equal(mask, want["water_mask"]), "the water mask differs"
+assert np.array_equal(mask, want["watermask"]), "the water mask differs"
 dry_lin = g.render(["basecolor"])["basecolor"]
 g.set(water_level=0.0)
 dry_lin = g.render(["basecolor"])["basecolor"][..., :3]
@@ -144,7 +144,7 @@ print("second run:", s.report)
 st = wetgraph_wet._sessions[mat.name].stats
 assert 0 < st["evaluated"] < len(st["nodes"]), (st["evaluated"], len(st["nodes"]))
 assert any(n["cache"] == "memory" for n in st["nodes"])
-mask2 = pixels(nt.nodes[W + "water_mask"])[..., 0]
+mask2 = pixels(nt.nodes[W + "watermask"])[..., 0]
 assert mask2.mean() < mask.mean(), "less water at a lower level"
 assert s.dry_basecolor == "Color"  # still read from the dry maps
 

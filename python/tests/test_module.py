@@ -346,7 +346,7 @@ def test_second_render_recomputes_only_what_the_change_reaches(wet, bricks):
     assert all("rough" in i for i in computed), computed
     assert {"masks/immersed", "masks/wet", "tex/albedo"} <= cached, cached
     changed = {k for k in first if not np.array_equal(first[k], second[k])}
-    assert changed == {"roughness", "under_roughness"}, changed
+    assert changed == {"roughness", "underroughness"}, changed
     # the same pixels as a render that computes everything
     fresh = wetgraph.Graph("wet_material", wetgraph.Engine(threads=1))
     fresh.set_inputs(**{name: bricks[name] for name in ("basecolor", "height", "normal",

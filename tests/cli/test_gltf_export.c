@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* glTF assets a graph declares (<gltf>), written by `render`: beside the outputs and with them
  * (the maps, the .gltf with its .bin and textures, the .glb), passing Khronos' glTF-Validator;
- * `--output NAME` of an asset renders the outputs it needs and it alone; a frame sequence names
+ * the assets' files follow --name as the outputs do; `--output NAME` of an asset renders the outputs it needs and it alone; a frame sequence names
  * each frame's asset; `watch`'s and a batch's writes carry them too; a failed render writes no
  * asset; and `info` lists them. */
 #include "wgtest.h"
@@ -79,6 +79,43 @@ static void test_output_selects_an_asset(void **state)
     assert_int_equal(wgt_count_in(wgt_join(d, "err"), "did you mean 'flat'?"), 1);
 }
 
+/* --name names the assets as it names the outputs: {output} is the asset's name, {group} "gltf",
+ * a '/' makes a folder; an asset and an output that would be one file are refused. */
+static void test_assets_follow_the_name_pattern(void **state)
+{
+    (void)state;
+    const char *d = fresh("named");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o o --name '{group}/{graph}-{output}'");
+    static const char *const files[] = {"other/g-base.png", "other/g-h.png", "gltf/g-tile.gltf",
+                                        "gltf/g-tile.bin",  "gltf/g-tile_basecolor.png",
+                                        "gltf/g-flat.glb"};
+    for (size_t i = 0; i < sizeof files / sizeof *files; i++) {
+        char p[64];
+        snprintf(p, sizeof p, "o/%s", files[i]);
+        if (!wgt_exists(wgt_join(d, p))) fail_msg("%s not written", p);
+    }
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "o/gltf/g-tile.gltf"), 1);
+    assert_false(wgt_exists(wgt_join(d, "o/g_tile.gltf")));
+    wgt_gltf_validate(d, "o/gltf/g-tile.gltf o/gltf/g-flat.glb");
+    /* in a sequence, {frame} names each frame's asset */
+    WGT_SH(d, 0, "$WG render g.wetgraph -o f --frames 0:1 --name '{output}.{frame}' -q");
+    assert_true(wgt_exists(wgt_join(d, "f/tile.0001.gltf")));
+    assert_true(wgt_exists(wgt_join(d, "f/flat.0000.glb")));
+    /* two assets written to one file: refused before rendering, nothing written */
+    wgt_write_file(wgt_join(d, "two.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"16\">\n"
+                   "  <node id=\"c\" type=\"uniform\" kind=\"color\" color=\"0.5 0.4 0.3 1\"/>\n"
+                   "  <output name=\"base\" from=\"c\"/>\n"
+                   "  <gltf name=\"a\" base_color=\"base\"/>\n"
+                   "  <gltf name=\"b\" base_color=\"base\"/>\n"
+                   "</wetgraph>\n");
+    WGT_SH(d, 2, "$WG render two.wetgraph -o x --name '{graph}'");
+    assert_int_equal(wgt_count_in(wgt_join(d, "err"), "'a' and 'b' would both be written to "
+                                                      "x/two.gltf (--name '{graph}')"),
+                     1);
+    assert_false(wgt_exists(wgt_join(d, "x")));
+}
+
 static void test_frames_batches_and_failures(void **state)
 {
     (void)state;
@@ -123,6 +160,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_render_writes_the_assets),
         cmocka_unit_test(test_output_selects_an_asset),
+        cmocka_unit_test(test_assets_follow_the_name_pattern),
         cmocka_unit_test(test_frames_batches_and_failures),
         cmocka_unit_test(test_wet_gltf),
     };

@@ -138,8 +138,10 @@ static void test_completion(void **state)
         {"render wet_m", "wet_material", NULL},
         {"render wet_material --set water_l", "water_level=", "water_level\n"},
         {"render -o out --threads 2 wet_material --set water_level = 0.5 --output wat",
-         "water_mask", "basecolor"},
+         "watermask", "basecolor"},
         {"render wet_material --input he", "height=", "water_level"},
+        {"render wet_material --plug", "--plugin", NULL},
+        {"nodes --plugin ", NULL, "blur"},
         {"nodes bl", "blur", "noise"},
         {"info texturing --json", NULL, NULL},
     };

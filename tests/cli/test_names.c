@@ -2,9 +2,12 @@
 /* Output names and formats a pipeline sets: --name patterns ({graph}, {output}, {frame}, {row}
  * and a batch row's columns, with '/' making sub-folders), --format NAME=FMT for one output
  * beside the global --format, and files that two outputs would share refused before anything
- * is rendered. */
+ * is rendered. The built-in graphs' layer maps and masks carry no word of a PBR map's name,
+ * checked by the words rule of name-matching tools and by Blender's Node Wrangler itself. */
 #include "wgtest.h"
 
+#include <ctype.h>
+#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -151,6 +154,146 @@ static void test_collisions_and_bad_patterns(void **state)
     expect(d, "z", false);
 }
 
+/* The words a file name is made of, as Blender's Node Wrangler splits it to match maps to
+ * inputs: extension and digits dropped, a lower-to-upper case change, '_', '.', '-' and '#'
+ * separate words; lower case. Words are written into `words`, space-separated with a leading
+ * and trailing space, so " normal " finds the word. */
+static void name_words(const char *name, char *words, size_t cap)
+{
+    size_t n = 0;
+    words[n++] = ' ';
+    for (const char *c = name; *c && n + 2 < cap; c++) {
+        if (isdigit((unsigned char)*c)) continue;
+        if (strchr("_.-#", *c)) {
+            if (words[n - 1] != ' ') words[n++] = ' ';
+            continue;
+        }
+        if (isupper((unsigned char)*c) && c > name && islower((unsigned char)c[-1]) &&
+            words[n - 1] != ' ')
+            words[n++] = ' ';
+        words[n++] = (char)tolower((unsigned char)*c);
+    }
+    if (words[n - 1] != ' ') words[n++] = ' ';
+    words[n] = '\0';
+}
+
+/* Node Wrangler's default words for the Principled BSDF's inputs (Blender 3.4). */
+static const char *const pbr_words[] = {
+    "diffuse",  "diff",         "albedo",      "base",      "col",      "color",
+    "sss",      "subsurface",   "metallic",    "metalness", "metal",    "mtl",
+    "specularity", "specular",  "spec",        "spc",       "normal",   "nor",
+    "nrm",      "nrml",         "norm",        "bump",      "bmp",      "roughness",
+    "rough",    "rgh",          "gloss",       "glossy",    "glossiness", "displacement",
+    "displace", "disp",         "dsp",         "height",    "heightmap", "transmission",
+    "transparency", "emission", "emissive",    "emit",      "alpha",    "opacity",
+    "ao",       "ambient",      "occlusion"};
+
+/* The first PBR word among a name's words, or NULL. */
+static const char *pbr_word_in(const char *name)
+{
+    char words[256], key[64];
+    name_words(name, words, sizeof words);
+    for (size_t i = 0; i < sizeof pbr_words / sizeof *pbr_words; i++) {
+        snprintf(key, sizeof key, " %s ", pbr_words[i]);
+        if (strstr(words, key)) return pbr_words[i];
+    }
+    return NULL;
+}
+
+static void test_name_words(void **state)
+{
+    (void)state;
+    assert_string_equal(pbr_word_in("WallTexture_diff_2k.002.jpg"), "diff");
+    assert_string_equal(pbr_word_in("wet_material_water_normal.png"), "normal");
+    assert_string_equal(pbr_word_in("rockBaseColor.png"), "base");
+    assert_string_equal(pbr_word_in("g#AO"), "ao");
+    assert_null(pbr_word_in("wet_material_waternormal.png"));
+    assert_null(pbr_word_in("wet_material_basecolor.png"));
+    assert_null(pbr_word_in("wet_material_underroughness.png"));
+}
+
+/* In every built-in graph, a layer map or mask written under its default name
+ * (<graph>_<output>) has no word of a PBR map's name: a tool matching one folder's files to a
+ * material's inputs never takes it for the material's own map. */
+static void test_layer_names_free_of_pbr_words(void **state)
+{
+    (void)state;
+    const char *src = getenv("WETGRAPH_SOURCE");
+    assert_non_null(src);
+    char dir[4096], path[4096 + 256], file[512];
+    snprintf(dir, sizeof dir, "%s/graphs", src);
+    DIR *d = opendir(dir);
+    assert_non_null(d);
+    int checked = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        size_t len = strlen(e->d_name);
+        if (len < 9 || strcmp(e->d_name + len - 9, ".wetgraph")) continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        WgGraph *g = NULL;
+        WgError err = {0};
+        if (wg_graph_load(path, &g, &err)) fail_msg("%s", err.message);
+        for (int i = 0; i < wg_graph_output_count(g); i++) {
+            const WgGraphOutputInfo *o = wg_graph_output_info(g, i);
+            if (!o->group || (strcmp(o->group, "layers") && strcmp(o->group, "masks"))) continue;
+            snprintf(file, sizeof file, "%.*s_%s.png", (int)(len - 9), e->d_name, o->name);
+            const char *w = pbr_word_in(file);
+            if (w) fail_msg("%s: output '%s' (group %s) is written as %s: '%s' is a PBR map's word",
+                            e->d_name, o->name, o->group, file, w);
+            checked++;
+        }
+        wg_graph_free(g);
+    }
+    closedir(d);
+    assert_true(checked >= 20); /* wet_material's and wet_gltf's layers and masks were seen */
+}
+
+/* Blender's Node Wrangler, given every file of a wet_material render (in name order and in
+ * reverse), wires the one-surface maps and nothing else; with `basecolor` added to its base
+ * colour words, the base colour too. Where Blender is not installed the test is skipped. */
+static void test_node_wrangler_wires_the_maps(void **state)
+{
+    (void)state;
+    if (wgt_shell(".", "command -v blender") != 0) {
+        print_message("blender not found: Node Wrangler's wiring not checked "
+                      "(scripts/install-deps.sh --bench installs it)\n");
+        skip();
+    }
+    const char *src = getenv("WETGRAPH_SOURCE"), *shared = getenv("WETGRAPH_SHARED");
+    assert_non_null(src);
+    assert_non_null(shared);
+    const char *d = wgt_fresh_dir("wrangler");
+    WGT_SH(d, 0,
+           "m='%s/materials/bricks102_stonewall_1k/Bricks102_1K-JPG' && $WG render wet_material "
+           "-o all --size 64x32 --set water_level=0.6 -q --input basecolor=\"${m}_Color.jpg\" "
+           "--input height=\"${m}_Displacement.jpg\" --input normal=\"${m}_NormalGL.jpg\" "
+           "--input roughness=\"${m}_Roughness.jpg\" --input ao=\"${m}_AmbientOcclusion.jpg\"",
+           shared);
+    static const char *const ao = "Ambient Occlusion\twet_material_ao.png\n";
+    static const char *const wired =
+        "Displacement\twet_material_height.png\n"
+        "Metallic\twet_material_metallic.png\n"
+        "Normal\twet_material_normal.png\n"
+        "Roughness\twet_material_roughness.png\n"
+        "Specular\twet_material_specular.png\n";
+    static const char *const runs[] = {"", "reverse", "reverse basecolor"};
+    for (int r = 0; r < 3; r++) {
+        WGT_SH(d, 0,
+               "blender -b --factory-startup -P '%s/bench/blender_node_wrangler.py' -- all %s "
+               "2>/dev/null | grep -P '\\t' | sort > wired.txt",
+               src, runs[r]);
+        char want[1024];
+        snprintf(want, sizeof want, "%s%s%s", ao,
+                 r == 2 ? "Base Color\twet_material_basecolor.png\n" : "", wired);
+        FILE *f = fopen(wgt_join(d, "wired.txt"), "r");
+        assert_non_null(f);
+        char got[1024] = {0};
+        size_t n = fread(got, 1, sizeof got - 1, f);
+        fclose(f);
+        got[n] = '\0';
+        if (strcmp(got, want)) fail_msg("Node Wrangler (%s) wired:\n%swanted:\n%s", runs[r], got, want);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -158,6 +301,9 @@ int main(void)
         cmocka_unit_test(test_formats),
         cmocka_unit_test(test_jpeg_and_tga),
         cmocka_unit_test(test_collisions_and_bad_patterns),
+        cmocka_unit_test(test_name_words),
+        cmocka_unit_test(test_layer_names_free_of_pbr_words),
+        cmocka_unit_test(test_node_wrangler_wires_the_maps),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

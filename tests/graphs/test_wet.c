@@ -610,15 +610,15 @@ static void test_depths_free_of_height_units(void **state)
         double d = max_srgb_diff(wgt_output(res[0], "basecolor"), wgt_output(res[1], "basecolor"));
         if (d > 2.0 / 255)
             fail_msg("%s: base colour differs by %.1f/255 at x1000", liquids[i], 255 * d);
-        const WgImage *wn0 = wgt_output(res[0], "water_normal"),
-                      *wn1 = wgt_output(res[1], "water_normal");
+        const WgImage *wn0 = wgt_output(res[0], "waternormal"),
+                      *wn1 = wgt_output(res[1], "waternormal");
         wgt_assert_near(wn0, wn1, 1e-3);
         double bent = 0;
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) bent = fmax(bent, fabs(wgt_px(wn0, x, y, 0) - 0.5));
         assert_true(bent > 0.02); /* there is a meniscus to compare */
-        const WgImage *s0 = wgt_output(res[0], "water_height"),
-                      *s1 = wgt_output(res[1], "water_height");
+        const WgImage *s0 = wgt_output(res[0], "waterheight"),
+                      *s1 = wgt_output(res[1], "waterheight");
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++)
                 assert_float_equal(wgt_px(s1, x, y, 0) / 1000, wgt_px(s0, x, y, 0), 1e-4);

@@ -36,6 +36,9 @@ typedef struct WgEngineOptions {
                               as its last consumer has run */
     bool no_fuse;          /* evaluate every node whole, also runs of point operations that are
                               otherwise fused into bands (docs/engine.md) */
+    int band_rows;         /* rows of each band of a fused run (the last may be shorter); 0 =
+                              chosen for the memory a band touches. Results do not depend on
+                              it: a test sets it to check that they do not */
 } WgEngineOptions;
 
 /* The caller owns the engine. NULL options means defaults. */

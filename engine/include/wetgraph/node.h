@@ -233,7 +233,8 @@ typedef struct WgNodeType {
     void (*finish)(void *state);
 } WgNodeType;
 
-/* The registry: a NULL-terminated array in fixed order. */
+/* The built-in registry: a NULL-terminated array in fixed order (wg_node_types_active in
+ * plugin.h: with the plugins' types). wg_node_type_find looks among the active types. */
 extern const WgNodeType *const wg_node_types[];
 const WgNodeType *wg_node_type_find(const char *name);
 /* The node types graphs are read with: a NULL-terminated table (borrowed: it and its

@@ -10,6 +10,7 @@
 #include "node.h"
 #include "graph.h"
 #include "eval.h"
+#include "plugin.h"
 
 #define WETGRAPH_VERSION "0.1.0"
 

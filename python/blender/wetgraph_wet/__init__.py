@@ -35,8 +35,8 @@ NODE_PREFIX = "wetgraph "
 # the wet maps wired back, with the colour space their Blender image is in
 OUTPUTS = {
     "basecolor": "Linear", "roughness": "Non-Color", "normal": "Non-Color",
-    "height": "Non-Color", "ao": "Non-Color", "water_mask": "Non-Color",
-    "water_roughness": "Non-Color", "water_normal": "Non-Color",
+    "height": "Non-Color", "ao": "Non-Color", "watermask": "Non-Color",
+    "waterroughness": "Non-Color", "waternormal": "Non-Color",
 }
 # an ambient occlusion map's node or image name: "AO" as a word of its own, or "occlusion"
 AO_NAME = re.compile(r"(^|[^a-z])ao([^a-z]|$)|occlusion")
@@ -301,10 +301,10 @@ def wet(material, context=None):
     if "roughness" not in dry:
         tree.links.new(wet_nodes["roughness"].outputs["Color"], bsdf.inputs["Roughness"])
     # the water layer as the clear coat
-    tree.links.new(wet_nodes["water_mask"].outputs["Color"], bsdf.inputs["Clearcoat"])
-    tree.links.new(wet_nodes["water_roughness"].outputs["Color"],
+    tree.links.new(wet_nodes["watermask"].outputs["Color"], bsdf.inputs["Clearcoat"])
+    tree.links.new(wet_nodes["waterroughness"].outputs["Color"],
                    bsdf.inputs["Clearcoat Roughness"])
-    cn = _normal_map(tree, "water normal map", wet_nodes["water_normal"], bsdf)
+    cn = _normal_map(tree, "water normal map", wet_nodes["waternormal"], bsdf)
     tree.links.new(cn.outputs["Normal"], bsdf.inputs["Clearcoat Normal"])
 
     st = g.stats
