@@ -129,7 +129,33 @@ static WgImage *image_new(WgMemPool *pool, int width, int height, int channels, 
         wg_free(img);
         return NULL;
     }
+    img->release_ = NULL;
+    img->release_user_ = NULL;
     img->refcount_ = 1;
+    return img;
+}
+
+static void release_nothing(void *user)
+{
+    (void)user;
+}
+
+WgImage *wg_image_wrap(int width, int height, int channels, size_t stride, float *data,
+                       void (*release)(void *user), void *user)
+{
+    if (width < 1 || height < 1 || width > WG_MAX_SIDE || height > WG_MAX_SIDE) return NULL;
+    if ((channels != 1 && channels != 4) || !data) return NULL;
+    if (stride < (size_t)width * (size_t)channels) return NULL;
+    WgImage *img = wg_malloc(sizeof *img);
+    if (!img) return NULL;
+    *img = (WgImage){.width = width,
+                     .height = height,
+                     .channels = channels,
+                     .stride = stride,
+                     .data = data,
+                     .refcount_ = 1,
+                     .release_ = release ? release : release_nothing,
+                     .release_user_ = user};
     return img;
 }
 
@@ -167,6 +193,11 @@ void wg_image_unref(const WgImage *img)
     WgImage *m = (WgImage *)img;
     if (!m) return;
     if (atomic_fetch_sub_explicit((_Atomic int *)&m->refcount_, 1, memory_order_acq_rel) == 1) {
+        if (m->release_) { /* wg_image_wrap's: the pixels go back to their holder */
+            m->release_(m->release_user_);
+            wg_free(m);
+            return;
+        }
         wg__mempool_put(m->pool_, m->data, wg_image_bytes(m), m->mapped_);
         wg_free(m);
     }

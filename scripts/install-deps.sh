@@ -17,13 +17,20 @@ pkgs=(meson ninja-build pkg-config gcc g++ libxml2-dev libopenimageio-dev libope
       libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri
       help2man  # the manual page, from `wetgraph --help-all`
       bash-completion  # where the bash completion is installed, and bash's completion itself
-      clang libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
+      clang libclang-rt-14-dev  # the libFuzzer targets (scripts/fuzz.sh): clang and its runtime
+      # the Python module (python/) for Debian's python3, and its pytest suite, which reads the
+      # command line's files with OpenImageIO's binding
+      python3-dev python3-numpy python3-pytest python3-openimageio
+      # the Blender add-on's headless test (python/tests/test_blender.py): Debian's Blender
+      # runs on the same python3; about 190 MB with its data, in the range of chromium above
+      blender)
 if [[ "${1:-}" == "--bench" ]]; then
     pkgs+=(gegl libxml2-utils  # peers of the benchmarks
-           libopencv-dev python3-numpy python3-scipy  # blur and distance peers (bench/run_peers.sh)
+           libopencv-dev python3-scipy  # blur and distance peers (bench/run_peers.sh)
            openimageio-tools  # oiiotool, the image-reading peer (bench/run_io.sh)
-           python3-opencv  # cv2.imwrite, the PNG-writing peer (bench/run_write.sh)
-           blender)  # Cycles, the path tracer the preview is held against (bench/run_cycles.sh)
+           python3-opencv)  # cv2.imwrite, the PNG-writing peer (bench/run_write.sh)
+    # Blender (Cycles, the path tracer the preview is held against in bench/run_cycles.sh) is
+    # in the list above: the add-on's test needs it too
 fi
 if [[ "${1:-}" == "--docs" ]]; then
     pkgs+=(openimageio-tools)

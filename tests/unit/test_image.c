@@ -3,8 +3,8 @@
  * references: a wrapping tent of half-width max(1, source/target), i.e. bilinear when enlarging;
  * constants kept exactly; gray/colour conversion), wg_image_resample_into on the engine's threads
  * (the same values for every thread count, an infinite sample reaching only the outputs its
- * taps cover) and the allocation hook, including a render under
- * injected allocation failures. */
+ * taps cover), images over the caller's memory (wg_image_wrap) and the allocation hook, including a
+ * render under injected allocation failures. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -185,6 +185,72 @@ static void test_refcount(void **state)
     wg_image_unref(NULL);
     assert_int_equal(atomic_load(&n_frees), 2);
     restore_allocator(NULL);
+}
+
+/* ---- images over the caller's memory ----------------------------------------------------- */
+
+static int released;
+
+static void count_release(void *user)
+{
+    released += *(int *)user;
+}
+
+static void test_wrap(void **state)
+{
+    (void)state;
+    enum { W = 7, H = 5, C = 4, STRIDE = W * C + 3 }; /* rows 124 bytes apart: not aligned */
+    float *buf = malloc(sizeof(float) * STRIDE * H);
+    assert_non_null(buf);
+    for (int y = 0; y < H; y++)
+        for (int i = 0; i < STRIDE; i++)
+            buf[y * STRIDE + i] = i < W * C ? (float)(y * W * C + i) / 256.0f : NAN;
+    int one = 1;
+    released = 0;
+    /* bad sizes and strides: NULL, and the release is not called */
+    assert_null(wg_image_wrap(0, H, C, STRIDE, buf, count_release, &one));
+    assert_null(wg_image_wrap(W, H, 3, STRIDE, buf, count_release, &one));
+    assert_null(wg_image_wrap(W, H, C, W * C - 1, buf, count_release, &one));
+    assert_null(wg_image_wrap(W, H, C, STRIDE, NULL, count_release, &one));
+    assert_int_equal(released, 0);
+
+    WgImage *img = wg_image_wrap(W, H, C, STRIDE, buf, count_release, &one);
+    assert_non_null(img);
+    assert_ptr_equal(img->data, buf); /* no copy */
+    assert_true(wgt_px(img, 3, 2, 1) == (float)(2 * W * C + 3 * C + 1) / 256.0f);
+    /* a request holds its own reference: the pixels stay lent until it lets go */
+    WgGraph *g =
+        wgt_load("<wetgraph version=\"1\" size=\"$src\">"
+                 "<input name=\"src\" type=\"color\"/>"
+                 "<node id=\"copy\" type=\"levels\"><in name=\"source\" from=\"$src\"/></node>"
+                 "<output name=\"out\" from=\"copy\"/></wetgraph>");
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    WgError err = {0};
+    assert_int_equal(wg_request_set_input_image(r, "src", img, &err), WG_OK);
+    wg_image_unref(img);
+    assert_int_equal(released, 0);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    const WgImage *out = wgt_output(res, "out");
+    assert_ptr_not_equal(out->data, buf);
+    for (int y = 0; y < H; y++)
+        for (int i = 0; i < W * C; i++)
+            if (wg_image_row(out, y)[i] != buf[y * STRIDE + i])
+                fail_msg("sample %d of row %d: %g, the buffer holds %g", i, y,
+                         wg_image_row(out, y)[i], buf[y * STRIDE + i]);
+    wg_result_free(res);
+    wg_engine_free(e);
+    assert_int_equal(released, 0);
+    wg_request_free(r); /* the last reference */
+    assert_int_equal(released, 1);
+    wg_graph_free(g);
+
+    /* without a release the caller keeps the pixels; the struct alone is freed */
+    img = wg_image_wrap(W, H, C, STRIDE, buf, NULL, NULL);
+    assert_non_null(img);
+    wg_image_unref(img);
+    free(buf);
 }
 
 /* ---- resampling -------------------------------------------------------------------------- */
@@ -609,6 +675,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_new_limits),
         cmocka_unit_test_teardown(test_refcount, restore_allocator),
+        cmocka_unit_test(test_wrap),
         cmocka_unit_test(test_constant_stays_constant),
         cmocka_unit_test(test_downsample),
         cmocka_unit_test(test_upsample_is_bilinear_with_wrap),

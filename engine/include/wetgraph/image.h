@@ -21,9 +21,11 @@ typedef struct WgImage {
     size_t stride; /* floats between the starts of two rows; 0 when every row is the same
                       memory (an image of one value, as a WG_NODE_UNIFORM node outputs) */
     float *data;
-    int refcount_;           /* private: use wg_image_ref / wg_image_unref */
-    int mapped_;             /* private: data is a memory mapping of its own */
-    struct WgMemPool *pool_; /* private: the buffer pool data goes back to, or NULL */
+    int refcount_;                /* private: use wg_image_ref / wg_image_unref */
+    int mapped_;                  /* private: data is a memory mapping of its own */
+    struct WgMemPool *pool_;      /* private: the buffer pool data goes back to, or NULL */
+    void (*release_)(void *user); /* private: wg_image_wrap's release, or NULL */
+    void *release_user_;          /* private: its argument */
 } WgImage;
 
 /* New image with undefined pixels; the caller owns the returned reference. NULL when out of
@@ -31,6 +33,15 @@ typedef struct WgImage {
 WgImage *wg_image_new(int width, int height, int channels);
 /* New image filled with zeros. */
 WgImage *wg_image_new_zero(int width, int height, int channels);
+/* An image over pixels the caller holds, without copying them: `stride` floats between the
+ * starts of two rows (at least width * channels; any alignment of float). The pixels must stay
+ * valid and unchanged until the last reference is dropped, which calls release(user) (when
+ * release is not NULL) from whatever thread drops it. The caller owns the returned reference.
+ * NULL when out of memory or when the size or stride is invalid (then release is not called).
+ * For handing an application's buffer (a Python array, a frame of a video) to a request as an
+ * input image (wg_request_set_input_image). */
+WgImage *wg_image_wrap(int width, int height, int channels, size_t stride, float *data,
+                       void (*release)(void *user), void *user);
 /* Takes one more reference; returns img. NULL-safe. */
 WgImage *wg_image_ref(const WgImage *img);
 /* Drops one reference and frees the image with the last one. NULL-safe. */
