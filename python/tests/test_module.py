@@ -550,3 +550,22 @@ def test_seed_and_time(write_graph):
         g.time = float("nan")
     g.time = 2.5
     assert g.time == 2.5
+
+
+# ---- node plugins ---------------------------------------------------------------------------
+
+def test_a_plugin_adds_its_node_types(write_graph):
+    plugins = os.path.join(os.environ["WETGRAPH_BUILD_ROOT"], "tests", "plugins")
+    path = write_graph("""<wetgraph version="1" size="8">
+  <node id="g" type="uniform" value="0.125"/>
+  <node id="o" type="plugin_offset" amount="0.25"><in name="source" from="g"/></node>
+  <output name="out" from="o"/>
+</wetgraph>""", name="offset")
+    with pytest.raises(wetgraph.Error, match="plugin_offset"):
+        wetgraph.Graph(path)
+    with pytest.raises(wetgraph.Error, match="no_entry.so: not a wetgraph plugin"):
+        wetgraph.load_plugin(os.path.join(plugins, "no_entry.so"))
+    wetgraph.load_plugin(os.path.join(plugins, "offset_v1.so"))
+    wetgraph.load_plugin(os.path.join(plugins, "offset_v1.so"))  # a second load does nothing
+    out = wetgraph.Graph(path).render("out")["out"]
+    assert out.shape[:2] == (8, 8) and np.all(out == np.float32(0.375))

@@ -18,11 +18,11 @@ prints.
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
-from ._wetgraph import Cancel, Cancelled, Engine, Error, VERSION, find_graph, graphs
+from ._wetgraph import Cancel, Cancelled, Engine, Error, VERSION, find_graph, graphs, load_plugin
 from ._wetgraph import Graph as _Graph
 
 __all__ = ["Graph", "Engine", "Cancel", "Error", "Cancelled", "Param", "Input", "Output",
-           "graphs", "find_graph", "value_text", "VERSION"]
+           "graphs", "find_graph", "load_plugin", "value_text", "VERSION"]
 __version__ = VERSION
 
 

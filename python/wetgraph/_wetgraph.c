@@ -1337,12 +1337,30 @@ static PyObject *mod_find_graph(PyObject *m, PyObject *arg)
     return p;
 }
 
+static PyObject *mod_load_plugin(PyObject *m, PyObject *arg)
+{
+    PyObject *b = NULL;
+    if (!PyUnicode_FSConverter(arg, &b)) return NULL;
+    WgError err = {0};
+    /* not thread-safe in the engine: the GIL is kept, so no render of this module runs meanwhile
+     * unless another thread has released it; the docs say to load plugins first */
+    int rc = wg_plugin_load(PyBytes_AS_STRING(b), &err);
+    Py_DECREF(b);
+    if (rc) return raise_error(&err);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef module_methods[] = {
     {"graphs", mod_graphs, METH_NOARGS,
      "graphs()\n--\n\nThe graphs found by name: {name: file}, from WETGRAPH_PATH's folders, then "
      "the built-in ones."},
     {"find_graph", mod_find_graph, METH_O,
      "find_graph(name)\n--\n\nThe file a graph name or path stands for (Error when none)."},
+    {"load_plugin", mod_load_plugin, METH_O,
+     "load_plugin(path)\n--\n\nLoad a node plugin (a shared library of node types, "
+     "docs/plugins.md) so that graphs loaded after it can use its types, as `--plugin` does "
+     "for the command line. Load plugins before loading graphs and rendering; a file loaded "
+     "before is not loaded again. Error (naming the file) when it cannot be loaded."},
     {NULL},
 };
 
