@@ -255,7 +255,7 @@ static void test_node_wrangler_wires_the_maps(void **state)
     (void)state;
     if (wgt_shell(".", "command -v blender") != 0) {
         print_message("blender not found: Node Wrangler's wiring not checked "
-                      "(scripts/install-deps.sh --bench installs it)\n");
+                      "(scripts/install-deps.sh installs it)\n");
         skip();
     }
     const char *src = getenv("WETGRAPH_SOURCE"), *shared = getenv("WETGRAPH_SHARED");
