@@ -16,7 +16,7 @@ static const char usage[] =
     "                          an input image changes\n"
     "  check FILE...           validate graph files without evaluating them\n"
     "  info FILE [--json]      list a graph's parameters, inputs and outputs\n"
-    "  nodes [TYPE] [--markdown]  the built-in node catalogue\n"
+    "  nodes [TYPE] [--markdown]  the node catalogue (built-in and plugins')\n"
     "  graphs [--paths]        the graphs found by name\n"
     "  cache info|prune|clear DIR  the result cache folder: size, least recently used out\n"
     "  dot FILE [--fused]      Graphviz view of a graph\n"

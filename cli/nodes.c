@@ -8,8 +8,9 @@
 static const char help[] =
     "usage: wetgraph nodes [TYPE] [--markdown]\n"
     "\n"
-    "List the built-in node types, or describe one: parameters (type, default, range),\n"
-    "inputs and outputs. --markdown prints the reference in Markdown (docs/nodes.md).\n";
+    "List the node types (built-in, then plugins'), or describe one: parameters (type,\n"
+    "default, range), inputs and outputs. --markdown prints the reference in Markdown\n"
+    "(docs/nodes.md).\n";
 
 static const char *ptype(WgParamType t)
 {
