@@ -178,6 +178,7 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
         if (!o->layered) {
             rc = stream_new(o, g, f, o->contact_sheet != NULL, &stream, err);
             wg_request_set_output_fn(r, rc ? NULL : stream_output, stream);
+            wg_request_set_output_held(r, rc || !o->cache ? NULL : stream_held, stream);
         }
         if (!rc) rc = wg_render(e, r, &res, err);
         if (!rc && seen_add(&seen, res, o->quiet))
@@ -197,6 +198,7 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
             rc = stream_finish(stream, res, rc, err);
             totals.output_ms += rc ? 0 : stream_last_output_ms();
             wg_request_set_output_fn(r, NULL, NULL);
+            wg_request_set_output_held(r, NULL, NULL);
         }
         if (!rc && o->contact_sheet && img) {
             if (!sheet) {

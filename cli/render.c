@@ -429,7 +429,7 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
                (unsigned long long)m.pool_misses, m.pool_released);
         for (int i = 0; i < n; i++) {
             const WgNodeStat *s = wg_result_stat(res, i);
-            static const char *const cache[] = {"miss", "memory", "disk"};
+            static const char *const cache[] = {"miss", "memory", "disk", "held"};
             printf("    {\"id\": ");
             cli_json_string(stdout, s->id);
             printf(", \"type\": ");
@@ -469,7 +469,7 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             "MiB", "fused");
     for (int i = 0; i < n; i++) {
         const WgNodeStat *s = wg_result_stat(res, i);
-        static const char *const cache[] = {"miss", "memory", "disk"};
+        static const char *const cache[] = {"miss", "memory", "disk", "held"};
         char size[32], group[16] = "";
         snprintf(size, sizeof size, "%dx%d%s", s->width, s->height, s->channels == 4 ? "c" : "g");
         if (s->fused) snprintf(group, sizeof group, "#%d", s->fused);
@@ -761,27 +761,49 @@ void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i,
 
 /* ---- outputs kept: a key per written file, in an extended attribute of the file -------------
  * An output's key is a hash (XXH3, 128 bits) of its image (size, channels, every sample's
- * bits) with the format and colour space it is written in and the writer's version. After a
- * write, the file's attribute "user.wetgraph.key" holds the key with the file's size and
- * modification time. The next write of that file, when the attribute holds the same key and
- * the file still has that size and time (no one edited it; a file replaced by another program
- * has lost the attribute with its inode), leaves the file untouched: it already holds exactly
- * these pixels. Where a file system keeps no such attributes every file is written. */
+ * bits) with the format and colour space it is written in and the writer's version; its source
+ * key the same of the engine's key for the output (everything its pixels depend on, known
+ * before anything is computed) instead of the pixels. After a write, the file's attribute
+ * "user.wetgraph.key" holds both keys with the file's size and modification time. The next
+ * render of that file, when the attribute holds the same source key and the file still has that
+ * size and time (no one edited it; a file replaced by another program has lost the attribute
+ * with its inode), neither computes nor reads nor writes the output (the engine is told the
+ * caller holds it); when it holds the same image key, the file is not written again: it already
+ * holds exactly these pixels. Where a file system keeps no such attributes every file is
+ * written. */
 
 #define KEY_ATTR "user.wetgraph.key"
-#define KEYS_VERSION 1 /* changes whenever a file written from the same image would differ */
+#define KEYS_VERSION 2 /* changes whenever a file written from the same image would differ */
 
 typedef struct {
     unsigned long long hi, lo;
 } OutKey;
 
-/* The attribute's text for key and the file as it is now; false when it cannot be had. */
-static bool key_text(const char *path, OutKey key, char *buf, size_t size)
+/* The file's size and modification time as the attribute holds them; false when it is not a
+ * regular file. */
+static bool file_text(const char *path, char *buf, size_t size)
 {
     struct stat st;
     if (lstat(path, &st) || !S_ISREG(st.st_mode)) return false;
-    snprintf(buf, size, "%016llx%016llx %llu %lld.%09ld", key.hi, key.lo,
-             (unsigned long long)st.st_size, (long long)st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+    snprintf(buf, size, "%llu %lld.%09ld", (unsigned long long)st.st_size,
+             (long long)st.st_mtim.tv_sec, st.st_mtim.tv_nsec);
+    return true;
+}
+
+/* The attribute of the file at path, split: image key, source key, and the file's size and
+ * time as written; false when there is none (or another version's). */
+static bool key_read(const char *path, OutKey *image, OutKey *source, char *file, size_t size)
+{
+    char have[160];
+    ssize_t n = lgetxattr(path, KEY_ATTR, have, sizeof have - 1);
+    if (n < 0) return false;
+    have[n] = 0;
+    int used = 0, version = 0;
+    if (sscanf(have, "v%d %16llx%16llx %16llx%16llx %n", &version, &image->hi, &image->lo,
+               &source->hi, &source->lo, &used) != 5 ||
+        version != KEYS_VERSION)
+        return false;
+    snprintf(file, size, "%s", have + used);
     return true;
 }
 
@@ -811,24 +833,46 @@ static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs)
     return k;
 }
 
-/* The file at path holds the image of `key`, untouched since it was written. */
-static bool key_matches(const char *path, OutKey key)
+/* The file at path holds the image of `key` (source: false) or the output of source key `key`
+ * (source: true), untouched since it was written. */
+static bool key_matches_as(const char *path, OutKey key, bool source)
 {
-    char want[128], have[128];
-    if ((!key.hi && !key.lo) || !key_text(path, key, want, sizeof want)) return false;
-    ssize_t n = lgetxattr(path, KEY_ATTR, have, sizeof have - 1);
-    if (n < 0) return false;
-    have[n] = 0;
-    return !strcmp(have, want);
+    OutKey image, from;
+    char want[64], had[64];
+    if ((!key.hi && !key.lo) || !key_read(path, &image, &from, had, sizeof had) ||
+        !file_text(path, want, sizeof want))
+        return false;
+    OutKey k = source ? from : image;
+    return k.hi == key.hi && k.lo == key.lo && !strcmp(had, want);
 }
 
-/* Record the key on a file just written. Best effort: a file without it is only written again
- * next time. Setting it changes the file's status time, not its modification time. */
-static void key_store(const char *path, OutKey key)
+static bool key_matches(const char *path, OutKey key)
 {
-    char text[128];
-    if ((key.hi || key.lo) && key_text(path, key, text, sizeof text))
-        lsetxattr(path, KEY_ATTR, text, strlen(text), 0);
+    return key_matches_as(path, key, false);
+}
+
+/* The source key of an output written in format f: the engine's key for it, the format and
+ * colour space it is written in and the writer's version. */
+static OutKey source_key(const WgOutputInfo *out, WgFormat f)
+{
+    int head[4] = {KEYS_VERSION, (int)f, (int)out->colorspace,
+                   f == WG_FORMAT_JPEG ? jpeg_quality : 0};
+    uint64_t buf[6] = {out->key[0], out->key[1], 0, 0, 0, 0};
+    memcpy(buf + 2, head, sizeof head);
+    XXH128_hash_t h = XXH3_128bits(buf, sizeof buf);
+    return (OutKey){h.high64, h.low64};
+}
+
+/* Record the keys on a file just written (source {0, 0} when unknown: never matched). Best
+ * effort: a file without them is only written again next time. Setting them changes the file's
+ * status time, not its modification time. */
+static void key_store(const char *path, OutKey key, OutKey source)
+{
+    char text[160], file[64];
+    if ((!key.hi && !key.lo) || !file_text(path, file, sizeof file)) return;
+    snprintf(text, sizeof text, "v%d %016llx%016llx %016llx%016llx %s", KEYS_VERSION, key.hi,
+             key.lo, source.hi, source.lo, file);
+    lsetxattr(path, KEY_ATTR, text, strlen(text), 0);
 }
 
 static void last_write_clear(void)
@@ -863,8 +907,9 @@ struct Stream {
     int n; /* slots: one per output of the graph */
     char (*paths)[4096];
     WgWriteSet **sets; /* each output's staged temporary (NULL: none) */
-    OutKey *keys;
+    OutKey *keys, *sources;
     bool *seen, *skip, *wrote;
+    bool *refresh; /* kept (the same image): its keys stored again, with the source key */
     double *ms;
     bool keep_first;      /* keep output 0's image (for the contact sheet) */
     const WgImage **held; /* the images of the outputs the render's glTF assets pack */
@@ -893,6 +938,8 @@ static void stream_free(Stream *s)
     free(s->paths);
     free(s->sets);
     free(s->keys);
+    free(s->sources);
+    free(s->refresh);
     free(s->seen);
     free(s->skip);
     free(s->wrote);
@@ -915,13 +962,15 @@ int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, S
     s->paths = calloc(n, sizeof *s->paths);
     s->sets = calloc(n, sizeof *s->sets);
     s->keys = calloc(n, sizeof *s->keys);
+    s->sources = calloc(n, sizeof *s->sources);
+    s->refresh = calloc(n, sizeof *s->refresh);
     s->seen = calloc(n, sizeof *s->seen);
     s->skip = calloc(n, sizeof *s->skip);
     s->wrote = calloc(n, sizeof *s->wrote);
     s->ms = calloc(n, sizeof *s->ms);
     s->held = calloc(n, sizeof *s->held);
     s->names = calloc(n, sizeof *s->names);
-    if (!s->paths || !s->sets || !s->keys || !s->seen || !s->skip || !s->wrote || !s->ms ||
+    if (!s->paths || !s->sets || !s->keys || !s->sources || !s->refresh || !s->seen || !s->skip || !s->wrote || !s->ms ||
         !s->held || !s->names) {
         stream_free(s);
         *out = NULL;
@@ -976,8 +1025,9 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
         s->first_cs = out->colorspace;
     }
     s->keys[i] = output_key(out->image, f, out->colorspace);
+    s->sources[i] = source_key(out, f);
     if (key_matches(s->paths[i], s->keys[i])) {
-        s->skip[i] = true;
+        s->skip[i] = s->refresh[i] = true;
     } else if (!(s->sets[i] = wg_write_set_new())) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     } else {
@@ -986,6 +1036,25 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
     }
     s->ms[i] = now_ms() - t0;
     return rc;
+}
+
+/* The engine's question before it computes or reads an output: does its file already hold it
+ * (the same source key, untouched)? Not for the outputs whose images the render needs (the
+ * contact sheet's, the glTF assets'). On the calling thread, before any output call. */
+bool stream_held(void *user, const WgOutputInfo *out)
+{
+    Stream *s = user;
+    int i = out->index;
+    if ((i == 0 && s->keep_first) || gltf_needs_output(s->o, s->g, out->name)) return false;
+    WgFormat f = output_format(s->o, out->name, out->format);
+    char path[4096];
+    output_path_of(s->o, s->g, out->name, f, s->frame, path, sizeof path);
+    if (!path[0] || !key_matches_as(path, source_key(out, f), true)) return false;
+    /* temporaries a killed render left in the folder go, as when an output is written */
+    if (stream_folder(s, NULL)) return false;
+    memcpy(s->paths[i], path, sizeof path);
+    s->seen[i] = s->skip[i] = true;
+    return true;
 }
 
 static const WgImage *stream_image_of(void *user, const char *output)
@@ -1017,7 +1086,7 @@ int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err)
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     for (int i = 0; !rc && i < s->n; i++)
-        if (s->wrote[i]) key_store(s->paths[i], s->keys[i]);
+        if (s->wrote[i] || s->refresh[i]) key_store(s->paths[i], s->keys[i], s->sources[i]);
     /* with --stats=json stdout holds the one JSON document, which lists the files itself */
     if (!rc && !s->o->quiet && !s->o->stats_json) {
         for (int i = 0; i < s->n; i++)
@@ -1155,7 +1224,7 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     for (int i = 0; !rc && separate && i < n; i++)
-        if (wrote[i]) key_store(paths[i], keys[i]);
+        if (wrote[i]) key_store(paths[i], keys[i], (OutKey){0, 0});
     if (!rc && !o->quiet) {
         if (o->layered) fprintf(stderr, "wrote %s (%d layers)\n", layered_name(o, frame), n);
     }
@@ -1276,6 +1345,8 @@ int cmd_render(int argc, char **argv)
         Stream *s = NULL;
         if (stream_new(&o, g, -1, false, &s, &err)) goto fail;
         wg_request_set_output_fn(r, stream_output, s);
+        /* with --cache, work of earlier renders is reused: outputs already in their files too */
+        if (o.cache) wg_request_set_output_held(r, stream_held, s);
         int rc = wg_render(e, r, &res, &err);
         if (!rc && !o.quiet)
             for (int i = 0; i < wg_result_warning_count(res); i++)

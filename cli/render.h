@@ -102,6 +102,9 @@ typedef struct Stream Stream;
 int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, Stream **out,
                WgError *err);
 int stream_output(void *user, const WgOutputInfo *out, WgError *err);
+/* For wg_request_set_output_held(r, stream_held, s): the outputs whose files already hold them
+ * are neither computed, read nor written. */
+bool stream_held(void *user, const WgOutputInfo *out);
 int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err);
 /* The time of the output calls of the last stream_finish that succeeded, summed (ms). */
 double stream_last_output_ms(void);

@@ -17,6 +17,7 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+#include <xxhash.h>
 
 struct WgEngine {
     WgPool *pool;
@@ -39,6 +40,8 @@ typedef struct Node {
     Run *run;
     int index;
     bool needed, evaluate, requested, done;
+    bool feeds; /* read by a node being computed */
+    bool held;  /* requested, and the caller holds every output it makes */
     int pending;   /* inputs still being computed */
     int consumers; /* evaluations that still have to read this node */
     int holds;     /* output calls (WgRequest.output_fn) not yet returned that read it */
@@ -521,13 +524,34 @@ typedef struct OutputJob {
     int index; /* in plan->outputs */
 } OutputJob;
 
+/* The key of output k: its node's cache key and its port, hashed. */
+static void output_key(const WgPlan *p, int k, uint64_t key[2])
+{
+    const WgPlanOutput *po = &p->outputs[k];
+    uint64_t buf[3] = {p->insts[po->ref.inst].key[0], p->insts[po->ref.inst].key[1],
+                       (uint64_t)po->ref.port};
+    XXH128_hash_t h = XXH3_128bits(buf, sizeof buf);
+    key[0] = h.low64;
+    key[1] = h.high64;
+}
+
+static WgOutputInfo output_info(const Run *run, int k)
+{
+    const WgPlanOutput *po = &run->plan->outputs[k];
+    const Node *src = &run->nodes[po->ref.inst];
+    WgOutputInfo info = {k, po->name, src->out ? src->out[po->ref.port] : NULL, po->format,
+                         po->colorspace, {0, 0}};
+    output_key(run->plan, k, info.key);
+    return info;
+}
+
 static void output_job(void *user)
 {
     OutputJob *j = user;
     Run *run = j->run;
     const WgPlanOutput *po = &run->plan->outputs[j->index];
     Node *src = &run->nodes[po->ref.inst];
-    WgOutputInfo info = {j->index, po->name, src->out[po->ref.port], po->format, po->colorspace};
+    WgOutputInfo info = output_info(run, j->index);
     WgError err = {0};
     int rc = run->cancel ? WG_ERR_CANCELLED : run->r->output_fn(run->r->output_user, &info, &err);
     if (rc && !err.code) rc = wg_error_set(&err, rc, NULL, "writing output '%s' failed", po->name);
@@ -1112,6 +1136,30 @@ static void unplan_jobs(Run *run)
     memset(run->seq_peak, 0, sizeof(size_t) * (size_t)p->n_insts);
 }
 
+/* Does the caller hold every output node i makes (wg_request_set_output_held)? Then the node is
+ * left out: not needed, its output calls not made. */
+static bool held_by_caller(Run *run, int i)
+{
+    const WgRequest *r = run->r;
+    if (!r->held_fn || !r->output_fn) return false;
+    WgPlan *p = run->plan;
+    int count = 0;
+    for (int k = 0; k < p->n_outputs; k++) {
+        if (p->outputs[k].ref.inst != i) continue;
+        WgOutputInfo info = output_info(run, k);
+        if (!r->held_fn(r->held_user, &info)) return false;
+        count++;
+    }
+    if (count == 0) return false;
+    Node *n = &run->nodes[i];
+    n->held = true;
+    n->needed = false;
+    n->stat.cache = WG_HELD;
+    n->holds -= count; /* no output call will read it */
+    run->outputs_left -= count;
+    return true;
+}
+
 static int plan_work(Run *run, WgError *err)
 {
     WgPlan *p = run->plan;
@@ -1123,12 +1171,16 @@ static int plan_work(Run *run, WgError *err)
         Node *n = &run->nodes[i];
         WgInst *in = &p->insts[i];
         if (!n->needed) continue;
+        if (n->requested && !n->feeds && held_by_caller(run, i)) continue;
         n->out_bytes = inst_bytes(in);
         if (!in->constant && lookup_cache(run, i)) continue;
         n->evaluate = true;
         run->total++;
         for (int k = 0; k < in->n_in; k++)
-            if (in->in[k].inst >= 0) run->nodes[in->in[k].inst].needed = true;
+            if (in->in[k].inst >= 0) {
+                run->nodes[in->in[k].inst].needed = true;
+                run->nodes[in->in[k].inst].feeds = true;
+            }
     }
     int rc = plan_jobs(run, err);
     /* Fused groups that raise the peak in the order the scheduler runs the jobs are given up:
@@ -1223,7 +1275,7 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     }
     for (int i = 0; i < p->n_insts; i++) {
         Node *n = &run->nodes[i];
-        if (!n->needed) continue;
+        if (!n->needed && !n->held) continue;
         WgInst *in = &p->insts[i];
         WgNodeStat *s = &r->stats[r->n_stats++];
         *s = n->stat;
@@ -1302,7 +1354,8 @@ static int render(WgEngine *e, const WgRequest *req, bool fuse, WgResult **out, 
     run.peak = run.live;
     pthread_mutex_lock(&run.mu); /* outputs that are cache hits go first */
     for (int i = 0; i < plan->n_insts; i++)
-        if (run.nodes[i].requested && !run.nodes[i].evaluate) submit_outputs(&run, i);
+        if (run.nodes[i].requested && !run.nodes[i].evaluate && !run.nodes[i].held)
+            submit_outputs(&run, i);
     pthread_mutex_unlock(&run.mu);
     for (int i = 0; i < plan->n_insts; i++)
         if (run.nodes[i].evaluate && !run.nodes[i].fused && run.nodes[i].pending == 0)

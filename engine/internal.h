@@ -267,6 +267,8 @@ struct WgRequest {
     WgCancel *cancel;     /* borrowed; NULL: none */
     WgOutputFn output_fn; /* NULL: the result keeps the outputs */
     void *output_user;
+    WgOutputHeldFn held_fn; /* NULL: every output is handed over */
+    void *held_user;
 };
 
 int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err);

@@ -209,6 +209,12 @@ void wg_request_set_progress(WgRequest *r, WgProgressFn fn, void *user)
     r->progress_user = user;
 }
 
+void wg_request_set_output_held(WgRequest *r, WgOutputHeldFn held, void *user)
+{
+    r->held_fn = held;
+    r->held_user = user;
+}
+
 void wg_request_set_output_fn(WgRequest *r, WgOutputFn fn, void *user)
 {
     r->output_fn = fn;

@@ -848,7 +848,7 @@ static void progress_cb(void *user, int done, int total, const char *node)
 
 static const char *cache_name(WgCacheOutcome c)
 {
-    return c == WG_HIT_MEMORY ? "memory" : c == WG_HIT_DISK ? "disk" : "computed";
+    return c == WG_HIT_MEMORY ? "memory" : c == WG_HIT_DISK ? "disk" : c == WG_HELD ? "held" : "computed";
 }
 
 static PyObject *stats_of(const WgResult *res)

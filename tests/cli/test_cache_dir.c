@@ -3,7 +3,9 @@
  * bytes (and nothing else in the folder), `cache prune --max` removes the least recently used
  * first (an entry read back by a render counts as used), `render --cache-max` holds the cap
  * after every render, `cache clear` removes every entry and only entries, and bad folders,
- * sizes and combinations are usage errors (exit 2). */
+ * sizes and combinations are usage errors (exit 2). With --cache, outputs whose files already
+ * hold them (the same source key, the file untouched) are neither computed, read nor written,
+ * and the files stay those a fresh render writes. */
 #include "wgtest.h"
 
 #include <dirent.h>
@@ -83,16 +85,17 @@ static void test_info_prune_clear(void **state)
     char want[128];
     snprintf(want, sizeof want, "c: 9 entries, %.1f MiB", bytes / 1048576.0);
     assert_int_equal(wgt_count_in(wgt_join(d, "out"), want), 1);
-    /* the first render's entries are the oldest: reading them back makes them the newest */
-    WGT_SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
+    /* the first render's entries are the oldest: reading them back (into another folder, so
+     * that they are read) makes them the newest */
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r0b -q --cache c --set s=0 --stats=json");
     assert_int_equal(computed(d), 0);
     /* keep about one render's worth: the entries used last are what stays */
     long long per = bytes / 9;
     WGT_SH(d, 0, "$WG cache prune c --max %lld", 3 * per + per / 2);
     assert_int_equal(entries(d, NULL), 3);
-    WGT_SH(d, 0, "$WG render g.wetgraph -o r0 -q --cache c --set s=0 --stats=json");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r0c -q --cache c --set s=0 --stats=json");
     assert_int_equal(computed(d), 0);
-    WGT_SH(d, 0, "$WG render g.wetgraph -o r1 -q --cache c --set s=1 --stats=json");
+    WGT_SH(d, 0, "$WG render g.wetgraph -o r1b -q --cache c --set s=1 --stats=json");
     assert_int_equal(computed(d), 3);
     /* clear: every entry, nothing else */
     WGT_SH(d, 0, "$WG cache clear c");
@@ -153,12 +156,89 @@ static void test_errors(void **state)
         WGT_SH(d, 0, "$WG render g.wetgraph -o r -q --cache c --cache-max %s", good[i]);
 }
 
+static const char *const three =
+    "<wetgraph version=\"1\" size=\"32x24\">\n"
+    "  <param name=\"k\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+    "  <node id=\"b\" type=\"blur\" sigma=\"3\"><in name=\"source\" from=\"n\"/></node>\n"
+    "  <node id=\"l\" type=\"levels\" out_high=\"=k\"><in name=\"source\" from=\"b\"/></node>\n"
+    "  <output name=\"noise\" from=\"n\" format=\"exr32\"/>\n"
+    "  <output name=\"blurred\" from=\"b\" format=\"png16\"/>\n"
+    "  <output name=\"level\" from=\"l\" format=\"png16\"/>\n"
+    "</wetgraph>\n";
+
+/* How many nodes the last render's --stats=json (in d/out) gives `outcome`. */
+static int outcome_count(const char *d, const char *outcome)
+{
+    char key[64];
+    snprintf(key, sizeof key, "\"cache\": \"%s\"", outcome);
+    return wgt_count_in(wgt_join(d, "out"), key);
+}
+
+static long long mtime_ns(const char *path)
+{
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    return (long long)st.st_mtim.tv_sec * 1000000000LL + st.st_mtim.tv_nsec;
+}
+
+static void test_outputs_held_by_their_files(void **state)
+{
+    (void)state;
+    const char *d = wgt_fresh_dir("held");
+    wgt_write_file(wgt_join(d, "t.wetgraph"), three);
+    const char *render = "$WG render t.wetgraph -o o -q --cache c --stats=json";
+    WGT_SH(d, 0, "%s", render);
+    assert_int_equal(computed(d), 3);
+    long long noise = mtime_ns(wgt_join(d, "o/t_noise.exr")),
+              blurred = mtime_ns(wgt_join(d, "o/t_blurred.png")),
+              level = mtime_ns(wgt_join(d, "o/t_level.png"));
+    /* the same render again: nothing computed, read or written */
+    WGT_SH(d, 0, "%s", render);
+    assert_int_equal(computed(d), 0);
+    assert_int_equal(outcome_count(d, "held"), 3);
+    assert_int_equal(outcome_count(d, "disk"), 0);
+    assert_true(mtime_ns(wgt_join(d, "o/t_level.png")) == level);
+    /* a change downstream: levels computed, the blur it reads comes from the disk and its
+     * file is kept (the same pixels), the noise is held */
+    WGT_SH(d, 0, "%s --set k=0.25", render);
+    assert_int_equal(computed(d), 1);
+    assert_int_equal(outcome_count(d, "held"), 1);
+    assert_int_equal(outcome_count(d, "disk"), 1);
+    assert_true(mtime_ns(wgt_join(d, "o/t_noise.exr")) == noise);
+    assert_true(mtime_ns(wgt_join(d, "o/t_blurred.png")) == blurred);
+    assert_true(mtime_ns(wgt_join(d, "o/t_level.png")) != level);
+    /* a file edited by someone else, one deleted, one asked in another format: written again */
+    WGT_SH(d, 0, "printf x >> o/t_noise.exr && rm o/t_blurred.png");
+    WGT_SH(d, 0, "%s --set k=0.25 --format level=exr32", render);
+    assert_int_equal(outcome_count(d, "held"), 0);
+    assert_true(wgt_exists(wgt_join(d, "o/t_blurred.png")));
+    assert_true(wgt_exists(wgt_join(d, "o/t_level.exr")));
+    /* every file is what a render into an empty folder writes (1 thread, no cache) */
+    WGT_SH(d, 0,
+           "$WG render t.wetgraph -o fresh -q --threads 1 --set k=0.25 --format level=exr32 && "
+           "cmp o/t_noise.exr fresh/t_noise.exr && cmp o/t_blurred.png fresh/t_blurred.png && "
+           "cmp o/t_level.exr fresh/t_level.exr");
+    /* without --cache every output is computed (and its unchanged file kept) */
+    WGT_SH(d, 0, "$WG render t.wetgraph -o o -q --set k=0.25 --format level=exr32 --stats=json");
+    assert_int_equal(computed(d), 3);
+    /* a sequence: the frames already in their files are held, so no image is even read (the
+     * same frames into another folder read them from the disk) */
+    WGT_SH(d, 0, "$WG render t.wetgraph -o f -q --cache c --frames 0:2 --stats=json");
+    WGT_SH(d, 0, "$WG render t.wetgraph -o f2 -q --cache c --frames 0:2 --stats=json");
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "\"peak_bytes\": 0,"), 0);
+    WGT_SH(d, 0, "$WG render t.wetgraph -o f -q --cache c --frames 0:2 --stats=json");
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "\"computed\": 0, \"reused\": 3"), 3);
+    assert_int_equal(wgt_count_in(wgt_join(d, "out"), "\"peak_bytes\": 0,"), 1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_info_prune_clear),
         cmocka_unit_test(test_cache_max),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_outputs_held_by_their_files),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -797,11 +797,25 @@ static void test_cache_option(void **state)
     assert_int_equal(json_int(first.out, "evaluated"), 4); /* u, b, $base, c */
     assert_int_equal(count_substr(first.out, "\"cache\": \"miss\""), 4);
     assert_true(exists(at("cache")));
-    Cmd second = {first.args};
+    /* into another folder: the outputs come from the disk */
+    Cmd second = {
+        "render g.wetgraph -o c2 --cache cache --output mask --output color --stats=json -q"};
     run1(&second);
     expect_status(&second, 0);
     assert_int_equal(json_int(second.out, "evaluated"), 0);
     assert_int_equal(count_substr(second.out, "\"cache\": \"disk\""), 2);
+    /* into the same folder: its files hold the outputs, which are neither read nor written */
+    struct stat before, after;
+    assert_int_equal(stat(at("c1/g_color.png"), &before), 0);
+    Cmd again = {first.args};
+    run1(&again);
+    expect_status(&again, 0);
+    assert_int_equal(json_int(again.out, "evaluated"), 0);
+    assert_int_equal(count_substr(again.out, "\"cache\": \"held\""), 2);
+    assert_int_equal(count_substr(again.out, "\"cache\": \"disk\""), 0);
+    assert_int_equal(stat(at("c1/g_color.png"), &after), 0);
+    assert_true(before.st_mtim.tv_sec == after.st_mtim.tv_sec &&
+                before.st_mtim.tv_nsec == after.st_mtim.tv_nsec);
     /* an edit downstream: the blur still comes from the disk */
     Cmd edit = {
         "render g.wetgraph -o c1 --cache=cache --set mode=add --output color --stats=json -q"};
@@ -813,9 +827,11 @@ static void test_cache_option(void **state)
     expect_in(b, "\"cache\": \"disk\"", &edit, "the stats of b");
     free_batch(&first, 1);
     free_batch(&second, 1);
+    free_batch(&again, 1);
     free_batch(&edit, 1);
     rm_rf(at("cache"));
     rm_rf(at("c1"));
+    rm_rf(at("c2"));
 }
 
 /* A --cache that is not a usable folder (a file, /dev/null, a path under a file, one that cannot

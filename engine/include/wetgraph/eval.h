@@ -130,10 +130,23 @@ typedef struct WgOutputInfo {
     const WgImage *image;
     WgFormat format; /* resolved, never DEFAULT */
     WgColorspace colorspace;
+    /* the output's key: a hash of everything its pixels depend on (the cache key of the node
+     * that makes it, and the port), known before anything is computed; the same key, the same
+     * pixels, in any render, engine or process of this version */
+    uint64_t key[2];
 } WgOutputInfo;
 typedef int (*WgOutputFn)(void *user, const WgOutputInfo *out, WgError *err);
 /* fn NULL: the result keeps the output images (the default). */
 void wg_request_set_output_fn(WgRequest *r, WgOutputFn fn, void *user);
+/* Outputs the caller already holds. With an output function set, a render first asks `held`,
+ * on the calling thread while it plans (out->image is NULL), for each requested output whose
+ * node no node being computed reads: true means the caller holds the pixels of out->key (a file
+ * written from them, say), and the output is then neither computed nor read from the cache nor
+ * handed to the output function, and its node's stat says WG_HELD. A node that makes several
+ * outputs is left out only when all of them are held. NULL (the default): every output is
+ * handed over. */
+typedef bool (*WgOutputHeldFn)(void *user, const WgOutputInfo *out);
+void wg_request_set_output_held(WgRequest *r, WgOutputHeldFn held, void *user);
 
 /* Cancelling a render from another thread (or from its progress callback). A cancel token is
  * set on requests; wg_cancel_request makes every render of those requests that is running, and
@@ -186,7 +199,8 @@ int wg_request_reads_time(const WgRequest *r, bool *out, WgError *err);
  * request's cancel token was requested before the render finished. */
 int wg_render(WgEngine *e, const WgRequest *r, WgResult **out, WgError *err);
 
-typedef enum { WG_COMPUTED = 0, WG_HIT_MEMORY = 1, WG_HIT_DISK = 2 } WgCacheOutcome;
+/* WG_HELD: not needed, the caller holds its outputs (wg_request_set_output_held) */
+typedef enum { WG_COMPUTED = 0, WG_HIT_MEMORY = 1, WG_HIT_DISK = 2, WG_HELD = 3 } WgCacheOutcome;
 
 typedef struct WgNodeStat {
     const char *id;
