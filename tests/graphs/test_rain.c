@@ -1,0 +1,373 @@
+/* SPDX-License-Identifier: MIT */
+/* graphs/rain_ripples.wetgraph and graphs/wet_rain.wetgraph: rain drop rings only where water
+ * stands (the normal is the input's, bit for bit, where the water mask is 0, and at rain 0
+ * everywhere); a looping setting gives the frame at loop_seconds equal to frame 0, also through
+ * `render --frames`; more rain makes more rings (the drops of a lighter rain are among those of
+ * a heavier one); a sheltered part gets no drops; the rings are seamless across the tile edges
+ * at every frame and the same for any thread count; wet_rain at rain 0 is wet_material, bit for
+ * bit, and its rain changes only the two normals, only where the water stands. */
+#include "wgtest.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { W = 192, H = 128 };
+
+static WgGraph *ripples;
+
+static const char *env(const char *name)
+{
+    const char *s = getenv(name);
+    if (!s) fail_msg("%s is not set (run through meson test)", name);
+    return s;
+}
+
+static WgGraph *load_builtin(const char *name)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/graphs/%s.wetgraph", env("WETGRAPH_SOURCE"), name);
+    WgError err = {0};
+    WgGraph *g = NULL;
+    if (wg_graph_load(path, &g, &err)) {
+        char buf[2048];
+        wg_error_format(&err, buf, sizeof buf);
+        fail_msg("%s", buf);
+    }
+    return g;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    ripples = load_builtin("rain_ripples");
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    wg_graph_free(ripples);
+    return 0;
+}
+
+/* A bumpy normal map (linear, unit vectors). */
+static double normal_fn(int x, int y, int k)
+{
+    double n[3] = {0.3 * sin(0.2 * x), 0.3 * cos(0.13 * y), 1};
+    double l = sqrt(n[0] * n[0] + n[1] * n[1] + 1);
+    return k == 3 ? 1.0 : n[k] / l * 0.5 + 0.5;
+}
+/* Water in a soft-edged disc of radius 40 at (96, 64), none outside radius 48. */
+static double water_fn(int x, int y, int k)
+{
+    (void)k;
+    double r = hypot(x + 0.5 - 96, y + 0.5 - 64);
+    return r < 40 ? 1 : r < 48 ? (48 - r) / 8 : 0;
+}
+static double left_fn(int x, int y, int k)
+{
+    (void)y;
+    (void)k;
+    return x < W / 2 ? 1 : 0;
+}
+
+/* Render rain_ripples at time t with the given inputs (NULL: not connected) and settings
+ * "name=value ..." on `threads` workers. */
+static WgResult *render(const WgImage *normal, const WgImage *water, const WgImage *shelter,
+                        double t, const char *sets, int threads)
+{
+    WgError err = {0};
+    WgRequest *r = wg_request_new(ripples);
+    assert_non_null(r);
+    if (normal && wg_request_set_input_image(r, "normal", normal, &err)) fail_msg("%s", err.message);
+    if (water && wg_request_set_input_image(r, "water", water, &err)) fail_msg("%s", err.message);
+    if (shelter && wg_request_set_input_image(r, "shelter", shelter, &err))
+        fail_msg("%s", err.message);
+    if (!normal) wg_request_set_size(r, W, H);
+    char buf[512];
+    snprintf(buf, sizeof buf, "%s", sets ? sets : "");
+    char *save = NULL;
+    for (char *p = strtok_r(buf, " ", &save); p; p = strtok_r(NULL, " ", &save)) {
+        char *eq = strchr(p, '=');
+        assert_non_null(eq);
+        *eq = 0;
+        if (wg_request_set(r, p, eq + 1, &err)) fail_msg("%s=%s: %s", p, eq + 1, err.message);
+    }
+    wg_request_set_time(r, t);
+    WgEngine *e = wgt_engine(threads, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    wg_engine_free(e);
+    wg_request_free(r);
+    return res;
+}
+
+/* Sum of |ripple height| over the pixels where keep(x) holds (all when NULL). */
+static double energy(const WgImage *h, bool (*keep)(int x))
+{
+    double s = 0;
+    for (int y = 0; y < h->height; y++)
+        for (int x = 0; x < h->width; x++)
+            if (!keep || keep(x)) s += fabs(wgt_px(h, x, y, 0));
+    return s;
+}
+static bool left_half(int x)
+{
+    return x < W / 2;
+}
+static bool right_half(int x)
+{
+    return x >= W / 2;
+}
+
+/* Outside the water the normal is the input's, bit for bit; inside the rings change it; at
+ * rain 0 nothing changes anywhere. */
+static void test_only_where_water(void **state)
+{
+    (void)state;
+    WgImage *n = wgt_image_fn(W, H, 4, normal_fn), *w = wgt_image_fn(W, H, 1, water_fn);
+    const double times[] = {0, 0.37, 1.9};
+    for (int i = 0; i < 3; i++) {
+        WgResult *res = render(n, w, NULL, times[i], "rain=1", 2);
+        const WgImage *out = wgt_output(res, "normal");
+        int changed = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                bool same = !memcmp(wg_image_row(out, y) + 4 * x, wg_image_row(n, y) + 4 * x,
+                                    4 * sizeof(float));
+                if (water_fn(x, y, 0) == 0 && !same)
+                    fail_msg("t=%g: normal changed at (%d, %d) where no water stands", times[i], x,
+                             y);
+                changed += !same && water_fn(x, y, 0) == 1;
+            }
+        printf("t=%g: %d of the water's pixels rippled\n", times[i], changed);
+        assert_true(changed > 100);
+        wgt_assert_range(out, 0, 1);
+        wg_result_free(res);
+    }
+    WgResult *res = render(n, NULL, NULL, 0.37, "rain=0", 2);
+    wgt_assert_identical(wgt_output(res, "normal"), n);
+    wgt_assert_range(wgt_output(res, "ripples"), 0, 0);
+    wg_result_free(res);
+    wg_image_unref(n);
+    wg_image_unref(w);
+}
+
+/* loop_seconds 2 with rings of 0.7 s (snapped to 2/3 s): the frame at t = 2 and at t = 4 is the
+ * frame at t = 0, and the one at t = 1 is not; the same through `render --frames` (frame 24 at
+ * 12 fps is frame 0). Without a loop the rings keep changing. */
+static void test_loop_closes(void **state)
+{
+    (void)state;
+    const char *sets = "rain=0.8 loop_seconds=2 ripple_seconds=0.7";
+    WgResult *a = render(NULL, NULL, NULL, 0, sets, 2), *b = render(NULL, NULL, NULL, 2, sets, 2),
+             *c = render(NULL, NULL, NULL, 4, sets, 2), *d = render(NULL, NULL, NULL, 1, sets, 2);
+    for (int k = 0; k < wg_result_output_count(a); k++) {
+        wgt_assert_identical(wg_result_output_image(b, k), wg_result_output_image(a, k));
+        wgt_assert_identical(wg_result_output_image(c, k), wg_result_output_image(a, k));
+    }
+    assert_true(wgt_max_abs_diff(wgt_output(d, "ripples"), wgt_output(a, "ripples")) > 0.05);
+    assert_true(energy(wgt_output(a, "ripples"), NULL) > 1);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c);
+    wg_result_free(d);
+
+    const char *dir = wgt_fresh_dir("loop");
+    WGT_SH(dir, 0,
+           "\"$WG\" render \"%s/graphs/rain_ripples.wetgraph\" --size 64x48 --set rain=0.8 "
+           "--set loop_seconds=2 --set ripple_seconds=0.7 --output ripples --output normal "
+           "--frames 0:24 --fps 12 -o seq -q",
+           env("WETGRAPH_SOURCE"));
+    char f0[1024], f24[1024], f12[1024];
+    snprintf(f0, sizeof f0, "%s/seq/rain_ripples_normal_0000.png", dir);
+    snprintf(f24, sizeof f24, "%s/seq/rain_ripples_normal_0024.png", dir);
+    snprintf(f12, sizeof f12, "%s/seq/rain_ripples_normal_0012.png", dir);
+    wgt_assert_identical_files(f24, f0);
+    assert_false(wgt_same_file(f12, f0));
+    snprintf(f0, sizeof f0, "%s/seq/rain_ripples_ripples_0000.exr", dir);
+    snprintf(f24, sizeof f24, "%s/seq/rain_ripples_ripples_0024.exr", dir);
+    wgt_assert_identical_files(f24, f0);
+}
+
+/* More rain, more rings: the ring energy over a few frames grows with rain (0 at rain 0). */
+static void test_density_grows_with_rain(void **state)
+{
+    (void)state;
+    const double rains[] = {0, 0.1, 0.3, 0.6, 1};
+    const double times[] = {0.1, 0.45, 0.8, 1.6};
+    double prev = -1;
+    for (int i = 0; i < 5; i++) {
+        double e = 0;
+        for (int k = 0; k < 4; k++) {
+            char sets[64];
+            snprintf(sets, sizeof sets, "rain=%g", rains[i]);
+            WgResult *res = render(NULL, NULL, NULL, times[k], sets, 2);
+            e += energy(wgt_output(res, "ripples"), NULL);
+            wg_result_free(res);
+        }
+        printf("rain %g: ring energy %.1f\n", rains[i], e);
+        if (i == 0)
+            assert_true(e == 0);
+        else if (!(e > 1.3 * prev + 1))
+            fail_msg("rain %g: energy %g, not above %g at the lighter rain", rains[i], e, prev);
+        prev = e;
+    }
+}
+
+/* Sheltered parts get no drops: shelter 1 everywhere leaves the normal as it is; on the left
+ * half it keeps nearly all rings off it (a ring from a drop just outside may reach in). */
+static void test_shelter(void **state)
+{
+    (void)state;
+    WgImage *n = wgt_image_fn(W, H, 4, normal_fn), *s = wgt_image_fn(W, H, 1, left_fn);
+    float one = 1;
+    WgImage *all = wgt_image(1, 1, 1, &one);
+    WgResult *res = render(n, NULL, all, 0.4, "rain=1", 2);
+    wgt_assert_identical(wgt_output(res, "normal"), n);
+    wg_result_free(res);
+    double el = 0, er = 0;
+    for (int k = 0; k < 3; k++) {
+        res = render(n, NULL, s, 0.3 + 0.4 * k, "rain=1", 2);
+        el += energy(wgt_output(res, "ripples"), left_half);
+        er += energy(wgt_output(res, "ripples"), right_half);
+        wg_result_free(res);
+    }
+    printf("sheltered left half: ring energy %.1f, open right half %.1f\n", el, er);
+    assert_true(er > 10 && el < 0.1 * er);
+    wg_image_unref(all);
+    wg_image_unref(s);
+    wg_image_unref(n);
+}
+
+/* Mean |difference| between column c and the next one (wrapping), and the same for rows. */
+static double column_step(const WgImage *f, int c)
+{
+    double s = 0;
+    for (int y = 0; y < f->height; y++)
+        s += fabs(wgt_px(f, c, y, 0) - wgt_px(f, (c + 1) % f->width, y, 0));
+    return s / f->height;
+}
+static double row_step(const WgImage *f, int r)
+{
+    double s = 0;
+    for (int x = 0; x < f->width; x++)
+        s += fabs(wgt_px(f, x, r, 0) - wgt_px(f, x, (r + 1) % f->height, 0));
+    return s / f->width;
+}
+
+/* Seamless at every frame (a seam would show as a step across the last column or row far above
+ * the steps inside, on a non-square tile with small drops that often cross the edges), and the
+ * same bits for 1, 2 and 3 threads. */
+static void test_tiles_and_threads(void **state)
+{
+    (void)state;
+    const double times[] = {0.2, 0.65, 3.3};
+    for (int i = 0; i < 3; i++) {
+        WgResult *res = render(NULL, NULL, NULL, times[i], "rain=1 drop_size=3", 2);
+        const WgImage *f = wgt_output(res, "ripples");
+        double inner_c = 0, inner_r = 0;
+        for (int c = 0; c < W - 1; c++) inner_c += column_step(f, c) / (W - 1);
+        for (int r = 0; r < H - 1; r++) inner_r += row_step(f, r) / (H - 1);
+        double seam_c = column_step(f, W - 1), seam_r = row_step(f, H - 1);
+        printf("t=%g: seam steps %.4f / %.4f, inside %.4f / %.4f\n", times[i], seam_c, seam_r,
+               inner_c, inner_r);
+        if (!(seam_c <= 3 * inner_c && seam_r <= 3 * inner_r))
+            fail_msg("t=%g: seam steps %g / %g against %g / %g inside", times[i], seam_c, seam_r,
+                     inner_c, inner_r);
+        assert_true(inner_c > 0.001);
+        for (int threads = 1; threads <= 3; threads += 2) {
+            WgResult *o = render(NULL, NULL, NULL, times[i], "rain=1 drop_size=3", threads);
+            for (int k = 0; k < wg_result_output_count(res); k++)
+                wgt_assert_identical(wg_result_output_image(o, k), wg_result_output_image(res, k));
+            wg_result_free(o);
+        }
+        wg_result_free(res);
+    }
+}
+
+/* wet_rain: at rain 0 every output is wet_material's; with rain only the two normals change,
+ * only where the water stands. */
+static double color_fn(int x, int y, int k)
+{
+    if (k == 3) return 1.0;
+    double a = 0.5 + 0.45 * sin(0.11 * x + 2.1 * k) * cos(0.07 * y + k);
+    return a * a;
+}
+static double height_fn(int x, int y, int k)
+{
+    (void)k;
+    return 0.5 + 0.25 * sin(2 * M_PI * x / W) * cos(2 * M_PI * y / H) + 0.05 * sin(0.9 * x);
+}
+
+static WgResult *render_wet(const WgGraph *g, const WgImage *base, const WgImage *height,
+                            const WgImage *normal, const char *rain)
+{
+    WgError err = {0};
+    WgRequest *r = wg_request_new(g);
+    if (wg_request_set_input_image(r, "basecolor", base, &err) ||
+        wg_request_set_input_image(r, "height", height, &err) ||
+        wg_request_set_input_image(r, "normal", normal, &err) ||
+        wg_request_set(r, "water_level", "0.55", &err) ||
+        (rain && wg_request_set(r, "rain", rain, &err)))
+        fail_msg("%s", err.message);
+    wg_request_set_time(r, 0.35);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    wg_engine_free(e);
+    wg_request_free(r);
+    return res;
+}
+
+static void test_wet_rain(void **state)
+{
+    (void)state;
+    WgGraph *gr = load_builtin("wet_rain"), *gm = load_builtin("wet_material");
+    WgImage *base = wgt_image_fn(W, H, 4, color_fn), *height = wgt_image_fn(W, H, 1, height_fn),
+            *normal = wgt_image_fn(W, H, 4, normal_fn);
+    WgResult *m = render_wet(gm, base, height, normal, NULL);
+    WgResult *r0 = render_wet(gr, base, height, normal, "0");
+    WgResult *r1 = render_wet(gr, base, height, normal, "1");
+    assert_int_equal(wg_result_output_count(r0), wg_result_output_count(m));
+    const WgImage *wm = wgt_output(m, "watermask");
+    for (int k = 0; k < wg_result_output_count(m); k++) {
+        const char *name = wg_result_output_name(m, k);
+        wgt_assert_identical(wgt_output(r0, name), wg_result_output_image(m, k));
+        const WgImage *a = wgt_output(r1, name), *b = wg_result_output_image(m, k);
+        bool rippled = !strcmp(name, "normal") || !strcmp(name, "waternormal");
+        if (!rippled) {
+            wgt_assert_identical(a, b);
+            continue;
+        }
+        int changed = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                bool same = !memcmp(wg_image_row(a, y) + 4 * x, wg_image_row(b, y) + 4 * x,
+                                    4 * sizeof(float));
+                if (!same && wgt_px(wm, x, y, 0) == 0)
+                    fail_msg("%s changed at (%d, %d), where no water stands", name, x, y);
+                changed += !same;
+            }
+        printf("%s: %d pixels rippled\n", name, changed);
+        assert_true(changed > 100);
+    }
+    wg_result_free(m);
+    wg_result_free(r0);
+    wg_result_free(r1);
+    wg_image_unref(base);
+    wg_image_unref(height);
+    wg_image_unref(normal);
+    wg_graph_free(gr);
+    wg_graph_free(gm);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_only_where_water),  cmocka_unit_test(test_loop_closes),
+        cmocka_unit_test(test_density_grows_with_rain), cmocka_unit_test(test_shelter),
+        cmocka_unit_test(test_tiles_and_threads), cmocka_unit_test(test_wet_rain),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
