@@ -116,4 +116,13 @@ for d in "${drying[@]}"; do
     panel "$tmp/d$d/wet_material_basecolor.png" $crop "$tmp/db$d.png"
 done
 oiiotool "$tmp"/dz{0,0.25,0.5,0.8}.png "$tmp"/db{0,0.25,0.5,0.8}.png --mosaic 4x2 -o $img/wet_drying.png
+# rain on the exposed wall (water level 0.45): zones (top) and base colour (bottom) at rain 0,
+# 0.25, 0.5 and 1
+rains=(0 0.25 0.5 1)
+for r in "${rains[@]}"; do
+    render "r$r" "${bricks[@]}" --set water_level=0.45 --set rain=$r --output basecolor --output zones
+    panel "$tmp/r$r/wet_material_zones.png" $crop "$tmp/rz$r.png"
+    panel "$tmp/r$r/wet_material_basecolor.png" $crop "$tmp/rb$r.png"
+done
+oiiotool "$tmp"/rz{0,0.25,0.5,1}.png "$tmp"/rb{0,0.25,0.5,1}.png --mosaic 4x2 -o $img/wet_rain.png
 ls -l $img/wet_*.png

@@ -12,7 +12,9 @@
  * in the masks nor in the zones view. A `level` image: constant, it is water_level; tilted, it
  * floods the low side. The drying band: none below the water level, all wet at drying 0, dry
  * at drying 1, never wetter as drying grows, the film before the moisture, porous parts last,
- * the puddles shrinking to the deepest hollows; tiling and thread-count invariance. */
+ * the puddles shrinking to the deepest hollows; rain on the exposed surface: never drier with
+ * more rain, film on the flat parts and none on steep walls, kept off by a shelter or the
+ * ambient occlusion; tiling and thread-count invariance. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -1196,6 +1198,152 @@ static void test_drying_porosity_and_puddles(void **state)
     masks_free(&zero);
 }
 
+/* ---- rain on the exposed surface ----------------------------------------------------------- */
+
+/* Rain 0 changes nothing whatever the shelter; as the rain grows no pixel gets drier; at rain 1
+ * the flat exposed parts are all film and the steep walls get no film (only soaked pores, so
+ * they stay drier), with or without water; hollows fill; a full shelter (the input, or the
+ * ambient occlusion through ao_shelter, pixel by pixel) keeps the rain off, bit for bit; a
+ * non-porous material soaks none; tiles and keeps the thread-count invariance. */
+static void test_rain(void **state)
+{
+    (void)state;
+    float one = 1, zero = 0;
+    WgImage *all = wgt_image(1, 1, 1, &one), *none = wgt_image(1, 1, 1, &zero);
+    WgImage *left_ao = wgt_image_fn(256, 128, 1, half_porous); /* 1 left, 0 right */
+    const char *nsh[] = {"height", "shelter"}, *nao[] = {"height", "ao"};
+    const WgImage *ish[] = {bricks, all}, *iao[] = {bricks, left_ao}, *iao0[] = {bricks, none};
+
+    Masks dry = render(bricks, NULL, "water_level=0.45");
+    Masks r0 = render_with(nao, iao0, 2, "water_level=0.45 ao_shelter=1", 2);
+    assert_masks_identical(&dry, &r0);
+    Masks sheltered = render_with(nsh, ish, 2, "water_level=0.45 rain=1", 2);
+    assert_masks_identical(&dry, &sheltered);
+    masks_free(&r0);
+    masks_free(&sheltered);
+
+    /* the slope the graph measures: of the normalised smoothed height, 16 length units deep */
+    double lo, hi;
+    WgImage *sm = smoothed(bricks);
+    range_of(sm, &lo, &hi);
+    WgImage *sn = wgt_image(256, 128, 1, NULL);
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 256; x++) wg_image_row(sn, y)[x] = (px(sm, x, y) - lo) / (hi - lo);
+    const char *names[] = {"height"};
+    const WgImage *in[] = {sn};
+    WgImage *slope = wgt_node("slope", "intensity=\"16\" method=\"sobel\"", 256, 128, 1, names, in, 0, 1);
+
+    static const char *const sets[] = {"water_level=0.45", "water_level=0.45 rain=0.25",
+                                       "water_level=0.45 rain=0.5", "water_level=0.45 rain=1"};
+    Masks prev = render(bricks, NULL, sets[0]);
+    for (int k = 1; k < 4; k++) {
+        Masks m = render(bricks, NULL, sets[k]);
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double damp = px(m.wet, x, y) + px(m.moist, x, y),
+                       pdamp = px(prev.wet, x, y) + px(prev.moist, x, y);
+                if (!(px(m.wet, x, y) >= px(prev.wet, x, y) - 1e-6 && damp >= pdamp - 1e-6 &&
+                      px(m.pud, x, y) >= px(prev.pud, x, y) - 1e-6))
+                    fail_msg("%s at (%d, %d): drier than with less rain", sets[k], x, y);
+                if (!(damp + px(m.imm, x, y) <= 1 + 1e-6 && px(m.pud, x, y) <= px(m.wet, x, y) + 1e-6))
+                    fail_msg("%s at (%d, %d): the zones do not partition", sets[k], x, y);
+            }
+        printf("%s: wet %.0f, moist %.0f, puddles %.0f\n", sets[k], mask_sum(m.wet, NULL),
+               mask_sum(m.moist, NULL), mask_sum(m.pud, NULL));
+        masks_free(&prev);
+        prev = m;
+    }
+    /* rain 1: film on every flat exposed pixel, none on the steep walls (drier: pores only) */
+    for (int lv = 0; lv < 2; lv++) {
+        Masks m = lv ? prev : render(bricks, NULL, "water_level=0 rain=1");
+        int flat = 0, steep = 0;
+        double steep_damp = 0;
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double sl = px(slope, x, y);
+                if (sl < 0.5 - 0.075 - 1e-3 && px(m.imm, x, y) == 0) {
+                    if (!(px(m.wet, x, y) == 1))
+                        fail_msg("rain 1: flat (%d, %d) has film %g", x, y, px(m.wet, x, y));
+                    flat++;
+                }
+                if (sl > 0.5 + 0.075 + 1e-3 && px(m.imm, x, y) == 0) {
+                    if (!(px(m.wet, x, y) == 0 && px(m.pud, x, y) == 0))
+                        fail_msg("rain 1: steep (%d, %d) has film %g", x, y, px(m.wet, x, y));
+                    steep++;
+                    steep_damp += px(m.moist, x, y);
+                }
+            }
+        printf("rain 1, level %s: %d flat pixels all film, %d steep with mean moisture %.2f\n",
+               lv ? "0.45" : "0", flat, steep, steep_damp / steep);
+        assert_true(flat > 1000 && steep > 100);
+        /* with no water near, the walls only soak (porosity 1, half the flat parts' rain);
+           next to water they take its moisture too */
+        if (!lv) assert_true(steep_damp / steep < 0.75);
+        if (!lv) {
+            assert_true(mask_sum(m.pud, NULL) > 200);
+            assert_all(m.imm, 0, "immersed at level 0");
+            masks_free(&m);
+        }
+    }
+    /* the water's film reaches further in the rain */
+    Masks wide = render(bricks, NULL, "water_level=0.45 rain=0.3 slope_limit=0 slope_softness=0");
+    Masks narrow = render(bricks, NULL, "water_level=0.45 slope_limit=0 slope_softness=0");
+    assert_true(mask_sum(wide.wet, NULL) == mask_sum(narrow.wet, NULL)); /* no film holds */
+    assert_true(mask_sum(wide.moist, NULL) > 1.1 * mask_sum(narrow.moist, NULL));
+    masks_free(&wide);
+    masks_free(&narrow);
+
+    /* sheltered by the ambient occlusion on the right half (ao 0 there), pixel by pixel */
+    Masks ao = render_with(nao, iao, 2, "water_level=0.45 rain=1 ao_shelter=1", 2);
+    for (int y = 0; y < 128; y++)
+        for (int x = 128; x < 256; x++)
+            if (px(ao.wet, x, y) != px(dry.wet, x, y) || px(ao.moist, x, y) != px(dry.moist, x, y) ||
+                px(ao.pud, x, y) != px(dry.pud, x, y))
+                fail_msg("sheltered (%d, %d) is wetter than without rain", x, y);
+    assert_true(mask_sum(ao.wet, left_half) > 2 * mask_sum(dry.wet, left_half) + 1000);
+    masks_free(&ao);
+
+    /* a non-porous material soaks nothing up */
+    Masks glazed = render(bricks, NULL, "water_level=0.45 rain=1 porosity=0");
+    assert_all(glazed.moist, 0, "moist at porosity 0");
+    masks_free(&glazed);
+
+    /* tiles (with the noise shifted along), and the same at 1 and 3 threads */
+    WgImage *n = wgt_image_fn(256, 128, 1, wavy);
+    WgImage *hs = roll(bricks, 77, 35), *ns = roll(n, 77, 35);
+    const char *name2[] = {"height", "noise"};
+    const WgImage *ins[] = {hs, ns}, *inb[] = {bricks, n};
+    Masks a = render_with(name2, inb, 2, "water_level=0.45 rain=0.4", 2);
+    Masks b = render_with(name2, ins, 2, "water_level=0.45 rain=0.4", 2);
+    const WgImage *ma[] = {a.imm, a.wet, a.moist, a.pud}, *mb[] = {b.imm, b.wet, b.moist, b.pud};
+    for (int k = 0; k < 4; k++) {
+        WgImage *r = roll(ma[k], 77, 35);
+        double d = wgt_max_abs_diff(r, mb[k]);
+        printf("rain output %d: max difference after the shift %.3g\n", k, d);
+        if (!(d <= 2e-3)) fail_msg("rain output %d differs by %g after a shift", k, d);
+        wg_image_unref(r);
+    }
+    Masks t1 = render_with(name2, inb, 2, "water_level=0.45 rain=0.4", 1);
+    Masks t3 = render_with(name2, inb, 2, "water_level=0.45 rain=0.4", 3);
+    assert_masks_identical(&a, &t1);
+    assert_masks_identical(&a, &t3);
+    masks_free(&a);
+    masks_free(&b);
+    masks_free(&t1);
+    masks_free(&t3);
+    wg_image_unref(n);
+    wg_image_unref(hs);
+    wg_image_unref(ns);
+    masks_free(&prev);
+    masks_free(&dry);
+    wg_image_unref(slope);
+    wg_image_unref(sn);
+    wg_image_unref(sm);
+    wg_image_unref(left_ao);
+    wg_image_unref(all);
+    wg_image_unref(none);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1217,6 +1365,7 @@ int main(void)
         cmocka_unit_test(test_level_image),
         cmocka_unit_test(test_drying),
         cmocka_unit_test(test_drying_porosity_and_puddles),
+        cmocka_unit_test(test_rain),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -5,7 +5,8 @@
  * `render --frames`; more rain makes more rings (the drops of a lighter rain are among those of
  * a heavier one); a sheltered part gets no drops; the rings are seamless across the tile edges
  * at every frame and the same for any thread count; wet_rain at rain 0 is wet_material, bit for
- * bit, and its rain changes only the two normals, only where the water stands. */
+ * bit, and in the rain it is wet_material in the same rain but for the two normals, rippled only
+ * where the water stands. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -287,8 +288,9 @@ static void test_tiles_and_threads(void **state)
     }
 }
 
-/* wet_rain: at rain 0 every output is wet_material's; with rain only the two normals change,
- * only where the water stands. */
+/* wet_rain: at rain 0 every output is wet_material's; in the rain every output but the two
+ * normals is wet_material's at that rain (which wets the surface), and the normals change only
+ * where the water stands. */
 static double color_fn(int x, int y, int k)
 {
     if (k == 3) return 1.0;
@@ -327,14 +329,27 @@ static void test_wet_rain(void **state)
     WgImage *base = wgt_image_fn(W, H, 4, color_fn), *height = wgt_image_fn(W, H, 1, height_fn),
             *normal = wgt_image_fn(W, H, 4, normal_fn);
     WgResult *m = render_wet(gm, base, height, normal, NULL);
+    WgResult *m1 = render_wet(gm, base, height, normal, "1");
     WgResult *r0 = render_wet(gr, base, height, normal, "0");
     WgResult *r1 = render_wet(gr, base, height, normal, "1");
     assert_int_equal(wg_result_output_count(r0), wg_result_output_count(m));
-    const WgImage *wm = wgt_output(m, "watermask");
+    const WgImage *wm = wgt_output(m1, "watermask");
+    /* the rain wets wet_material's surface: more film, a darker base colour */
+    double film0 = 0, film1 = 0, g0 = 0, g1 = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            film0 += wgt_px(wgt_output(m, "wet"), x, y, 0);
+            film1 += wgt_px(wgt_output(m1, "wet"), x, y, 0);
+            g0 += wgt_px(wgt_output(m, "basecolor"), x, y, 1);
+            g1 += wgt_px(wgt_output(m1, "basecolor"), x, y, 1);
+        }
+    printf("wet_material: film %.0f dry, %.0f in the rain; mean green %.4f, %.4f\n", film0, film1,
+           g0 / (W * H), g1 / (W * H));
+    assert_true(film1 > film0 + 0.3 * W * H && g1 < 0.9 * g0);
     for (int k = 0; k < wg_result_output_count(m); k++) {
         const char *name = wg_result_output_name(m, k);
         wgt_assert_identical(wgt_output(r0, name), wg_result_output_image(m, k));
-        const WgImage *a = wgt_output(r1, name), *b = wg_result_output_image(m, k);
+        const WgImage *a = wgt_output(r1, name), *b = wg_result_output_image(m1, k);
         bool rippled = !strcmp(name, "normal") || !strcmp(name, "waternormal");
         if (!rippled) {
             wgt_assert_identical(a, b);
@@ -353,6 +368,7 @@ static void test_wet_rain(void **state)
         assert_true(changed > 100);
     }
     wg_result_free(m);
+    wg_result_free(m1);
     wg_result_free(r0);
     wg_result_free(r1);
     wg_image_unref(base);
