@@ -7,7 +7,8 @@
  * foam; no foam beyond the band's sea-side edge nor inland beyond the inland reach; the nodes
  * that do not depend on $time are computed once for a sequence; T tiles and merges its two
  * layers with max; everything is finite and in range; the graph warns for exactly the values
- * snapping changes by more than 2x. */
+ * snapping changes by more than 2x; a painted distance texture (pattern_mode profile) is used
+ * as T as it is and the foam follows its profile; a noise input replaces N1. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -507,6 +508,113 @@ static void test_shader_formula_on_packed_maps(void **state)
     wg_graph_free(g);
 }
 
+/* Render the foam graph on shore with more inputs (names[i] <- images[i]) at time t. */
+static WgResult *render_with(WgEngine *e, const WgImage *shore, const char *const *names,
+                             const WgImage *const *images, int n, double t, const char *const *sets)
+{
+    WgRequest *r = wg_request_new(foam_graph);
+    WgError err = {0};
+    assert_non_null(r);
+    if (wg_request_set_input_image(r, "shore", shore, &err)) fail_msg("%s", err.message);
+    for (int i = 0; i < n; i++)
+        if (wg_request_set_input_image(r, names[i], images[i], &err))
+            fail_msg("%s: %s", names[i], err.message);
+    for (int i = 0; sets && sets[i]; i++) {
+        char name[64];
+        const char *eq = strchr(sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - sets[i]), sets[i]);
+        if (wg_request_set(r, name, eq + 1, &err)) fail_msg("%s: %s", sets[i], err.message);
+    }
+    wg_request_set_time(r, t);
+    WgResult *res = wgt_render_request(e, r);
+    wg_request_free(r);
+    return res;
+}
+
+/* A painted distance texture: a smooth tileable profile in [0.05, 0.95]. */
+static double profile_fn(int x, int y, int k)
+{
+    (void)k;
+    double u = (x + 0.5) / N, v = (y + 0.5) / N;
+    return 0.5 + 0.45 * sin(2 * M_PI * 2 * u) * cos(2 * M_PI * 3 * v);
+}
+
+/* pattern_mode profile uses a painted distance texture as T as it is (the maps' T is the
+ * profile), so the foam of the texture term alone follows the profile's level sets at every
+ * threshold; the strokes mode rebuilds T from the strokes at 0.5 and loses the profile. */
+static void test_painted_profile(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn), *prof = wgt_image_fn(N, N, 1, profile_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *names[] = {"pattern"};
+    const WgImage *in[] = {prof};
+    static const char *const thresholds[] = {"threshold=0.3", "threshold=0.6"};
+    for (int k = 0; k < 2; k++) {
+        const char *const sets[] = {"pattern_mode=profile", "ratio_sine=0", "ratio_tex=1",
+                                    "warp_amp=0", "tex_speed_x=0", "tex_speed_y=0", "layer2=0",
+                                    "a=0", "b=0", "reach_noise=0", "threshold_noise=0",
+                                    thresholds[k], NULL};
+        double thr = k ? 0.6 : 0.3;
+        WgResult *res = render_with(e, shore, names, in, 1, 0.7, sets);
+        const WgImage *maps = wgt_output(res, "maps"), *foam = wgt_output(res, "foam"),
+                      *v = wgt_output(res, "v");
+        int checked = 0;
+        for (int y = 0; y < N; y++)
+            for (int x = 0; x < N; x++) {
+                double p = profile_fn(x, y, 0);
+                assert_float_equal(wgt_px(maps, x, y, 1), (float)p, 0);
+                double vv = wgt_px(v, x, y, 0);
+                if (vv < 0.1 || vv > 0.95 || fabs(p - thr) < 0.1) continue;
+                if ((wgt_px(foam, x, y, 0) > 0.5) != (p > thr))
+                    fail_msg("threshold %g at (%d, %d): foam %g where the profile is %g", thr, x,
+                             y, wgt_px(foam, x, y, 0), p);
+                checked++;
+            }
+        printf("threshold %g: %d pixels follow the profile\n", thr, checked);
+        assert_true(checked > 2000);
+        wg_result_free(res);
+    }
+    const char *const strokes[] = {"pattern_mode=strokes", NULL};
+    WgResult *res = render_with(e, shore, names, in, 1, 0.7, strokes);
+    WgImage *g = wgt_image(N, N, 1, NULL);
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) wg_image_row(g, y)[x] = wgt_px(wgt_output(res, "maps"), x, y, 1);
+    assert_true(wgt_max_abs_diff(g, prof) > 0.2);
+    wg_image_unref(g);
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_image_unref(prof);
+    wg_image_unref(shore);
+}
+
+/* A `noise` input replaces N1: given the built-in N1 (the maps' b) the foam is the same, bit
+ * for bit; another noise changes it. */
+static void test_noise_input(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *a = render(e, shore, 1.1, NULL);
+    WgImage *n1 = wgt_image(N, N, 1, NULL), *other = wgt_image_fn(N, N, 1, profile_fn);
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) wg_image_row(n1, y)[x] = wgt_px(wgt_output(a, "maps"), x, y, 2);
+    const char *names[] = {"noise"};
+    const WgImage *same[] = {n1}, *diff[] = {other};
+    WgResult *b = render_with(e, shore, names, same, 1, 1.1, NULL);
+    WgResult *c = render_with(e, shore, names, diff, 1, 1.1, NULL);
+    for (int k = 0; k < wg_result_output_count(a); k++)
+        wgt_assert_identical(wg_result_output_image(b, k), wg_result_output_image(a, k));
+    assert_true(wgt_max_abs_diff(wgt_output(c, "foam"), wgt_output(a, "foam")) > 0.5);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c);
+    wg_image_unref(n1);
+    wg_image_unref(other);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -519,6 +627,8 @@ int main(void)
         cmocka_unit_test(test_untimed_nodes_once),
         cmocka_unit_test(test_pattern),
         cmocka_unit_test(test_shader_formula_on_packed_maps),
+        cmocka_unit_test(test_painted_profile),
+        cmocka_unit_test(test_noise_input),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
