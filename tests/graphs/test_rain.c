@@ -288,9 +288,9 @@ static void test_tiles_and_threads(void **state)
     }
 }
 
-/* wet_rain: at rain 0 every output is wet_material's; in the rain every output but the two
- * normals is wet_material's at that rain (which wets the surface), and the normals change only
- * where the water stands. */
+/* wet_rain: at rain 0 every output is wet_material's (streaks or not); in the rain without
+ * streaks every output but the two normals is wet_material's at that rain (which wets the
+ * surface), and the normals change only where the water stands. */
 static double color_fn(int x, int y, int k)
 {
     if (k == 3) return 1.0;
@@ -304,7 +304,7 @@ static double height_fn(int x, int y, int k)
 }
 
 static WgResult *render_wet(const WgGraph *g, const WgImage *base, const WgImage *height,
-                            const WgImage *normal, const char *rain)
+                            const WgImage *normal, const char *rain, const char *streaks)
 {
     WgError err = {0};
     WgRequest *r = wg_request_new(g);
@@ -314,6 +314,7 @@ static WgResult *render_wet(const WgGraph *g, const WgImage *base, const WgImage
         wg_request_set(r, "water_level", "0.55", &err) ||
         (rain && wg_request_set(r, "rain", rain, &err)))
         fail_msg("%s", err.message);
+    if (streaks && wg_request_set(r, "streaks", streaks, &err)) fail_msg("%s", err.message);
     wg_request_set_time(r, 0.35);
     WgEngine *e = wgt_engine(2, 0, NULL);
     WgResult *res = wgt_render_request(e, r);
@@ -328,11 +329,11 @@ static void test_wet_rain(void **state)
     WgGraph *gr = load_builtin("wet_rain"), *gm = load_builtin("wet_material");
     WgImage *base = wgt_image_fn(W, H, 4, color_fn), *height = wgt_image_fn(W, H, 1, height_fn),
             *normal = wgt_image_fn(W, H, 4, normal_fn);
-    WgResult *m = render_wet(gm, base, height, normal, NULL);
-    WgResult *m1 = render_wet(gm, base, height, normal, "1");
-    WgResult *r0 = render_wet(gr, base, height, normal, "0");
-    WgResult *r1 = render_wet(gr, base, height, normal, "1");
-    assert_int_equal(wg_result_output_count(r0), wg_result_output_count(m));
+    WgResult *m = render_wet(gm, base, height, normal, NULL, NULL);
+    WgResult *m1 = render_wet(gm, base, height, normal, "1", NULL);
+    WgResult *r0 = render_wet(gr, base, height, normal, "0", NULL);
+    WgResult *r1 = render_wet(gr, base, height, normal, "1", "0");
+    assert_int_equal(wg_result_output_count(r0), wg_result_output_count(m) + 1); /* + streaks */
     const WgImage *wm = wgt_output(m1, "watermask");
     /* the rain wets wet_material's surface: more film, a darker base colour */
     double film0 = 0, film1 = 0, g0 = 0, g1 = 0;
@@ -378,12 +379,103 @@ static void test_wet_rain(void **state)
     wg_graph_free(gm);
 }
 
+/* Streaks: water running down steep parts, only there, drawn out along `up`: their
+ * autocorrelation is longer along up than across it, for up along y and along x; none at rain
+ * 0 or with streaks 0. On an egg-crate relief deep enough to be steep nearly everywhere. */
+static double crate_fn(int x, int y, int k)
+{
+    (void)k;
+    double u = (x + 0.5) / W, v = (y + 0.5) / H;
+    return 0.5 + 0.25 * (sin(2 * M_PI * 2 * u) + sin(2 * M_PI * 2 * v));
+}
+/* Correlation of an image with itself shifted by (dx, dy) pixels (wrapping). */
+static double autocorr(const WgImage *f, int dx, int dy)
+{
+    double n = (double)f->width * f->height, s = 0, ss = 0, sxy = 0;
+    for (int y = 0; y < f->height; y++)
+        for (int x = 0; x < f->width; x++) {
+            double a = wgt_px(f, x, y, 0);
+            s += a;
+            ss += a * a;
+        }
+    double mean = s / n, var = ss / n - mean * mean;
+    for (int y = 0; y < f->height; y++)
+        for (int x = 0; x < f->width; x++)
+            sxy += (wgt_px(f, x, y, 0) - mean) *
+                   (wgt_px(f, (x + dx) % f->width, (y + dy) % f->height, 0) - mean);
+    return var > 0 ? sxy / n / var : 0;
+}
+
+static void test_streaks(void **state)
+{
+    (void)state;
+    WgGraph *gr = load_builtin("wet_rain"), *gm = load_builtin("create_masks");
+    WgImage *base = wgt_image_fn(W, H, 4, color_fn), *height = wgt_image_fn(W, H, 1, crate_fn);
+    /* the slope the masks measure */
+    WgError err = {0};
+    WgRequest *q = wg_request_new(gm);
+    if (wg_request_set_input_image(q, "height", height, &err) ||
+        wg_request_set(q, "height_scale", "120", &err) || wg_request_add_output(q, "slope", &err))
+        fail_msg("%s", err.message);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *qs = wgt_render_request(e, q);
+    const WgImage *slope = wgt_output(qs, "slope");
+    static const char *const ups[] = {"90", "0"};
+    for (int k = 0; k < 2; k++) {
+        WgResult *res[3];
+        const char *rains[] = {"1", "0", "1"}, *strengths[] = {"1", "1", "0"};
+        for (int i = 0; i < 3; i++) {
+            WgRequest *r = wg_request_new(gr);
+            if (wg_request_set_input_image(r, "basecolor", base, &err) ||
+                wg_request_set_input_image(r, "height", height, &err) ||
+                wg_request_set(r, "height_scale", "120", &err) ||
+                wg_request_set(r, "water_level", "0.3", &err) ||
+                wg_request_set(r, "rain", rains[i], &err) ||
+                wg_request_set(r, "streaks", strengths[i], &err) ||
+                wg_request_set(r, "up_angle", ups[k], &err) ||
+                wg_request_add_output(r, "streaks", &err) || wg_request_add_output(r, "wet", &err))
+                fail_msg("%s", err.message);
+            res[i] = wgt_render_request(e, r);
+            wg_request_free(r);
+        }
+        const WgImage *st = wgt_output(res[0], "streaks");
+        double total = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                double v = wgt_px(st, x, y, 0), sl = wgt_px(slope, x, y, 0);
+                if (v > 0 && !(sl > 0.425))
+                    fail_msg("up %s: streak %g at (%d, %d) where the slope is %g", ups[k], v, x, y,
+                             sl);
+                if (!(wgt_px(wgt_output(res[0], "wet"), x, y, 0) >= v - 1e-6))
+                    fail_msg("up %s: the film at (%d, %d) is below its streak", ups[k], x, y);
+                total += v;
+            }
+        double along = k == 0 ? autocorr(st, 0, 6) : autocorr(st, 6, 0),
+               across = k == 0 ? autocorr(st, 6, 0) : autocorr(st, 0, 6);
+        printf("up %s: streaks %.0f, autocorrelation at 6 px %.2f along up, %.2f across\n", ups[k],
+               total, along, across);
+        assert_true(total > 200);
+        assert_true(along > across + 0.2);
+        wgt_assert_range(wgt_output(res[1], "streaks"), 0, 0);
+        wgt_assert_range(wgt_output(res[2], "streaks"), 0, 0);
+        for (int i = 0; i < 3; i++) wg_result_free(res[i]);
+    }
+    wg_result_free(qs);
+    wg_request_free(q);
+    wg_engine_free(e);
+    wg_image_unref(base);
+    wg_image_unref(height);
+    wg_graph_free(gr);
+    wg_graph_free(gm);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_only_where_water),  cmocka_unit_test(test_loop_closes),
         cmocka_unit_test(test_density_grows_with_rain), cmocka_unit_test(test_shelter),
         cmocka_unit_test(test_tiles_and_threads), cmocka_unit_test(test_wet_rain),
+        cmocka_unit_test(test_streaks),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
