@@ -3,7 +3,7 @@
 # Renders the pictures of docs/wet.md's "Rain ripples" into docs/img/ (needs a build and
 # oiiotool: scripts/install-deps.sh --docs): a contact sheet of the rings on flat water over a
 # 1.5-second loop, the Bricks102 wall in the rain at water level 0.75 (the one-surface
-# normal and the water layer's normal at one moment, a crop), and its streaks.
+# normal and the water layer's normal at one moment, a crop), streaks and beads.
 #   scripts/rain_pictures.sh [BUILD_DIR]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -44,4 +44,13 @@ oiiotool "$tmp/streaks90/wet_rain_streaks.png" --ch 0,0,0 --chnames R,G,B --cut 
     "$tmp/streaks0/wet_rain_streaks.png" --ch 0,0,0 --chnames R,G,B --cut 300x300+300+100 \
     "$tmp/streaks0/wet_rain_basecolor.png" --ch R,G,B --cut 300x300+300+100 \
     --mosaic 4x1 --resize 75% -o "$root/docs/img/rain_streaks.png"
-echo "wrote docs/img/rain_sheet.png docs/img/rain_wall.png docs/img/rain_streaks.png"
+# beads: the wall made non-porous in rain 0.8, the normal map and the roughness, a crop at 2x
+"$wg" render "$root/graphs/wet_rain.wetgraph" -o "$tmp/beads" -q \
+    --input basecolor=$sh/Bricks102_1K-JPG_Color.jpg \
+    --input height=$sh/Bricks102_1K-JPG_Displacement.jpg \
+    --input normal=$sh/Bricks102_1K-JPG_NormalGL.jpg \
+    --set water_level=0.3 --set rain=0.8 --set porosity=0 --output normal --output roughness
+oiiotool "$tmp/beads/wet_rain_normal.png" --ch R,G,B --cut 200x150+350+150 --resize 200% \
+    "$tmp/beads/wet_rain_roughness.png" --ch 0,0,0 --chnames R,G,B --cut 200x150+350+150 \
+    --resize 200% --mosaic 2x1 -o "$root/docs/img/rain_beads.png"
+echo "wrote docs/img/rain_sheet.png docs/img/rain_wall.png docs/img/rain_streaks.png docs/img/rain_beads.png"

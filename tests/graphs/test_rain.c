@@ -6,7 +6,8 @@
  * a heavier one); a sheltered part gets no drops; the rings are seamless across the tile edges
  * at every frame and the same for any thread count; wet_rain at rain 0 is wet_material, bit for
  * bit, and in the rain it is wet_material in the same rain but for the two normals, rippled only
- * where the water stands. */
+ * where the water stands; streaks run along up on steep parts only; beads stand on non-porous
+ * surfaces only. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -469,6 +470,89 @@ static void test_streaks(void **state)
     wg_graph_free(gm);
 }
 
+/* Beads: on a non-porous surface in the rain, drops stand as domes: they are standing water
+ * (the water mask, the liquid's roughness) with normals of their own, out of the immersed
+ * part; more rain, more beads; none on a porous surface (bit for bit as without beads), under
+ * a full shelter, or at rain 0. */
+static WgResult *render_beads(const WgGraph *g, const WgImage *base, const WgImage *height,
+                              const WgImage *shelter, const char *porosity, const char *rain,
+                              const char *beads)
+{
+    WgError err = {0};
+    WgRequest *r = wg_request_new(g);
+    if (wg_request_set_input_image(r, "basecolor", base, &err) ||
+        wg_request_set_input_image(r, "height", height, &err) ||
+        (shelter && wg_request_set_input_image(r, "shelter", shelter, &err)) ||
+        wg_request_set(r, "water_level", "0.4", &err) || wg_request_set(r, "rain", rain, &err) ||
+        wg_request_set(r, "porosity", porosity, &err) || wg_request_set(r, "beads", beads, &err) ||
+        wg_request_set(r, "bead_size", "6", &err) || wg_request_set(r, "streaks", "0", &err) ||
+        wg_request_set(r, "ripple_strength", "0", &err))
+        fail_msg("%s", err.message);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    wg_engine_free(e);
+    wg_request_free(r);
+    return res;
+}
+
+static void test_beads(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("wet_rain");
+    WgImage *base = wgt_image_fn(W, H, 4, color_fn), *height = wgt_image_fn(W, H, 1, height_fn);
+    float one = 1;
+    WgImage *all = wgt_image(1, 1, 1, &one);
+    WgResult *with = render_beads(g, base, height, NULL, "0", "1", "1");
+    WgResult *without = render_beads(g, base, height, NULL, "0", "1", "0");
+    WgResult *light = render_beads(g, base, height, NULL, "0", "0.2", "1");
+    const WgImage *pw = wgt_output(with, "puddles"), *po = wgt_output(without, "puddles"),
+                  *pl = wgt_output(light, "puddles");
+    const WgImage *wm = wgt_output(with, "watermask"), *rough = wgt_output(with, "roughness"),
+                  *imm = wgt_output(with, "immersed");
+    int beads = 0, light_beads = 0, tops = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            double b = wgt_px(pw, x, y, 0) - wgt_px(po, x, y, 0);
+            if (b > 1 - wgt_px(imm, x, y, 0) + 1e-6)
+                fail_msg("a bead %g at (%d, %d) under water (immersed %g)", b, x, y,
+                         wgt_px(imm, x, y, 0));
+            if (b > 0.99) {
+                beads++;
+                /* the liquid's roughness (0.02), up to the film's (0.3) by what the mask lacks */
+                if (!(wgt_px(wm, x, y, 0) >= 0.99 &&
+                      wgt_px(rough, x, y, 0) <= 0.02 + 0.3 * (1 - wgt_px(wm, x, y, 0)) + 1e-5))
+                    fail_msg("bead (%d, %d): water mask %g, roughness %g", x, y,
+                             wgt_px(wm, x, y, 0), wgt_px(rough, x, y, 0));
+                const float *a = wg_image_row(wgt_output(with, "normal"), y) + 4 * x,
+                            *c = wg_image_row(wgt_output(without, "normal"), y) + 4 * x;
+                tops += fabs(a[0] - c[0]) + fabs(a[1] - c[1]) > 0.05;
+            }
+            light_beads += wgt_px(pl, x, y, 0) - wgt_px(po, x, y, 0) > 0.99;
+        }
+    printf("beads: %d pixels in heavy rain (%d with their own slope), %d in light rain\n", beads,
+           tops, light_beads);
+    assert_true(beads > 300 && tops > beads / 3 && light_beads < beads);
+    /* none on a porous surface, under a full shelter, or at rain 0 */
+    WgResult *porous = render_beads(g, base, height, NULL, "1", "1", "1");
+    WgResult *porous0 = render_beads(g, base, height, NULL, "1", "1", "0");
+    WgResult *covered = render_beads(g, base, height, all, "0", "1", "1");
+    WgResult *covered0 = render_beads(g, base, height, all, "0", "1", "0");
+    WgResult *dry = render_beads(g, base, height, NULL, "0", "0", "1");
+    WgResult *dry0 = render_beads(g, base, height, NULL, "0", "0", "0");
+    for (int k = 0; k < wg_result_output_count(porous); k++) {
+        wgt_assert_identical(wg_result_output_image(porous, k), wg_result_output_image(porous0, k));
+        wgt_assert_identical(wg_result_output_image(covered, k),
+                             wg_result_output_image(covered0, k));
+        wgt_assert_identical(wg_result_output_image(dry, k), wg_result_output_image(dry0, k));
+    }
+    WgResult *rs[] = {with, without, light, porous, porous0, covered, covered0, dry, dry0};
+    for (size_t i = 0; i < sizeof rs / sizeof *rs; i++) wg_result_free(rs[i]);
+    wg_image_unref(all);
+    wg_image_unref(base);
+    wg_image_unref(height);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -476,6 +560,7 @@ int main(void)
         cmocka_unit_test(test_density_grows_with_rain), cmocka_unit_test(test_shelter),
         cmocka_unit_test(test_tiles_and_threads), cmocka_unit_test(test_wet_rain),
         cmocka_unit_test(test_streaks),
+        cmocka_unit_test(test_beads),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
