@@ -40,6 +40,7 @@ uniform float layer2_scale = 2.0;
 uniform float layer2_speed = -0.015;
 uniform float inland_reach = 0.1;
 uniform float loop_seconds = 0.0;
+uniform float sine_warp = 0.0;
 
 in vec2 uv;
 out vec4 foam_out;
@@ -80,7 +81,9 @@ void main()
     float n3 = texture(maps, uv + 0.25).b;
     float n3s = texture(maps, uv + 0.75).b;
     float reach = a * v + b + reach_noise * (2.0 * n3 - 1.0);
-    float mixv = ratio_sine * (sin(TAU * ((frequency + noise_amp * (2.0 * m.b - 1.0)) * v - sp - come_go * cg)) + reach)
+    // the sine waves moved by sine_warp times the texture's warp (v read there)
+    float vw = sine_warp > 0.0 ? texture(maps, uv + sine_warp * d).r * 2.0 : v;
+    float mixv = ratio_sine * (sin(TAU * ((frequency + noise_amp * (2.0 * m.b - 1.0)) * vw - sp - come_go * cg)) + reach)
                + ratio_tex * (max(t1, layer2 * t2) + reach)
                - threshold - threshold_noise * (2.0 * n3s - 1.0);
 

@@ -8,7 +8,8 @@
  * that do not depend on $time are computed once for a sequence; T tiles and merges its two
  * layers with max; everything is finite and in range; the graph warns for exactly the values
  * snapping changes by more than 2x; a painted distance texture (pattern_mode profile) is used
- * as T as it is and the foam follows its profile; a noise input replaces N1. */
+ * as T as it is and the foam follows its profile; a noise input replaces N1; sine_warp moves
+ * the waves (seamless, looping). */
 #include "wgtest.h"
 
 #include <math.h>
@@ -615,6 +616,32 @@ static void test_noise_input(void **state)
     wg_image_unref(shore);
 }
 
+/* sine_warp moves the sine waves by the texture's warp: the foam changes, stays seamless, and
+ * a loop still closes. */
+static void test_sine_warp(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const warped[] = {"sine_warp=1.5", NULL};
+    const char *const looped[] = {"sine_warp=1.5", "loop_seconds=2", NULL};
+    WgResult *a = render(e, shore, 0.7, NULL), *b = render(e, shore, 0.7, warped);
+    assert_true(wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(b, "foam")) > 0.5);
+    const WgImage *f = wgt_output(b, "foam");
+    double inner_c = 0, inner_r = 0;
+    for (int c = 0; c < N - 1; c++) inner_c += column_step(f, c) / (N - 1);
+    for (int r = 0; r < N - 1; r++) inner_r += row_step(f, r) / (N - 1);
+    assert_true(column_step(f, N - 1) <= 3 * inner_c + 0.02 && row_step(f, N - 1) <= 3 * inner_r + 0.02);
+    WgResult *c0 = render(e, shore, 0, looped), *c2 = render(e, shore, 2, looped);
+    wgt_assert_identical(wgt_output(c2, "foam"), wgt_output(c0, "foam"));
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c0);
+    wg_result_free(c2);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -629,6 +656,7 @@ int main(void)
         cmocka_unit_test(test_shader_formula_on_packed_maps),
         cmocka_unit_test(test_painted_profile),
         cmocka_unit_test(test_noise_input),
+        cmocka_unit_test(test_sine_warp),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -3,7 +3,8 @@
  * (tests/support/wggl.h), rendered into a float framebuffer and read back unquantised, against
  * the engine on the CPU:
  * - foam.frag on the `maps` that graphs/foam.wetgraph bakes, at several times, unlooped and
- *   looped (a 2 s loop where a speed snaps from 2.5 waves, a 1 s loop with the default speeds):
+ *   looped (a 2 s loop where a speed snaps from 2.5 waves, a 1 s loop with the default speeds,
+ *   the sine waves warped as the texture is):
  *   the same mask (foam > 1/2) as the graph's `foam` at every pixel off the graph's anti-aliased
  *   edge; only the edges may differ (fwidth in the shader, half the Sobel gradient in the
  *   graph), and few pixels by more than 0.5.
@@ -213,6 +214,19 @@ static void test_foam_short_loop(void **state)
     const Setting sets[] = {{"loop_seconds", 1}};
     const double times[] = {0.25, 0.5};
     run_foam(sets, 1, times, 2);
+}
+
+/* The sine waves warped as the texture is (sine_warp 1.5), unlooped and in a 2 s loop. */
+static void test_foam_sine_warp(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const Setting sets[] = {{"sine_warp", 1.5f}};
+    const double times[] = {0.7, 5.1};
+    run_foam(sets, 1, times, 2);
+    const Setting looped[] = {{"sine_warp", 1.5f}, {"loop_seconds", 2}};
+    const double at[] = {0.9};
+    run_foam(looped, 2, at, 1);
 }
 
 /* ---- wet_layered.frag ----------------------------------------------------------------------- */
@@ -568,7 +582,8 @@ int main(void)
     }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_foam_unlooped),   cmocka_unit_test(test_foam_loop_half_waves),
-        cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_layered_ambient),
+        cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_foam_sine_warp),
+        cmocka_unit_test(test_layered_ambient),
         cmocka_unit_test(test_layered_sun),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);
