@@ -9,7 +9,7 @@
  * layers with max; everything is finite and in range; the graph warns for exactly the values
  * snapping changes by more than 2x; a painted distance texture (pattern_mode profile) is used
  * as T as it is and the foam follows its profile; a noise input replaces N1; sine_warp moves
- * the waves (seamless, looping). */
+ * the waves (seamless, looping); a third stroke layer only adds foam. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -642,6 +642,42 @@ static void test_sine_warp(void **state)
     wg_image_unref(shore);
 }
 
+/* A third stroke layer only adds foam (the mask with it holds the mask without: T is merged
+ * with max), changes the foam, and a loop still closes with its drift snapped. */
+static void test_layer3(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const three[] = {"layer3=0.9", "layer3_scale=3", NULL};
+    const char *const looped[] = {"layer3=0.9", "layer3_speed=0.3", "loop_seconds=2", NULL};
+    WgResult *a = render(e, shore, 0.8, NULL), *b = render(e, shore, 0.8, three);
+    const WgImage *fa = wgt_output(a, "foam"), *fb = wgt_output(b, "foam"),
+                  *v = wgt_output(a, "v");
+    int more = 0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double vv = wgt_px(v, x, y, 0);
+            if (vv < 0.05 || vv > 1.05) continue; /* inside the band, off its soft edges */
+            bool ia = wgt_px(fa, x, y, 0) > 0.5, ib = wgt_px(fb, x, y, 0) > 0.5;
+            if (ia && !ib) fail_msg("(%d, %d): a third layer removes foam", x, y);
+            more += ib && !ia;
+        }
+    printf("a third layer: %d more foam pixels\n", more);
+    assert_true(more > 50);
+    WgResult *c0 = render(e, shore, 0, looped), *c2 = render(e, shore, 2, looped),
+             *c1 = render(e, shore, 1, looped);
+    wgt_assert_identical(wgt_output(c2, "foam"), wgt_output(c0, "foam"));
+    assert_true(wgt_max_abs_diff(wgt_output(c1, "foam"), wgt_output(c0, "foam")) > 0.5);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c0);
+    wg_result_free(c1);
+    wg_result_free(c2);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -657,6 +693,7 @@ int main(void)
         cmocka_unit_test(test_painted_profile),
         cmocka_unit_test(test_noise_input),
         cmocka_unit_test(test_sine_warp),
+        cmocka_unit_test(test_layer3),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -4,7 +4,7 @@
  * the engine on the CPU:
  * - foam.frag on the `maps` that graphs/foam.wetgraph bakes, at several times, unlooped and
  *   looped (a 2 s loop where a speed snaps from 2.5 waves, a 1 s loop with the default speeds,
- *   the sine waves warped as the texture is):
+ *   the sine waves warped as the texture is, a third stroke layer):
  *   the same mask (foam > 1/2) as the graph's `foam` at every pixel off the graph's anti-aliased
  *   edge; only the edges may differ (fwidth in the shader, half the Sobel gradient in the
  *   graph), and few pixels by more than 0.5.
@@ -227,6 +227,19 @@ static void test_foam_sine_warp(void **state)
     const Setting looped[] = {{"sine_warp", 1.5f}, {"loop_seconds", 2}};
     const double at[] = {0.9};
     run_foam(looped, 2, at, 1);
+}
+
+/* A third stroke layer (layer3 0.7), unlooped and in a 2 s loop where its drift snaps. */
+static void test_foam_layer3(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const Setting sets[] = {{"layer3", 0.7f}, {"layer3_scale", 3}, {"layer3_speed", 0.04f}};
+    const double times[] = {0.6, 4.2};
+    run_foam(sets, 3, times, 2);
+    const Setting looped[] = {{"layer3", 0.7f}, {"layer3_speed", 0.3f}, {"loop_seconds", 2}};
+    const double at[] = {1.3};
+    run_foam(looped, 3, at, 1);
 }
 
 /* ---- wet_layered.frag ----------------------------------------------------------------------- */
@@ -583,6 +596,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_foam_unlooped),   cmocka_unit_test(test_foam_loop_half_waves),
         cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_foam_sine_warp),
+        cmocka_unit_test(test_foam_layer3),
         cmocka_unit_test(test_layered_ambient),
         cmocka_unit_test(test_layered_sun),
     };
