@@ -41,6 +41,7 @@ uniform float layer2_speed = -0.015;
 uniform float inland_reach = 0.1;
 uniform float loop_seconds = 0.0;
 uniform float sine_warp = 0.0;
+uniform float speed_noise = 0.0;
 uniform float layer3 = 0.0;
 uniform float layer3_scale = 3.0;
 uniform float layer3_speed = 0.02;
@@ -88,7 +89,8 @@ void main()
     float reach = a * v + b + reach_noise * (2.0 * n3 - 1.0);
     // the sine waves moved by sine_warp times the texture's warp (v read there)
     float vw = sine_warp > 0.0 ? texture(maps, uv + sine_warp * d).r * 2.0 : v;
-    float mixv = ratio_sine * (sin(TAU * ((frequency + noise_amp * (2.0 * m.b - 1.0)) * vw - sp - come_go * cg)) + reach)
+    float mixv = ratio_sine * (sin(TAU * ((frequency + noise_amp * (2.0 * m.b - 1.0)) * vw - sp - come_go * cg
+                                  - speed_noise * (2.0 * texture(maps, uv + vec2(0.25, 0.75)).a - 1.0) * cg)) + reach)
                + ratio_tex * (max(max(t1, layer2 * t2), t3) + reach)
                - threshold - threshold_noise * (2.0 * n3s - 1.0);
 

@@ -9,7 +9,8 @@
  * layers with max; everything is finite and in range; the graph warns for exactly the values
  * snapping changes by more than 2x; a painted distance texture (pattern_mode profile) is used
  * as T as it is and the foam follows its profile; a noise input replaces N1; sine_warp moves
- * the waves (seamless, looping); a third stroke layer only adds foam. */
+ * the waves (seamless, looping); a third stroke layer only adds foam; speed_noise varies the
+ * waves' speed and loops. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -678,6 +679,28 @@ static void test_layer3(void **state)
     wg_image_unref(shore);
 }
 
+/* speed_noise: the waves run faster in places, then slower (the come-and-go's amplitude varies
+ * with a noise): the foam changes, and a loop still closes. */
+static void test_speed_noise(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const noisy[] = {"speed_noise=0.5", "come_go_period=2", NULL};
+    const char *const looped[] = {"speed_noise=0.5", "loop_seconds=2", NULL};
+    WgResult *a = render(e, shore, 0.5, NULL), *b = render(e, shore, 0.5, noisy);
+    WgResult *a0 = render(e, shore, 0, NULL), *b0 = render(e, shore, 0, noisy);
+    assert_true(wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(b, "foam")) > 0.5);
+    /* at t = 0 the come-and-go is at rest: no difference */
+    wgt_assert_identical(wgt_output(b0, "foam"), wgt_output(a0, "foam"));
+    WgResult *c0 = render(e, shore, 0, looped), *c2 = render(e, shore, 2, looped);
+    wgt_assert_identical(wgt_output(c2, "foam"), wgt_output(c0, "foam"));
+    WgResult *rs[] = {a, b, a0, b0, c0, c2};
+    for (size_t i = 0; i < sizeof rs / sizeof *rs; i++) wg_result_free(rs[i]);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -694,6 +717,7 @@ int main(void)
         cmocka_unit_test(test_noise_input),
         cmocka_unit_test(test_sine_warp),
         cmocka_unit_test(test_layer3),
+        cmocka_unit_test(test_speed_noise),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

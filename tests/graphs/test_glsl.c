@@ -4,7 +4,7 @@
  * the engine on the CPU:
  * - foam.frag on the `maps` that graphs/foam.wetgraph bakes, at several times, unlooped and
  *   looped (a 2 s loop where a speed snaps from 2.5 waves, a 1 s loop with the default speeds,
- *   the sine waves warped as the texture is, a third stroke layer):
+ *   the sine waves warped as the texture is, a third stroke layer, noise on the waves' speed):
  *   the same mask (foam > 1/2) as the graph's `foam` at every pixel off the graph's anti-aliased
  *   edge; only the edges may differ (fwidth in the shader, half the Sobel gradient in the
  *   graph), and few pixels by more than 0.5.
@@ -228,6 +228,19 @@ static void test_foam_sine_warp(void **state)
     run_foam(sets, 1, times, 2);
     const Setting looped[] = {{"sine_warp", 1.5f}, {"loop_seconds", 2}};
     const double at[] = {0.9};
+    run_foam(looped, 2, at, 1);
+}
+
+/* Noise on the waves' speed (speed_noise 0.4), unlooped and in a 2 s loop. */
+static void test_foam_speed_noise(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const Setting sets[] = {{"speed_noise", 0.4f}, {"come_go_period", 2}};
+    const double times[] = {0.5, 6.6};
+    run_foam(sets, 2, times, 2);
+    const Setting looped[] = {{"speed_noise", 0.4f}, {"loop_seconds", 2}};
+    const double at[] = {1.4};
     run_foam(looped, 2, at, 1);
 }
 
@@ -694,7 +707,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_foam_unlooped),   cmocka_unit_test(test_foam_loop_half_waves),
         cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_foam_sine_warp),
-        cmocka_unit_test(test_foam_layer3),     cmocka_unit_test(test_rain_ripples),
+        cmocka_unit_test(test_foam_layer3),
+        cmocka_unit_test(test_foam_speed_noise),     cmocka_unit_test(test_rain_ripples),
         cmocka_unit_test(test_layered_ambient),
         cmocka_unit_test(test_layered_sun),
     };
