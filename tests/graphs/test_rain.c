@@ -369,6 +369,30 @@ static void test_wet_rain(void **state)
         printf("%s: %d pixels rippled\n", name, changed);
         assert_true(changed > 100);
     }
+    /* every parameter of wet_material is wet_rain's too: other settings, the same maps */
+    static const char *const others[] = {"liquid", "tea", "wet_distance", "14", "sat_wet", "0.5",
+                                         "dark_moist", "0.8", "puddle_size", "6", NULL};
+    WgResult *mo = NULL, *ro = NULL;
+    for (int gi = 0; gi < 2; gi++) {
+        WgError err = {0};
+        WgRequest *r = wg_request_new(gi ? gr : gm);
+        if (wg_request_set_input_image(r, "basecolor", base, &err) ||
+            wg_request_set_input_image(r, "height", height, &err) ||
+            wg_request_set(r, "water_level", "0.55", &err) ||
+            (gi && wg_request_set(r, "rain", "0", &err)))
+            fail_msg("%s", err.message);
+        for (int k = 0; others[k]; k += 2)
+            if (wg_request_set(r, others[k], others[k + 1], &err)) fail_msg("%s", err.message);
+        WgEngine *e = wgt_engine(2, 0, NULL);
+        *(gi ? &ro : &mo) = wgt_render_request(e, r);
+        wg_engine_free(e);
+        wg_request_free(r);
+    }
+    for (int k = 0; k < wg_result_output_count(mo); k++)
+        wgt_assert_identical(wgt_output(ro, wg_result_output_name(mo, k)),
+                             wg_result_output_image(mo, k));
+    wg_result_free(mo);
+    wg_result_free(ro);
     wg_result_free(m);
     wg_result_free(m1);
     wg_result_free(r0);
