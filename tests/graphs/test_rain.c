@@ -577,6 +577,52 @@ static void test_beads(void **state)
     wg_graph_free(g);
 }
 
+/* wet_rain with streaks and beads in play: the same bits for 1, 2 and 3 threads, and its
+ * streaks and puddles (the beads) seamless across the tile edges. */
+static void test_wet_rain_threads_and_seams(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("wet_rain");
+    WgImage *base = wgt_image_fn(W, H, 4, color_fn), *height = wgt_image_fn(W, H, 1, crate_fn);
+    WgResult *res[3];
+    for (int t = 0; t < 3; t++) {
+        WgError err = {0};
+        WgRequest *r = wg_request_new(g);
+        if (wg_request_set_input_image(r, "basecolor", base, &err) ||
+            wg_request_set_input_image(r, "height", height, &err) ||
+            wg_request_set(r, "height_scale", "120", &err) ||
+            wg_request_set(r, "water_level", "0.3", &err) || wg_request_set(r, "rain", "1", &err) ||
+            wg_request_set(r, "porosity", "0.2", &err) || wg_request_set(r, "bead_size", "4", &err))
+            fail_msg("%s", err.message);
+        wg_request_set_time(r, 0.6);
+        WgEngine *e = wgt_engine(t + 1, 0, NULL);
+        res[t] = wgt_render_request(e, r);
+        wg_engine_free(e);
+        wg_request_free(r);
+    }
+    for (int t = 1; t < 3; t++)
+        for (int k = 0; k < wg_result_output_count(res[0]); k++)
+            wgt_assert_identical(wg_result_output_image(res[t], k), wg_result_output_image(res[0], k));
+    static const char *const seamed[] = {"streaks", "puddles", "wet"};
+    for (int i = 0; i < 3; i++) {
+        const WgImage *f = wgt_output(res[1], seamed[i]);
+        double inner_c = 0, inner_r = 0;
+        for (int c = 0; c < W - 1; c++) inner_c += column_step(f, c) / (W - 1);
+        for (int r = 0; r < H - 1; r++) inner_r += row_step(f, r) / (H - 1);
+        double seam_c = column_step(f, W - 1), seam_r = row_step(f, H - 1);
+        printf("wet_rain %s: seam steps %.4f / %.4f, inside %.4f / %.4f\n", seamed[i], seam_c,
+               seam_r, inner_c, inner_r);
+        assert_true(inner_c > 0.001);
+        if (!(seam_c <= 3 * inner_c && seam_r <= 3 * inner_r))
+            fail_msg("%s: seam steps %g / %g against %g / %g inside", seamed[i], seam_c, seam_r,
+                     inner_c, inner_r);
+    }
+    for (int t = 0; t < 3; t++) wg_result_free(res[t]);
+    wg_image_unref(base);
+    wg_image_unref(height);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -585,6 +631,7 @@ int main(void)
         cmocka_unit_test(test_tiles_and_threads), cmocka_unit_test(test_wet_rain),
         cmocka_unit_test(test_streaks),
         cmocka_unit_test(test_beads),
+        cmocka_unit_test(test_wet_rain_threads_and_seams),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
