@@ -68,7 +68,18 @@ static int statistics_eval(WgNodeContext *ctx, WgError *err)
     int rc = WG_OK;
     if (!j.row_lo || !j.row_hi || !j.row_sum || !j.row_count)
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
-    if (!rc) rc = wg_parallel_rows(ctx, h, stats_measure, &j);
+    if (!rc && j.in->stride == 0) {
+        /* a uniform image (an unconnected graph input, another uniform node) shares one row:
+           measure it once and give every row its result, which combines exactly as before */
+        stats_measure(&j, 0, 1);
+        for (int y = 1; y < h; y++) {
+            j.row_lo[y] = j.row_lo[0];
+            j.row_hi[y] = j.row_hi[0];
+            j.row_sum[y] = j.row_sum[0];
+            j.row_count[y] = j.row_count[0];
+        }
+    } else if (!rc)
+        rc = wg_parallel_rows(ctx, h, stats_measure, &j);
     if (!rc) {
         /* combine the rows in row order: independent of threads and chunking */
         float lo = INFINITY, hi = -INFINITY;

@@ -99,4 +99,30 @@ oiiotool "$tmp/k1/wet_material_basecolor.png" --ch R,G,B --cut 150x150+350+150 -
 oiiotool "$tmp/k2/wet_material_basecolor.png" --ch R,G,B --cut 300x300+700+300 --resize 150x150 \
     -o "$tmp/k2.png"
 oiiotool "$tmp/k1.png" "$tmp/k2.png" --mosaic 2x1 -o $img/wet_1k_2k.png
+# a painted level: a water plane tilted from 0.35 (left) to 0.75 (right) of the height range
+oiiotool --pattern fill:left=0.35:right=0.75 1024x512 1 -d float -o "$tmp/tilt.exr"
+render tilt "${bricks[@]}" --input level="$tmp/tilt.exr" --output basecolor --output zones
+oiiotool "$tmp/tilt/wet_material_basecolor.png" --ch R,G,B --resize 50% -o "$tmp/tb.png"
+oiiotool "$tmp/tilt/wet_material_zones.png" --ch R,G,B --resize 50% -o "$tmp/tz.png"
+oiiotool "$tmp/tb.png" "$tmp/tz.png" --mosaic 2x1 -o $img/wet_level.png
+
+# drying: the water dropped from 0.75 to 0.45 of the height range; zones (top) and base colour
+# (bottom) at drying 0, 0.25, 0.5 and 0.8
+drying=(0 0.25 0.5 0.8)
+for d in "${drying[@]}"; do
+    render "d$d" "${bricks[@]}" --set water_level=0.45 --set high_water=0.75 --set drying=$d \
+        --output basecolor --output zones
+    panel "$tmp/d$d/wet_material_zones.png" $crop "$tmp/dz$d.png"
+    panel "$tmp/d$d/wet_material_basecolor.png" $crop "$tmp/db$d.png"
+done
+oiiotool "$tmp"/dz{0,0.25,0.5,0.8}.png "$tmp"/db{0,0.25,0.5,0.8}.png --mosaic 4x2 -o $img/wet_drying.png
+# rain on the exposed wall (water level 0.45): zones (top) and base colour (bottom) at rain 0,
+# 0.25, 0.5 and 1
+rains=(0 0.25 0.5 1)
+for r in "${rains[@]}"; do
+    render "r$r" "${bricks[@]}" --set water_level=0.45 --set rain=$r --output basecolor --output zones
+    panel "$tmp/r$r/wet_material_zones.png" $crop "$tmp/rz$r.png"
+    panel "$tmp/r$r/wet_material_basecolor.png" $crop "$tmp/rb$r.png"
+done
+oiiotool "$tmp"/rz{0,0.25,0.5,1}.png "$tmp"/rb{0,0.25,0.5,1}.png --mosaic 4x2 -o $img/wet_rain.png
 ls -l $img/wet_*.png

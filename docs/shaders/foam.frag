@@ -40,6 +40,11 @@ uniform float layer2_scale = 2.0;
 uniform float layer2_speed = -0.015;
 uniform float inland_reach = 0.1;
 uniform float loop_seconds = 0.0;
+uniform float sine_warp = 0.0;
+uniform float speed_noise = 0.0;
+uniform float layer3 = 0.0;
+uniform float layer3_scale = 3.0;
+uniform float layer3_speed = 0.02;
 
 in vec2 uv;
 out vec4 foam_out;
@@ -65,6 +70,7 @@ void main()
     float tx = fract(snapped(tex_speed_x) * time);
     float ty = fract(snapped(tex_speed_y) * time);
     float l2 = fract(snapped(layer2_speed) * time);
+    float l3 = fract(snapped(layer3_speed) * time);
     float sp = fract(snapped(speed) * time);
     float cg_freq = loop_seconds > 0.0 ? max(1.0, floor(loop_seconds / come_go_period + 0.5)) / loop_seconds
                                        : 1.0 / come_go_period;
@@ -75,13 +81,17 @@ void main()
     vec2 d = wk * (vec2(texture(maps, uv + wd).a, texture(maps, uv + wd + 0.5).a) - 0.5);
     float t1 = texture(maps, uv + d + vec2(tx, ty)).g;
     float t2 = texture(maps, (uv + d) * layer2_scale + vec2(l2, 0.0)).g;
+    float t3 = layer3 > 0.0 ? layer3 * texture(maps, (uv + d) * layer3_scale + vec2(0.0, l3)).g : 0.0;
 
     // N3 and N3' are N1 a quarter and three quarters of a tile along the diagonal
     float n3 = texture(maps, uv + 0.25).b;
     float n3s = texture(maps, uv + 0.75).b;
     float reach = a * v + b + reach_noise * (2.0 * n3 - 1.0);
-    float mixv = ratio_sine * (sin(TAU * ((frequency + noise_amp * (2.0 * m.b - 1.0)) * v - sp - come_go * cg)) + reach)
-               + ratio_tex * (max(t1, layer2 * t2) + reach)
+    // the sine waves moved by sine_warp times the texture's warp (v read there)
+    float vw = sine_warp > 0.0 ? texture(maps, uv + sine_warp * d).r * 2.0 : v;
+    float mixv = ratio_sine * (sin(TAU * ((frequency + noise_amp * (2.0 * m.b - 1.0)) * vw - sp - come_go * cg
+                                  - speed_noise * (2.0 * texture(maps, uv + vec2(0.25, 0.75)).a - 1.0) * cg)) + reach)
+               + ratio_tex * (max(max(t1, layer2 * t2), t3) + reach)
                - threshold - threshold_noise * (2.0 * n3s - 1.0);
 
     float f = clamp(mixv / max(fwidth(mixv), 1e-4) + 0.5, 0.0, 1.0);

@@ -9,7 +9,12 @@
  * the height (a map using part of 0..1) changes nothing; a cyclic shift of the inputs shifts the
  * outputs; renders at two resolutions agree up to filtering; the moist zone's reach follows the
  * porosity (the parameter and the map, pixel by pixel), and a porosity of 0 has no moist zone,
- * in the masks nor in the zones view. */
+ * in the masks nor in the zones view. A `level` image: constant, it is water_level; tilted, it
+ * floods the low side. The drying band: none below the water level, all wet at drying 0, dry
+ * at drying 1, never wetter as drying grows, the film before the moisture, porous parts last,
+ * the puddles shrinking to the deepest hollows; rain on the exposed surface: never drier with
+ * more rain, film on the flat parts and none on steep walls, kept off by a shelter or the
+ * ambient occlusion; tiling and thread-count invariance. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -844,6 +849,501 @@ static void test_noise_input(void **state)
     wg_image_unref(n);
 }
 
+/* ---- a painted water level ----------------------------------------------------------------- */
+
+/* Render the masks with the given images connected (names[i] <- images[i]) on an engine of
+ * `threads` workers, parameters as in render(). */
+static Masks render_with(const char *const *names, const WgImage *const *images, int n,
+                         const char *sets, int threads)
+{
+    WgError err = {0};
+    WgRequest *r = wg_request_new(graph);
+    assert_non_null(r);
+    for (int i = 0; i < n; i++)
+        if (wg_request_set_input_image(r, names[i], images[i], &err))
+            fail_msg("%s: %s", names[i], err.message);
+    char buf[1024];
+    snprintf(buf, sizeof buf, "%s", sets ? sets : "");
+    char *save = NULL;
+    for (char *p = strtok_r(buf, " ", &save); p; p = strtok_r(NULL, " ", &save)) {
+        char *eq = strchr(p, '=');
+        assert_non_null(eq);
+        *eq = 0;
+        if (wg_request_set(r, p, eq + 1, &err)) fail_msg("%s=%s: %s", p, eq + 1, err.message);
+    }
+    const char *outs[] = {"immersed", "wet", "moist", "puddles", "water_height"};
+    for (int i = 0; i < 5; i++)
+        if (wg_request_add_output(r, outs[i], &err)) fail_msg("%s", err.message);
+    WgEngine *e = threads == 2 ? engine : wgt_engine(threads, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    if (e != engine) wg_engine_free(e);
+    Masks m = {
+        wg_image_ref(wgt_output(res, "immersed")),     wg_image_ref(wgt_output(res, "wet")),
+        wg_image_ref(wgt_output(res, "moist")),        wg_image_ref(wgt_output(res, "puddles")),
+        wg_image_ref(wgt_output(res, "water_height")),
+    };
+    wg_result_free(res);
+    wg_request_free(r);
+    return m;
+}
+
+static void assert_masks_identical(const Masks *a, const Masks *b)
+{
+    wgt_assert_identical(a->imm, b->imm);
+    wgt_assert_identical(a->wet, b->wet);
+    wgt_assert_identical(a->moist, b->moist);
+    wgt_assert_identical(a->pud, b->pud);
+    wgt_assert_identical(a->wh, b->wh);
+}
+
+/* A water plane tilted along x: level 0.2 on the left edge to 0.8 on the right. */
+static double tilted(int x, int y, int k)
+{
+    (void)y;
+    (void)k;
+    return 0.2 + 0.6 * (x + 0.5) / 256;
+}
+
+/* A constant `level` image is the constant water_level (bit for bit where the level is a float
+ * exactly, within float rounding otherwise); a level of 0 everywhere is dry even with the
+ * widest reach; a tilted level floods the low side, every immersed pixel lies below its own
+ * level and water_height is flattened at it. */
+static void test_level_image(void **state)
+{
+    (void)state;
+    const char *name[] = {"height", "level"};
+    float v = 0.625f, v6 = 0.6f, zero = 0;
+    WgImage *c = wgt_image(1, 1, 1, &v), *c6 = wgt_image(1, 1, 1, &v6),
+            *z = wgt_image(1, 1, 1, &zero);
+    WgImage *maps[] = {bricks, wood};
+    for (int i = 0; i < 2; i++) {
+        const WgImage *in[] = {maps[i], c};
+        Masks a = render_with(name, in, 2, "", 2);
+        Masks b = render(maps[i], NULL, "water_level=0.625");
+        assert_true(mask_sum(b.imm, NULL) > 100 && mask_sum(b.wet, NULL) > 100);
+        assert_masks_identical(&a, &b);
+        masks_free(&a);
+        masks_free(&b);
+        const WgImage *in6[] = {maps[i], c6};
+        a = render_with(name, in6, 2, "water_level=0.1", 2);
+        b = render(maps[i], NULL, "water_level=0.6");
+        wgt_assert_near(a.imm, b.imm, 1e-4);
+        wgt_assert_near(a.wet, b.wet, 1e-4);
+        wgt_assert_near(a.moist, b.moist, 1e-4);
+        wgt_assert_near(a.pud, b.pud, 1e-4);
+        masks_free(&a);
+        masks_free(&b);
+        const WgImage *inz[] = {maps[i], z};
+        a = render_with(name, inz, 2,
+                        "water_level=0.7 noise_intensity=1 wet_distance=128 moist_distance=128 "
+                        "wet_height=1 moist_height=1 puddle_density=1 edge_softness=1",
+                        2);
+        assert_all(a.imm, 0, "immersed at level 0");
+        assert_all(a.wet, 0, "wet at level 0");
+        assert_all(a.moist, 0, "moist at level 0");
+        assert_all(a.pud, 0, "puddles at level 0");
+        masks_free(&a);
+    }
+
+    /* the tilted plane on the bricks */
+    WgImage *t = wgt_image_fn(256, 128, 1, tilted);
+    const WgImage *in[] = {bricks, t};
+    Masks m = render_with(name, in, 2, "", 2);
+    double lo, hi;
+    WgImage *sm = smoothed(bricks);
+    range_of(sm, &lo, &hi);
+    double left = 0, right = 0;
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 256; x++) {
+            double a = px(m.imm, x, y), hn = (px(sm, x, y) - lo) / (hi - lo);
+            double lw = px(t, x, y) * (1 + 1.0 / 128), level = lo + lw * (hi - lo);
+            if (x < 64) left += a;
+            if (x >= 192) right += a;
+            if (a > 0 && !(hn < lw + 1e-6))
+                fail_msg("immersed %g at (%d, %d) above its level (%g >= %g)", a, x, y, hn, lw);
+            if (a == 1 && !(fabs(px(m.wh, x, y) - level) <= 1e-5))
+                fail_msg("water_height %g at (%d, %d), its level %g", px(m.wh, x, y), x, y, level);
+        }
+    printf("tilted level: immersed %.0f px in the left quarter, %.0f in the right\n", left, right);
+    assert_true(right > 0.4 * 64 * 128 && left < 0.02 * 64 * 128);
+    /* the same at one and three threads */
+    Masks m1 = render_with(name, in, 2, "", 1), m3 = render_with(name, in, 2, "", 3);
+    assert_masks_identical(&m, &m1);
+    assert_masks_identical(&m, &m3);
+    masks_free(&m);
+    masks_free(&m1);
+    masks_free(&m3);
+    wg_image_unref(sm);
+    wg_image_unref(t);
+    wg_image_unref(c);
+    wg_image_unref(c6);
+    wg_image_unref(z);
+}
+
+/* ---- drying after the water dropped -------------------------------------------------------- */
+
+#define DRY_SETS "water_level=0.45 high_water=0.75"
+
+/* The drying band: a high_water at or below the water level changes nothing, whatever the
+ * drying; drying 1 leaves the band dry (the masks of no band at all, bit for bit); drying 0
+ * keeps wet everything the high water wetted (what was immersed at high_water and is out of
+ * the water is covered by the film, and the undrained masks' wet and moist area is still wet
+ * or moist), with puddles in the band's hollows; as drying grows no pixel gets wetter, the
+ * film goes first and the moisture lasts longest where the material is porous; the puddles
+ * shrink to the deepest hollows. */
+static void test_drying(void **state)
+{
+    (void)state;
+    WgImage *maps[] = {bricks, wood};
+    for (int i = 0; i < 2; i++) {
+        const WgImage *hm = maps[i];
+        Masks none = render(hm, NULL, "water_level=0.45");
+        Masks below = render(hm, NULL, "water_level=0.45 high_water=0.3 drying=0.5");
+        Masks dry = render(hm, NULL, DRY_SETS " drying=1");
+        assert_masks_identical(&none, &below);
+        assert_masks_identical(&none, &dry);
+        masks_free(&below);
+        masks_free(&dry);
+
+        /* drying 0 against the undrained masks (the water still at high_water) */
+        Masks high = render(hm, NULL, "water_level=0.75");
+        Masks d0 = render(hm, NULL, DRY_SETS " drying=0");
+        double band = 0, band_pud = 0;
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double wa = px(d0.imm, x, y) + px(d0.wet, x, y), ma = wa + px(d0.moist, x, y);
+                double wh = px(high.imm, x, y) + px(high.wet, x, y),
+                       mh = wh + px(high.moist, x, y);
+                if (!(wa >= wh - 1e-6 && ma >= mh - 1e-6))
+                    fail_msg("drying 0 at (%d, %d): wet %g, moist %g below the undrained %g, %g", x,
+                             y, wa, ma, wh, mh);
+                if (px(high.imm, x, y) == 1 && px(none.imm, x, y) == 0) {
+                    if (px(d0.wet, x, y) != 1)
+                        fail_msg("drained pixel (%d, %d) has wet %g at drying 0", x, y,
+                                 px(d0.wet, x, y));
+                    band++;
+                    band_pud += px(d0.pud, x, y);
+                }
+            }
+        assert_true(band > 2000);
+        assert_true(band_pud > 0.05 * band);
+        /* the immersed part and the water surface are the current water's */
+        wgt_assert_identical(d0.imm, none.imm);
+        wgt_assert_identical(d0.wh, none.wh);
+
+        /* as drying grows: no pixel gets wetter, the film goes before the moisture */
+        static const double steps[] = {0, 0.2, 0.4, 0.6, 0.8, 1};
+        Masks prev = d0;
+        double wet_sum[6], moist_sum[6], pud_sum[6];
+        for (int k = 0; k < 6; k++) {
+            char sets[128];
+            snprintf(sets, sizeof sets, DRY_SETS " drying=%g", steps[k]);
+            Masks m = k ? render(hm, NULL, sets) : d0;
+            for (int y = 0; y < 128; y++)
+                for (int x = 0; x < 256; x++) {
+                    double damp = px(m.wet, x, y) + px(m.moist, x, y),
+                           pdamp = px(prev.wet, x, y) + px(prev.moist, x, y);
+                    if (!(px(m.wet, x, y) <= px(prev.wet, x, y) + 1e-6 && damp <= pdamp + 1e-6 &&
+                          px(m.pud, x, y) <= px(prev.pud, x, y) + 1e-6))
+                        fail_msg("drying %g at (%d, %d): wetter than at %g", steps[k], x, y,
+                                 steps[k - 1]);
+                    if (!(px(m.wet, x, y) + px(m.moist, x, y) + px(m.imm, x, y) <= 1 + 1e-6 &&
+                          px(m.pud, x, y) <= px(m.wet, x, y) + 1e-6 && px(m.moist, x, y) >= 0))
+                        fail_msg("drying %g at (%d, %d): the zones do not partition", steps[k], x,
+                                 y);
+                }
+            wet_sum[k] = mask_sum(m.wet, NULL) - mask_sum(none.wet, NULL);
+            moist_sum[k] = mask_sum(m.moist, NULL) - mask_sum(none.moist, NULL);
+            pud_sum[k] = mask_sum(m.pud, NULL) - mask_sum(none.pud, NULL);
+            printf("map %d, drying %.1f: band film %.0f, moist %.0f, puddles %.0f\n", i, steps[k],
+                   wet_sum[k], moist_sum[k], pud_sum[k]);
+            if (k > 1) masks_free(&prev);
+            prev = m;
+        }
+        masks_free(&prev);
+        /* the film dries first: by 0.4 most of it has gone while the moisture holds */
+        assert_true(wet_sum[2] < 0.3 * wet_sum[0]);
+        assert_true(moist_sum[2] > 0.5 * (wet_sum[0] + moist_sum[0]));
+        assert_true(pud_sum[2] > 0 && pud_sum[4] < 0.5 * pud_sum[0]);
+        masks_free(&d0);
+        masks_free(&high);
+        masks_free(&none);
+    }
+}
+
+/* Hollow depth the graph measures: the normalised smoothed height's blur over puddle_size (4)
+ * minus itself (caller frees). */
+static double *hollow_depth(const WgImage *h)
+{
+    double lo, hi;
+    WgImage *sm = smoothed(h);
+    range_of(sm, &lo, &hi);
+    int w = h->width, hh = h->height;
+    WgImage *sn = wgt_image(w, hh, 1, NULL);
+    for (int y = 0; y < hh; y++)
+        for (int x = 0; x < w; x++) wg_image_row(sn, y)[x] = (px(sm, x, y) - lo) / (hi - lo);
+    const char *names[] = {"source"};
+    const WgImage *in[] = {sn};
+    WgImage *hb = wgt_node("blur", "sigma=\"4\"", w, hh, 1, names, in, 0, 1);
+    double *d = malloc(sizeof(double) * (size_t)w * hh);
+    assert_non_null(d);
+    for (int y = 0; y < hh; y++)
+        for (int x = 0; x < w; x++) d[(size_t)y * w + x] = px(hb, x, y) - px(sn, x, y);
+    wg_image_unref(hb);
+    wg_image_unref(sn);
+    wg_image_unref(sm);
+    return d;
+}
+
+/* Porous parts dry last: with less porosity the band is never damper, and clearly drier half
+ * way; porosity 0 has no moist stage at all; a porosity map acts pixel by pixel. The puddles
+ * left in the band shrink to the deepest hollows. Tiles and keeps the thread-count
+ * invariance. */
+static void test_drying_porosity_and_puddles(void **state)
+{
+    (void)state;
+    Masks full = render(bricks, NULL, DRY_SETS " drying=0.6");
+    Masks low = render(bricks, NULL, DRY_SETS " drying=0.6 porosity=0.2");
+    Masks zero = render(bricks, NULL, DRY_SETS " drying=0.3 porosity=0");
+    double df = 0, dl = 0;
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 256; x++) {
+            double a = px(full.wet, x, y) + px(full.moist, x, y),
+                   b = px(low.wet, x, y) + px(low.moist, x, y);
+            if (!(b <= a + 1e-6))
+                fail_msg("(%d, %d): porosity 0.2 damper (%g) than 1 (%g)", x, y, b, a);
+            df += a;
+            dl += b;
+        }
+    printf("drying 0.6: damp %.0f at porosity 1, %.0f at 0.2\n", df, dl);
+    assert_true(dl < 0.6 * df);
+    assert_all(zero.moist, 0, "moist at porosity 0");
+    assert_true(mask_sum(zero.wet, NULL) > 100);
+
+    const char *name[] = {"height", "porosity_map"};
+    WgImage *pm = wgt_image_fn(256, 128, 1, half_porous);
+    const WgImage *in[] = {bricks, pm};
+    Masks mapped = render_with(name, in, 2, DRY_SETS " drying=0.6", 2);
+    Masks none = render(bricks, NULL, DRY_SETS " drying=0.6 porosity=0");
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 256; x++) {
+            const Masks *want = x < 128 ? &full : &none;
+            if (px(mapped.moist, x, y) != px(want->moist, x, y) ||
+                px(mapped.wet, x, y) != px(want->wet, x, y))
+                fail_msg("porosity map at (%d, %d): moist %g, wet %g; expected %g, %g", x, y,
+                         px(mapped.moist, x, y), px(mapped.wet, x, y), px(want->moist, x, y),
+                         px(want->wet, x, y));
+        }
+
+    /* puddles: the band's hollows that still hold water are deeper on average as drying goes
+       on (the shallow ones dry first) */
+    double *depth = hollow_depth(bricks);
+    Masks nob = render(bricks, NULL, "water_level=0.45");
+    double prev_mean = 0;
+    for (int k = 0; k < 3; k++) {
+        char sets[128];
+        snprintf(sets, sizeof sets, DRY_SETS " drying=%g", 0.2 + 0.3 * k);
+        Masks m = render(bricks, NULL, sets);
+        double sum = 0, n = 0;
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++)
+                if (px(nob.pud, x, y) == 0 && px(m.pud, x, y) > 0.5) {
+                    sum += depth[(size_t)y * 256 + x];
+                    n++;
+                }
+        printf("drying %.1f: %.0f band puddle pixels, mean hollow depth %.3f\n", 0.2 + 0.3 * k, n,
+               n > 0 ? sum / n : 0);
+        assert_true(n > 5);
+        assert_true(sum / n > prev_mean);
+        prev_mean = sum / n;
+        masks_free(&m);
+    }
+    free(depth);
+
+    /* tiles (the noise shifted with the height: the built-in noise stays where it is), and
+       the same at 1 and 3 threads */
+    WgImage *n = wgt_image_fn(256, 128, 1, wavy);
+    WgImage *hs = roll(bricks, 77, 35), *ps = roll(pm, 77, 35), *ns = roll(n, 77, 35);
+    const char *name3[] = {"height", "porosity_map", "noise"};
+    const WgImage *ins[] = {hs, ps, ns}, *inb[] = {bricks, pm, n};
+    Masks shifted = render_with(name3, ins, 3, DRY_SETS " drying=0.4", 2);
+    Masks base = render_with(name3, inb, 3, DRY_SETS " drying=0.4", 2);
+    const WgImage *ma[] = {base.imm, base.wet, base.moist, base.pud};
+    const WgImage *mb[] = {shifted.imm, shifted.wet, shifted.moist, shifted.pud};
+    for (int k = 0; k < 4; k++) {
+        WgImage *r = roll(ma[k], 77, 35);
+        double d = wgt_max_abs_diff(r, mb[k]);
+        printf("drying output %d: max difference after the shift %.3g\n", k, d);
+        if (!(d <= 2e-3)) fail_msg("drying output %d differs by %g after a shift", k, d);
+        wg_image_unref(r);
+    }
+    Masks t1 = render_with(name3, inb, 3, DRY_SETS " drying=0.4", 1);
+    Masks t3 = render_with(name3, inb, 3, DRY_SETS " drying=0.4", 3);
+    assert_masks_identical(&base, &t1);
+    assert_masks_identical(&base, &t3);
+    masks_free(&t1);
+    masks_free(&t3);
+    masks_free(&base);
+    masks_free(&shifted);
+    wg_image_unref(hs);
+    wg_image_unref(ps);
+    wg_image_unref(ns);
+    wg_image_unref(n);
+    masks_free(&nob);
+    masks_free(&mapped);
+    masks_free(&none);
+    wg_image_unref(pm);
+    masks_free(&full);
+    masks_free(&low);
+    masks_free(&zero);
+}
+
+/* ---- rain on the exposed surface ----------------------------------------------------------- */
+
+/* Rain 0 changes nothing whatever the shelter; as the rain grows no pixel gets drier; at rain 1
+ * the flat exposed parts are all film and the steep walls get no film (only soaked pores, so
+ * they stay drier), with or without water; hollows fill; a full shelter (the input, or the
+ * ambient occlusion through ao_shelter, pixel by pixel) keeps the rain off, bit for bit; a
+ * non-porous material soaks none; tiles and keeps the thread-count invariance. */
+static void test_rain(void **state)
+{
+    (void)state;
+    float one = 1, zero = 0;
+    WgImage *all = wgt_image(1, 1, 1, &one), *none = wgt_image(1, 1, 1, &zero);
+    WgImage *left_ao = wgt_image_fn(256, 128, 1, half_porous); /* 1 left, 0 right */
+    const char *nsh[] = {"height", "shelter"}, *nao[] = {"height", "ao"};
+    const WgImage *ish[] = {bricks, all}, *iao[] = {bricks, left_ao}, *iao0[] = {bricks, none};
+
+    Masks dry = render(bricks, NULL, "water_level=0.45");
+    Masks r0 = render_with(nao, iao0, 2, "water_level=0.45 ao_shelter=1", 2);
+    assert_masks_identical(&dry, &r0);
+    Masks sheltered = render_with(nsh, ish, 2, "water_level=0.45 rain=1", 2);
+    assert_masks_identical(&dry, &sheltered);
+    masks_free(&r0);
+    masks_free(&sheltered);
+
+    /* the slope the graph measures: of the normalised smoothed height, 16 length units deep */
+    double lo, hi;
+    WgImage *sm = smoothed(bricks);
+    range_of(sm, &lo, &hi);
+    WgImage *sn = wgt_image(256, 128, 1, NULL);
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 256; x++) wg_image_row(sn, y)[x] = (px(sm, x, y) - lo) / (hi - lo);
+    const char *names[] = {"height"};
+    const WgImage *in[] = {sn};
+    WgImage *slope = wgt_node("slope", "intensity=\"16\" method=\"sobel\"", 256, 128, 1, names, in, 0, 1);
+
+    static const char *const sets[] = {"water_level=0.45", "water_level=0.45 rain=0.25",
+                                       "water_level=0.45 rain=0.5", "water_level=0.45 rain=1"};
+    Masks prev = render(bricks, NULL, sets[0]);
+    for (int k = 1; k < 4; k++) {
+        Masks m = render(bricks, NULL, sets[k]);
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double damp = px(m.wet, x, y) + px(m.moist, x, y),
+                       pdamp = px(prev.wet, x, y) + px(prev.moist, x, y);
+                if (!(px(m.wet, x, y) >= px(prev.wet, x, y) - 1e-6 && damp >= pdamp - 1e-6 &&
+                      px(m.pud, x, y) >= px(prev.pud, x, y) - 1e-6))
+                    fail_msg("%s at (%d, %d): drier than with less rain", sets[k], x, y);
+                if (!(damp + px(m.imm, x, y) <= 1 + 1e-6 && px(m.pud, x, y) <= px(m.wet, x, y) + 1e-6))
+                    fail_msg("%s at (%d, %d): the zones do not partition", sets[k], x, y);
+            }
+        printf("%s: wet %.0f, moist %.0f, puddles %.0f\n", sets[k], mask_sum(m.wet, NULL),
+               mask_sum(m.moist, NULL), mask_sum(m.pud, NULL));
+        masks_free(&prev);
+        prev = m;
+    }
+    /* rain 1: film on every flat exposed pixel, none on the steep walls (drier: pores only) */
+    for (int lv = 0; lv < 2; lv++) {
+        Masks m = lv ? prev : render(bricks, NULL, "water_level=0 rain=1");
+        int flat = 0, steep = 0;
+        double steep_damp = 0;
+        for (int y = 0; y < 128; y++)
+            for (int x = 0; x < 256; x++) {
+                double sl = px(slope, x, y);
+                if (sl < 0.5 - 0.075 - 1e-3 && px(m.imm, x, y) == 0) {
+                    if (!(px(m.wet, x, y) == 1))
+                        fail_msg("rain 1: flat (%d, %d) has film %g", x, y, px(m.wet, x, y));
+                    flat++;
+                }
+                if (sl > 0.5 + 0.075 + 1e-3 && px(m.imm, x, y) == 0) {
+                    if (!(px(m.wet, x, y) == 0 && px(m.pud, x, y) == 0))
+                        fail_msg("rain 1: steep (%d, %d) has film %g", x, y, px(m.wet, x, y));
+                    steep++;
+                    steep_damp += px(m.moist, x, y);
+                }
+            }
+        printf("rain 1, level %s: %d flat pixels all film, %d steep with mean moisture %.2f\n",
+               lv ? "0.45" : "0", flat, steep, steep_damp / steep);
+        assert_true(flat > 1000 && steep > 100);
+        /* with no water near, the walls only soak (porosity 1, half the flat parts' rain);
+           next to water they take its moisture too */
+        if (!lv) assert_true(steep_damp / steep < 0.75);
+        if (!lv) {
+            assert_true(mask_sum(m.pud, NULL) > 200);
+            assert_all(m.imm, 0, "immersed at level 0");
+            masks_free(&m);
+        }
+    }
+    /* the water's film reaches further in the rain */
+    Masks wide = render(bricks, NULL, "water_level=0.45 rain=0.3 slope_limit=0 slope_softness=0");
+    Masks narrow = render(bricks, NULL, "water_level=0.45 slope_limit=0 slope_softness=0");
+    assert_true(mask_sum(wide.wet, NULL) == mask_sum(narrow.wet, NULL)); /* no film holds */
+    assert_true(mask_sum(wide.moist, NULL) > 1.1 * mask_sum(narrow.moist, NULL));
+    masks_free(&wide);
+    masks_free(&narrow);
+
+    /* sheltered by the ambient occlusion on the right half (ao 0 there), pixel by pixel */
+    Masks ao = render_with(nao, iao, 2, "water_level=0.45 rain=1 ao_shelter=1", 2);
+    for (int y = 0; y < 128; y++)
+        for (int x = 128; x < 256; x++)
+            if (px(ao.wet, x, y) != px(dry.wet, x, y) || px(ao.moist, x, y) != px(dry.moist, x, y) ||
+                px(ao.pud, x, y) != px(dry.pud, x, y))
+                fail_msg("sheltered (%d, %d) is wetter than without rain", x, y);
+    assert_true(mask_sum(ao.wet, left_half) > 2 * mask_sum(dry.wet, left_half) + 1000);
+    masks_free(&ao);
+
+    /* a non-porous material soaks nothing up */
+    Masks glazed = render(bricks, NULL, "water_level=0.45 rain=1 porosity=0");
+    assert_all(glazed.moist, 0, "moist at porosity 0");
+    masks_free(&glazed);
+
+    /* tiles (with the noise shifted along), and the same at 1 and 3 threads */
+    WgImage *n = wgt_image_fn(256, 128, 1, wavy);
+    WgImage *hs = roll(bricks, 77, 35), *ns = roll(n, 77, 35);
+    const char *name2[] = {"height", "noise"};
+    const WgImage *ins[] = {hs, ns}, *inb[] = {bricks, n};
+    Masks a = render_with(name2, inb, 2, "water_level=0.45 rain=0.4", 2);
+    Masks b = render_with(name2, ins, 2, "water_level=0.45 rain=0.4", 2);
+    const WgImage *ma[] = {a.imm, a.wet, a.moist, a.pud}, *mb[] = {b.imm, b.wet, b.moist, b.pud};
+    for (int k = 0; k < 4; k++) {
+        WgImage *r = roll(ma[k], 77, 35);
+        double d = wgt_max_abs_diff(r, mb[k]);
+        printf("rain output %d: max difference after the shift %.3g\n", k, d);
+        if (!(d <= 2e-3)) fail_msg("rain output %d differs by %g after a shift", k, d);
+        wg_image_unref(r);
+    }
+    Masks t1 = render_with(name2, inb, 2, "water_level=0.45 rain=0.4", 1);
+    Masks t3 = render_with(name2, inb, 2, "water_level=0.45 rain=0.4", 3);
+    assert_masks_identical(&a, &t1);
+    assert_masks_identical(&a, &t3);
+    masks_free(&a);
+    masks_free(&b);
+    masks_free(&t1);
+    masks_free(&t3);
+    wg_image_unref(n);
+    wg_image_unref(hs);
+    wg_image_unref(ns);
+    masks_free(&prev);
+    masks_free(&dry);
+    wg_image_unref(slope);
+    wg_image_unref(sn);
+    wg_image_unref(sm);
+    wg_image_unref(left_ao);
+    wg_image_unref(all);
+    wg_image_unref(none);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -862,6 +1362,10 @@ int main(void)
         cmocka_unit_test(test_resolution_independence),
         cmocka_unit_test(test_noise_input),
         cmocka_unit_test(test_moist_follows_porosity),
+        cmocka_unit_test(test_level_image),
+        cmocka_unit_test(test_drying),
+        cmocka_unit_test(test_drying_porosity_and_puddles),
+        cmocka_unit_test(test_rain),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -7,7 +7,10 @@
  * foam; no foam beyond the band's sea-side edge nor inland beyond the inland reach; the nodes
  * that do not depend on $time are computed once for a sequence; T tiles and merges its two
  * layers with max; everything is finite and in range; the graph warns for exactly the values
- * snapping changes by more than 2x. */
+ * snapping changes by more than 2x; a painted distance texture (pattern_mode profile) is used
+ * as T as it is and the foam follows its profile; a noise input replaces N1; sine_warp moves
+ * the waves (seamless, looping); a third stroke layer only adds foam; speed_noise varies the
+ * waves' speed and loops. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -507,6 +510,197 @@ static void test_shader_formula_on_packed_maps(void **state)
     wg_graph_free(g);
 }
 
+/* Render the foam graph on shore with more inputs (names[i] <- images[i]) at time t. */
+static WgResult *render_with(WgEngine *e, const WgImage *shore, const char *const *names,
+                             const WgImage *const *images, int n, double t, const char *const *sets)
+{
+    WgRequest *r = wg_request_new(foam_graph);
+    WgError err = {0};
+    assert_non_null(r);
+    if (wg_request_set_input_image(r, "shore", shore, &err)) fail_msg("%s", err.message);
+    for (int i = 0; i < n; i++)
+        if (wg_request_set_input_image(r, names[i], images[i], &err))
+            fail_msg("%s: %s", names[i], err.message);
+    for (int i = 0; sets && sets[i]; i++) {
+        char name[64];
+        const char *eq = strchr(sets[i], '=');
+        snprintf(name, sizeof name, "%.*s", (int)(eq - sets[i]), sets[i]);
+        if (wg_request_set(r, name, eq + 1, &err)) fail_msg("%s: %s", sets[i], err.message);
+    }
+    wg_request_set_time(r, t);
+    WgResult *res = wgt_render_request(e, r);
+    wg_request_free(r);
+    return res;
+}
+
+/* A painted distance texture: a smooth tileable profile in [0.05, 0.95]. */
+static double profile_fn(int x, int y, int k)
+{
+    (void)k;
+    double u = (x + 0.5) / N, v = (y + 0.5) / N;
+    return 0.5 + 0.45 * sin(2 * M_PI * 2 * u) * cos(2 * M_PI * 3 * v);
+}
+
+/* pattern_mode profile uses a painted distance texture as T as it is (the maps' T is the
+ * profile), so the foam of the texture term alone follows the profile's level sets at every
+ * threshold; the strokes mode rebuilds T from the strokes at 0.5 and loses the profile. */
+static void test_painted_profile(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn), *prof = wgt_image_fn(N, N, 1, profile_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *names[] = {"pattern"};
+    const WgImage *in[] = {prof};
+    static const char *const thresholds[] = {"threshold=0.3", "threshold=0.6"};
+    for (int k = 0; k < 2; k++) {
+        const char *const sets[] = {"pattern_mode=profile", "ratio_sine=0", "ratio_tex=1",
+                                    "warp_amp=0", "tex_speed_x=0", "tex_speed_y=0", "layer2=0",
+                                    "a=0", "b=0", "reach_noise=0", "threshold_noise=0",
+                                    thresholds[k], NULL};
+        double thr = k ? 0.6 : 0.3;
+        WgResult *res = render_with(e, shore, names, in, 1, 0.7, sets);
+        const WgImage *maps = wgt_output(res, "maps"), *foam = wgt_output(res, "foam"),
+                      *v = wgt_output(res, "v");
+        int checked = 0;
+        for (int y = 0; y < N; y++)
+            for (int x = 0; x < N; x++) {
+                double p = profile_fn(x, y, 0);
+                assert_float_equal(wgt_px(maps, x, y, 1), (float)p, 0);
+                double vv = wgt_px(v, x, y, 0);
+                if (vv < 0.1 || vv > 0.95 || fabs(p - thr) < 0.1) continue;
+                if ((wgt_px(foam, x, y, 0) > 0.5) != (p > thr))
+                    fail_msg("threshold %g at (%d, %d): foam %g where the profile is %g", thr, x,
+                             y, wgt_px(foam, x, y, 0), p);
+                checked++;
+            }
+        printf("threshold %g: %d pixels follow the profile\n", thr, checked);
+        assert_true(checked > 2000);
+        wg_result_free(res);
+    }
+    const char *const strokes[] = {"pattern_mode=strokes", NULL};
+    WgResult *res = render_with(e, shore, names, in, 1, 0.7, strokes);
+    WgImage *g = wgt_image(N, N, 1, NULL);
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) wg_image_row(g, y)[x] = wgt_px(wgt_output(res, "maps"), x, y, 1);
+    assert_true(wgt_max_abs_diff(g, prof) > 0.2);
+    wg_image_unref(g);
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_image_unref(prof);
+    wg_image_unref(shore);
+}
+
+/* A `noise` input replaces N1: given the built-in N1 (the maps' b) the foam is the same, bit
+ * for bit; another noise changes it. */
+static void test_noise_input(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *a = render(e, shore, 1.1, NULL);
+    WgImage *n1 = wgt_image(N, N, 1, NULL), *other = wgt_image_fn(N, N, 1, profile_fn);
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) wg_image_row(n1, y)[x] = wgt_px(wgt_output(a, "maps"), x, y, 2);
+    const char *names[] = {"noise"};
+    const WgImage *same[] = {n1}, *diff[] = {other};
+    WgResult *b = render_with(e, shore, names, same, 1, 1.1, NULL);
+    WgResult *c = render_with(e, shore, names, diff, 1, 1.1, NULL);
+    for (int k = 0; k < wg_result_output_count(a); k++)
+        wgt_assert_identical(wg_result_output_image(b, k), wg_result_output_image(a, k));
+    assert_true(wgt_max_abs_diff(wgt_output(c, "foam"), wgt_output(a, "foam")) > 0.5);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c);
+    wg_image_unref(n1);
+    wg_image_unref(other);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* sine_warp moves the sine waves by the texture's warp: the foam changes, stays seamless, and
+ * a loop still closes. */
+static void test_sine_warp(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const warped[] = {"sine_warp=1.5", NULL};
+    const char *const looped[] = {"sine_warp=1.5", "loop_seconds=2", NULL};
+    WgResult *a = render(e, shore, 0.7, NULL), *b = render(e, shore, 0.7, warped);
+    assert_true(wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(b, "foam")) > 0.5);
+    const WgImage *f = wgt_output(b, "foam");
+    double inner_c = 0, inner_r = 0;
+    for (int c = 0; c < N - 1; c++) inner_c += column_step(f, c) / (N - 1);
+    for (int r = 0; r < N - 1; r++) inner_r += row_step(f, r) / (N - 1);
+    assert_true(column_step(f, N - 1) <= 3 * inner_c + 0.02 && row_step(f, N - 1) <= 3 * inner_r + 0.02);
+    WgResult *c0 = render(e, shore, 0, looped), *c2 = render(e, shore, 2, looped);
+    wgt_assert_identical(wgt_output(c2, "foam"), wgt_output(c0, "foam"));
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c0);
+    wg_result_free(c2);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* A third stroke layer only adds foam (the mask with it holds the mask without: T is merged
+ * with max), changes the foam, and a loop still closes with its drift snapped. */
+static void test_layer3(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const three[] = {"layer3=0.9", "layer3_scale=3", NULL};
+    const char *const looped[] = {"layer3=0.9", "layer3_speed=0.3", "loop_seconds=2", NULL};
+    WgResult *a = render(e, shore, 0.8, NULL), *b = render(e, shore, 0.8, three);
+    const WgImage *fa = wgt_output(a, "foam"), *fb = wgt_output(b, "foam"),
+                  *v = wgt_output(a, "v");
+    int more = 0;
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++) {
+            double vv = wgt_px(v, x, y, 0);
+            if (vv < 0.05 || vv > 1.05) continue; /* inside the band, off its soft edges */
+            bool ia = wgt_px(fa, x, y, 0) > 0.5, ib = wgt_px(fb, x, y, 0) > 0.5;
+            if (ia && !ib) fail_msg("(%d, %d): a third layer removes foam", x, y);
+            more += ib && !ia;
+        }
+    printf("a third layer: %d more foam pixels\n", more);
+    assert_true(more > 50);
+    WgResult *c0 = render(e, shore, 0, looped), *c2 = render(e, shore, 2, looped),
+             *c1 = render(e, shore, 1, looped);
+    wgt_assert_identical(wgt_output(c2, "foam"), wgt_output(c0, "foam"));
+    assert_true(wgt_max_abs_diff(wgt_output(c1, "foam"), wgt_output(c0, "foam")) > 0.5);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_result_free(c0);
+    wg_result_free(c1);
+    wg_result_free(c2);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
+/* speed_noise: the waves run faster in places, then slower (the come-and-go's amplitude varies
+ * with a noise): the foam changes, and a loop still closes. */
+static void test_speed_noise(void **state)
+{
+    (void)state;
+    WgImage *shore = wgt_image_fn(N, N, 1, shore_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    const char *const noisy[] = {"speed_noise=0.5", "come_go_period=2", NULL};
+    const char *const looped[] = {"speed_noise=0.5", "loop_seconds=2", NULL};
+    WgResult *a = render(e, shore, 0.5, NULL), *b = render(e, shore, 0.5, noisy);
+    WgResult *a0 = render(e, shore, 0, NULL), *b0 = render(e, shore, 0, noisy);
+    assert_true(wgt_max_abs_diff(wgt_output(a, "foam"), wgt_output(b, "foam")) > 0.5);
+    /* at t = 0 the come-and-go is at rest: no difference */
+    wgt_assert_identical(wgt_output(b0, "foam"), wgt_output(a0, "foam"));
+    WgResult *c0 = render(e, shore, 0, looped), *c2 = render(e, shore, 2, looped);
+    wgt_assert_identical(wgt_output(c2, "foam"), wgt_output(c0, "foam"));
+    WgResult *rs[] = {a, b, a0, b0, c0, c2};
+    for (size_t i = 0; i < sizeof rs / sizeof *rs; i++) wg_result_free(rs[i]);
+    wg_engine_free(e);
+    wg_image_unref(shore);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -519,6 +713,11 @@ int main(void)
         cmocka_unit_test(test_untimed_nodes_once),
         cmocka_unit_test(test_pattern),
         cmocka_unit_test(test_shader_formula_on_packed_maps),
+        cmocka_unit_test(test_painted_profile),
+        cmocka_unit_test(test_noise_input),
+        cmocka_unit_test(test_sine_warp),
+        cmocka_unit_test(test_layer3),
+        cmocka_unit_test(test_speed_noise),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -3,10 +3,13 @@
  * (tests/support/wggl.h), rendered into a float framebuffer and read back unquantised, against
  * the engine on the CPU:
  * - foam.frag on the `maps` that graphs/foam.wetgraph bakes, at several times, unlooped and
- *   looped (a 2 s loop where a speed snaps from 2.5 waves, a 1 s loop with the default speeds):
+ *   looped (a 2 s loop where a speed snaps from 2.5 waves, a 1 s loop with the default speeds,
+ *   the sine waves warped as the texture is, a third stroke layer, noise on the waves' speed):
  *   the same mask (foam > 1/2) as the graph's `foam` at every pixel off the graph's anti-aliased
  *   edge; only the edges may differ (fwidth in the shader, half the Sobel gradient in the
  *   graph), and few pixels by more than 0.5.
+ * - rain_ripples.frag on the static maps graphs/rain_ripples.wetgraph bakes, at several times,
+ *   unlooped and looped: the same ring heights, and normals close to the graph's.
  * - wet_layered.frag on a small scene whose maps (relief, normals, colour, roughness, metal, ao,
  *   a water layer with its own height, normal, roughness, F0 and mask) and lighting atlas
  *   (env_prefilter) are baked by the engine, drawn as the tile's plane through the `preview`
@@ -213,6 +216,141 @@ static void test_foam_short_loop(void **state)
     const Setting sets[] = {{"loop_seconds", 1}};
     const double times[] = {0.25, 0.5};
     run_foam(sets, 1, times, 2);
+}
+
+/* The sine waves warped as the texture is (sine_warp 1.5), unlooped and in a 2 s loop. */
+static void test_foam_sine_warp(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const Setting sets[] = {{"sine_warp", 1.5f}};
+    const double times[] = {0.7, 5.1};
+    run_foam(sets, 1, times, 2);
+    const Setting looped[] = {{"sine_warp", 1.5f}, {"loop_seconds", 2}};
+    const double at[] = {0.9};
+    run_foam(looped, 2, at, 1);
+}
+
+/* Noise on the waves' speed (speed_noise 0.4), unlooped and in a 2 s loop. */
+static void test_foam_speed_noise(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const Setting sets[] = {{"speed_noise", 0.4f}, {"come_go_period", 2}};
+    const double times[] = {0.5, 6.6};
+    run_foam(sets, 2, times, 2);
+    const Setting looped[] = {{"speed_noise", 0.4f}, {"loop_seconds", 2}};
+    const double at[] = {1.4};
+    run_foam(looped, 2, at, 1);
+}
+
+/* A third stroke layer (layer3 0.7), unlooped and in a 2 s loop where its drift snaps. */
+static void test_foam_layer3(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const Setting sets[] = {{"layer3", 0.7f}, {"layer3_scale", 3}, {"layer3_speed", 0.04f}};
+    const double times[] = {0.6, 4.2};
+    run_foam(sets, 3, times, 2);
+    const Setting looped[] = {{"layer3", 0.7f}, {"layer3_speed", 0.3f}, {"loop_seconds", 2}};
+    const double at[] = {1.3};
+    run_foam(looped, 3, at, 1);
+}
+
+/* ---- rain_ripples.frag ---------------------------------------------------------------------- */
+
+/* rain_ripples.frag on the `sites` and `open` maps rain_ripples bakes, on a non-square tile with
+ * a sheltered corner, at three times unlooped and in a 2 s loop: the ring heights agree with the
+ * graph's `ripples` to float rounding at nearly every pixel (the same drops fall), and the
+ * shader's analytic normals with the graph's finite-difference ones to the difference of the
+ * two (rings about 8 pixels from crest to crest). */
+static double corner_fn(int x, int y, int k)
+{
+    (void)k;
+    return x < 64 && y < 48 ? 1.0 : 0.0;
+}
+
+static void run_ripples(float loop, const double *times, int n_times)
+{
+    enum { RW = 256, RH = 160 };
+    const char *src = getenv("WETGRAPH_SOURCE");
+    char path[2048];
+    snprintf(path, sizeof path, "%s/graphs/rain_ripples.wetgraph", src);
+    WgGraph *g;
+    WgError err = {0};
+    if (wg_graph_load(path, &g, &err)) fail_msg("%s", err.message);
+    WgImage *shelter = wgt_image_fn(RW, RH, 1, corner_fn);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    unsigned prog = wgt_gl_program(foam_vs, shader_path("rain_ripples.frag"));
+    unsigned sites = 0, open = 0;
+    const Setting sets[] = {{"rain", 0.7f}, {"drop_size", 24}, {"ripple_seconds", 0.7f},
+                            {"strength", 0.8f}, {"loop_seconds", loop}};
+    for (int i = 0; i < n_times; i++) {
+        WgRequest *r = wg_request_new(g);
+        wg_request_set_size(r, RW, RH);
+        if (wg_request_set_input_image(r, "shelter", shelter, &err)) fail_msg("%s", err.message);
+        for (size_t k = 0; k < sizeof sets / sizeof *sets; k++) {
+            char value[64];
+            snprintf(value, sizeof value, "%.9g", sets[k].value);
+            if (wg_request_set(r, sets[k].name, value, &err)) fail_msg("%s", err.message);
+            if (!wgt_gl_set1f(prog, sets[k].name, sets[k].value))
+                fail_msg("rain_ripples.frag has no uniform %s", sets[k].name);
+        }
+        wg_request_set_time(r, times[i]);
+        WgResult *res = wgt_render_request(e, r);
+        if (!sites) sites = wgt_gl_texture(wgt_output(res, "sites"), WGT_GL_NEAREST, NULL, 0);
+        if (!open) open = wgt_gl_texture(wgt_output(res, "open"), WGT_GL_NEAREST, NULL, 0);
+        wgt_gl_bind(prog, "sites", 0, sites);
+        wgt_gl_bind(prog, "open", 1, open);
+        wgt_gl_set1f(prog, "time", (float)times[i]);
+        wgt_gl_set1f(prog, "aspect", (float)RH / RW);
+        WgImage *out = wgt_gl_draw(prog, screen, 6, RW, RH, false);
+        const WgImage *h = wgt_output(res, "ripples"), *nrm = wgt_output(res, "ripplenormal");
+        dump("ripples_graph", h, 2);
+        dump("ripples_glsl", out, 2);
+        int off = 0;
+        double maxd = 0, energy = 0, nd = 0, nn = 0;
+        for (int y = 0; y < RH; y++)
+            for (int x = 0; x < RW; x++) {
+                double a = wgt_px(h, x, y, 0), b = wgt_px(out, x, y, 0);
+                energy += fabs(a);
+                maxd = fmax(maxd, fabs(a - b));
+                off += fabs(a - b) > 1e-3;
+                double gx = 2 * wgt_px(nrm, x, y, 0) - 1, gy = 2 * wgt_px(nrm, x, y, 1) - 1;
+                double sx = 2 * wgt_px(out, x, y, 1) - 1, sy = 2 * wgt_px(out, x, y, 2) - 1;
+                nd += fabs(gx - sx) + fabs(gy - sy);
+                nn += fabs(gx) + fabs(gy);
+            }
+        print_message("rain_ripples.frag t=%g (loop %g): heights differ by more than 1e-3 at %d of "
+                      "%d pixels (at most %.2g); normals: mean |difference| %.3f of their mean "
+                      "tilt\n",
+                      times[i], loop, off, RW * RH, maxd, nd / fmax(nn, 1e-9));
+        assert_true(energy > 100);
+        if (off > RW * RH / 1000)
+            fail_msg("t=%g: the shader's heights differ from the graph's at %d pixels", times[i], off);
+        if (!(nd < 0.2 * nn))
+            fail_msg("t=%g: the shader's normals differ from the graph's by %.2f of their tilt",
+                     times[i], nd / nn);
+        wg_image_unref(out);
+        wg_result_free(res);
+        wg_request_free(r);
+    }
+    wgt_gl_delete_texture(sites);
+    wgt_gl_delete_texture(open);
+    wgt_gl_delete_program(prog);
+    wg_engine_free(e);
+    wg_image_unref(shelter);
+    wg_graph_free(g);
+}
+
+static void test_rain_ripples(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const double times[] = {0.3, 2.45, 17.9};
+    run_ripples(0, times, 3);
+    const double looped[] = {0.7, 1.9};
+    run_ripples(2, looped, 2);
 }
 
 /* ---- wet_layered.frag ----------------------------------------------------------------------- */
@@ -568,7 +706,10 @@ int main(void)
     }
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_foam_unlooped),   cmocka_unit_test(test_foam_loop_half_waves),
-        cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_layered_ambient),
+        cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_foam_sine_warp),
+        cmocka_unit_test(test_foam_layer3),
+        cmocka_unit_test(test_foam_speed_noise),     cmocka_unit_test(test_rain_ripples),
+        cmocka_unit_test(test_layered_ambient),
         cmocka_unit_test(test_layered_sun),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);

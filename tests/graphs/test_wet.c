@@ -3,7 +3,8 @@
  * synthetic materials: empty masks give back the dry material; the wet base colour is never
  * brighter than the dry one and not less saturated; immersed parts get the liquid's roughness
  * and, away from the meniscus, upward normals; every output is finite and in range, also for
- * non-square and 16-bit inputs; and asking for one output evaluates only the nodes it needs. */
+ * non-square and 16-bit inputs; and asking for one output evaluates only the nodes it needs;
+ * wet_material's painted level and drying band reach the maps. */
 #include "wgtest.h"
 
 #include <math.h>
@@ -1182,6 +1183,80 @@ static void test_wet_material_fused_warm_equals_cold(void **state)
     wg_graph_free(g);
 }
 
+/* wet_material forwards the painted level and the drying band: a constant `level` image gives
+ * every output of the same constant water_level, bit for bit; at drying 1 the band is dry (every
+ * output is that of no band); at drying 0 the band (immersed at high_water, out of the water
+ * now) has the base colour of the undrained material (clear water: the pores and the film
+ * darken it as much as the standing water did) and the film's roughness, not the water's. */
+static void test_wet_material_level_and_drying(void **state)
+{
+    (void)state;
+    WgGraph *g = load_builtin("wet_material");
+    Material m = material(W, H);
+    float v = 0.625f;
+    WgImage *c = wgt_image(1, 1, 1, &v);
+    static const char *const by_param[] = {"water_level", "0.625", NULL};
+    static const char *const by_image[] = {"water_level", "0.1", NULL};
+    WgRequest *r = wet_request(g, &m, by_param), *ri = wet_request(g, &m, by_image);
+    set_input(ri, "level", c);
+    WgResult *a = render_with(r, 2, true, false), *b = render_with(ri, 2, true, false);
+    assert_int_equal(wg_result_output_count(a), 23);
+    for (int k = 0; k < wg_result_output_count(a); k++)
+        wgt_assert_identical(wg_result_output_image(b, k), wg_result_output_image(a, k));
+    assert_true(mean_of(wgt_output(a, "immersed")) > 0.1);
+    wg_result_free(a);
+    wg_result_free(b);
+    wg_request_free(r);
+    wg_request_free(ri);
+
+    static const char *const low[] = {"water_level", "0.4", NULL};
+    static const char *const high[] = {"water_level", "0.7", NULL};
+    static const char *const dry[] = {"water_level", "0.4", "high_water", "0.7", "drying", "1", NULL};
+    static const char *const d0[] = {"water_level", "0.4", "high_water", "0.7", "drying", "0", NULL};
+    WgRequest *rl = wet_request(g, &m, low), *rh = wet_request(g, &m, high),
+              *rd = wet_request(g, &m, dry), *r0 = wet_request(g, &m, d0);
+    WgResult *nl = render_with(rl, 2, true, false), *nh = render_with(rh, 2, true, false),
+             *nd = render_with(rd, 2, true, false), *n0 = render_with(r0, 2, true, false);
+    for (int k = 0; k < wg_result_output_count(nl); k++)
+        wgt_assert_identical(wg_result_output_image(nd, k), wg_result_output_image(nl, k));
+    const WgImage *ih = wgt_output(nh, "immersed"), *il = wgt_output(nl, "immersed");
+    const WgImage *bh = wgt_output(nh, "basecolor"), *b0 = wgt_output(n0, "basecolor");
+    const WgImage *r0i = wgt_output(n0, "roughness");
+    const WgImage *p0 = wgt_output(n0, "puddles");
+    int band = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            if (!(wgt_px(ih, x, y, 0) == 1 && wgt_px(il, x, y, 0) == 0)) continue;
+            band++;
+            for (int k = 0; k < 3; k++)
+                if (fabs(wgt_px(b0, x, y, k) - wgt_px(bh, x, y, k)) > 1e-6)
+                    fail_msg("band (%d, %d) channel %d: drying 0 gives %g, undrained %g", x, y, k,
+                             wgt_px(b0, x, y, k), wgt_px(bh, x, y, k));
+            /* darker than dry, where the colour is not black */
+            if (wgt_px(m.base, x, y, 1) > 0.05 &&
+                !(wgt_px(b0, x, y, 1) < 0.9 * wgt_px(m.base, x, y, 1)))
+                fail_msg("band (%d, %d) is not darker at drying 0", x, y);
+            double rr = rough_fn(x, y, 0), film = fmin(rr, 0.3), pu = wgt_px(p0, x, y, 0);
+            double want = film + (0.02 - film) * pu;
+            if (fabs(wgt_px(r0i, x, y, 0) - want) > 1e-5)
+                fail_msg("band (%d, %d): roughness %g, the film's %g", x, y, wgt_px(r0i, x, y, 0),
+                         want);
+        }
+    printf("%d band pixels\n", band);
+    assert_true(band > 1000);
+    wg_result_free(nl);
+    wg_result_free(nh);
+    wg_result_free(nd);
+    wg_result_free(n0);
+    wg_request_free(rl);
+    wg_request_free(rh);
+    wg_request_free(rd);
+    wg_request_free(r0);
+    wg_image_unref(c);
+    material_free(&m);
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1203,6 +1278,7 @@ int main(void)
         cmocka_unit_test(test_preview_gold_under_water),
         cmocka_unit_test(test_wet_material_fused_identical),
         cmocka_unit_test(test_wet_material_fused_warm_equals_cold),
+        cmocka_unit_test(test_wet_material_level_and_drying),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

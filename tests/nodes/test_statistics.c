@@ -132,6 +132,37 @@ static void test_colour_rejected(void **state)
     wg_image_unref(in);
 }
 
+/* A uniform image (one row shared by every row, as an unconnected graph input or a `uniform`
+ * node gives) is measured once, with the same bits as the same value written in full. */
+static void test_uniform_source(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load("<wetgraph version=\"1\" size=\"301x257\">\n"
+                          "  <node id=\"u\" type=\"uniform\" value=\"0.1\"/>\n"
+                          "  <node id=\"st\" type=\"statistics\"><in name=\"source\" from=\"u\"/></node>\n"
+                          "  <output name=\"lo\" from=\"st.min\"/>\n"
+                          "  <output name=\"hi\" from=\"st.max\"/>\n"
+                          "  <output name=\"mean\" from=\"st.mean\"/>\n"
+                          "</wetgraph>\n");
+    for (int threads = 1; threads <= 3; threads += 2) {
+        WgResult *r = wgt_render(g, threads);
+        float v = 0.1f;
+        WgImage *one = wgt_image(1, 1, 1, &v), *full = wg_image_convert(one, 301, 257, 1);
+        assert_non_null(full);
+        const char *outs[] = {"lo", "hi", "mean"};
+        for (int k = 0; k < 3; k++) {
+            WgImage *want = stat(full, k, threads);
+            assert_float_equal(wgt_px(wgt_output(r, outs[k]), 0, 0, 0), wgt_px(want, 0, 0, 0), 0);
+            assert_constant(wgt_output(r, outs[k]), wgt_px(want, 0, 0, 0));
+            wg_image_unref(want);
+        }
+        wg_image_unref(full);
+        wg_image_unref(one);
+        wg_result_free(r);
+    }
+    wg_graph_free(g);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -141,6 +172,7 @@ int main(void)
         cmocka_unit_test(test_extremes),
         cmocka_unit_test(test_threads),
         cmocka_unit_test(test_colour_rejected),
+        cmocka_unit_test(test_uniform_source),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
