@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph watch --serve`: a libmicrohttpd server (a listening thread and one thread per
  * connection) beside the watch loop, on IPv4 or IPv6 ([ADDR]:PORT; [::] is dual stack). It
- * serves exactly six things: the page (cli/serve_page.h), GET /api/state (JSON; ?after=V waits
+ * serves exactly these things: the page (web/index.html with the run's token filled in, at / and
+ * /index.html) and its files (web/page.js, web/page.css and the shaders of docs/shaders under
+ * /shaders/, compiled in by web/embed.c, looked up by exact address), GET /api/state (JSON; ?after=V waits
  * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
  * output list by exact name and never used as a path), GET /graph.svg (the request's graph
  * drawn by graphviz, 404 when `dot` is not installed), POST /api/set (parameters, or $time, as
@@ -26,7 +28,7 @@
 #include "serve.h"
 
 #include "png_preview.h"
-#include "serve_page.h"
+#include "web.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -1186,6 +1188,9 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
     if (!strcmp(url, "/api/state")) return state(s, c);
     if (!strcmp(url, "/events")) return events(s, c);
     if (!strcmp(url, "/graph.svg")) return graph_svg(s, c);
+    for (const WgWebFile *w = wg_web_files; w->address; w++)
+        if (strcmp(w->address, "/index.html") && !strcmp(url, w->address))
+            return respond(c, MHD_HTTP_OK, w->type, w->bytes, w->size);
     size_t len = strlen(url);
     if (!strncmp(url, "/out/", 5) && len > 9 && !strcmp(url + len - 4, ".png"))
         return image(s, c, url + 5, len - 9);
@@ -1283,7 +1288,11 @@ static char *make_page(const char *token, bool address_settings)
     Mem m;
     FILE *f = mem_open(&m);
     if (!f) return NULL;
-    for (const char *p = serve_page; *p;) {
+    const char *html = NULL;
+    for (const WgWebFile *w = wg_web_files; w->address; w++)
+        if (!strcmp(w->address, "/index.html")) html = (const char *)w->bytes;
+    if (!html) return NULL;
+    for (const char *p = html; *p;) {
         if (!strncmp(p, "@TOKEN@", 7)) {
             fputs(token, f);
             p += 7;

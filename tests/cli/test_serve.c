@@ -292,9 +292,32 @@ static void test_serve_session(void **state)
     Reply r = http("GET", "/");
     assert_int_equal(r.status, 200);
     assert_non_null(strstr(r.head, "text/html"));
+    assert_non_null(strstr(r.body, "<script src=\"/page.js\">"));
+    free(r.head);
+    /* its script and style, and the shader the 3D view loads: the files of the source tree */
+    r = http("GET", "/page.js");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "text/javascript"));
     assert_non_null(strstr(r.body, "/api/state"));
     assert_non_null(strstr(r.body, "EventSource('/events')"));
     free(r.head);
+    r = http("GET", "/page.css");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "text/css"));
+    free(r.head);
+    r = http("GET", "/shaders/wet_layered.frag");
+    assert_int_equal(r.status, 200);
+    {
+        char shader[4096];
+        snprintf(shader, sizeof shader, "%s/docs/shaders/wet_layered.frag",
+                 getenv("WETGRAPH_SOURCE"));
+        size_t size;
+        char *text = wgt_read_file(shader, &size);
+        assert_int_equal(r.size, size);
+        assert_memory_equal(r.body, text, size);
+        free(r.head);
+        free(text);
+    }
 
     /* the state lists the parameters from their declarations */
     r = http("GET", "/api/state");

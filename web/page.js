@@ -1,0 +1,129 @@
+// SPDX-License-Identifier: MIT
+// The script of the page `wetgraph watch --serve` serves (web/index.html; cli/serve.c): it reads
+// /api/state, builds a control for each <param> from its declaration (a slider for a float or
+// int with a min and a max, a number box otherwise, a checkbox for a bool, a menu for an enum, a
+// colour picker for a colour, a text box for a string), shows every output's PNG preview scaled
+// to fit (a click enlarges it to the page's width), the value under the cursor, the graph
+// (/graph.svg, linked to itself at full size, or a list of its nodes when the server has no
+// picture), the per-node times of the last render, the last error and the `wetgraph render`
+// command line that reproduces the current state. A gray output can be shown through a colour
+// map (viridis, from ten of its colours, or turbo, from its polynomial approximation), for the
+// page or per output: the browser draws the gray preview onto a canvas through a 256-entry
+// table, so the server keeps serving only its previews. When the graph reads $time the page
+// shows a time slider and play/pause: playing sets $time, waits for that render and only then
+// asks for the next frame (one render in flight), advancing by the time that passed (at least
+// 1/30 s) and wrapping at the slider's end. /events announces each finished render, and the
+// page then reloads the state and the images. The page address takes ?set=name=value
+// (repeatable; applied once on load), ?cmap=viridis|turbo (the page's colour map), ?big=OUTPUT
+// (shown enlarged), ?play=N (play N frames, then pause) and ?events=0 (leave /events closed and,
+// while playing, wait for each frame with /api/state?after=V: for headless browsers, whose
+// virtual clock stands still while a request is open, which an open /events would be for ever).
+// A change is POSTed to /api/set as a form, with the run's token (the server fills it into the
+// page's <meta name="wetgraph-token">) in the X-Wetgraph-Token header; ?set= and ?play= are
+// applied only when the server marks the page's <meta name="wetgraph-address-settings"> with 1
+// (not when another site's page sent the browser here).
+'use strict';
+let built=false,version=-1,state=null,svgv=null;
+const args=new URLSearchParams(location.search);
+function q(s){return s.includes(' ')||s.includes('"')||s===''?"'"+s.replace(/'/g,"'\\''")+"'":s}
+// a change: POSTed as a form with the run's token, which only this page has
+const token=document.querySelector('meta[name=wetgraph-token]').content;
+function send(name,value){return fetch('/api/set',{method:'POST',headers:{'X-Wetgraph-Token':token},body:new URLSearchParams([[name,value]])})}
+function toHex(v){if(/^#[0-9a-fA-F]{6}$/.test(v))return v;if(/^#[0-9a-fA-F]{3}$/.test(v))return '#'+v[1]+v[1]+v[2]+v[2]+v[3]+v[3];if(/^#[0-9a-fA-F]{8}$/.test(v))return v.slice(0,7);let n=v.trim().split(/\s+/).map(Number);if(n.length===1)n=[n[0],n[0],n[0]];return '#'+n.slice(0,3).map(x=>{x=Math.min(1,Math.max(0,x||0));x=x<=0.0031308?12.92*x:1.055*Math.pow(x,1/2.4)-0.055;return Math.round(x*255).toString(16).padStart(2,'0')}).join('')}
+// colour maps for gray outputs, 256 entries of [r,g,b]: viridis from ten of its colours
+// (interpolated), turbo from its polynomial approximation
+const maps={gray:null,viridis:null,turbo:null};
+(function(){const v=['440154','482878','3e4989','31688e','26828e','1f9e89','35b779','6ece58','b5de2b','fde725'].map(h=>[0,2,4].map(k=>parseInt(h.substr(k,2),16)));
+const vi=[],tu=[];for(let i=0;i<256;i++){const x=i/255*9,k=Math.min(8,Math.floor(x)),f=x-k;vi.push([0,1,2].map(c=>Math.round(v[k][c]+(v[k+1][c]-v[k][c])*f)));
+const t=i/255,p=(a)=>Math.round(255*Math.min(1,Math.max(0,a[0]+t*(a[1]+t*(a[2]+t*(a[3]+t*(a[4]+t*a[5])))))));
+tu.push([p([0.13572138,4.6153926,-42.66032258,132.13108234,-152.94239396,59.28637943]),p([0.09140261,2.19418839,4.84296658,-14.18503333,4.27729857,2.82956604]),p([0.1066733,12.64194608,-60.58204836,110.36276771,-89.90310912,27.34824973])])}
+maps.viridis=vi;maps.turbo=tu})();
+function control(p){
+ const d=document.createElement('div');d.className='p';
+ const l=document.createElement('label');l.textContent=p.label?p.label+' ('+p.name+')':p.name;d.appendChild(l);
+ let i;const out=document.createElement('span');
+ if(p.type==='bool'){i=document.createElement('input');i.type='checkbox';i.checked=p.value==='true'||p.value==='1';i.onchange=()=>send(p.name,i.checked?'true':'false')}
+ else if(p.type==='enum'){i=document.createElement('select');for(const v of p.values){const o=document.createElement('option');o.value=o.textContent=v;i.appendChild(o)}i.value=p.value;i.onchange=()=>send(p.name,i.value)}
+ else if(p.type==='color'){i=document.createElement('input');i.type='color';i.value=toHex(p.value);i.oninput=()=>send(p.name,i.value)}
+ else if((p.type==='float'||p.type==='int')&&p.min!==undefined&&p.max!==undefined){
+  i=document.createElement('input');i.type='range';i.min=p.min;i.max=p.max;i.step=p.type==='int'?1:(p.max-p.min)/1000;i.value=p.value;out.textContent=' '+p.value;
+  i.oninput=()=>{out.textContent=' '+i.value;send(p.name,i.value)}}
+ else{i=document.createElement('input');i.type=p.type==='string'?'text':'number';if(p.type==='int')i.step=1;else if(p.type==='float')i.step='any';i.value=p.value;i.onchange=()=>send(p.name,i.value)}
+ i.id='param-'+p.name;i.dataset.name=p.name;d.appendChild(i);d.appendChild(out);return d}
+// the map a figure shows: its own choice, else the page's
+function mapOf(f){const s=f.querySelector('select');return s&&s.value!=='page'?s.value:document.getElementById('cmap').value}
+// draw a figure: its image as it is, or a gray output through a colour map on its canvas
+function paint(f){
+ const im=f.querySelector('img'),cv=f.querySelector('canvas');if(!im.naturalWidth)return;
+ const w=im.naturalWidth,h=im.naturalHeight;
+ if(!f.px||f.pxsrc!==im.src){const c=document.createElement('canvas');c.width=w;c.height=h;const x=c.getContext('2d',{willReadFrequently:true});x.drawImage(im,0,0);f.px=x.getImageData(0,0,w,h);f.pxsrc=im.src}
+ const m=f.dataset.channels==='1'?mapOf(f):'gray';f.dataset.map=m;
+ if(m==='gray'){cv.hidden=true;im.hidden=false;delete f.dataset.sample;return}
+ cv.width=w;cv.height=h;const x=cv.getContext('2d',{willReadFrequently:true}),o=x.createImageData(w,h),lut=maps[m],s=f.px.data,d=o.data;
+ for(let k=0;k<s.length;k+=4){const c=lut[s[k]];d[k]=c[0];d[k+1]=c[1];d[k+2]=c[2];d[k+3]=255}
+ x.putImageData(o,0,0);cv.hidden=false;im.hidden=true;
+ f.dataset.sample=Array.from(x.getImageData(w>>1,h>>1,1,1).data.slice(0,3)).join(',')}
+// the value under the cursor (the preview's: 8 bits, 0..1 for gray maps)
+function readout(f,e){
+ const el=e.target,px=f.px;if(!px)return;
+ const cw=el.clientWidth,ch=el.clientHeight,sc=Math.min(cw/px.width,ch/px.height);
+ const x=Math.floor((e.offsetX-(cw-px.width*sc)/2)/sc),y=Math.floor((e.offsetY-(ch-px.height*sc)/2)/sc);
+ const v=f.querySelector('.v');if(x<0||y<0||x>=px.width||y>=px.height){v.textContent='';return}
+ const k=4*(y*px.width+x),d=px.data;
+ v.textContent=x+','+y+': '+(f.dataset.channels==='1'?(d[k]/255).toFixed(3):d[k]+' '+d[k+1]+' '+d[k+2])}
+function figure(o){
+ const f=document.createElement('figure');f.id='out-'+o.name;f.dataset.channels=o.channels;
+ const im=document.createElement('img');im.alt=o.name;const cv=document.createElement('canvas');cv.hidden=true;
+ im.onload=()=>{paint(f);f.dataset.loaded=im.src};
+ for(const el of [im,cv]){el.onclick=()=>f.classList.toggle('big');el.onmousemove=e=>readout(f,e);el.onmouseleave=()=>{f.querySelector('.v').textContent=''}}
+ const c=document.createElement('figcaption');const n=document.createElement('span');n.textContent=o.name;c.appendChild(n);
+ if(o.channels===1){const s=document.createElement('select');for(const v of ['page','gray','viridis','turbo']){const op=document.createElement('option');op.value=v;op.textContent=v==='page'?'map: as the page':v;s.appendChild(op)}s.onchange=()=>paint(f);c.appendChild(s)}
+ const v=document.createElement('span');v.className='v';c.appendChild(v);
+ f.appendChild(im);f.appendChild(cv);f.appendChild(c);
+ if(args.get('big')===o.name)f.classList.add('big');return f}
+function graph(s){
+ const b=document.getElementById('graphbox');
+ if(s.svg!==null){if(svgv!==s.svg){b.innerHTML='';const l=document.createElement('a');l.href='/graph.svg?v='+s.svg;l.target='_blank';l.title='open the picture at full size';const im=document.createElement('img');im.id='graph';im.alt='the graph';im.src='/graph.svg?v='+s.svg;l.appendChild(im);b.appendChild(l);svgv=s.svg}return}
+ svgv=null;const ms={};for(const n of s.times)if(n.computed)ms[n.id]=n.ms;
+ const ul=document.createElement('ul');ul.id='nodes';
+ for(const n of s.nodes){const li=document.createElement('li');li.textContent=n.id+' ('+n.type+')'+(n.id in ms?' '+ms[n.id].toFixed(2)+' ms':'');ul.appendChild(li)}
+ b.innerHTML='';b.appendChild(ul)}
+// $time: play renders frame after frame, the next asked for when the last has finished
+let playing=false,frames=0,lastFrame=0;const waiters=[];
+// without /events, /api/state?after=V answers when a render newer than V is published
+function rendered(v){return new Promise(r=>{waiters.push([v,r]);if(!events)poll(v)})}
+function poll(v){fetch('/api/state?after='+v).then(r=>r.json()).then(s=>{show(s);if(waiters.length)poll(version)})}
+function showTime(t){const i=document.getElementById('time');if(t>+i.max)i.max=Math.ceil(t);i.value=t;const v=document.getElementById('tval');v.textContent=t.toFixed(2);v.dataset.t=t}
+function setPlaying(p){playing=p;const b=document.getElementById('play');b.innerHTML=p?'&#10074;&#10074; pause':'&#9654; play';b.dataset.playing=p;if(p){lastFrame=performance.now();step()}}
+async function step(){
+ if(!playing)return;const i=document.getElementById('time'),now=performance.now();
+ let t=+i.value+Math.max(1/30,(now-lastFrame)/1000);lastFrame=now;if(t>+i.max)t=0;t=Math.round(t*1000)/1000;
+ showTime(t);const v=version;await send('$time',t);await rendered(v);
+ frames++;document.getElementById('play').dataset.frames=frames;
+ const stop=+args.get('play');if(stop&&frames>=stop)setPlaying(false);else step()}
+function show(s){
+ state=s;document.getElementById('title').textContent=s.file;
+ for(const p of s.params){const i=document.getElementById('param-'+p.name);if(!i||i===document.activeElement)continue;if(i.type==='checkbox')i.checked=p.value==='true'||p.value==='1';else if(i.type==='color')i.value=toHex(p.value);else i.value=p.value;if(i.type==='range')i.nextSibling.textContent=' '+p.value}
+ if(!built&&s.params){const ps=document.getElementById('params');for(const p of s.params)ps.appendChild(control(p));built=true}
+ document.getElementById('timebox').hidden=!s.reads_time;
+ if(!playing&&document.getElementById('time')!==document.activeElement)showTime(s.time);
+ document.getElementById('err').textContent=s.error?'error: '+s.error:'';
+ document.getElementById('cmd').textContent='wetgraph render '+q(s.file)+s.sets.map(x=>' --set '+q(x)).join('')+(s.reads_time||s.time?' --time '+s.time:'');
+ const t=document.getElementById('times');t.innerHTML='';
+ for(const n of s.times){const r=t.insertRow();r.insertCell().textContent=n.id;r.insertCell().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' ms':'cached'}
+ graph(s);
+ const m=document.getElementById('main');
+ for(const o of s.outputs){let f=document.getElementById('out-'+o.name);if(!f){f=figure(o);m.appendChild(f)}
+  if(o.version!==version)f.querySelector('img').src='/out/'+encodeURIComponent(o.name)+'.png?v='+o.version}
+ version=s.version;
+ for(let k=waiters.length-1;k>=0;k--)if(waiters[k][0]<s.version){waiters[k][1]();waiters.splice(k,1)}}
+function refresh(){return fetch('/api/state').then(r=>r.json()).then(show)}
+document.getElementById('cmap').onchange=()=>{for(const f of document.querySelectorAll('figure'))paint(f)};
+if(args.get('cmap'))document.getElementById('cmap').value=args.get('cmap');
+document.getElementById('play').onclick=()=>setPlaying(!playing);
+document.getElementById('time').oninput=e=>{setPlaying(false);const t=+e.target.value;showTime(t);send('$time',t)};
+// ?set= and ?play= are applied unless another site sent the browser here
+const own=document.querySelector('meta[name=wetgraph-address-settings]').content==='1';
+const pending=own?args.getAll('set'):[],events=args.get('events')!=='0';
+refresh().then(()=>{for(const kv of pending){const k=kv.indexOf('=');if(k>0)send(kv.slice(0,k),kv.slice(k+1))}if(own&&args.get('play'))setPlaying(true)});
+if(events)new EventSource('/events').addEventListener('render',refresh);
