@@ -3,7 +3,10 @@
  * connection) beside the watch loop, on IPv4 or IPv6 ([ADDR]:PORT; [::] is dual stack). It
  * serves exactly these things: the page (web/index.html with the run's token filled in, at / and
  * /index.html) and its files (web/page.js, web/page.css and the shaders of docs/shaders under
- * /shaders/, compiled in by web/embed.c, looked up by exact address), GET /api/state (JSON; ?after=V waits
+ * /shaders/, compiled in by web/embed.c, looked up by exact address), GET /map/NAME and
+ * GET /map/$INPUT (an output's image, or a graph input given as a file, as half floats for the
+ * page's 3D view), GET /env/K (environment K's env_prefilter atlas, made once by the watch
+ * thread before the first render), GET /api/state (JSON; ?after=V waits
  * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
  * output list by exact name and never used as a path), GET /graph.svg (the request's graph
  * drawn by graphviz, 404 when `dot` is not installed), POST /api/set (parameters, or $time, as
@@ -33,6 +36,7 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -46,6 +50,7 @@
 #include <sys/eventfd.h>
 #include <sys/mman.h>
 #include <sys/random.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -76,6 +81,8 @@ typedef struct {
     unsigned char *bytes;
 } Png;
 
+static enum MHD_Result not_found(struct MHD_Connection *c);
+
 static void png_drop(Png *p)
 {
     if (p && --p->refs == 0) {
@@ -83,6 +90,8 @@ static void png_drop(Png *p)
         free(p);
     }
 }
+
+typedef struct Env Env;
 
 typedef struct {
     char *name;
@@ -125,6 +134,25 @@ struct Serve {
     double q_time;
     /* the watch thread's own: the Graphviz text the picture was made from */
     char *dot_text;
+    /* the graph's image inputs given as files (--input NAME=FILE), for the 3D view's dry
+     * material: read by the watch thread when the file changes, under lock when swapped */
+    char **in_spec; /* NAME=FILE */
+    struct stat *in_st;
+    int n_in_spec;
+    Output *ins; /* named "$NAME" */
+    int n_ins;
+    /* the 3D view's environments: their names and files, and their env_prefilter atlases
+     * (NULL until the watch thread has made them, once each) */
+    Env *envs;
+    int n_envs;
+};
+
+/* An environment of the 3D view: an equirectangular HDR file, or the built-in sky (path NULL),
+ * and its atlas. */
+struct Env {
+    char *name, *path;
+    WgImage *atlas;
+    char *error; /* why it has no atlas, or NULL */
 };
 
 /* A request's own state (libmicrohttpd's con_cls), from its first line to its end. */
@@ -471,6 +499,241 @@ static void preview(const Serve *s, Output *o, WgColorspace cs)
     o->version = s->version + 1; /* the render being published */
 }
 
+/* ---- the 3D view's maps and environments ------------------------------------------------- */
+
+/* f as an IEEE 754 half float, rounded to nearest even; values beyond the largest half (65504,
+ * an HDR sun can be brighter) and infinities become it, NaN 0. */
+static uint16_t to_half(float f)
+{
+    if (f != f) return 0;
+    uint32_t x;
+    memcpy(&x, &f, sizeof x);
+    uint16_t sign = (uint16_t)((x >> 16) & 0x8000);
+    x &= 0x7fffffff;
+    if (x >= 0x477fe000) return sign | 0x7bff; /* 65504 and above (65504 rounds to itself) */
+    if (x < 0x38800000) {                       /* below 2^-14: a subnormal half, or 0 */
+        float a;
+        memcpy(&a, &x, sizeof a);
+        return sign | (uint16_t)lrintf(a * 16777216.0f); /* units of 2^-24 */
+    }
+    /* the exponent rebiased (127 to 15) and the mantissa rounded to 10 bits, to nearest even */
+    return sign | (uint16_t)((x - 0x38000000u + 0xfffu + ((x >> 13) & 1u)) >> 13);
+}
+
+/* img reduced by the whole factor k (each value the mean of a k x k block, the edge's blocks
+ * smaller), as little-endian half floats, row by row from the top, the channels of a pixel
+ * together; *w, *h the reduced size. The caller frees the bytes. */
+static uint16_t *half_pixels(const WgImage *img, int k, int *w, int *h, size_t *size)
+{
+    int ch = img->channels;
+    *w = (img->width + k - 1) / k;
+    *h = (img->height + k - 1) / k;
+    *size = sizeof(uint16_t) * (size_t)*w * (size_t)*h * (size_t)ch;
+    uint16_t *out = malloc(*size);
+    if (!out) return NULL;
+    for (int y = 0; y < *h; y++)
+        for (int x = 0; x < *w; x++)
+            for (int c = 0; c < ch; c++) {
+                double sum = 0;
+                int n = 0;
+                for (int j = y * k; j < y * k + k && j < img->height; j++) {
+                    const float *row = wg_image_row(img, j);
+                    for (int i = x * k; i < x * k + k && i < img->width; i++, n++)
+                        sum += row[(size_t)i * (size_t)ch + (size_t)c];
+                }
+                uint16_t v = to_half((float)(sum / n));
+                unsigned char *b = (unsigned char *)&out[((size_t)y * (size_t)*w + (size_t)x) * ch + c];
+                b[0] = (unsigned char)(v & 0xff); /* little-endian whatever the machine */
+                b[1] = (unsigned char)(v >> 8);
+            }
+    return out;
+}
+
+/* GET /map/NAME (an output) or /map/$NAME (a graph input given as a file): the image at the
+ * previews' size (reduced by the same whole factor), as half floats (half_pixels); the header
+ * X-Wetgraph-Size gives "WIDTH HEIGHT CHANNELS". GET /env/K: environment K's env_prefilter
+ * atlas the same way, at its full size; 404 while it is being made. */
+static enum MHD_Result pixels(Serve *s, struct MHD_Connection *c, const char *name, int env)
+{
+    const WgImage *img = NULL;
+    pthread_mutex_lock(&s->lock);
+    if (env >= 0) {
+        if (env < s->n_envs && s->envs[env].atlas) img = wg_image_ref(s->envs[env].atlas);
+    } else {
+        for (int i = 0; !img && i < s->n_outs; i++)
+            if (!strcmp(s->outs[i].name, name) && s->outs[i].img) img = wg_image_ref(s->outs[i].img);
+        for (int i = 0; !img && i < s->n_ins; i++)
+            if (!strcmp(s->ins[i].name, name) && s->ins[i].img) img = wg_image_ref(s->ins[i].img);
+    }
+    pthread_mutex_unlock(&s->lock);
+    if (!img) return not_found(c);
+    int side = img->width > img->height ? img->width : img->height;
+    int k = env >= 0 ? 1 : (side + PREVIEW_MAX - 1) / PREVIEW_MAX, w, h;
+    size_t size;
+    uint16_t *data = half_pixels(img, k, &w, &h, &size);
+    int ch = img->channels;
+    wg_image_unref(img);
+    if (!data) return MHD_NO;
+    struct MHD_Response *r = MHD_create_response_from_buffer(size, data, MHD_RESPMEM_MUST_FREE);
+    if (!r) {
+        free(data);
+        return MHD_NO;
+    }
+    char dims[64];
+    snprintf(dims, sizeof dims, "%d %d %d", w, h, ch);
+    MHD_add_response_header(r, "Content-Type", "application/octet-stream");
+    MHD_add_response_header(r, "Cache-Control", "no-store");
+    MHD_add_response_header(r, "X-Wetgraph-Size", dims);
+    enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
+    MHD_destroy_response(r);
+    return ok;
+}
+
+int serve_view_setup(Serve *s, const char *const *inputs, int n_inputs, const char *const *envs,
+                     int n_envs)
+{
+    s->in_spec = calloc((size_t)n_inputs + 1, sizeof *s->in_spec);
+    s->in_st = calloc((size_t)n_inputs + 1, sizeof *s->in_st);
+    s->envs = calloc((size_t)n_envs + n_inputs + 1, sizeof *s->envs);
+    if (!s->in_spec || !s->in_st || !s->envs) return WG_ERR_NOMEM;
+    for (int i = 0; i < n_inputs; i++) {
+        if (!(s->in_spec[i] = strdup(inputs[i]))) return WG_ERR_NOMEM;
+        s->n_in_spec++;
+    }
+    /* the environments: every --env FILE, and the graph's own --input environment=FILE */
+    for (int i = 0; i < n_envs + n_inputs; i++) {
+        const char *path = i < n_envs ? envs[i] : NULL;
+        if (i >= n_envs && !strncmp(inputs[i - n_envs], "environment=", 12))
+            path = inputs[i - n_envs] + 12;
+        if (!path) continue;
+        const char *slash = strrchr(path, '/');
+        Env *v = &s->envs[s->n_envs];
+        v->path = strdup(path);
+        v->name = strdup(slash ? slash + 1 : path);
+        if (!v->path || !v->name) return WG_ERR_NOMEM;
+        s->n_envs++;
+    }
+    return WG_OK;
+}
+
+/* The atlas of an environment: env_prefilter at 512 (blocks of 256 x 128) over the file, or
+ * over the built-in sky (path NULL: a blue gradient above the horizon, a dim ground below and
+ * a small sun, bright enough to give highlights). */
+static const char prefilter_xml[] =
+    "<wetgraph version=\"1\" size=\"512\">\n"
+    "  <input name=\"environment\" type=\"color\"/>\n"
+    "  <node id=\"atlas\" type=\"env_prefilter\"><in name=\"environment\" "
+    "from=\"$environment\"/></node>\n"
+    "  <output name=\"atlas\" from=\"atlas\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+static const char sky_xml[] =
+    "<wetgraph version=\"1\" size=\"512\">\n"
+    "  <node id=\"sky\" type=\"pixel\" kind=\"color\" expr=\"rgb("
+    "(v &lt; 0.5 ? 0.25 + 1.3 * v : 0.22) + 60 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; 0.012),"
+    " (v &lt; 0.5 ? 0.45 + 0.9 * v : 0.2) + 58 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; 0.012),"
+    " (v &lt; 0.5 ? 1.0 - 0.1 * v : 0.16) + 52 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; 0.012))\"/>\n"
+    "  <node id=\"atlas\" type=\"env_prefilter\"><in name=\"environment\" from=\"sky\"/></node>\n"
+    "  <output name=\"atlas\" from=\"atlas\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+
+static int prefilter(WgEngine *e, const char *path, WgImage **atlas, WgError *err)
+{
+    const char *xml = path ? prefilter_xml : sky_xml;
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgResult *res = NULL;
+    int rc = wg_graph_load_memory(xml, strlen(xml), "environment.wetgraph", &g, err);
+    if (!rc && !(r = wg_request_new(g))) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    if (!rc && path) rc = wg_request_set_input_file(r, "environment", path, err);
+    if (!rc) rc = wg_render(e, r, &res, err);
+    if (!rc) *atlas = wg_image_ref(wg_result_output_image(res, 0));
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+    return rc;
+}
+
+void serve_prefilter(Serve *s, WgEngine *e)
+{
+    if (!s->n_envs) { /* no environment given: the built-in sky */
+        s->envs[0].name = strdup("sky (built in)");
+        if (!s->envs[0].name) return;
+        s->n_envs = 1;
+    }
+    for (int i = 0; i < s->n_envs; i++) {
+        Env *v = &s->envs[i];
+        if (v->atlas || v->error) continue; /* made once per session */
+        WgError err = {0};
+        WgImage *atlas = NULL;
+        char *why = NULL;
+        if (prefilter(e, v->path, &atlas, &err)) {
+            char buf[1024];
+            wg_error_format(&err, buf, sizeof buf);
+            why = strdup(buf);
+            fprintf(stderr, "wetgraph: warning: the 3D view's environment %s: %s\n", v->name, buf);
+        }
+        pthread_mutex_lock(&s->lock);
+        v->atlas = atlas;
+        v->error = why ? why : atlas ? NULL : strdup("out of memory");
+        pthread_mutex_unlock(&s->lock);
+    }
+}
+
+/* Read the graph's image inputs given as files again where the file changed (the 3D view shows
+ * them as the dry material); runs on the watch thread. An input that cannot be read keeps its
+ * last image. */
+static void read_inputs(Serve *s, const WgGraph *g)
+{
+    Output *ins = calloc((size_t)s->n_in_spec + 1, sizeof *ins);
+    if (!ins) return;
+    int n = 0;
+    for (int i = 0; i < s->n_in_spec; i++) {
+        const char *spec = s->in_spec[i], *eq = strchr(spec, '=');
+        if (!eq) continue;
+        const WgGraphInputInfo *in = NULL;
+        for (int k = 0; k < wg_graph_input_count(g); k++) {
+            const WgGraphInputInfo *x = wg_graph_input_info(g, k);
+            if (strlen(x->name) == (size_t)(eq - spec) && !strncmp(x->name, spec, eq - spec)) in = x;
+        }
+        if (!in || !strcmp(in->name, "environment")) continue;
+        char name[MAX_NAME + 2];
+        snprintf(name, sizeof name, "$%s", in->name);
+        const Output *old = NULL;
+        for (int k = 0; k < s->n_ins; k++)
+            if (!strcmp(s->ins[k].name, name)) old = &s->ins[k];
+        struct stat st;
+        bool same = !stat(eq + 1, &st) && old && st.st_mtim.tv_sec == s->in_st[i].st_mtim.tv_sec &&
+                    st.st_mtim.tv_nsec == s->in_st[i].st_mtim.tv_nsec &&
+                    st.st_size == s->in_st[i].st_size && st.st_ino == s->in_st[i].st_ino;
+        Output *o = &ins[n];
+        if (!(o->name = strdup(name))) break;
+        WgImage *img = NULL;
+        WgError err = {0};
+        if (!same &&
+            !wg_image_read(eq + 1, in->kind == WG_GRAY ? 1 : 4, in->colorspace, &img, &err)) {
+            o->img = img;
+            o->channels = img->channels;
+            o->version = s->version + 1;
+            s->in_st[i] = st;
+        } else if (old) {
+            o->img = wg_image_ref(old->img);
+            o->channels = old->channels;
+            o->version = old->version;
+        } else {
+            free(o->name);
+            continue;
+        }
+        n++;
+    }
+    pthread_mutex_lock(&s->lock);
+    Output *gone = s->ins;
+    int n_gone = s->n_ins;
+    s->ins = ins;
+    s->n_ins = n;
+    pthread_mutex_unlock(&s->lock);
+    outputs_free(gone, n_gone);
+}
+
 void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
                    const WgError *err, const char *const *sets, int n_sets)
 {
@@ -482,6 +745,7 @@ void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResul
     int n_names = 0, n_outs = 0;
     Output *outs = NULL;
     if (g) {
+        read_inputs(s, g);
         params = params_json(g, sets, n_sets);
         nodes = nodes_json(g);
         WgError e = {0};
@@ -637,6 +901,24 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
         cli_json_string(f, s->outs[i].name);
         fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->outs[i].version,
                 s->outs[i].channels);
+    }
+    fputs("],\"inputs\":[", f);
+    for (int i = 0; i < s->n_ins; i++) {
+        fputs(i ? ",{\"name\":" : "{\"name\":", f);
+        cli_json_string(f, s->ins[i].name);
+        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->ins[i].version,
+                s->ins[i].channels);
+    }
+    fputs("],\"environments\":[", f);
+    for (int i = 0; i < s->n_envs; i++) {
+        fputs(i ? ",{\"name\":" : "{\"name\":", f);
+        cli_json_string(f, s->envs[i].name);
+        fprintf(f, ",\"ready\":%s,\"error\":", s->envs[i].atlas ? "true" : "false");
+        if (s->envs[i].error)
+            cli_json_string(f, s->envs[i].error);
+        else
+            fputs("null", f);
+        fputc('}', f);
     }
     fprintf(f, "],\"times\":%s,\"sets\":%s,\"error\":", s->times_json ? s->times_json : "[]",
             s->sets_json ? s->sets_json : "[]");
@@ -1191,6 +1473,10 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
     for (const WgWebFile *w = wg_web_files; w->address; w++)
         if (strcmp(w->address, "/index.html") && !strcmp(url, w->address))
             return respond(c, MHD_HTTP_OK, w->type, w->bytes, w->size);
+    if (!strncmp(url, "/map/", 5) && url[5]) return pixels(s, c, url + 5, -1);
+    if (!strncmp(url, "/env/", 5) && url[5] && strlen(url + 5) <= 4 &&
+        strspn(url + 5, "0123456789") == strlen(url + 5))
+        return pixels(s, c, NULL, atoi(url + 5));
     size_t len = strlen(url);
     if (!strncmp(url, "/out/", 5) && len > 9 && !strcmp(url + len - 4, ".png"))
         return image(s, c, url + 5, len - 9);
@@ -1214,6 +1500,17 @@ static void serve_free(Serve *s)
     for (int i = 0; i < s->n_params; i++) free(s->param_names[i]);
     free(s->param_names);
     outputs_free(s->outs, s->n_outs);
+    outputs_free(s->ins, s->n_ins);
+    for (int i = 0; s->in_spec && i < s->n_in_spec; i++) free(s->in_spec[i]);
+    free(s->in_spec);
+    free(s->in_st);
+    for (int i = 0; s->envs && i < s->n_envs; i++) {
+        free(s->envs[i].name);
+        free(s->envs[i].path);
+        free(s->envs[i].error);
+        wg_image_unref(s->envs[i].atlas);
+    }
+    free(s->envs);
     for (int i = 0; i < s->n_q; i++) {
         free(s->q_name[i]);
         free(s->q_value[i]);

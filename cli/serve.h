@@ -33,6 +33,16 @@ void serve_sets_free(char **sets, int n);
  * changed, and wakes /events. */
 void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
                    const WgError *err, const char *const *sets, int n_sets);
+/* The 3D view's material and light, set once before the first render: inputs, the --input
+ * list (NAME=FILE: the graph's image inputs are served at /map/$NAME as the dry material), and
+ * envs, the --env files (equirectangular HDR environments); the graph's --input
+ * environment=FILE is one too, and without any the built-in sky is used. */
+int serve_view_setup(Serve *s, const char *const *inputs, int n_inputs, const char *const *envs,
+                     int n_envs);
+/* Prefilter (env_prefilter) the environments that have no atlas yet, with the watch thread's
+ * engine e: once per environment and session; a file that cannot be read is reported (on
+ * stderr and in the state) and not tried again. */
+void serve_prefilter(Serve *s, WgEngine *e);
 void serve_stop(Serve *s);
 
 #endif

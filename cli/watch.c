@@ -544,9 +544,10 @@ static bool read_events(int fd, const FileSet *files, const int *wds)
     return hit;
 }
 
-/* Take --serve VALUE / --serve=VALUE out of argv (render's parser does not know it); returns
- * the new argc, or -1 after a usage error. */
-static int take_serve(int argc, char **argv, const char **spec)
+/* Take --serve VALUE / --serve=VALUE and --env FILE / --env=FILE (into envs, argc of them at
+ * most) out of argv (render's parser does not know them); returns the new argc, or -1 after a
+ * usage error. */
+static int take_serve(int argc, char **argv, const char **spec, const char **envs, int *n_envs)
 {
     int k = 0;
     for (int i = 0; i < argc; i++) {
@@ -559,6 +560,11 @@ static int take_serve(int argc, char **argv, const char **spec)
             *spec = argv[++i];
         } else if (!strncmp(argv[i], "--serve=", 8)) {
             *spec = argv[i] + 8;
+        } else if (!strcmp(argv[i], "--env")) {
+            if (i + 1 >= argc) return cli_usage_error("watch", "--env needs FILE"), -1;
+            envs[(*n_envs)++] = argv[++i];
+        } else if (!strncmp(argv[i], "--env=", 6)) {
+            envs[(*n_envs)++] = argv[i] + 6;
         } else {
             argv[k++] = argv[i];
         }
@@ -571,9 +577,21 @@ int cmd_watch(int argc, char **argv)
     Options o = {.cmd = "watch", .help = help};
     const char *serve_spec = NULL;
     Serve *serve = NULL;
-    int status;
-    argc = take_serve(argc, argv, &serve_spec);
-    if (argc < 0) return EXIT_USAGE;
+    int status, n_envs = 0;
+    const char **envs = calloc((size_t)argc + 1, sizeof *envs);
+    if (!envs) {
+        fprintf(stderr, "wetgraph: error: out of memory\n");
+        return EXIT_FAILED;
+    }
+    argc = take_serve(argc, argv, &serve_spec, envs, &n_envs);
+    if (argc < 0) {
+        free(envs);
+        return EXIT_USAGE;
+    }
+    if (n_envs && !serve_spec) {
+        free(envs);
+        return cli_usage_error("watch", "--env is for the page's 3D view: it needs --serve");
+    }
 #ifndef WG_HAVE_SERVE
     if (serve_spec)
         return cli_usage_error("watch", "--serve is not available: this wetgraph was built "
@@ -610,7 +628,12 @@ int cmd_watch(int argc, char **argv)
     }
 #ifdef WG_HAVE_SERVE
     /* after the signals are blocked: the server's threads inherit the mask */
-    if (serve_spec && serve_start(serve_spec, o.file, &serve, &err)) {
+    if (serve_spec && (serve_start(serve_spec, o.file, &serve, &err) ||
+                       serve_view_setup(serve, o.inputs, o.n_inputs, envs, n_envs))) {
+        if (serve) {
+            wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+            serve_stop(serve);
+        }
         cli_report(&err);
         wg_engine_free(e);
         close(sfd);
@@ -622,6 +645,10 @@ int cmd_watch(int argc, char **argv)
                 strchr(serve_spec, ':') ? "" : "127.0.0.1:", serve_spec);
         fflush(stderr);
     }
+#endif
+#ifdef WG_HAVE_SERVE
+    /* the 3D view's lighting, before the first render is published, so that its page has it */
+    if (serve) serve_prefilter(serve, e);
 #endif
     FileSet files = {0};
     Written written = {0};
@@ -684,6 +711,7 @@ int cmd_watch(int argc, char **argv)
     wg_engine_free(e);
     close(sfd);
 out:
+    free(envs);
     free(o.sets);
     free(o.inputs);
     free(o.outputs);

@@ -23,7 +23,7 @@
 // applied only when the server marks the page's <meta name="wetgraph-address-settings"> with 1
 // (not when another site's page sent the browser here).
 'use strict';
-let built=false,version=-1,state=null,svgv=null;
+let built=false,version=-1,state=null,svgv=null,viewDone=null;
 const args=new URLSearchParams(location.search);
 function q(s){return s.includes(' ')||s.includes('"')||s===''?"'"+s.replace(/'/g,"'\\''")+"'":s}
 // a change: POSTed as a form with the run's token, which only this page has
@@ -112,6 +112,9 @@ function show(s){
  const t=document.getElementById('times');t.innerHTML='';
  for(const n of s.times){const r=t.insertRow();r.insertCell().textContent=n.id;r.insertCell().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' ms':'cached'}
  graph(s);
+ // the 3D view, for a graph that makes a material (a base colour)
+ if(!view3d.started()&&s.outputs.some(o=>/^(under_)?basecolor$/.test(o.name)))view3d.start(document.getElementById('main'));
+ viewDone=view3d.started()?view3d.update(s):null;
  const m=document.getElementById('main');
  for(const o of s.outputs){let f=document.getElementById('out-'+o.name);if(!f){f=figure(o);m.appendChild(f)}
   if(o.version!==version)f.querySelector('img').src='/out/'+encodeURIComponent(o.name)+'.png?v='+o.version}
@@ -125,5 +128,23 @@ document.getElementById('time').oninput=e=>{setPlaying(false);const t=+e.target.
 // ?set= and ?play= are applied unless another site sent the browser here
 const own=document.querySelector('meta[name=wetgraph-address-settings]').content==='1';
 const pending=own?args.getAll('set'):[],events=args.get('events')!=='0';
-refresh().then(()=>{for(const kv of pending){const k=kv.indexOf('=');if(k>0)send(kv.slice(0,k),kv.slice(k+1))}if(own&&args.get('play'))setPlaying(true)});
+// the page as shown: every preview loaded (or failed) and the 3D view drawn with its maps
+function settled(){
+ const imgs=[...document.querySelectorAll('#main figure img')];
+ return Promise.all(imgs.map(im=>im.complete?null:new Promise(r=>{im.addEventListener('load',r,{once:true});im.addEventListener('error',r,{once:true})}))).then(()=>viewDone)}
+// <body data-render>: "pending" from ?set='s change until the render it asked for is published
+// and shown (settled), then "done" ("error" when the render failed), so that a headless
+// screenshot can wait for the new picture; without ?set=, "done" once the first state is shown.
+// All of ?set='s values go in one request, so one render applies them together.
+refresh().then(async()=>{
+ const v=version,form=new URLSearchParams();
+ for(const kv of pending){const k=kv.indexOf('=');if(k>0)form.append(kv.slice(0,k),kv.slice(k+1))}
+ let asked=false;
+ if([...form].length){document.body.dataset.render='pending';
+  const r=await fetch('/api/set',{method:'POST',headers:{'X-Wetgraph-Token':token},body:form});
+  if(r.ok)asked=true;else document.body.dataset.renderError=(await r.json()).error}
+ if(own&&args.get('play'))setPlaying(true);
+ if(asked)await rendered(v);
+ await settled();
+ document.body.dataset.render=document.body.dataset.renderError||state.error?'error':'done'});
 if(events)new EventSource('/events').addEventListener('render',refresh);

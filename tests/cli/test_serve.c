@@ -318,6 +318,29 @@ static void test_serve_session(void **state)
         free(r.head);
         free(text);
     }
+    /* the 3D view's data: an output's pixels as half floats, its size in a header; the
+     * environment's atlas (the built-in sky: no environment was given) */
+    r = http("GET", "/map/c");
+    assert_int_equal(r.status, 200);
+    {
+        const char *dims = strstr(r.head, "X-Wetgraph-Size: ");
+        int w = 0, h = 0, c = 0;
+        if (!dims || sscanf(dims + 17, "%d %d %d", &w, &h, &c) != 3) fail_msg("no X-Wetgraph-Size");
+        assert_true(w > 0 && h > 0 && c == 1);
+        assert_int_equal(r.size, (size_t)w * h * c * 2);
+    }
+    free(r.head);
+    r = http("GET", "/env/0");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "X-Wetgraph-Size: 512 512 4"));
+    assert_int_equal(r.size, 512 * 512 * 4 * 2);
+    free(r.head);
+    const char *missing[] = {"/map/nothing", "/map/", "/env/1", "/env/x", "/env/"};
+    for (size_t i = 0; i < sizeof missing / sizeof *missing; i++) {
+        r = http("GET", missing[i]);
+        if (r.status != 404) fail_msg("GET %s: status %d, expected 404", missing[i], r.status);
+        free(r.head);
+    }
 
     /* the state lists the parameters from their declarations */
     r = http("GET", "/api/state");
@@ -642,7 +665,8 @@ static void test_serve_refuses_other_sites(void **state)
     snprintf(foreign[5], sizeof foreign[5], "127.0.0.1.nip.io:%d", port);
     snprintf(foreign[6], sizeof foreign[6], "10.1.2.3:%d", port);
     snprintf(foreign[7], sizeof foreign[7], "[::1]:%d0", port);
-    const char *paths[] = {"/", "/api/state", "/out/c.png", "/graph.svg", "/events", "/api/set"};
+    const char *paths[] = {"/",        "/api/state", "/out/c.png", "/graph.svg", "/events",
+                           "/api/set", "/map/c",     "/env/0",     "/page.js"};
     for (size_t h = 0; h < 9; h++)
         for (size_t k = 0; k < sizeof paths / sizeof *paths; k++) {
             const char *name = h < 8 ? foreign[h] : NULL; /* 8: no Host at all */
@@ -719,12 +743,17 @@ static void test_serve_refuses_other_sites(void **state)
             fail_msg("POST with %s: status %d, expected 403", h_origin[i], r.status);
         free(r.head);
     }
-    /* reading from another site's page (not a navigation) is refused too */
-    Reply r = answer(request_full("GET", "/api/state", host(),
-                                  "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: cors\r\n", NULL),
-                     "GET", "cross-site");
-    assert_int_equal(r.status, 403);
-    free(r.head);
+    /* reading from another site's page (not a navigation) is refused too: the state, the 3D
+     * view's maps and environments, and the page's files */
+    Reply r;
+    const char *reads[] = {"/api/state", "/map/c", "/env/0", "/page.js", "/shaders/wet_layered.frag"};
+    for (size_t i = 0; i < sizeof reads / sizeof *reads; i++) {
+        r = answer(request_full("GET", reads[i], host(),
+                                "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: cors\r\n", NULL),
+                   "GET", reads[i]);
+        if (r.status != 403) fail_msg("GET %s from another site: status %d", reads[i], r.status);
+        free(r.head);
+    }
     /* a link from another site opens the page, which then leaves its address's ?set= alone */
     r = answer(request_full("GET", "/?set=mode=b", host(),
                             "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: navigate\r\n", NULL),

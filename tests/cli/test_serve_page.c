@@ -13,13 +13,19 @@
  * output file is the one `wetgraph render --time T` writes for the time the page shows. With
  * /events open (as a person's browser has it), ?play=3 renders three frames too. A page from
  * elsewhere (a file) that aims an image, fetches and a form at /api/set changes nothing, and the
- * real page's change is then the only one. Fails with a
- * clear message when chromium is not installed (scripts/install-deps.sh installs it). chromium
+ * real page's change is then the only one. The 3D view (WebGL2 on SwiftShader): on a wet
+ * material made from a shared material, its picture read back for a fixed camera matches the
+ * `preview` node's within a measured bound (MEAN_BOUND), is not the clear colour, changes with
+ * the camera and between the dry and the wet material, and after a parameter change given with
+ * ?set= the page says the render is done and the view shows that render's maps and picture.
+ * Fails with a clear message when chromium is not installed (scripts/install-deps.sh installs
+ * it) or gives the page no WebGL2 context. chromium
  * runs under `timeout` with a virtual time budget (a harness limit, not a timing assertion).
  * Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
+#include <math.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <stdio.h>
@@ -32,6 +38,10 @@
 #include <unistd.h>
 
 enum { LIMIT_MS = 30000 };
+
+/* WebGL2 in headless chromium without a GPU: ANGLE on SwiftShader, the software renderer
+ * Debian's chromium ships */
+#define CHROMIUM_GL "--use-angle=swiftshader --enable-unsafe-swiftshader"
 
 static const char graph[] =
     "<wetgraph version=\"1\" size=\"64\">\n"
@@ -105,13 +115,14 @@ static const char *need_chromium(void)
 
 /* Load the page at http://127.0.0.1:port/query in headless chromium, its DOM into dom.html (a
  * virtual time budget, and `timeout` as the harness limit). */
+static int budget_ms = 5000;
 static void dump_dom(int port, const char *query)
 {
     int st = wgt_shell(dir,
-                       "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
-                       "--user-data-dir=profile --virtual-time-budget=5000 --window-size=1200,800 "
+                       "timeout 120 chromium --headless=new --no-sandbox " CHROMIUM_GL
+                       " --user-data-dir=profile --virtual-time-budget=%d --window-size=1200,800 "
                        "--dump-dom 'http://127.0.0.1:%d/%s' >dom.html 2>chromium.log",
-                       port, query);
+                       budget_ms, port, query);
     if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium.log"));
 }
 
@@ -305,6 +316,286 @@ static void test_serve_page_other_site_cannot_drive(void **state)
     stop();
 }
 
+/* ---- the 3D view ---------------------------------------------------------------------------- */
+
+/* A wet material from a shared material (PavingStones130, in the shared folder the tests get as
+ * WETGRAPH_SHARED) made by wet_material at N x N, the maps the 3D view reads as outputs, and
+ * the `preview` node's picture of them at the same size: 512, the size of the environment's
+ * atlas, which the node would resample to its own size (and the size the server reads the
+ * environment at for the 3D view) through the 3D view's default camera at zoom 2
+ * (tone mapped, sRGB-encoded, 8-bit), the material bound as graphs/wet_preview.wetgraph binds it
+ * and the liquid tea (tint, absorption depth and index from its presets there), so that the
+ * liquid's colour is compared too. */
+enum { N = 512 };
+static const char lookdev[] =
+    "<wetgraph version=\"1\" size=\"512\">\n"
+    "  <input name=\"environment\" type=\"color\"/>\n"
+    "  <input name=\"basecolor\" type=\"color\" colorspace=\"srgb\"/>\n"
+    "  <input name=\"height\" type=\"gray\"/>\n"
+    "  <input name=\"normal\" type=\"color\" default=\"0.5 0.5 1 1\"/>\n"
+    "  <input name=\"roughness\" type=\"gray\" default=\"0.5\"/>\n"
+    "  <input name=\"ao\" type=\"gray\" default=\"1\"/>\n"
+    "  <param name=\"water_level\" type=\"float\" default=\"0.6\" min=\"0\" max=\"1\"/>\n"
+    "  <param name=\"height_scale\" type=\"float\" default=\"16\" min=\"0.001\" max=\"4096\"/>\n"
+    "  <param name=\"liquid\" type=\"enum\" values=\"water|muddy_water|tea|milk|blood|oil\" "
+    "default=\"tea\"/>\n"
+    "  <node id=\"wet\" type=\"wet_material\" water_level=\"=water_level\" liquid=\"=liquid\" "
+    "height_scale=\"=height_scale\">\n"
+    "    <in name=\"basecolor\" from=\"$basecolor\"/><in name=\"height\" from=\"$height\"/>\n"
+    "    <in name=\"normal\" from=\"$normal\"/><in name=\"roughness\" from=\"$roughness\"/>\n"
+    "    <in name=\"ao\" from=\"$ao\"/>\n"
+    "  </node>\n"
+    "  <node id=\"range\" type=\"statistics\"><in name=\"source\" from=\"wet.height\"/></node>\n"
+    "  <node id=\"under_height\" type=\"pixel\" expr=\"(h - lo) / max(hi - lo, 1e-30)\">\n"
+    "    <in name=\"h\" from=\"wet.under_height\"/><in name=\"lo\" from=\"range.min\"/>"
+    "<in name=\"hi\" from=\"range.max\"/>\n"
+    "  </node>\n"
+    "  <node id=\"water_height\" type=\"pixel\" expr=\"(h - lo) / max(hi - lo, 1e-30)\">\n"
+    "    <in name=\"h\" from=\"wet.water_height\"/><in name=\"lo\" from=\"range.min\"/>"
+    "<in name=\"hi\" from=\"range.max\"/>\n"
+    "  </node>\n"
+    "  <node id=\"under_normal\" type=\"blend\" mode=\"copy\">\n"
+    "    <in name=\"foreground\" from=\"wet.under_normal\"/><in name=\"background\" "
+    "from=\"wet.normal\"/><in name=\"mask\" from=\"wet.water_mask\"/>\n"
+    "  </node>\n"
+    "  <node id=\"env\" type=\"env_prefilter\" size=\"512\"><in name=\"environment\" "
+    "from=\"$environment\"/></node>\n"
+    "  <node id=\"view\" type=\"preview\" elevation=\"50\" azimuth=\"20\" zoom=\"2\" "
+    "height_scale=\"=height_scale / 256\" absorption_depth=\"=2.4 / height_scale\" "
+    "water_ior=\"1.334\" water_tint=\"0.8 0.4 0.1\" tonemap=\"aces\" encoding=\"linear\">\n"
+    "    <in name=\"environment\" from=\"env\"/>\n"
+    "    <in name=\"basecolor\" from=\"wet.under_basecolor\"/><in name=\"normal\" "
+    "from=\"under_normal\"/>\n"
+    "    <in name=\"roughness\" from=\"wet.under_roughness\"/><in name=\"height\" "
+    "from=\"under_height\"/>\n"
+    "    <in name=\"ao\" from=\"wet.ao\"/><in name=\"metallic\" from=\"wet.under_metallic\"/>\n"
+    "    <in name=\"specular\" from=\"wet.under_specular\"/>\n"
+    "    <in name=\"water_height\" from=\"water_height\"/><in name=\"water_normal\" "
+    "from=\"wet.water_normal\"/>\n"
+    "    <in name=\"water_roughness\" from=\"wet.water_roughness\"/><in name=\"water_specular\" "
+    "from=\"wet.water_specular\"/>\n"
+    "    <in name=\"water_mask\" from=\"wet.water_mask\"/>\n"
+    "  </node>\n"
+    "  <output name=\"view\" from=\"view\" format=\"png\" colorspace=\"srgb\"/>\n"
+    "  <output name=\"basecolor\" from=\"wet.basecolor\"/><output name=\"normal\" "
+    "from=\"wet.normal\"/>\n"
+    "  <output name=\"height\" from=\"wet.height\"/><output name=\"ao\" from=\"wet.ao\"/>\n"
+    "  <output name=\"roughness\" from=\"wet.roughness\"/>\n"
+    "  <output name=\"metallic\" from=\"wet.metallic\"/><output name=\"specular\" "
+    "from=\"wet.specular\"/>\n"
+    "  <output name=\"under_basecolor\" from=\"wet.under_basecolor\"/>\n"
+    "  <output name=\"under_normal\" from=\"wet.under_normal\"/>\n"
+    "  <output name=\"under_roughness\" from=\"wet.under_roughness\"/>\n"
+    "  <output name=\"under_height\" from=\"wet.under_height\"/>\n"
+    "  <output name=\"under_metallic\" from=\"wet.under_metallic\"/>\n"
+    "  <output name=\"under_specular\" from=\"wet.under_specular\"/>\n"
+    "  <output name=\"water_height\" from=\"wet.water_height\"/>\n"
+    "  <output name=\"water_normal\" from=\"wet.water_normal\"/>\n"
+    "  <output name=\"water_roughness\" from=\"wet.water_roughness\"/>\n"
+    "  <output name=\"water_specular\" from=\"wet.water_specular\"/>\n"
+    "  <output name=\"water_mask\" from=\"wet.water_mask\"/>\n"
+    "</wetgraph>\n";
+
+/* Start watch on lookdev.wetgraph with the shared material and environment (the environment
+ * input is the 3D view's environment too); returns the port. */
+static int start_lookdev(void)
+{
+    const char *shared = getenv("WETGRAPH_SHARED");
+    if (!shared || !shared[0]) fail_msg("WETGRAPH_SHARED is not set");
+    static char in[6][4096];
+    const char *m = "materials/pavingstones130_1k/PavingStones130_1K_";
+    snprintf(in[0], sizeof in[0], "environment=%s/env/venice_sunset_1k.hdr", shared);
+    snprintf(in[1], sizeof in[1], "basecolor=%s/%sColor.jpg", shared, m);
+    snprintf(in[2], sizeof in[2], "height=%s/%sDisplacement.jpg", shared, m);
+    snprintf(in[3], sizeof in[3], "normal=%s/%sNormalGL.jpg", shared, m);
+    snprintf(in[4], sizeof in[4], "roughness=%s/%sRoughness.jpg", shared, m);
+    snprintf(in[5], sizeof in[5], "ao=%s/%sAmbientOcclusion.jpg", shared, m);
+    for (int i = 0; i < 6; i++)
+        if (access(strchr(in[i], '=') + 1, R_OK))
+            fail_msg("the shared material file %s is missing", strchr(in[i], '=') + 1);
+    wgt_write_file(path("lookdev.wetgraph"), lookdev);
+    mkdir(path("nobin"), 0777);
+    unlink(path("werr"));
+    int port = wgt_free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
+    const char *args[] = {"watch", "lookdev.wetgraph", "-o", "o", "--serve", spec,
+                          "--input", in[0], "--input", in[1], "--input", in[2],
+                          "--input", in[3], "--input", in[4], "--input", in[5], NULL};
+    watcher = wgt_spawn(dir, "wout", "werr", path("nobin"), args);
+    return port;
+}
+
+/* The 3D view's state after dump_dom: fails with its message unless it is ready. */
+static void view_ready(void)
+{
+    char st[64];
+    snprintf(st, sizeof st, "%s", attr("<figure id=\"view3d\"", "data-state"));
+    if (!strcmp(st, "no-webgl2"))
+        fail_msg("chromium gives the page no WebGL2 context (SwiftShader, with " CHROMIUM_GL
+                 "): the 3D view cannot be tested (%s)",
+                 path("dom.html"));
+    if (strcmp(st, "ready"))
+        fail_msg("the 3D view is '%s': %s (%s)", st,
+                 attr("<figure id=\"view3d\"", "data-error"), path("dom.html"));
+}
+
+/* The N x N picture the page read back (data-probe, hex RGB from the top row) into px. */
+static void probe(unsigned char *px)
+{
+    size_t size;
+    char *dom = wgt_read_file(path("dom.html"), &size);
+    char *at = strstr(dom, "<figure id=\"view3d\"");
+    char *p = at ? strstr(at, " data-probe=\"") : NULL;
+    if (!p || p > strchr(at, '>')) fail_msg("the 3D view read no picture back (%s)", path("dom.html"));
+    p += strlen(" data-probe=\"");
+    for (int i = 0; i < N * N * 3; i++) {
+        unsigned v;
+        if (sscanf(p + 2 * i, "%2x", &v) != 1) fail_msg("data-probe is shorter than %d values", N * N * 3);
+        px[i] = (unsigned char)v;
+    }
+    free(dom);
+}
+
+/* px as a binary PPM in the test's folder, to look at when a comparison fails. */
+static void save_ppm(const char *name, const unsigned char *px)
+{
+    FILE *f = fopen(path(name), "wb");
+    if (!f) fail_msg("cannot write %s", path(name));
+    fprintf(f, "P6 %d %d 255\n", N, N);
+    fwrite(px, 1, N * N * 3, f);
+    fclose(f);
+}
+
+/* Mean |a - b| over the pixels and channels, 8-bit levels; *far: the share of values more than
+ * 16 levels apart. */
+static double mean_diff(const unsigned char *a, const unsigned char *b, double *far)
+{
+    double sum = 0;
+    int n = 0;
+    for (int i = 0; i < N * N * 3; i++) {
+        int d = abs(a[i] - b[i]);
+        sum += d;
+        n += d > 16;
+    }
+    if (far) *far = (double)n / (N * N * 3);
+    return sum / (N * N * 3);
+}
+
+/* The preview node's picture the watch session wrote, as 8-bit values. */
+static void cpu_view(unsigned char *px)
+{
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path("o/lookdev_view.png"), 4, WG_LINEAR, &img, &err))
+        fail_msg("%s", err.message);
+    assert_int_equal(img->width, N);
+    assert_int_equal(img->height, N);
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++)
+            for (int c = 0; c < 3; c++)
+                px[3 * (y * N + x) + c] = (unsigned char)lrintf(wg_image_row(img, y)[4 * x + c] * 255);
+    wg_image_unref(img);
+}
+
+/* The bound: the mean |GPU - CPU| over the picture within 2.5 of 255 levels (8-bit, sRGB-encoded
+ * after the tone curve), and at most 3% of the values more than 16 levels apart. Measured with
+ * chromium's SwiftShader: 1.73 levels and 1.5% at water_level 0.6, 0.68 and 0.6% at 0.25; the
+ * error gathers in the far rows, where the relief is seen at a grazing angle and one pixel
+ * covers several texels. What differs: the GPU reads the rough levels of the prefiltered
+ * environment from a mip chain (web/view3d.js: loadEnv) where the node reads the blocks, maps
+ * at half-float precision, the normal under the liquid blended by the page rather than by the
+ * graph's blend node, 8-bit rounding on both sides, and the relief's edges where one side's
+ * parallax search meets a texel the other misses. For scale: the dry material against the wet
+ * one differs by about 9 levels, a change of water level by about 12, another camera by tens. */
+#define MEAN_BOUND 2.5
+#define FAR_BOUND 0.03
+
+static void test_view3d_matches_preview(void **state)
+{
+    (void)state;
+    need_chromium();
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    unsigned char gpu[N * N * 3], cpu[N * N * 3], moved[N * N * 3], dry[N * N * 3];
+    char q[256];
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=50,20,2,0", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(gpu);
+    cpu_view(cpu);
+    /* not the clear colour: the material and the environment are drawn */
+    int clear = 0;
+    for (int i = 0; i < N * N; i++)
+        clear += abs(gpu[3 * i] - 18) <= 1 && abs(gpu[3 * i + 1] - 18) <= 1 && abs(gpu[3 * i + 2] - 20) <= 1;
+    if (clear > N * N / 100) fail_msg("%d of %d pixels of the 3D view are the clear colour", clear, N * N);
+    save_ppm("view_gpu.ppm", gpu);
+    save_ppm("view_cpu.ppm", cpu);
+    double far, mean = mean_diff(gpu, cpu, &far);
+    /* the same view, all dry: the liquid's own effect */
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=1&view=50,20,2,0", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(dry);
+    double wet_effect = mean_diff(gpu, dry, NULL);
+    print_message("3D view against the preview node (%d x %d, wet): mean |GPU - CPU| %.2f of 255 "
+                  "levels, %.2f%% of the values more than 16 apart; the liquid's own effect %.2f\n",
+                  N, N, mean, 100 * far, wet_effect);
+    if (mean > MEAN_BOUND || far > FAR_BOUND)
+        fail_msg("the 3D view differs from the preview node by %.2f levels on average (bound "
+                 "%.1f), %.2f%% of the values by more than 16 (bound %.0f%%)",
+                 mean, MEAN_BOUND, 100 * far, 100 * FAR_BOUND);
+    assert_true(wet_effect > 2 * MEAN_BOUND);
+    /* another camera: another picture */
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=70,110,1.4,90", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(moved);
+    double camera_change = mean_diff(gpu, moved, NULL);
+    print_message("3D view: another camera changes the picture by %.2f levels on average\n",
+                  camera_change);
+    assert_true(camera_change > 4 * MEAN_BOUND);
+    stop();
+}
+
+/* A parameter change reaches the 3D view once its render is done: the page opened with
+ * ?set=water_level=0.25 says the render is done (<body data-render="done">), shows the maps of
+ * that render (data-version), and its picture is the preview node's of that render, within the
+ * bound, and not the picture before the change. */
+static void test_view3d_follows_a_render(void **state)
+{
+    (void)state;
+    need_chromium();
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    unsigned char before[N * N * 3], after[N * N * 3], cpu[N * N * 3];
+    char q[256];
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=50,20,2,0", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(before);
+    int v0 = atoi(attr("<figure id=\"view3d\"", "data-version"));
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=50,20,2,0&set=water_level=0.25", N);
+    dump_dom(port, q);
+    view_ready();
+    assert_string_equal(attr("<body", "data-render"), "done");
+    int v1 = atoi(attr("<figure id=\"view3d\"", "data-version"));
+    if (v1 <= v0) fail_msg("the 3D view shows render %d after the change, %d before", v1, v0);
+    probe(after);
+    wait_for("watch: waiting", 2);
+    cpu_view(cpu);
+    double far, mean = mean_diff(after, cpu, &far), change = mean_diff(before, after, NULL);
+    print_message("3D view after water_level=0.25: mean |GPU - CPU| %.2f levels (%.2f%% more than "
+                  "16 apart); the change moved the picture by %.2f\n",
+                  mean, 100 * far, change);
+    if (mean > MEAN_BOUND || far > FAR_BOUND)
+        fail_msg("after the change the 3D view differs from the preview node by %.2f levels", mean);
+    assert_true(change > 2 * MEAN_BOUND);
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
@@ -329,6 +620,8 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_page_false_colour_and_play, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_plays_with_events, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_other_site_cannot_drive, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_matches_preview, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_follows_a_render, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
