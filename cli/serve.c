@@ -284,6 +284,17 @@ static char *params_json(const WgGraph *g, const char *const *sets, int n_sets)
         cli_json_string(f, value);
         if (p->has_min) fprintf(f, ",\"min\":%.17g", p->min);
         if (p->has_max) fprintf(f, ",\"max\":%.17g", p->max);
+        if (p->has_soft_min) fprintf(f, ",\"soft_min\":%.17g", p->soft_min);
+        if (p->has_soft_max) fprintf(f, ",\"soft_max\":%.17g", p->soft_max);
+        if (p->has_step) fprintf(f, ",\"step\":%.17g", p->step);
+        if (p->group) {
+            fputs(",\"group\":", f);
+            cli_json_string(f, p->group);
+        }
+        if (p->description) {
+            fputs(",\"description\":", f);
+            cli_json_string(f, p->description);
+        }
         if (p->values) {
             fputs(",\"values\":[", f);
             for (int k = 0; p->values[k]; k++) {
