@@ -38,18 +38,76 @@ const vi=[],tu=[];for(let i=0;i<256;i++){const x=i/255*9,k=Math.min(8,Math.floor
 const t=i/255,p=(a)=>Math.round(255*Math.min(1,Math.max(0,a[0]+t*(a[1]+t*(a[2]+t*(a[3]+t*(a[4]+t*a[5])))))));
 tu.push([p([0.13572138,4.6153926,-42.66032258,132.13108234,-152.94239396,59.28637943]),p([0.09140261,2.19418839,4.84296658,-14.18503333,4.27729857,2.82956604]),p([0.1066733,12.64194608,-60.58204836,110.36276771,-89.90310912,27.34824973])])}
 maps.viridis=vi;maps.turbo=tu})();
+// A control for parameter p: its short label (the name beside it, the description as the
+// tooltip), and by type a checkbox, a menu, a colour picker, a text box, or for a number a
+// number box that takes any value of the hard range, with a slider over the soft range
+// (soft_min..soft_max, else the hard range; its step, else 1/1000 of the range or 1 for an int)
+// when the slider has both ends; a number also gets a reset to its default.
 function control(p){
- const d=document.createElement('div');d.className='p';
- const l=document.createElement('label');l.textContent=p.label?p.label+' ('+p.name+')':p.name;d.appendChild(l);
- let i;const out=document.createElement('span');
+ const d=document.createElement('div');d.className='p';d.id='row-'+p.name;
+ if(p.description)d.title=p.description;
+ const l=document.createElement('label');l.textContent=p.label||p.name;
+ if(p.label){const n=document.createElement('span');n.className='pname';n.textContent=' '+p.name;l.appendChild(n)}
+ d.appendChild(l);
+ let i;
+ const numeric=p.type==='float'||p.type==='int';
+ const lo=p.soft_min!==undefined?p.soft_min:p.min,hi=p.soft_max!==undefined?p.soft_max:p.max;
  if(p.type==='bool'){i=document.createElement('input');i.type='checkbox';i.checked=p.value==='true'||p.value==='1';i.onchange=()=>send(p.name,i.checked?'true':'false')}
  else if(p.type==='enum'){i=document.createElement('select');for(const v of p.values){const o=document.createElement('option');o.value=o.textContent=v;i.appendChild(o)}i.value=p.value;i.onchange=()=>send(p.name,i.value)}
  else if(p.type==='color'){i=document.createElement('input');i.type='color';i.value=toHex(p.value);i.oninput=()=>send(p.name,i.value)}
- else if((p.type==='float'||p.type==='int')&&p.min!==undefined&&p.max!==undefined){
-  i=document.createElement('input');i.type='range';i.min=p.min;i.max=p.max;i.step=p.type==='int'?1:(p.max-p.min)/1000;i.value=p.value;out.textContent=' '+p.value;
-  i.oninput=()=>{out.textContent=' '+i.value;send(p.name,i.value)}}
+ else if(numeric&&lo!==undefined&&hi!==undefined){
+  i=document.createElement('input');i.type='range';i.min=lo;i.max=hi;
+  i.step=p.step!==undefined?p.step:p.type==='int'?1:(hi-lo)/1000;i.value=p.value}
  else{i=document.createElement('input');i.type=p.type==='string'?'text':'number';if(p.type==='int')i.step=1;else if(p.type==='float')i.step='any';i.value=p.value;i.onchange=()=>send(p.name,i.value)}
- i.id='param-'+p.name;i.dataset.name=p.name;d.appendChild(i);d.appendChild(out);return d}
+ i.id='param-'+p.name;i.dataset.name=p.name;d.appendChild(i);
+ if(i.type==='range'){
+  // the number box: exact values, beyond the slider's soft range as far as the hard range
+  const box=document.createElement('input');box.type='number';box.id='num-'+p.name;box.className='num';
+  if(p.min!==undefined)box.min=p.min;if(p.max!==undefined)box.max=p.max;
+  box.step=p.type==='int'?1:'any';box.value=p.value;
+  i.oninput=()=>{box.value=i.value;send(p.name,i.value)};
+  box.onchange=()=>{if(box.value==='')return;i.value=box.value;send(p.name,box.value)};
+  d.appendChild(box)}
+ if(numeric||p.type==='color'){
+  const r=document.createElement('button');r.className='reset';r.id='reset-'+p.name;r.textContent='\u21ba';
+  r.title='reset to the default, '+p.default;
+  r.onclick=()=>{setShown(p.name,p.default);send(p.name,p.default)};
+  d.appendChild(r)}
+ return d}
+// show value v in the controls of parameter name (not while one of them is being edited)
+function setShown(name,v){
+ const i=document.getElementById('param-'+name),box=document.getElementById('num-'+name);
+ if(!i||i===document.activeElement||(box&&box===document.activeElement))return;
+ if(i.type==='checkbox')i.checked=v==='true'||v==='1';else if(i.type==='color')i.value=toHex(v);else i.value=v;
+ if(box)box.value=v}
+// parameters NAME_r, NAME_g, NAME_b (floats within -1..1, negative: a preset's) get one colour
+// picker that sets the three (linear, from the picker's sRGB) and a button back to the preset
+function triplet(base,ps){
+ const d=document.createElement('div');d.className='p';d.id='rgb-'+base;
+ const l=document.createElement('label');l.textContent=base+' colour';d.appendChild(l);
+ const c=document.createElement('input');c.type='color';c.id='color-'+base;
+ const lin=x=>{x/=255;return x<=0.04045?x/12.92:Math.pow((x+0.055)/1.055,2.4)};
+ c.oninput=()=>{const h=c.value,form=new URLSearchParams();
+  ['r','g','b'].forEach((k,n)=>{const v=lin(parseInt(h.substr(1+2*n,2),16)).toFixed(4);form.append(base+'_'+k,v);setShown(base+'_'+k,v)});
+  sendForm(form)};
+ d.appendChild(c);
+ if(ps.every(p=>p.min<0)){const b=document.createElement('button');b.textContent='preset';b.title='the preset\'s colour (all three negative)';
+  b.onclick=()=>{const form=new URLSearchParams();for(const p of ps){form.append(p.name,'-1');setShown(p.name,'-1')}sendForm(form)};d.appendChild(b)}
+ return d}
+function sendForm(form){return fetch('/api/set',{method:'POST',headers:{'X-Wetgraph-Token':token},body:form})}
+// the controls, in groups (in the order they first appear; folding), ungrouped ones first
+function buildParams(params){
+ const ps=document.getElementById('params'),groups=new Map();
+ const byName=new Map(params.map(p=>[p.name,p]));
+ for(const p of params){
+  let box=ps;
+  if(p.group){if(!groups.has(p.group)){const g=document.createElement('details');g.open=true;g.className='group';g.dataset.group=p.group;
+    const sm=document.createElement('summary');sm.textContent=p.group;g.appendChild(sm);groups.set(p.group,g)}box=groups.get(p.group)}
+  const m=/^(.*)_r$/.exec(p.name);
+  if(m&&p.type==='float'&&p.min>=-1&&p.max<=1){const t=['g','b'].map(k=>byName.get(m[1]+'_'+k));
+   if(t.every(x=>x&&x.type==='float'))box.appendChild(triplet(m[1],[p].concat(t)))}
+  box.appendChild(control(p))}
+ for(const g of groups.values())ps.appendChild(g)}
 // the map a figure shows: its own choice, else the page's
 function mapOf(f){const s=f.querySelector('select');return s&&s.value!=='page'?s.value:document.getElementById('cmap').value}
 // draw a figure: its image as it is, or a gray output through a colour map on its canvas
@@ -80,6 +138,12 @@ function figure(o){
  if(o.channels===1){const s=document.createElement('select');for(const v of ['page','gray','viridis','turbo']){const op=document.createElement('option');op.value=v;op.textContent=v==='page'?'map: as the page':v;s.appendChild(op)}s.onchange=()=>paint(f);c.appendChild(s)}
  const v=document.createElement('span');v.className='v';c.appendChild(v);
  f.appendChild(im);f.appendChild(cv);f.appendChild(c);
+ // the zones view of create_masks: what its colours mean (its zones node: 0.75 of red,
+ // yellow, orange or blue over the gray height)
+ if(o.name==='zones'){const lg=document.createElement('div');lg.className='legend';lg.id='zones-legend';
+  for(const [t,col] of [['immersed','#bf0000'],['wet','#bfbf00'],['puddles','#bf6000'],['moist','#0030bf'],['dry: the height, gray','#808080']]){
+   const k=document.createElement('span');const sw=document.createElement('i');sw.style.background=col;k.append(sw,t);lg.appendChild(k)}
+  f.appendChild(lg)}
  if(args.get('big')===o.name)f.classList.add('big');return f}
 function graph(s){
  const b=document.getElementById('graphbox');
@@ -103,8 +167,8 @@ async function step(){
  const stop=+args.get('play');if(stop&&frames>=stop)setPlaying(false);else step()}
 function show(s){
  state=s;document.getElementById('title').textContent=s.file;
- for(const p of s.params){const i=document.getElementById('param-'+p.name);if(!i||i===document.activeElement)continue;if(i.type==='checkbox')i.checked=p.value==='true'||p.value==='1';else if(i.type==='color')i.value=toHex(p.value);else i.value=p.value;if(i.type==='range')i.nextSibling.textContent=' '+p.value}
- if(!built&&s.params){const ps=document.getElementById('params');for(const p of s.params)ps.appendChild(control(p));built=true}
+ for(const p of s.params)setShown(p.name,p.value);
+ if(!built&&s.params){buildParams(s.params);built=true}
  document.getElementById('timebox').hidden=!s.reads_time;
  if(!playing&&document.getElementById('time')!==document.activeElement)showTime(s.time);
  document.getElementById('err').textContent=s.error?'error: '+s.error:'';

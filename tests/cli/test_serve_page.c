@@ -18,6 +18,9 @@
  * `preview` node's within a measured bound (MEAN_BOUND), is not the clear colour, changes with
  * the camera and between the dry and the wet material, and after a parameter change given with
  * ?set= the page says the render is done and the view shows that render's maps and picture.
+ * The controls built from the parameters' UI hints are driven as a person drives them
+ * (tests/cli/page_driver.js, over the DevTools protocol): slider, number box, reset, colour
+ * picker and folding groups set exact values.
  * Fails with a clear message when chromium is not installed (scripts/install-deps.sh installs
  * it) or gives the page no WebGL2 context. chromium
  * runs under `timeout` with a virtual time budget (a harness limit, not a timing assertion).
@@ -596,6 +599,105 @@ static void test_view3d_follows_a_render(void **state)
     stop();
 }
 
+/* ---- controls an artist can use --------------------------------------------------------------- */
+
+static const char hinted[] =
+    "<wetgraph version=\"1\" size=\"16\">\n"
+    "  <param name=\"depth\" type=\"float\" default=\"16\" min=\"0.001\" max=\"4096\" "
+    "soft_min=\"1\" soft_max=\"64\" step=\"0.5\" group=\"Zones\" label=\"Relief depth\" "
+    "description=\"The length the range stands for\"/>\n"
+    "  <param name=\"count\" type=\"int\" default=\"3\" min=\"0\" max=\"10\" step=\"2\" "
+    "group=\"Puddles\"/>\n"
+    "  <param name=\"tint_r\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" group=\"Liquid\"/>\n"
+    "  <param name=\"tint_g\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" group=\"Liquid\"/>\n"
+    "  <param name=\"tint_b\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" group=\"Liquid\"/>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=depth / 4096\"/>\n"
+    "  <output name=\"c\" from=\"u\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
+/* The steps page_driver.js runs in the page: each moves a control as a person does (the events
+ * a drag, a typed number, a click fire) and waits until the session's last render used the
+ * value (the state's --set list), then reads the controls back. */
+static const char hinted_steps[] =
+    "await until(() => document.getElementById('param-depth'), 'the controls');\n"
+    "const i = document.getElementById('param-depth'), b = document.getElementById('num-depth');\n"
+    "const row = document.getElementById('row-depth');\n"
+    "return [i.min, i.max, i.step, b.min, b.max, row.title, row.closest('details').dataset.group,\n"
+    "        [...document.querySelectorAll('details.group > summary')].map(x => x.textContent).join(','),\n"
+    "        document.getElementById('param-count').step];\n"
+    "----\n"
+    "const used = async v => until(async () => (await (await fetch('/api/state')).json()).sets\n"
+    "    .includes(v), v);\n"
+    "window.used = used;\n"
+    "const i = document.getElementById('param-depth');\n"
+    "i.value = '37.5'; i.dispatchEvent(new Event('input'));\n"
+    "await used('depth=37.5');\n"
+    "return document.getElementById('num-depth').value;\n"
+    "----\n"
+    "const b = document.getElementById('num-depth');\n"
+    "b.value = '1000.125'; b.dispatchEvent(new Event('change'));\n"
+    "await window.used('depth=1000.125');\n"
+    "return document.getElementById('param-depth').value;\n"
+    "----\n"
+    "document.getElementById('reset-depth').click();\n"
+    "await window.used('depth=16');\n"
+    "return [document.getElementById('num-depth').value, document.getElementById('param-depth').value];\n"
+    "----\n"
+    "const c = document.getElementById('color-tint');\n"
+    "c.value = '#ff8000'; c.dispatchEvent(new Event('input'));\n"
+    "await window.used('tint_r=1.0000'); await window.used('tint_g=0.2159');\n"
+    "await window.used('tint_b=0.0000');\n"
+    "return document.getElementById('num-tint_g').value;\n"
+    "----\n"
+    "document.querySelector('#rgb-tint button').click();\n"
+    "await window.used('tint_r=-1'); await window.used('tint_g=-1'); await window.used('tint_b=-1');\n"
+    "const g = document.querySelector('details.group');\n"
+    "g.querySelector('summary').click();\n"
+    "return g.open;\n";
+
+/* The controls from the parameters' UI hints, driven in chromium: the slider spans the soft
+ * range with the declared step and sets exact values, the number box takes exact values beyond
+ * the soft range (the slider stays at its end), reset goes back to the default, the three
+ * tint_* floats get one colour picker (linear values from its sRGB) and a button back to the
+ * preset, and the groups fold. Needs Node.js (scripts/install-deps.sh installs it). */
+static void test_param_controls(void **state)
+{
+    (void)state;
+    need_chromium();
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    wgt_write_file(path("g.wetgraph"), hinted);
+    wgt_write_file(path("steps.js"), hinted_steps);
+    int port = start("nobin", NULL);
+    wait_for("watch: waiting", 1);
+    int st = wgt_shell(dir,
+                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
+                       "steps.js profile_driver >driver.out 2>driver.err",
+                       getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("driver.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%s", st, out);
+    static const char *const want[] = {
+        "[\"1\",\"64\",\"0.5\",\"0.001\",\"4096\",\"The length the range stands for\",\"Zones\","
+        "\"Zones,Puddles,Liquid\",\"2\"]",
+        "\"37.5\"",        /* the slider's value, exact, in the number box */
+        "\"64\"",          /* 1000.125 typed: the slider at its end */
+        "[\"16\",\"16\"]", /* reset */
+        "\"0.2159\"",      /* the picker's green, linear */
+        "false",           /* the group folded */
+    };
+    char *line = out;
+    for (size_t i = 0; i < sizeof want / sizeof *want; i++) {
+        char *end = strchr(line, '\n');
+        if (!end) fail_msg("the page driver stopped after %zu steps:\n%s", i, out);
+        *end = '\0';
+        if (strcmp(line, want[i])) fail_msg("step %zu: '%s', expected '%s'", i + 1, line, want[i]);
+        line = end + 1;
+    }
+    free(out);
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
@@ -620,6 +722,7 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_page_false_colour_and_play, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_plays_with_events, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_other_site_cannot_drive, stop_watcher),
+        cmocka_unit_test_teardown(test_param_controls, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_matches_preview, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_follows_a_render, stop_watcher),
     };
