@@ -169,6 +169,11 @@ function show(s){
  state=s;document.getElementById('title').textContent=s.file;
  for(const p of s.params)setShown(p.name,p.value);
  if(!built&&s.params){buildParams(s.params);built=true}
+ // a triplet's picker shows its colour when the three are set (not the preset's)
+ const val=new Map(s.params.map(p=>[p.name,p.value]));
+ for(const c of document.querySelectorAll('input[id^=color-]')){if(c===document.activeElement)continue;
+  const b=c.id.slice(6),v=['r','g','b'].map(k=>+val.get(b+'_'+k));
+  if(v.every(x=>x>=0))c.value=toHex(v.join(' '))}
  document.getElementById('timebox').hidden=!s.reads_time;
  if(!playing&&document.getElementById('time')!==document.activeElement)showTime(s.time);
  document.getElementById('err').textContent=s.error?'error: '+s.error:'';
