@@ -6,7 +6,8 @@
  * /shaders/, compiled in by web/embed.c, looked up by exact address), GET /map/NAME and
  * GET /map/$INPUT (an output's image, or a graph input given as a file, as half floats for the
  * page's 3D view), GET /env/K (environment K's env_prefilter atlas, made once by the watch
- * thread before the first render), GET /api/state (JSON; ?after=V waits
+ * thread before the first render), GET /view.png (the image of the node the page picked with
+ * $view, rendered by the watch thread after each render), GET /api/state (JSON; ?after=V waits
  * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
  * output list by exact name and never used as a path), GET /graph.svg (the request's graph
  * drawn by graphviz, 404 when `dot` is not installed), POST /api/set (parameters, or $time, as
@@ -141,6 +142,13 @@ struct Serve {
     int n_in_spec;
     Output *ins; /* named "$NAME" */
     int n_ins;
+    /* the node whose image the page asked to see ($view; "" none), the graph's node ids (what
+     * $view may name), and that node's last image, under lock */
+    char *view_node;
+    char **node_ids;
+    int n_node_ids;
+    Output view;
+    char *view_error;
     /* the 3D view's environments: their names and files, and their env_prefilter atlases
      * (NULL until the watch thread has made them, once each) */
     Env *envs;
@@ -350,6 +358,13 @@ static void outputs_free(Output *o, int n)
         wg_image_unref(o[i].img);
     }
     free(o);
+}
+
+static void outputs_free_one(Output *o)
+{
+    free(o->name);
+    png_drop(o->png);
+    wg_image_unref(o->img);
 }
 
 static char *nodes_json(const WgGraph *g)
@@ -771,6 +786,18 @@ void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResul
             free(s->dot_text);
             s->dot_text = dot; /* only the watch thread reads it */
         }
+        char **ids = calloc((size_t)wg_graph_node_count(g) + 1, sizeof *ids);
+        int n_ids = 0;
+        for (int i = 0; ids && i < wg_graph_node_count(g); i++)
+            if ((ids[n_ids] = strdup(wg_graph_node_info(g, i)->id))) n_ids++;
+        if (ids) {
+            pthread_mutex_lock(&s->lock);
+            for (int i = 0; i < s->n_node_ids; i++) free(s->node_ids[i]);
+            free(s->node_ids);
+            s->node_ids = ids;
+            s->n_node_ids = n_ids;
+            pthread_mutex_unlock(&s->lock);
+        }
         n_names = wg_graph_param_count(g);
         names = calloc((size_t)n_names + 1, sizeof *names);
         for (int i = 0; names && i < n_names; i++)
@@ -920,7 +947,24 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
         fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->ins[i].version,
                 s->ins[i].channels);
     }
-    fputs("],\"environments\":[", f);
+    fputs("],\"view\":", f);
+    if (s->view_node && s->view_node[0]) {
+        /* asked: the node the page asked for; node: the one whose image (or error) is there */
+        fputs("{\"asked\":", f);
+        cli_json_string(f, s->view_node);
+        fprintf(f, ",\"version\":%llu,\"channels\":%d,\"node\":",
+                (unsigned long long)s->view.version, s->view.channels);
+        cli_json_string(f, s->view.name ? s->view.name : "");
+        fputs(",\"error\":", f);
+        if (s->view_error)
+            cli_json_string(f, s->view_error);
+        else
+            fputs("null", f);
+        fputc('}', f);
+    } else {
+        fputs("null", f);
+    }
+    fputs(",\"environments\":[", f);
     for (int i = 0; i < s->n_envs; i++) {
         fputs(i ? ",{\"name\":" : "{\"name\":", f);
         cli_json_string(f, s->envs[i].name);
@@ -979,6 +1023,61 @@ static enum MHD_Result graph_svg(Serve *s, struct MHD_Connection *c)
                             "default-src 'none'; style-src 'unsafe-inline'");
     enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
     MHD_destroy_response(r);
+    return ok;
+}
+
+char *serve_view_node(Serve *s)
+{
+    pthread_mutex_lock(&s->lock);
+    char *id = s->view_node && s->view_node[0] ? strdup(s->view_node) : NULL;
+    pthread_mutex_unlock(&s->lock);
+    return id;
+}
+
+void serve_publish_view(Serve *s, const char *id, const WgImage *img, WgColorspace cs,
+                        const WgError *err)
+{
+    Output o = {0};
+    char *why = NULL;
+    o.name = strdup(id);
+    if (img) {
+        o.img = wg_image_ref(img);
+        o.channels = img->channels;
+        int side = img->width > img->height ? img->width : img->height;
+        o.png = calloc(1, sizeof *o.png);
+        if (o.png && wg_png_preview(img, (side + PREVIEW_MAX - 1) / PREVIEW_MAX, cs, &o.png->bytes,
+                                    &o.png->size)) {
+            free(o.png);
+            o.png = NULL;
+        }
+        if (o.png) o.png->refs = 1;
+    }
+    if (err) {
+        char buf[2048];
+        wg_error_format(err, buf, sizeof buf);
+        why = strdup(buf);
+    }
+    pthread_mutex_lock(&s->lock);
+    Output old = s->view;
+    o.version = s->view.version + 1;
+    s->view = o;
+    free(s->view_error);
+    s->view_error = why;
+    s->version++; /* the page hears of it as of a render */
+    pthread_cond_broadcast(&s->rendered);
+    pthread_mutex_unlock(&s->lock);
+    outputs_free_one(&old);
+}
+
+static enum MHD_Result view_png(Serve *s, struct MHD_Connection *c)
+{
+    pthread_mutex_lock(&s->lock);
+    if (!s->view.png) {
+        pthread_mutex_unlock(&s->lock);
+        return not_found(c);
+    }
+    enum MHD_Result ok = respond(c, MHD_HTTP_OK, "image/png", s->view.png->bytes, s->view.png->size);
+    pthread_mutex_unlock(&s->lock);
     return ok;
 }
 
@@ -1139,6 +1238,13 @@ static bool change_ok(const Serve *s, const Change *c, char *msg, size_t size)
         snprintf(msg, size, "$time: '%.64s' is not a number", c->value);
         return false;
     }
+    if (!strcmp(c->name, "$view")) {
+        for (int i = 0; i < s->n_node_ids; i++)
+            if (!strcmp(s->node_ids[i], c->value)) return true;
+        if (!c->value[0]) return true; /* none */
+        snprintf(msg, size, "$view: the graph has no node '%.64s'", c->value);
+        return false;
+    }
     if (known_param(s, c->name)) return true;
     snprintf(msg, size, "the graph has no parameter '%.64s'", c->name);
     return false;
@@ -1150,6 +1256,13 @@ static bool queue_change(Serve *s, const Change *c)
     if (!strcmp(c->name, "$time")) {
         wg_parse_number(c->value, &s->q_time);
         s->q_has_time = true;
+        return true;
+    }
+    if (!strcmp(c->name, "$view")) {
+        char *v = strdup(c->value);
+        if (!v) return false;
+        free(s->view_node);
+        s->view_node = v;
         return true;
     }
     for (int i = 0; i < s->n_q; i++)
@@ -1484,6 +1597,7 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
     for (const WgWebFile *w = wg_web_files; w->address; w++)
         if (strcmp(w->address, "/index.html") && !strcmp(url, w->address))
             return respond(c, MHD_HTTP_OK, w->type, w->bytes, w->size);
+    if (!strcmp(url, "/view.png")) return view_png(s, c);
     if (!strncmp(url, "/map/", 5) && url[5]) return pixels(s, c, url + 5, -1);
     if (!strncmp(url, "/env/", 5) && url[5] && strlen(url + 5) <= 4 &&
         strspn(url + 5, "0123456789") == strlen(url + 5))
@@ -1512,6 +1626,11 @@ static void serve_free(Serve *s)
     free(s->param_names);
     outputs_free(s->outs, s->n_outs);
     outputs_free(s->ins, s->n_ins);
+    outputs_free_one(&s->view);
+    free(s->view_node);
+    free(s->view_error);
+    for (int i = 0; i < s->n_node_ids; i++) free(s->node_ids[i]);
+    free(s->node_ids);
     for (int i = 0; s->in_spec && i < s->n_in_spec; i++) free(s->in_spec[i]);
     free(s->in_spec);
     free(s->in_st);

@@ -43,6 +43,13 @@ int serve_view_setup(Serve *s, const char *const *inputs, int n_inputs, const ch
  * engine e: once per environment and session; a file that cannot be read is reported (on
  * stderr and in the state) and not tried again. */
 void serve_prefilter(Serve *s, WgEngine *e);
+/* The node whose image the page asked to see (POST /api/set with $view=ID; $view= with no
+ * value: none), or NULL; the caller frees it. */
+char *serve_view_node(Serve *s);
+/* Publish node id's image img (NULL when it could not be made, err says why), shown at
+ * /view.png; the page hears of it as of a render. */
+void serve_publish_view(Serve *s, const char *id, const WgImage *img, WgColorspace cs,
+                        const WgError *err);
 void serve_stop(Serve *s);
 
 #endif

@@ -380,6 +380,69 @@ static void written_update(Written *w, const Options *o, const WgGraph *g, const
     }
 }
 
+#ifdef WG_HAVE_SERVE
+/* The image of the node the page asked to see: the graph file again with one more output, from
+ * that node (its first port), rendered with the same values, inputs and engine, so that
+ * everything it needs comes from the memory cache; published at /view.png, or why not. */
+static void render_view(const Options *o, WgEngine *e, Serve *serve)
+{
+    char *id = serve_view_node(serve);
+    if (!id) return;
+    static const char name[] = "wetgraph_view";
+    WgError err = {0};
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgResult *res = NULL;
+    char *text = NULL, *xml = NULL;
+    size_t size = 0;
+    FILE *f = fopen(o->file, "rb");
+    int rc = WG_OK;
+    if (f) {
+        if (!fseek(f, 0, SEEK_END) && (size = (size_t)ftell(f)) && !fseek(f, 0, SEEK_SET) &&
+            (text = malloc(size + 1)) && fread(text, 1, size, f) == size)
+            text[size] = '\0';
+        else {
+            free(text);
+            text = NULL;
+        }
+        fclose(f);
+    }
+    char *end = NULL;
+    for (char *at = text; at && (at = strstr(at, "</wetgraph>")); at++) end = at;
+    if (!end) {
+        rc = wg_error_set(&err, WG_ERR_IO, NULL, "%s: cannot read the graph again", o->file);
+    } else if (!(xml = malloc(size + strlen(id) + 64))) {
+        rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+    } else {
+        int n = sprintf(xml, "%.*s<output name=\"%s\" from=\"%s\"/>\n", (int)(end - text), text,
+                        name, id);
+        strcpy(xml + n, end);
+        Options vo = *o;
+        vo.outputs = NULL; /* only the node's image */
+        vo.n_outputs = 0;
+        rc = wg_graph_load_memory(xml, strlen(xml), o->file, &g, &err);
+        if (!rc) rc = build_request(&vo, g, &r, &err);
+        if (!rc) rc = wg_request_add_output(r, name, &err);
+        if (!rc) rc = wg_render(e, r, &res, &err);
+    }
+    int k = -1;
+    for (int i = 0; !rc && i < wg_result_output_count(res); i++)
+        if (!strcmp(wg_result_output_name(res, i), name)) k = i;
+    if (!rc && k < 0) rc = wg_error_set(&err, WG_ERR_USAGE, NULL, "node '%s' made no image", id);
+    if (rc)
+        serve_publish_view(serve, id, NULL, WG_LINEAR, &err);
+    else
+        serve_publish_view(serve, id, wg_result_output_image(res, k),
+                           wg_result_output_colorspace(res, k), NULL);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+    free(xml);
+    free(text);
+    free(id);
+}
+#endif
+
 static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve, int sfd,
                         Written *written)
 {
@@ -461,7 +524,10 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
             cli_warning(wg_result_warning(res, i), NULL);
 #ifdef WG_HAVE_SERVE
     /* the page first: the files follow (a failure to write them is published then) */
-    if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
+    if (serve) {
+        serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
+        render_view(o, e, serve);
+    }
 #endif
     bool layered = o->layered != NULL;
     bool *kept = calloc((size_t)wg_result_output_count(res) + 1, sizeof *kept);

@@ -145,13 +145,47 @@ function figure(o){
    const k=document.createElement('span');const sw=document.createElement('i');sw.style.background=col;k.append(sw,t);lg.appendChild(k)}
   f.appendChild(lg)}
  if(args.get('big')===o.name)f.classList.add('big');return f}
+// The graph: dot's picture, put in the page as SVG so that its nodes can be clicked (parsed, not
+// run: scripts, foreign objects, links and event attributes are dropped), with a link to it at
+// full size; without a picture, the list of the nodes. A click on a node (a box of the picture,
+// an item of the list) asks the server for that node's image ($view), shown as the first map.
+async function pick(id){
+ let v=version;await send('$view',id);
+ // until the state has that node's image (or why not), or, for none, no view
+ for(;;){await rendered(v);v=version;const w=state.view;if(id?w&&w.asked===id&&w.node===id:!w)break}}
 function graph(s){
  const b=document.getElementById('graphbox');
- if(s.svg!==null){if(svgv!==s.svg){b.innerHTML='';const l=document.createElement('a');l.href='/graph.svg?v='+s.svg;l.target='_blank';l.title='open the picture at full size';const im=document.createElement('img');im.id='graph';im.alt='the graph';im.src='/graph.svg?v='+s.svg;l.appendChild(im);b.appendChild(l);svgv=s.svg}return}
+ if(s.svg!==null){if(svgv!==s.svg){svgv=s.svg;const v=s.svg;
+   fetch('/graph.svg?v='+v).then(r=>r.text()).then(t=>{if(svgv!==v)return;
+    const doc=new DOMParser().parseFromString(t,'image/svg+xml'),svg=doc.documentElement;
+    if(svg.nodeName!=='svg')return;
+    for(const e of [...svg.querySelectorAll('script,foreignObject,iframe,object,embed')])e.remove();
+    for(const e of [...svg.querySelectorAll('a')])e.replaceWith(...e.childNodes);
+    for(const e of [svg,...svg.querySelectorAll('*')])for(const at of [...e.attributes])if(/^on|href$/i.test(at.name))e.removeAttribute(at.name);
+    const el=document.importNode(svg,true);el.id='graph';el.removeAttribute('width');el.removeAttribute('height');
+    for(const g of el.querySelectorAll('g.node')){const t=g.querySelector('title'),m=t&&/^n:(.+)$/.exec(t.textContent);
+     if(!m)continue;g.classList.add('pick');g.dataset.node=m[1];g.addEventListener('click',()=>pick(m[1]))}
+    const l=document.createElement('a');l.href='/graph.svg?v='+v;l.target='_blank';l.textContent='open the picture at full size';
+    b.innerHTML='';b.append(el,l)})}return}
  svgv=null;const ms={};for(const n of s.times)if(n.computed)ms[n.id]=n.ms;
  const ul=document.createElement('ul');ul.id='nodes';
- for(const n of s.nodes){const li=document.createElement('li');li.textContent=n.id+' ('+n.type+')'+(n.id in ms?' '+ms[n.id].toFixed(2)+' ms':'');ul.appendChild(li)}
+ for(const n of s.nodes){const li=document.createElement('li');li.textContent=n.id+' ('+n.type+')'+(n.id in ms?' '+ms[n.id].toFixed(2)+' ms':'');
+  li.dataset.node=n.id;li.className='pick';li.onclick=()=>pick(n.id);ul.appendChild(li)}
  b.innerHTML='';b.appendChild(ul)}
+// the image of the node picked in the graph ($view), first among the maps, with a button that
+// closes it
+let viewShown=null;
+function nodeView(s){
+ const m=document.getElementById('main'),v=s.view;let f=document.getElementById('out-$view');
+ if(!v){if(f)f.remove();viewShown=null;return}
+ if(!v.node)return; // asked for, not made yet
+ if(f&&(f.dataset.node!==v.node||+f.dataset.channels!==v.channels)){f.remove();f=null}
+ if(!f){f=figure({name:'$view',channels:v.channels});f.dataset.node=v.node;
+  const cap=f.querySelector('figcaption span');cap.textContent='node '+v.node;
+  const x=document.createElement('button');x.textContent='close';x.onclick=()=>pick('');f.querySelector('figcaption').appendChild(x);
+  const after=document.getElementById('view3d');m.insertBefore(f,after?after.nextSibling:m.firstChild);viewShown=null}
+ f.dataset.error=v.error||'';f.title=v.error||'';
+ if(viewShown!==v.version&&!v.error){f.querySelector('img').src='/view.png?v='+v.version;viewShown=v.version}}
 // $time: play renders frame after frame, the next asked for when the last has finished
 let playing=false,frames=0,lastFrame=0;const waiters=[];
 // without /events, /api/state?after=V answers when a render newer than V is published
@@ -181,6 +215,7 @@ function show(s){
  const t=document.getElementById('times');t.innerHTML='';
  for(const n of s.times){const r=t.insertRow();r.insertCell().textContent=n.id;r.insertCell().textContent=n.type;r.insertCell().textContent=n.computed?n.ms.toFixed(2)+' ms':'cached'}
  graph(s);
+ nodeView(s);
  // the 3D view, for a graph that makes a material (a base colour)
  if(!view3d.started()&&s.outputs.some(o=>/^(under_)?basecolor$/.test(o.name)))view3d.start(document.getElementById('main'));
  viewDone=view3d.started()?view3d.update(s):null;

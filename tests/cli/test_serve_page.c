@@ -169,8 +169,10 @@ static void test_serve_page(void **state)
                               "data-loaded="))
         fail_msg("the page did not load the image of output 'c' (%s)", path("dom.html"));
     /* no dot: the graph is a list of its nodes */
-    assert_int_equal(count_in("dom.html", "<ul id=\"nodes\"><li>n (noise)"), 1);
-    assert_int_equal(count_in("dom.html", "<li>mix (blend)"), 1);
+    assert_int_equal(count_in("dom.html", "<ul id=\"nodes\"><li data-node=\"n\" class=\"pick\">n "
+                                          "(noise)"),
+                     1);
+    assert_int_equal(count_in("dom.html", "<li data-node=\"mix\" class=\"pick\">mix (blend)"), 1);
     assert_int_equal(count_in("dom.html", "<div id=\"timebox\" hidden=\"\">"), 1);
     wait_for("watch: waiting", 2); /* the render of ?set=level=0.6 */
     assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.6 -o cli -q", bin), 0);
@@ -209,9 +211,9 @@ static void test_serve_page_false_colour_and_play(void **state)
     int port = start("bin", "shape=shape_s.png");
     wait_for("watch: waiting", 1);
     dump_dom(port, "?cmap=turbo&play=3&big=height&events=0");
-    /* the picture dot drew */
-    assert_int_equal(
-        count_in("dom.html", "<img id=\"graph\" alt=\"the graph\" src=\"/graph.svg?v="), 1);
+    /* the picture dot drew, in the page, and a link to it */
+    assert_int_equal(count_in("dom.html", "id=\"graph\""), 1);
+    assert_int_equal(count_in("dom.html", ">stand-in</text></svg><a href=\"/graph.svg?v="), 1);
     /* the gray output through turbo: the pixel read back from the canvas is coloured */
     if (strcmp(attr("<figure id=\"out-height\"", "data-map"), "turbo"))
         fail_msg("the output is not shown through turbo (%s)", path("dom.html"));
@@ -698,6 +700,110 @@ static void test_param_controls(void **state)
     stop();
 }
 
+/* ---- any node's image ------------------------------------------------------------------------- */
+
+/* Steps for page_driver.js: click the node `node` (selector: the list item or the picture's box)
+ * and return the caption, the channels and the gray values of the image the page then shows,
+ * and whether anything of the picture's own scripts ran. */
+static const char node_steps[] =
+    "await until(() => document.querySelector(SELECTOR), 'the graph');\n"
+    "document.querySelector(SELECTOR).dispatchEvent(new MouseEvent('click', {bubbles: true}));\n"
+    "await until(() => { const f = document.getElementById('out-$view');\n"
+    "  return f && f.dataset.node === NODE && f.dataset.loaded; }, 'the node view');\n"
+    "const f = document.getElementById('out-$view'), im = f.querySelector('img');\n"
+    "const c = document.createElement('canvas'); c.width = im.naturalWidth; c.height = im.naturalHeight;\n"
+    "const x = c.getContext('2d'); x.drawImage(im, 0, 0);\n"
+    "const d = x.getImageData(0, 0, c.width, c.height).data, g = [];\n"
+    "for (let k = 0; k < d.length; k += 4) g.push(d[k]);\n"
+    "return [f.querySelector('figcaption span').textContent, f.dataset.channels, c.width,\n"
+    "        document.title, !!document.querySelector('#graph [onclick], #graph script'), g];\n";
+
+/* Run node_steps on the page for node `node` found by selector; check the caption and that the
+ * gray values shown are those of the 8-bit PNG `want` (a file of the test's folder). */
+static void check_node_view(int port, const char *selector, const char *node, const char *want)
+{
+    char steps[4096], *at;
+    snprintf(steps, sizeof steps, "%s", node_steps);
+    while ((at = strstr(steps, "SELECTOR")) || (at = strstr(steps, "NODE"))) {
+        bool sel = !strncmp(at, "SELECTOR", 8);
+        char rest[4096], q[128];
+        snprintf(rest, sizeof rest, "%s", at + (sel ? 8 : 4));
+        snprintf(q, sizeof q, "'%s'", sel ? selector : node);
+        snprintf(at, sizeof steps - (size_t)(at - steps), "%s%s", q, rest);
+    }
+    wgt_write_file(path("node_steps.js"), steps);
+    int st = wgt_shell(dir,
+                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
+                       "node_steps.js profile_node >node.out 2>node.err",
+                       getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("node.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
+    char head[256];
+    snprintf(head, sizeof head, "[\"node %s\",\"1\",64,\"wetgraph watch\",false,[", node);
+    if (strncmp(out, head, strlen(head))) fail_msg("the node view: %.300s, expected %s...", out, head);
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path(want), 1, WG_LINEAR, &img, &err)) fail_msg("%s", err.message);
+    char *p = out + strlen(head);
+    int worst = 0;
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < 64; x++) {
+            char *end;
+            long v = strtol(p, &end, 10);
+            if (end == p) fail_msg("the node view has fewer than 64 x 64 values");
+            p = end + 1;
+            int d = abs((int)v - (int)lrintf(wg_image_row(img, y)[x] * 255));
+            worst = d > worst ? d : worst;
+        }
+    wg_image_unref(img);
+    free(out);
+    /* the preview's 8 bits against the file's: the same rounding of the same image */
+    if (worst > 1) fail_msg("the node view differs from %s by up to %d levels", want, worst);
+}
+
+/* A click on a node in the graph shows that node's image: on the list of nodes (no dot), the
+ * noise node `n`, which no output shows, equal to the file `wetgraph render` writes for an
+ * output from `n`; on dot's picture (a stand-in dot that draws the SVG dot draws, plus a script
+ * and an event attribute, which must not run), the node `mix`, equal to output c's file. */
+static void test_node_view(void **state)
+{
+    (void)state;
+    const char *bin = need_chromium();
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    char g_n[2048];
+    snprintf(g_n, sizeof g_n, "%s", graph);
+    char *end = strstr(g_n, "</wetgraph>");
+    snprintf(end, sizeof g_n - (size_t)(end - g_n),
+             "  <output name=\"n\" from=\"n\" format=\"png\"/>\n</wetgraph>\n");
+    wgt_write_file(path("gn.wetgraph"), g_n);
+    assert_int_equal(wgt_shell(dir, "'%s' render gn.wetgraph -o cli -q", bin), 0);
+    wgt_write_file(path("g.wetgraph"), graph);
+    int port = start("nobin", NULL);
+    wait_for("watch: waiting", 1);
+    check_node_view(port, "#nodes li[data-node=n]", "n", "cli/gn_n.png");
+    stop();
+    /* dot's picture, as dot draws it: a group of class node titled n:ID per node */
+    mkdir(path("svgbin"), 0777);
+    wgt_write_file(path("svgbin/dot"),
+                   "#!/bin/sh\n"
+                   "PATH=/usr/bin:/bin\n"
+                   "cat >/dev/null\n"
+                   "echo '<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"200pt\" "
+                   "height=\"60pt\" viewBox=\"0 0 200 60\"><g id=\"graph0\" class=\"graph\">"
+                   "<g id=\"node1\" class=\"node\"><title>n:mix</title><polygon fill=\"none\" "
+                   "stroke=\"black\" points=\"0,0 100,0 100,40 0,40\"/><text x=\"10\" "
+                   "y=\"24\">mix</text></g><script>document.title=\"ran\"</script>"
+                   "<g id=\"node2\" class=\"node\" onclick=\"document.title=1\"><title>n:u</title>"
+                   "<ellipse cx=\"150\" cy=\"20\" rx=\"40\" ry=\"18\"/></g></g></svg>'\n");
+    chmod(path("svgbin/dot"), 0755);
+    port = start("svgbin", NULL);
+    wait_for("watch: waiting", 1);
+    check_node_view(port, "#graph g.node[data-node=mix]", "mix", "o/g_c.png");
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
@@ -723,6 +829,7 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_page_plays_with_events, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_other_site_cannot_drive, stop_watcher),
         cmocka_unit_test_teardown(test_param_controls, stop_watcher),
+        cmocka_unit_test_teardown(test_node_view, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_matches_preview, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_follows_a_render, stop_watcher),
     };
