@@ -429,6 +429,7 @@ static void test_serve_session(void **state)
     free(r.head);
     assert_int_equal(set_status("%24time=soon"), 400);
     assert_int_equal(set_status("%24time=1e999"), 400);
+    assert_int_equal(set_status("%24view=nope"), 400); /* $view names a node of the graph */
     /* four renders with other values, one picture: dot runs when the graph changes */
     assert_int_equal(count_in("dot.args", "-Tsvg\n"), 1);
 
