@@ -537,7 +537,7 @@ static uint16_t to_half(float f)
     uint16_t sign = (uint16_t)((x >> 16) & 0x8000);
     x &= 0x7fffffff;
     if (x >= 0x477fe000) return sign | 0x7bff; /* 65504 and above (65504 rounds to itself) */
-    if (x < 0x38800000) {                       /* below 2^-14: a subnormal half, or 0 */
+    if (x < 0x38800000) {                      /* below 2^-14: a subnormal half, or 0 */
         float a;
         memcpy(&a, &x, sizeof a);
         return sign | (uint16_t)lrintf(a * 16777216.0f); /* units of 2^-24 */
@@ -568,7 +568,8 @@ static uint16_t *half_pixels(const WgImage *img, int k, int *w, int *h, size_t *
                         sum += row[(size_t)i * (size_t)ch + (size_t)c];
                 }
                 uint16_t v = to_half((float)(sum / n));
-                unsigned char *b = (unsigned char *)&out[((size_t)y * (size_t)*w + (size_t)x) * ch + c];
+                unsigned char *b =
+                    (unsigned char *)&out[((size_t)y * (size_t)*w + (size_t)x) * ch + c];
                 b[0] = (unsigned char)(v & 0xff); /* little-endian whatever the machine */
                 b[1] = (unsigned char)(v >> 8);
             }
@@ -587,7 +588,8 @@ static enum MHD_Result pixels(Serve *s, struct MHD_Connection *c, const char *na
         if (env < s->n_envs && s->envs[env].atlas) img = wg_image_ref(s->envs[env].atlas);
     } else {
         for (int i = 0; !img && i < s->n_outs; i++)
-            if (!strcmp(s->outs[i].name, name) && s->outs[i].img) img = wg_image_ref(s->outs[i].img);
+            if (!strcmp(s->outs[i].name, name) && s->outs[i].img)
+                img = wg_image_ref(s->outs[i].img);
         for (int i = 0; !img && i < s->n_ins; i++)
             if (!strcmp(s->ins[i].name, name) && s->ins[i].img) img = wg_image_ref(s->ins[i].img);
     }
@@ -655,9 +657,12 @@ static const char prefilter_xml[] =
 static const char sky_xml[] =
     "<wetgraph version=\"1\" size=\"512\">\n"
     "  <node id=\"sky\" type=\"pixel\" kind=\"color\" expr=\"rgb("
-    "(v &lt; 0.5 ? 0.25 + 1.3 * v : 0.22) + 60 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; 0.012),"
-    " (v &lt; 0.5 ? 0.45 + 0.9 * v : 0.2) + 58 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; 0.012),"
-    " (v &lt; 0.5 ? 1.0 - 0.1 * v : 0.16) + 52 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; 0.012))\"/>\n"
+    "(v &lt; 0.5 ? 0.25 + 1.3 * v : 0.22) + 60 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; "
+    "0.012),"
+    " (v &lt; 0.5 ? 0.45 + 0.9 * v : 0.2) + 58 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; "
+    "0.012),"
+    " (v &lt; 0.5 ? 1.0 - 0.1 * v : 0.16) + 52 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; "
+    "0.012))\"/>\n"
     "  <node id=\"atlas\" type=\"env_prefilter\"><in name=\"environment\" from=\"sky\"/></node>\n"
     "  <output name=\"atlas\" from=\"atlas\" format=\"exr32\"/>\n"
     "</wetgraph>\n";
@@ -669,7 +674,8 @@ static int prefilter(WgEngine *e, const char *path, WgImage **atlas, WgError *er
     WgRequest *r = NULL;
     WgResult *res = NULL;
     int rc = wg_graph_load_memory(xml, strlen(xml), "environment.wetgraph", &g, err);
-    if (!rc && !(r = wg_request_new(g))) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    if (!rc && !(r = wg_request_new(g)))
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     if (!rc && path) rc = wg_request_set_input_file(r, "environment", path, err);
     if (!rc) rc = wg_render(e, r, &res, err);
     if (!rc) *atlas = wg_image_ref(wg_result_output_image(res, 0));
@@ -719,7 +725,8 @@ static void read_inputs(Serve *s, const WgGraph *g)
         const WgGraphInputInfo *in = NULL;
         for (int k = 0; k < wg_graph_input_count(g); k++) {
             const WgGraphInputInfo *x = wg_graph_input_info(g, k);
-            if (strlen(x->name) == (size_t)(eq - spec) && !strncmp(x->name, spec, eq - spec)) in = x;
+            if (strlen(x->name) == (size_t)(eq - spec) && !strncmp(x->name, spec, eq - spec))
+                in = x;
         }
         if (!in || !strcmp(in->name, "environment")) continue;
         char name[MAX_NAME + 2];
@@ -952,8 +959,9 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
         /* asked: the node the page asked for; node: the one whose image (or error) is there */
         fputs("{\"asked\":", f);
         cli_json_string(f, s->view_node);
-        fprintf(f, ",\"version\":%llu,\"channels\":%d,\"node\":",
-                (unsigned long long)s->view.version, s->view.channels);
+        fprintf(f,
+                ",\"version\":%llu,\"channels\":%d,\"node\":", (unsigned long long)s->view.version,
+                s->view.channels);
         cli_json_string(f, s->view.name ? s->view.name : "");
         fputs(",\"error\":", f);
         if (s->view_error)
@@ -1076,7 +1084,8 @@ static enum MHD_Result view_png(Serve *s, struct MHD_Connection *c)
         pthread_mutex_unlock(&s->lock);
         return not_found(c);
     }
-    enum MHD_Result ok = respond(c, MHD_HTTP_OK, "image/png", s->view.png->bytes, s->view.png->size);
+    enum MHD_Result ok =
+        respond(c, MHD_HTTP_OK, "image/png", s->view.png->bytes, s->view.png->size);
     pthread_mutex_unlock(&s->lock);
     return ok;
 }

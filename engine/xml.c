@@ -272,11 +272,11 @@ static int parse_hints(Doc *d, xmlNodePtr x, ParamDef *p, const char *soft_min,
         wg__number_text(v.num, num, sizeof num);
         if (i < 2 && ((p->info.has_min && v.num < p->info.min) ||
                       (p->info.has_max && v.num > p->info.max))) {
-            wg__number_text(p->info.has_min && v.num < p->info.min ? p->info.min : p->info.max,
-                            lim, sizeof lim);
+            wg__number_text(p->info.has_min && v.num < p->info.min ? p->info.min : p->info.max, lim,
+                            sizeof lim);
             return wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line, 0,
-                                   "%s %s of parameter '%s' is outside its range (%s %s)",
-                                   names[i], num, p->info.name,
+                                   "%s %s of parameter '%s' is outside its range (%s %s)", names[i],
+                                   num, p->info.name,
                                    p->info.has_min && v.num < p->info.min ? "min" : "max", lim);
         }
         if (i == 2 && !(v.num > 0 && (p->info.type == WG_PARAM_FLOAT_T || v.num == floor(v.num))))
@@ -300,10 +300,9 @@ static int parse_hints(Doc *d, xmlNodePtr x, ParamDef *p, const char *soft_min,
 
 static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
 {
-    static const char *const allowed[] = {"name",     "type",     "default", "min",
-                                          "max",      "label",    "values",  "soft_min",
-                                          "soft_max", "step",     "group",   "description",
-                                          NULL};
+    static const char *const allowed[] = {"name",  "type",        "default",  "min",      "max",
+                                          "label", "values",      "soft_min", "soft_max", "step",
+                                          "group", "description", NULL};
     int line = line_of(x);
     int rc = check_attrs(d, x, allowed);
     if (rc) return rc;

@@ -12,8 +12,8 @@ extern "C" {
 #endif
 
 typedef struct {
-    const char *address; /* "/page.js": the path it is served at */
-    const char *type;    /* its Content-Type */
+    const char *address;        /* "/page.js": the path it is served at */
+    const char *type;           /* its Content-Type */
     const unsigned char *bytes; /* followed by a NUL, not counted in size */
     size_t size;
 } WgWebFile;

@@ -747,7 +747,8 @@ static void test_serve_refuses_other_sites(void **state)
     /* reading from another site's page (not a navigation) is refused too: the state, the 3D
      * view's maps and environments, and the page's files */
     Reply r;
-    const char *reads[] = {"/api/state", "/map/c", "/env/0", "/page.js", "/shaders/wet_layered.frag"};
+    const char *reads[] = {"/api/state", "/map/c", "/env/0", "/page.js",
+                           "/shaders/wet_layered.frag"};
     for (size_t i = 0; i < sizeof reads / sizeof *reads; i++) {
         r = answer(request_full("GET", reads[i], host(),
                                 "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: cors\r\n", NULL),

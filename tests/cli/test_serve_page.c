@@ -424,9 +424,16 @@ static int start_lookdev(void)
     int port = wgt_free_port();
     char spec[64];
     snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
-    const char *args[] = {"watch", "lookdev.wetgraph", "-o", "o", "--serve", spec,
-                          "--input", in[0], "--input", in[1], "--input", in[2],
-                          "--input", in[3], "--input", in[4], "--input", in[5], NULL};
+    const char *args[] = {"watch",   "lookdev.wetgraph",
+                          "-o",      "o",
+                          "--serve", spec,
+                          "--input", in[0],
+                          "--input", in[1],
+                          "--input", in[2],
+                          "--input", in[3],
+                          "--input", in[4],
+                          "--input", in[5],
+                          NULL};
     watcher = wgt_spawn(dir, "wout", "werr", path("nobin"), args);
     return port;
 }
@@ -441,8 +448,8 @@ static void view_ready(void)
                  "): the 3D view cannot be tested (%s)",
                  path("dom.html"));
     if (strcmp(st, "ready"))
-        fail_msg("the 3D view is '%s': %s (%s)", st,
-                 attr("<figure id=\"view3d\"", "data-error"), path("dom.html"));
+        fail_msg("the 3D view is '%s': %s (%s)", st, attr("<figure id=\"view3d\"", "data-error"),
+                 path("dom.html"));
 }
 
 /* The N x N picture the page read back (data-probe, hex RGB from the top row) into px. */
@@ -452,11 +459,13 @@ static void probe(unsigned char *px)
     char *dom = wgt_read_file(path("dom.html"), &size);
     char *at = strstr(dom, "<figure id=\"view3d\"");
     char *p = at ? strstr(at, " data-probe=\"") : NULL;
-    if (!p || p > strchr(at, '>')) fail_msg("the 3D view read no picture back (%s)", path("dom.html"));
+    if (!p || p > strchr(at, '>'))
+        fail_msg("the 3D view read no picture back (%s)", path("dom.html"));
     p += strlen(" data-probe=\"");
     for (int i = 0; i < N * N * 3; i++) {
         unsigned v;
-        if (sscanf(p + 2 * i, "%2x", &v) != 1) fail_msg("data-probe is shorter than %d values", N * N * 3);
+        if (sscanf(p + 2 * i, "%2x", &v) != 1)
+            fail_msg("data-probe is shorter than %d values", N * N * 3);
         px[i] = (unsigned char)v;
     }
     free(dom);
@@ -499,7 +508,8 @@ static void cpu_view(unsigned char *px)
     for (int y = 0; y < N; y++)
         for (int x = 0; x < N; x++)
             for (int c = 0; c < 3; c++)
-                px[3 * (y * N + x) + c] = (unsigned char)lrintf(wg_image_row(img, y)[4 * x + c] * 255);
+                px[3 * (y * N + x) + c] =
+                    (unsigned char)lrintf(wg_image_row(img, y)[4 * x + c] * 255);
     wg_image_unref(img);
 }
 
@@ -533,8 +543,10 @@ static void test_view3d_matches_preview(void **state)
     /* not the clear colour: the material and the environment are drawn */
     int clear = 0;
     for (int i = 0; i < N * N; i++)
-        clear += abs(gpu[3 * i] - 18) <= 1 && abs(gpu[3 * i + 1] - 18) <= 1 && abs(gpu[3 * i + 2] - 20) <= 1;
-    if (clear > N * N / 100) fail_msg("%d of %d pixels of the 3D view are the clear colour", clear, N * N);
+        clear += abs(gpu[3 * i] - 18) <= 1 && abs(gpu[3 * i + 1] - 18) <= 1 &&
+                 abs(gpu[3 * i + 2] - 20) <= 1;
+    if (clear > N * N / 100)
+        fail_msg("%d of %d pixels of the 3D view are the clear colour", clear, N * N);
     save_ppm("view_gpu.ppm", gpu);
     save_ppm("view_cpu.ppm", cpu);
     double far, mean = mean_diff(gpu, cpu, &far);
@@ -601,7 +613,8 @@ static void test_view3d_follows_a_render(void **state)
     stop();
 }
 
-/* ---- controls an artist can use --------------------------------------------------------------- */
+/* ---- controls an artist can use ---------------------------------------------------------------
+ */
 
 static const char hinted[] =
     "<wetgraph version=\"1\" size=\"16\">\n"
@@ -610,9 +623,12 @@ static const char hinted[] =
     "description=\"The length the range stands for\"/>\n"
     "  <param name=\"count\" type=\"int\" default=\"3\" min=\"0\" max=\"10\" step=\"2\" "
     "group=\"Puddles\"/>\n"
-    "  <param name=\"tint_r\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" group=\"Liquid\"/>\n"
-    "  <param name=\"tint_g\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" group=\"Liquid\"/>\n"
-    "  <param name=\"tint_b\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" group=\"Liquid\"/>\n"
+    "  <param name=\"tint_r\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" "
+    "group=\"Liquid\"/>\n"
+    "  <param name=\"tint_g\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" "
+    "group=\"Liquid\"/>\n"
+    "  <param name=\"tint_b\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" "
+    "group=\"Liquid\"/>\n"
     "  <node id=\"u\" type=\"uniform\" value=\"=depth / 4096\"/>\n"
     "  <output name=\"c\" from=\"u\" format=\"png\"/>\n"
     "</wetgraph>\n";
@@ -625,7 +641,8 @@ static const char hinted_steps[] =
     "const i = document.getElementById('param-depth'), b = document.getElementById('num-depth');\n"
     "const row = document.getElementById('row-depth');\n"
     "return [i.min, i.max, i.step, b.min, b.max, row.title, row.closest('details').dataset.group,\n"
-    "        [...document.querySelectorAll('details.group > summary')].map(x => x.textContent).join(','),\n"
+    "        [...document.querySelectorAll('details.group > summary')].map(x => "
+    "x.textContent).join(','),\n"
     "        document.getElementById('param-count').step];\n"
     "----\n"
     "const used = async v => until(async () => (await (await fetch('/api/state')).json()).sets\n"
@@ -643,7 +660,8 @@ static const char hinted_steps[] =
     "----\n"
     "document.getElementById('reset-depth').click();\n"
     "await window.used('depth=16');\n"
-    "return [document.getElementById('num-depth').value, document.getElementById('param-depth').value];\n"
+    "return [document.getElementById('num-depth').value, "
+    "document.getElementById('param-depth').value];\n"
     "----\n"
     "const c = document.getElementById('color-tint');\n"
     "c.value = '#ff8000'; c.dispatchEvent(new Event('input'));\n"
@@ -652,7 +670,8 @@ static const char hinted_steps[] =
     "return document.getElementById('num-tint_g').value;\n"
     "----\n"
     "document.querySelector('#rgb-tint button').click();\n"
-    "await window.used('tint_r=-1'); await window.used('tint_g=-1'); await window.used('tint_b=-1');\n"
+    "await window.used('tint_r=-1'); await window.used('tint_g=-1'); await "
+    "window.used('tint_b=-1');\n"
     "const g = document.querySelector('details.group');\n"
     "g.querySelector('summary').click();\n"
     "return g.open;\n";
@@ -700,7 +719,8 @@ static void test_param_controls(void **state)
     stop();
 }
 
-/* ---- any node's image ------------------------------------------------------------------------- */
+/* ---- any node's image -------------------------------------------------------------------------
+ */
 
 /* Steps for page_driver.js: click the node `node` (selector: the list item or the picture's box)
  * and return the caption, the channels and the gray values of the image the page then shows,
@@ -711,7 +731,8 @@ static const char node_steps[] =
     "await until(() => { const f = document.getElementById('out-$view');\n"
     "  return f && f.dataset.node === NODE && f.dataset.loaded; }, 'the node view');\n"
     "const f = document.getElementById('out-$view'), im = f.querySelector('img');\n"
-    "const c = document.createElement('canvas'); c.width = im.naturalWidth; c.height = im.naturalHeight;\n"
+    "const c = document.createElement('canvas'); c.width = im.naturalWidth; c.height = "
+    "im.naturalHeight;\n"
     "const x = c.getContext('2d'); x.drawImage(im, 0, 0);\n"
     "const d = x.getImageData(0, 0, c.width, c.height).data, g = [];\n"
     "for (let k = 0; k < d.length; k += 4) g.push(d[k]);\n"
@@ -741,7 +762,8 @@ static void check_node_view(int port, const char *selector, const char *node, co
     if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
     char head[256];
     snprintf(head, sizeof head, "[\"node %s\",\"1\",64,\"wetgraph watch\",false,[", node);
-    if (strncmp(out, head, strlen(head))) fail_msg("the node view: %.300s, expected %s...", out, head);
+    if (strncmp(out, head, strlen(head)))
+        fail_msg("the node view: %.300s, expected %s...", out, head);
     WgImage *img = NULL;
     WgError err = {0};
     if (wg_image_read(path(want), 1, WG_LINEAR, &img, &err)) fail_msg("%s", err.message);
