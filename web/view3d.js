@@ -26,7 +26,7 @@
 // graph renders at its own size, else $height),
 // and height_scale, the liquid's tint, absorption depth and index come from the graph's
 // height_scale, liquid, tint_r/g/b and absorption_depth parameters as in wet_preview (the
-// liquid presets below are that file's).
+// liquid presets below are that file's, which tests/cli/presets_match.js checks).
 //
 // Controls: drag to orbit (elevation 1-90 degrees), the wheel to zoom, shift-drag (or drag
 // with the right button) to turn the environment; the split slider puts the dry material left
