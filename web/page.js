@@ -219,6 +219,9 @@ function show(s){
  // the 3D view, for a graph that makes a material (a base colour)
  if(!view3d.started()&&s.outputs.some(o=>/^(under_)?basecolor$/.test(o.name)))view3d.start(document.getElementById('main'));
  viewDone=view3d.started()?view3d.update(s):null;
+ // the real-time foam, for a graph that bakes foam.frag's texture (maps) beside its foam
+ if(!foamView.started()&&s.outputs.some(o=>o.name==='maps')&&s.outputs.some(o=>o.name==='foam'))foamView.start(document.getElementById('main'));
+ if(foamView.started()){const f=foamView.update(s);viewDone=Promise.all([viewDone,f])}
  const m=document.getElementById('main');
  for(const o of s.outputs){let f=document.getElementById('out-'+o.name);if(!f){f=figure(o);m.appendChild(f)}
   if(o.version!==version)f.querySelector('img').src='/out/'+encodeURIComponent(o.name)+'.png?v='+o.version}

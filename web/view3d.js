@@ -4,8 +4,7 @@
 // `preview` node's camera (elevation and azimuth in degrees, zoom 1 showing the whole tile from
 // straight above, a 35 degree vertical field of view, the tile 2 x 2 with tiling 2), in a WebGL2
 // canvas. The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes only what
-// the language needs: the version line (moved to the first line, with float precision), the uniforms' initial values
-// (not allowed in ES: the page sets them itself after linking, from the same text), and main,
+// the language needs (web/glsl.js: the version line, the uniforms' initial values), and main,
 // renamed, called by a main that adds what the preview node does after the shader: Narkowicz's
 // ACES fit and sRGB encoding. Directions off the tile show the environment (the prefiltered
 // level of roughness 0, as the preview node's background).
@@ -80,16 +79,9 @@ const view3d = (function () {
 
   // ---- the shader, made GLSL ES 3.00 -------------------------------------------------------
   function adapt(src) {
-    const lines = src.split('\n');
-    if (!/^#version 330/.test(lines.find(l => l.startsWith('#version')) || ''))
-      throw new Error('wet_layered.frag: expected #version 330 core');
-    // ES wants the version on the first line, before the file's opening comment
-    let out = '#version 300 es\n' + src.replace(/^#version 330 core/m,
-      'precision highp float;\nprecision highp int;\nprecision highp sampler2D;');
-    out = out.replace(/^(uniform\s+(\w+)\s+(\w+))\s*=\s*([^;]+);/gm, (all, decl, type, name, v) => {
-      uniformDefaults.push([type, name, v.trim()]);
-      return decl + ';';
-    });
+    const es = wgGlslEs(src, 'wet_layered.frag');
+    uniformDefaults.push(...es.defaults);
+    let out = es.source;
     if (!/\bvoid main\(\)/.test(out)) throw new Error('wet_layered.frag: no main()');
     out = out.replace(/\bvoid main\(\)/, 'void layered_main()');
     return out + `
@@ -179,40 +171,8 @@ void main()
     return v;
   }
 
-  // a GLSL initial value (a number, true/false or a vecN(...) of numbers) set on the program
-  function setDefault(type, name, text) {
-    const loc = gl.getUniformLocation(prog, name);
-    if (!loc) return;
-    const inner = text.replace(/^\w+\s*\(/, '').replace(/\)\s*$/, ''); // vec3(...) -> ...
-    const nums = (inner.match(/-?[0-9.]+(?:e-?[0-9]+)?|true|false/g) || [])
-      .map(x => x === 'true' ? 1 : x === 'false' ? 0 : +x);
-    if (type === 'float') gl.uniform1f(loc, nums[0]);
-    else if (type === 'int' || type === 'bool') gl.uniform1i(loc, nums[0]);
-    else if (type === 'vec3') gl.uniform3f(loc, nums[0], nums.length > 1 ? nums[1] : nums[0],
-      nums.length > 2 ? nums[2] : nums[0]);
-    else throw new Error('wet_layered.frag: cannot set the initial value of ' + type + ' ' + name);
-  }
-
   // ---- textures ------------------------------------------------------------------------------
-  function half(h) { // IEEE half float to number
-    const e = (h >> 10) & 31, m = h & 1023, s = h & 32768 ? -1 : 1;
-    if (e === 0) return s * m * 5.960464477539063e-8;
-    if (e === 31) return m ? NaN : s * Infinity;
-    return s * (1 + m / 1024) * Math.pow(2, e - 15);
-  }
-  const HALF = new Float32Array(65536);
-  for (let i = 0; i < 65536; i++) HALF[i] = half(i);
-
-  async function fetchPixels(url) {
-    const r = await fetch(url);
-    if (!r.ok) throw new Error(url + ': ' + r.status);
-    const [w, h, c] = (r.headers.get('X-Wetgraph-Size') || '').split(' ').map(Number);
-    const raw = new Uint8Array(await r.arrayBuffer());
-    if (!(w > 0 && h > 0 && c > 0) || raw.length !== w * h * c * 2) throw new Error(url + ': bad size');
-    const data = new Float32Array(w * h * c);
-    for (let i = 0; i < data.length; i++) data[i] = HALF[raw[2 * i] | raw[2 * i + 1] << 8];
-    return { w, h, c, data };
-  }
+  const fetchPixels = wgFetchPixels;
 
   // rows from the bottom (flip: the image's top row at t = 1), as GL wants them
   function rowsUp(img, flip) {
@@ -668,7 +628,7 @@ void main()
       if (!r.ok) throw new Error('/shaders/wet_layered.frag: ' + r.status);
       prog = link(VS, adapt(await r.text()), 'wet_layered.frag');
       gl.useProgram(prog);
-      for (const [type, name, value] of uniformDefaults) setDefault(type, name, value);
+      wgSetDefaults(gl, prog, uniformDefaults, 'wet_layered.frag');
       bgProg = link(BG_VS, BG_FS, 'the background');
       bgVao = quad([-1, -1, 3, -1, -1, 3]);
     } catch (e) {

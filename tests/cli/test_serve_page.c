@@ -18,6 +18,8 @@
  * `preview` node's within a measured bound (MEAN_BOUND), is not the clear colour, changes with
  * the camera and between the dry and the wet material, and after a parameter change given with
  * ?set= the page says the render is done and the view shows that render's maps and picture.
+ * On the foam graph, foam.frag drawn in the page matches the graph's foam mask at a fixed time.
+ * A click on a node of the graph shows that node's pixels.
  * The controls built from the parameters' UI hints are driven as a person drives them
  * (tests/cli/page_driver.js, over the DevTools protocol): slider, number box, reset, colour
  * picker and folding groups set exact values.
@@ -826,6 +828,84 @@ static void test_node_view(void **state)
     stop();
 }
 
+/* ---- foam.frag in real time -------------------------------------------------------------------
+ */
+
+/* The foam graph's page: foam.frag drawn in the page from the render's `maps`, still at $time T
+ * (?foamtime=T) and read back at the graph's size, against the graph's own `foam` rendered at
+ * --time T: the same mask (foam > 1/2) but at a few edge pixels (measured on SwiftShader: 7 of
+ * 16384 at t = 3.3; tests/graphs/test_glsl.c says why edges may differ: fwidth against half the
+ * Sobel gradient), few values far apart, and another time gives another picture. */
+static void test_foam_view(void **state)
+{
+    (void)state;
+    const char *bin = need_chromium();
+    wgt_write_file(path("shore.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"128\"><node id=\"s\" type=\"pixel\" "
+                   "expr=\"cos(6.283185307179586 * u) + 0.6 * sin(12.566370614359172 * v) &gt; "
+                   "0.3\"/><output name=\"shore\" from=\"s\" format=\"png\"/></wetgraph>\n");
+    assert_int_equal(wgt_shell(dir, "'%s' render shore.wetgraph -o . -q", bin), 0);
+    char graph_path[4096];
+    snprintf(graph_path, sizeof graph_path, "%s/graphs/foam.wetgraph", getenv("WETGRAPH_SOURCE"));
+    mkdir(path("nobin"), 0777);
+    unlink(path("werr"));
+    int port = wgt_free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
+    const char *args[] = {"watch",   graph_path, "-o",  "fo",      "--size",
+                          "128",     "--time",   "3.3", "--input", "shore=shore_shore.png",
+                          "--serve", spec,       NULL};
+    watcher = wgt_spawn(dir, "wout", "werr", path("nobin"), args);
+    wait_for("watch: waiting", 1);
+    budget_ms = 20000;
+    static unsigned char gpu[128 * 128], later[128 * 128];
+    for (int k = 0; k < 2; k++) {
+        dump_dom(port, k ? "?events=0&foamtime=5.1&probe=128" : "?events=0&foamtime=3.3&probe=128");
+        char st[64];
+        snprintf(st, sizeof st, "%s", attr("<figure id=\"foamview\"", "data-state"));
+        if (strcmp(st, "ready"))
+            fail_msg("the foam view is '%s': %s (%s)", st,
+                     attr("<figure id=\"foamview\"", "data-error"), path("dom.html"));
+        size_t size;
+        char *dom = wgt_read_file(path("dom.html"), &size);
+        char *at = strstr(dom, "<figure id=\"foamview\""),
+             *p = at ? strstr(at, " data-probe=\"") : NULL;
+        if (!p || p > strchr(at, '>')) fail_msg("the foam view read no picture back");
+        p += strlen(" data-probe=\"");
+        for (int i = 0; i < 128 * 128; i++) {
+            unsigned v;
+            if (sscanf(p + 2 * i, "%2x", &v) != 1) fail_msg("data-probe is too short");
+            (k ? later : gpu)[i] = (unsigned char)v;
+        }
+        free(dom);
+    }
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path("fo/foam_foam.png"), 1, WG_LINEAR, &img, &err))
+        fail_msg("%s", err.message);
+    assert_int_equal(img->width, 128);
+    int differ = 0, far = 0, foam = 0, clear = 0, moved = 0;
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 128; x++) {
+            float c = wg_image_row(img, y)[x], g = gpu[y * 128 + x] / 255.0f;
+            differ += (c > 0.5f) != (g > 0.5f);
+            far += fabsf(c - g) > 0.5f;
+            foam += c > 0.5f, clear += c <= 0.5f;
+            moved += (gpu[y * 128 + x] > 127) != (later[y * 128 + x] > 127);
+        }
+    wg_image_unref(img);
+    print_message("foam.frag in the page at t = 3.3: the mask differs from the graph's at %d of "
+                  "16384 pixels (%d foam), %d values more than 0.5 apart; t = 5.1 changes %d\n",
+                  differ, foam, far, moved);
+    assert_true(foam > 300 && clear > 300);
+    if (differ > 82)
+        fail_msg("foam.frag's mask differs from the graph's at %d pixels (bound 82, 0.5%%)",
+                 differ);
+    if (far > 164) fail_msg("%d values differ by more than 0.5 (bound 164, 1%%)", far);
+    assert_true(moved > 300);
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
@@ -852,6 +932,7 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_page_other_site_cannot_drive, stop_watcher),
         cmocka_unit_test_teardown(test_param_controls, stop_watcher),
         cmocka_unit_test_teardown(test_node_view, stop_watcher),
+        cmocka_unit_test_teardown(test_foam_view, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_matches_preview, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_follows_a_render, stop_watcher),
     };
