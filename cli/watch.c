@@ -59,7 +59,10 @@ static const char help[] =
     "                         graph's parameters (and $time) on http://ADDR:PORT/ (ADDR:\n"
     "                         an IPv4 address, or an IPv6 one in brackets such as [::1];\n"
     "                         default 127.0.0.1, this machine only: the page has no\n"
-    "                         authentication, only a token against other sites' pages)\n";
+    "                         authentication, only a token against other sites' pages)\n"
+    "  --env FILE             an equirectangular HDR environment for the page's 3D view\n"
+    "                         (repeatable; --input environment=FILE is one too; without\n"
+    "                         any, a built-in sky)\n";
 #else
     "  --serve [ADDR:]PORT    not available: this wetgraph was built without libmicrohttpd\n";
 #endif

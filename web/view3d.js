@@ -565,6 +565,9 @@ void main()
     const list = envs.map(e => e.name + e.ready).join('|');
     if (list !== envList) {
       envList = list;
+      // without ?env=, the first environment that could be read
+      const first = envs.findIndex(e => e.ready);
+      if (args.get('env') === null && first >= 0 && !(envs[opt.env] && envs[opt.env].ready)) opt.env = first;
       const sel = fig.querySelector('#view-env');
       sel.innerHTML = '';
       envs.forEach((e, k) => { const o = new Option(e.name + (e.ready ? '' : e.error ? ' (cannot be read)' : ' (…)'), k); o.disabled = !e.ready; sel.add(o); });

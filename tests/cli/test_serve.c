@@ -529,6 +529,35 @@ static void test_serve_previews(void **state)
 }
 
 /* Without dot in PATH there is no picture (the page lists the nodes instead). */
+/* The 3D view's environments: each --env file and --input environment=FILE, in that order,
+ * prefiltered before the first render; a file that cannot be read is reported on stderr and in
+ * the state, and has no atlas (404), while the others are served. */
+static void test_serve_environments(void **state)
+{
+    (void)state;
+    const char *shared = getenv("WETGRAPH_SHARED");
+    if (!shared || !shared[0]) fail_msg("WETGRAPH_SHARED is not set");
+    char env[4096];
+    snprintf(env, sizeof env, "%s/env/potsdamer_platz_1k.hdr", shared);
+    save("g.wetgraph", "4");
+    const char *const more[] = {"--env", "missing.hdr", "--env", env, NULL};
+    start_watch("g.wetgraph", NULL, "nobin", more);
+    assert_int_equal(count_in("werr", "warning: the 3D view's environment missing.hdr: "), 1);
+    Reply r = http("GET", "/api/state");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "\"environments\":[{\"name\":\"missing.hdr\",\"ready\":false,"
+                                   "\"error\":\""));
+    assert_non_null(strstr(r.body, "{\"name\":\"potsdamer_platz_1k.hdr\",\"ready\":true,"
+                                   "\"error\":null}]"));
+    free(r.head);
+    assert_int_equal(status_of("GET", "/env/0"), 404);
+    r = http("GET", "/env/1");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "X-Wetgraph-Size: 512 512 4"));
+    free(r.head);
+    stop();
+}
+
 static void test_serve_without_dot(void **state)
 {
     (void)state;
@@ -955,6 +984,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_serve_session, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_environments, stop_watcher),
         cmocka_unit_test_teardown(test_serve_without_dot, stop_watcher),
         cmocka_unit_test_teardown(test_serve_previews, stop_watcher),
         cmocka_unit_test_teardown(test_serve_ipv6, stop_watcher),
