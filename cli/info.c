@@ -47,6 +47,17 @@ static void print_json(const WgGraph *g)
             printf(", \"label\": ");
             cli_json_string(stdout, p->label);
         }
+        if (p->has_soft_min) printf(", \"soft_min\": %.17g", p->soft_min);
+        if (p->has_soft_max) printf(", \"soft_max\": %.17g", p->soft_max);
+        if (p->has_step) printf(", \"step\": %.17g", p->step);
+        if (p->group) {
+            printf(", \"group\": ");
+            cli_json_string(stdout, p->group);
+        }
+        if (p->description) {
+            printf(", \"description\": ");
+            cli_json_string(stdout, p->description);
+        }
         if (p->values) {
             printf(", \"values\": [");
             for (int k = 0; p->values[k]; k++) {
@@ -129,6 +140,15 @@ static void print_text(const WgGraph *g)
             if (p->has_max) printf("%g", p->max);
             printf("]");
         }
+        if (p->has_soft_min || p->has_soft_max) {
+            printf("  slider [");
+            if (p->has_soft_min) printf("%g", p->soft_min);
+            printf(", ");
+            if (p->has_soft_max) printf("%g", p->soft_max);
+            printf("]");
+        }
+        if (p->has_step) printf("  step %g", p->step);
+        if (p->group) printf("  group %s", p->group);
         if (p->values) {
             printf("  values");
             for (int k = 0; p->values[k]; k++) printf("%s%s", k ? "|" : " ", p->values[k]);

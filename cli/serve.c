@@ -1,7 +1,13 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph watch --serve`: a libmicrohttpd server (a listening thread and one thread per
  * connection) beside the watch loop, on IPv4 or IPv6 ([ADDR]:PORT; [::] is dual stack). It
- * serves exactly six things: the page (cli/serve_page.h), GET /api/state (JSON; ?after=V waits
+ * serves exactly these things: the page (web/index.html with the run's token filled in, at / and
+ * /index.html) and its files (web/page.js, web/page.css and the shaders of docs/shaders under
+ * /shaders/, compiled in by web/embed.c, looked up by exact address), GET /map/NAME and
+ * GET /map/$INPUT (an output's image, or a graph input given as a file, as half floats for the
+ * page's 3D view), GET /env/K (environment K's env_prefilter atlas, made once by the watch
+ * thread before the first render), GET /view.png (the image of the node the page picked with
+ * $view, rendered by the watch thread after each render), GET /api/state (JSON; ?after=V waits
  * for a newer render), GET /out/NAME.png (the latest preview of output NAME, looked up in the
  * output list by exact name and never used as a path), GET /graph.svg (the request's graph
  * drawn by graphviz, 404 when `dot` is not installed), POST /api/set (parameters, or $time, as
@@ -26,11 +32,12 @@
 #include "serve.h"
 
 #include "png_preview.h"
-#include "serve_page.h"
+#include "web.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -44,6 +51,7 @@
 #include <sys/eventfd.h>
 #include <sys/mman.h>
 #include <sys/random.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -74,6 +82,8 @@ typedef struct {
     unsigned char *bytes;
 } Png;
 
+static enum MHD_Result not_found(struct MHD_Connection *c);
+
 static void png_drop(Png *p)
 {
     if (p && --p->refs == 0) {
@@ -81,6 +91,8 @@ static void png_drop(Png *p)
         free(p);
     }
 }
+
+typedef struct Env Env;
 
 typedef struct {
     char *name;
@@ -123,6 +135,32 @@ struct Serve {
     double q_time;
     /* the watch thread's own: the Graphviz text the picture was made from */
     char *dot_text;
+    /* the graph's image inputs given as files (--input NAME=FILE), for the 3D view's dry
+     * material: read by the watch thread when the file changes, under lock when swapped */
+    char **in_spec; /* NAME=FILE */
+    struct stat *in_st;
+    int n_in_spec;
+    Output *ins; /* named "$NAME" */
+    int n_ins;
+    /* the node whose image the page asked to see ($view; "" none), the graph's node ids (what
+     * $view may name), and that node's last image, under lock */
+    char *view_node;
+    char **node_ids;
+    int n_node_ids;
+    Output view;
+    char *view_error;
+    /* the 3D view's environments: their names and files, and their env_prefilter atlases
+     * (NULL until the watch thread has made them, once each) */
+    Env *envs;
+    int n_envs;
+};
+
+/* An environment of the 3D view: an equirectangular HDR file, or the built-in sky (path NULL),
+ * and its atlas. */
+struct Env {
+    char *name, *path;
+    WgImage *atlas;
+    char *error; /* why it has no atlas, or NULL */
 };
 
 /* A request's own state (libmicrohttpd's con_cls), from its first line to its end. */
@@ -254,6 +292,17 @@ static char *params_json(const WgGraph *g, const char *const *sets, int n_sets)
         cli_json_string(f, value);
         if (p->has_min) fprintf(f, ",\"min\":%.17g", p->min);
         if (p->has_max) fprintf(f, ",\"max\":%.17g", p->max);
+        if (p->has_soft_min) fprintf(f, ",\"soft_min\":%.17g", p->soft_min);
+        if (p->has_soft_max) fprintf(f, ",\"soft_max\":%.17g", p->soft_max);
+        if (p->has_step) fprintf(f, ",\"step\":%.17g", p->step);
+        if (p->group) {
+            fputs(",\"group\":", f);
+            cli_json_string(f, p->group);
+        }
+        if (p->description) {
+            fputs(",\"description\":", f);
+            cli_json_string(f, p->description);
+        }
         if (p->values) {
             fputs(",\"values\":[", f);
             for (int k = 0; p->values[k]; k++) {
@@ -309,6 +358,13 @@ static void outputs_free(Output *o, int n)
         wg_image_unref(o[i].img);
     }
     free(o);
+}
+
+static void outputs_free_one(Output *o)
+{
+    free(o->name);
+    png_drop(o->png);
+    wg_image_unref(o->img);
 }
 
 static char *nodes_json(const WgGraph *g)
@@ -469,6 +525,248 @@ static void preview(const Serve *s, Output *o, WgColorspace cs)
     o->version = s->version + 1; /* the render being published */
 }
 
+/* ---- the 3D view's maps and environments ------------------------------------------------- */
+
+/* f as an IEEE 754 half float, rounded to nearest even; values beyond the largest half (65504,
+ * an HDR sun can be brighter) and infinities become it, NaN 0. */
+static uint16_t to_half(float f)
+{
+    if (f != f) return 0;
+    uint32_t x;
+    memcpy(&x, &f, sizeof x);
+    uint16_t sign = (uint16_t)((x >> 16) & 0x8000);
+    x &= 0x7fffffff;
+    if (x >= 0x477fe000) return sign | 0x7bff; /* 65504 and above (65504 rounds to itself) */
+    if (x < 0x38800000) {                      /* below 2^-14: a subnormal half, or 0 */
+        float a;
+        memcpy(&a, &x, sizeof a);
+        return sign | (uint16_t)lrintf(a * 16777216.0f); /* units of 2^-24 */
+    }
+    /* the exponent rebiased (127 to 15) and the mantissa rounded to 10 bits, to nearest even */
+    return sign | (uint16_t)((x - 0x38000000u + 0xfffu + ((x >> 13) & 1u)) >> 13);
+}
+
+/* img reduced by the whole factor k (each value the mean of a k x k block, the edge's blocks
+ * smaller), as little-endian half floats, row by row from the top, the channels of a pixel
+ * together; *w, *h the reduced size. The caller frees the bytes. */
+static uint16_t *half_pixels(const WgImage *img, int k, int *w, int *h, size_t *size)
+{
+    int ch = img->channels;
+    *w = (img->width + k - 1) / k;
+    *h = (img->height + k - 1) / k;
+    *size = sizeof(uint16_t) * (size_t)*w * (size_t)*h * (size_t)ch;
+    uint16_t *out = malloc(*size);
+    if (!out) return NULL;
+    for (int y = 0; y < *h; y++)
+        for (int x = 0; x < *w; x++)
+            for (int c = 0; c < ch; c++) {
+                double sum = 0;
+                int n = 0;
+                for (int j = y * k; j < y * k + k && j < img->height; j++) {
+                    const float *row = wg_image_row(img, j);
+                    for (int i = x * k; i < x * k + k && i < img->width; i++, n++)
+                        sum += row[(size_t)i * (size_t)ch + (size_t)c];
+                }
+                uint16_t v = to_half((float)(sum / n));
+                unsigned char *b =
+                    (unsigned char *)&out[((size_t)y * (size_t)*w + (size_t)x) * ch + c];
+                b[0] = (unsigned char)(v & 0xff); /* little-endian whatever the machine */
+                b[1] = (unsigned char)(v >> 8);
+            }
+    return out;
+}
+
+/* GET /map/NAME (an output) or /map/$NAME (a graph input given as a file): the image at the
+ * previews' size (reduced by the same whole factor), as half floats (half_pixels); the header
+ * X-Wetgraph-Size gives "WIDTH HEIGHT CHANNELS". GET /env/K: environment K's env_prefilter
+ * atlas the same way, at its full size; 404 while it is being made. */
+static enum MHD_Result pixels(Serve *s, struct MHD_Connection *c, const char *name, int env)
+{
+    const WgImage *img = NULL;
+    pthread_mutex_lock(&s->lock);
+    if (env >= 0) {
+        if (env < s->n_envs && s->envs[env].atlas) img = wg_image_ref(s->envs[env].atlas);
+    } else {
+        for (int i = 0; !img && i < s->n_outs; i++)
+            if (!strcmp(s->outs[i].name, name) && s->outs[i].img)
+                img = wg_image_ref(s->outs[i].img);
+        for (int i = 0; !img && i < s->n_ins; i++)
+            if (!strcmp(s->ins[i].name, name) && s->ins[i].img) img = wg_image_ref(s->ins[i].img);
+    }
+    pthread_mutex_unlock(&s->lock);
+    if (!img) return not_found(c);
+    int side = img->width > img->height ? img->width : img->height;
+    int k = env >= 0 ? 1 : (side + PREVIEW_MAX - 1) / PREVIEW_MAX, w, h;
+    size_t size;
+    uint16_t *data = half_pixels(img, k, &w, &h, &size);
+    int ch = img->channels;
+    wg_image_unref(img);
+    if (!data) return MHD_NO;
+    struct MHD_Response *r = MHD_create_response_from_buffer(size, data, MHD_RESPMEM_MUST_FREE);
+    if (!r) {
+        free(data);
+        return MHD_NO;
+    }
+    char dims[64];
+    snprintf(dims, sizeof dims, "%d %d %d", w, h, ch);
+    MHD_add_response_header(r, "Content-Type", "application/octet-stream");
+    MHD_add_response_header(r, "Cache-Control", "no-store");
+    MHD_add_response_header(r, "X-Wetgraph-Size", dims);
+    enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
+    MHD_destroy_response(r);
+    return ok;
+}
+
+int serve_view_setup(Serve *s, const char *const *inputs, int n_inputs, const char *const *envs,
+                     int n_envs)
+{
+    s->in_spec = calloc((size_t)n_inputs + 1, sizeof *s->in_spec);
+    s->in_st = calloc((size_t)n_inputs + 1, sizeof *s->in_st);
+    s->envs = calloc((size_t)n_envs + n_inputs + 1, sizeof *s->envs);
+    if (!s->in_spec || !s->in_st || !s->envs) return WG_ERR_NOMEM;
+    for (int i = 0; i < n_inputs; i++) {
+        if (!(s->in_spec[i] = strdup(inputs[i]))) return WG_ERR_NOMEM;
+        s->n_in_spec++;
+    }
+    /* the environments: every --env FILE, and the graph's own --input environment=FILE */
+    for (int i = 0; i < n_envs + n_inputs; i++) {
+        const char *path = i < n_envs ? envs[i] : NULL;
+        if (i >= n_envs && !strncmp(inputs[i - n_envs], "environment=", 12))
+            path = inputs[i - n_envs] + 12;
+        if (!path) continue;
+        const char *slash = strrchr(path, '/');
+        Env *v = &s->envs[s->n_envs];
+        v->path = strdup(path);
+        v->name = strdup(slash ? slash + 1 : path);
+        if (!v->path || !v->name) return WG_ERR_NOMEM;
+        s->n_envs++;
+    }
+    return WG_OK;
+}
+
+/* The atlas of an environment: env_prefilter at 512 (blocks of 256 x 128) over the file, or
+ * over the built-in sky (path NULL: a blue gradient above the horizon, a dim ground below and
+ * a small sun, bright enough to give highlights). */
+static const char prefilter_xml[] =
+    "<wetgraph version=\"1\" size=\"512\">\n"
+    "  <input name=\"environment\" type=\"color\"/>\n"
+    "  <node id=\"atlas\" type=\"env_prefilter\"><in name=\"environment\" "
+    "from=\"$environment\"/></node>\n"
+    "  <output name=\"atlas\" from=\"atlas\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+static const char sky_xml[] =
+    "<wetgraph version=\"1\" size=\"512\">\n"
+    "  <node id=\"sky\" type=\"pixel\" kind=\"color\" expr=\"rgb("
+    "(v &lt; 0.5 ? 0.25 + 1.3 * v : 0.22) + 60 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; "
+    "0.012),"
+    " (v &lt; 0.5 ? 0.45 + 0.9 * v : 0.2) + 58 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; "
+    "0.012),"
+    " (v &lt; 0.5 ? 1.0 - 0.1 * v : 0.16) + 52 * (abs(u - 0.3) &lt; 0.012) * (abs(v - 0.3) &lt; "
+    "0.012))\"/>\n"
+    "  <node id=\"atlas\" type=\"env_prefilter\"><in name=\"environment\" from=\"sky\"/></node>\n"
+    "  <output name=\"atlas\" from=\"atlas\" format=\"exr32\"/>\n"
+    "</wetgraph>\n";
+
+static int prefilter(WgEngine *e, const char *path, WgImage **atlas, WgError *err)
+{
+    const char *xml = path ? prefilter_xml : sky_xml;
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgResult *res = NULL;
+    int rc = wg_graph_load_memory(xml, strlen(xml), "environment.wetgraph", &g, err);
+    if (!rc && !(r = wg_request_new(g)))
+        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    if (!rc && path) rc = wg_request_set_input_file(r, "environment", path, err);
+    if (!rc) rc = wg_render(e, r, &res, err);
+    if (!rc) *atlas = wg_image_ref(wg_result_output_image(res, 0));
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+    return rc;
+}
+
+void serve_prefilter(Serve *s, WgEngine *e)
+{
+    if (!s->n_envs) { /* no environment given: the built-in sky */
+        s->envs[0].name = strdup("sky (built in)");
+        if (!s->envs[0].name) return;
+        s->n_envs = 1;
+    }
+    for (int i = 0; i < s->n_envs; i++) {
+        Env *v = &s->envs[i];
+        if (v->atlas || v->error) continue; /* made once per session */
+        WgError err = {0};
+        WgImage *atlas = NULL;
+        char *why = NULL;
+        if (prefilter(e, v->path, &atlas, &err)) {
+            char buf[1024];
+            wg_error_format(&err, buf, sizeof buf);
+            why = strdup(buf);
+            fprintf(stderr, "wetgraph: warning: the 3D view's environment %s: %s\n", v->name, buf);
+        }
+        pthread_mutex_lock(&s->lock);
+        v->atlas = atlas;
+        v->error = why ? why : atlas ? NULL : strdup("out of memory");
+        pthread_mutex_unlock(&s->lock);
+    }
+}
+
+/* Read the graph's image inputs given as files again where the file changed (the 3D view shows
+ * them as the dry material); runs on the watch thread. An input that cannot be read keeps its
+ * last image. */
+static void read_inputs(Serve *s, const WgGraph *g)
+{
+    Output *ins = calloc((size_t)s->n_in_spec + 1, sizeof *ins);
+    if (!ins) return;
+    int n = 0;
+    for (int i = 0; i < s->n_in_spec; i++) {
+        const char *spec = s->in_spec[i], *eq = strchr(spec, '=');
+        if (!eq) continue;
+        const WgGraphInputInfo *in = NULL;
+        for (int k = 0; k < wg_graph_input_count(g); k++) {
+            const WgGraphInputInfo *x = wg_graph_input_info(g, k);
+            if (strlen(x->name) == (size_t)(eq - spec) && !strncmp(x->name, spec, eq - spec))
+                in = x;
+        }
+        if (!in || !strcmp(in->name, "environment")) continue;
+        char name[MAX_NAME + 2];
+        snprintf(name, sizeof name, "$%s", in->name);
+        const Output *old = NULL;
+        for (int k = 0; k < s->n_ins; k++)
+            if (!strcmp(s->ins[k].name, name)) old = &s->ins[k];
+        struct stat st;
+        bool same = !stat(eq + 1, &st) && old && st.st_mtim.tv_sec == s->in_st[i].st_mtim.tv_sec &&
+                    st.st_mtim.tv_nsec == s->in_st[i].st_mtim.tv_nsec &&
+                    st.st_size == s->in_st[i].st_size && st.st_ino == s->in_st[i].st_ino;
+        Output *o = &ins[n];
+        if (!(o->name = strdup(name))) break;
+        WgImage *img = NULL;
+        WgError err = {0};
+        if (!same &&
+            !wg_image_read(eq + 1, in->kind == WG_GRAY ? 1 : 4, in->colorspace, &img, &err)) {
+            o->img = img;
+            o->channels = img->channels;
+            o->version = s->version + 1;
+            s->in_st[i] = st;
+        } else if (old) {
+            o->img = wg_image_ref(old->img);
+            o->channels = old->channels;
+            o->version = old->version;
+        } else {
+            free(o->name);
+            continue;
+        }
+        n++;
+    }
+    pthread_mutex_lock(&s->lock);
+    Output *gone = s->ins;
+    int n_gone = s->n_ins;
+    s->ins = ins;
+    s->n_ins = n;
+    pthread_mutex_unlock(&s->lock);
+    outputs_free(gone, n_gone);
+}
+
 void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
                    const WgError *err, const char *const *sets, int n_sets)
 {
@@ -480,6 +778,7 @@ void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResul
     int n_names = 0, n_outs = 0;
     Output *outs = NULL;
     if (g) {
+        read_inputs(s, g);
         params = params_json(g, sets, n_sets);
         nodes = nodes_json(g);
         WgError e = {0};
@@ -493,6 +792,18 @@ void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResul
             svg = run_dot(dot, &svg_size);
             free(s->dot_text);
             s->dot_text = dot; /* only the watch thread reads it */
+        }
+        char **ids = calloc((size_t)wg_graph_node_count(g) + 1, sizeof *ids);
+        int n_ids = 0;
+        for (int i = 0; ids && i < wg_graph_node_count(g); i++)
+            if ((ids[n_ids] = strdup(wg_graph_node_info(g, i)->id))) n_ids++;
+        if (ids) {
+            pthread_mutex_lock(&s->lock);
+            for (int i = 0; i < s->n_node_ids; i++) free(s->node_ids[i]);
+            free(s->node_ids);
+            s->node_ids = ids;
+            s->n_node_ids = n_ids;
+            pthread_mutex_unlock(&s->lock);
         }
         n_names = wg_graph_param_count(g);
         names = calloc((size_t)n_names + 1, sizeof *names);
@@ -636,6 +947,42 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
         fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->outs[i].version,
                 s->outs[i].channels);
     }
+    fputs("],\"inputs\":[", f);
+    for (int i = 0; i < s->n_ins; i++) {
+        fputs(i ? ",{\"name\":" : "{\"name\":", f);
+        cli_json_string(f, s->ins[i].name);
+        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->ins[i].version,
+                s->ins[i].channels);
+    }
+    fputs("],\"view\":", f);
+    if (s->view_node && s->view_node[0]) {
+        /* asked: the node the page asked for; node: the one whose image (or error) is there */
+        fputs("{\"asked\":", f);
+        cli_json_string(f, s->view_node);
+        fprintf(f,
+                ",\"version\":%llu,\"channels\":%d,\"node\":", (unsigned long long)s->view.version,
+                s->view.channels);
+        cli_json_string(f, s->view.name ? s->view.name : "");
+        fputs(",\"error\":", f);
+        if (s->view_error)
+            cli_json_string(f, s->view_error);
+        else
+            fputs("null", f);
+        fputc('}', f);
+    } else {
+        fputs("null", f);
+    }
+    fputs(",\"environments\":[", f);
+    for (int i = 0; i < s->n_envs; i++) {
+        fputs(i ? ",{\"name\":" : "{\"name\":", f);
+        cli_json_string(f, s->envs[i].name);
+        fprintf(f, ",\"ready\":%s,\"error\":", s->envs[i].atlas ? "true" : "false");
+        if (s->envs[i].error)
+            cli_json_string(f, s->envs[i].error);
+        else
+            fputs("null", f);
+        fputc('}', f);
+    }
     fprintf(f, "],\"times\":%s,\"sets\":%s,\"error\":", s->times_json ? s->times_json : "[]",
             s->sets_json ? s->sets_json : "[]");
     if (s->error)
@@ -684,6 +1031,62 @@ static enum MHD_Result graph_svg(Serve *s, struct MHD_Connection *c)
                             "default-src 'none'; style-src 'unsafe-inline'");
     enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
     MHD_destroy_response(r);
+    return ok;
+}
+
+char *serve_view_node(Serve *s)
+{
+    pthread_mutex_lock(&s->lock);
+    char *id = s->view_node && s->view_node[0] ? strdup(s->view_node) : NULL;
+    pthread_mutex_unlock(&s->lock);
+    return id;
+}
+
+void serve_publish_view(Serve *s, const char *id, const WgImage *img, WgColorspace cs,
+                        const WgError *err)
+{
+    Output o = {0};
+    char *why = NULL;
+    o.name = strdup(id);
+    if (img) {
+        o.img = wg_image_ref(img);
+        o.channels = img->channels;
+        int side = img->width > img->height ? img->width : img->height;
+        o.png = calloc(1, sizeof *o.png);
+        if (o.png && wg_png_preview(img, (side + PREVIEW_MAX - 1) / PREVIEW_MAX, cs, &o.png->bytes,
+                                    &o.png->size)) {
+            free(o.png);
+            o.png = NULL;
+        }
+        if (o.png) o.png->refs = 1;
+    }
+    if (err) {
+        char buf[2048];
+        wg_error_format(err, buf, sizeof buf);
+        why = strdup(buf);
+    }
+    pthread_mutex_lock(&s->lock);
+    Output old = s->view;
+    o.version = s->view.version + 1;
+    s->view = o;
+    free(s->view_error);
+    s->view_error = why;
+    s->version++; /* the page hears of it as of a render */
+    pthread_cond_broadcast(&s->rendered);
+    pthread_mutex_unlock(&s->lock);
+    outputs_free_one(&old);
+}
+
+static enum MHD_Result view_png(Serve *s, struct MHD_Connection *c)
+{
+    pthread_mutex_lock(&s->lock);
+    if (!s->view.png) {
+        pthread_mutex_unlock(&s->lock);
+        return not_found(c);
+    }
+    enum MHD_Result ok =
+        respond(c, MHD_HTTP_OK, "image/png", s->view.png->bytes, s->view.png->size);
+    pthread_mutex_unlock(&s->lock);
     return ok;
 }
 
@@ -844,6 +1247,13 @@ static bool change_ok(const Serve *s, const Change *c, char *msg, size_t size)
         snprintf(msg, size, "$time: '%.64s' is not a number", c->value);
         return false;
     }
+    if (!strcmp(c->name, "$view")) {
+        for (int i = 0; i < s->n_node_ids; i++)
+            if (!strcmp(s->node_ids[i], c->value)) return true;
+        if (!c->value[0]) return true; /* none */
+        snprintf(msg, size, "$view: the graph has no node '%.64s'", c->value);
+        return false;
+    }
     if (known_param(s, c->name)) return true;
     snprintf(msg, size, "the graph has no parameter '%.64s'", c->name);
     return false;
@@ -855,6 +1265,13 @@ static bool queue_change(Serve *s, const Change *c)
     if (!strcmp(c->name, "$time")) {
         wg_parse_number(c->value, &s->q_time);
         s->q_has_time = true;
+        return true;
+    }
+    if (!strcmp(c->name, "$view")) {
+        char *v = strdup(c->value);
+        if (!v) return false;
+        free(s->view_node);
+        s->view_node = v;
         return true;
     }
     for (int i = 0; i < s->n_q; i++)
@@ -1186,6 +1603,14 @@ static enum MHD_Result handle(void *cls, struct MHD_Connection *c, const char *u
     if (!strcmp(url, "/api/state")) return state(s, c);
     if (!strcmp(url, "/events")) return events(s, c);
     if (!strcmp(url, "/graph.svg")) return graph_svg(s, c);
+    for (const WgWebFile *w = wg_web_files; w->address; w++)
+        if (strcmp(w->address, "/index.html") && !strcmp(url, w->address))
+            return respond(c, MHD_HTTP_OK, w->type, w->bytes, w->size);
+    if (!strcmp(url, "/view.png")) return view_png(s, c);
+    if (!strncmp(url, "/map/", 5) && url[5]) return pixels(s, c, url + 5, -1);
+    if (!strncmp(url, "/env/", 5) && url[5] && strlen(url + 5) <= 4 &&
+        strspn(url + 5, "0123456789") == strlen(url + 5))
+        return pixels(s, c, NULL, atoi(url + 5));
     size_t len = strlen(url);
     if (!strncmp(url, "/out/", 5) && len > 9 && !strcmp(url + len - 4, ".png"))
         return image(s, c, url + 5, len - 9);
@@ -1209,6 +1634,22 @@ static void serve_free(Serve *s)
     for (int i = 0; i < s->n_params; i++) free(s->param_names[i]);
     free(s->param_names);
     outputs_free(s->outs, s->n_outs);
+    outputs_free(s->ins, s->n_ins);
+    outputs_free_one(&s->view);
+    free(s->view_node);
+    free(s->view_error);
+    for (int i = 0; i < s->n_node_ids; i++) free(s->node_ids[i]);
+    free(s->node_ids);
+    for (int i = 0; s->in_spec && i < s->n_in_spec; i++) free(s->in_spec[i]);
+    free(s->in_spec);
+    free(s->in_st);
+    for (int i = 0; s->envs && i < s->n_envs; i++) {
+        free(s->envs[i].name);
+        free(s->envs[i].path);
+        free(s->envs[i].error);
+        wg_image_unref(s->envs[i].atlas);
+    }
+    free(s->envs);
     for (int i = 0; i < s->n_q; i++) {
         free(s->q_name[i]);
         free(s->q_value[i]);
@@ -1283,7 +1724,11 @@ static char *make_page(const char *token, bool address_settings)
     Mem m;
     FILE *f = mem_open(&m);
     if (!f) return NULL;
-    for (const char *p = serve_page; *p;) {
+    const char *html = NULL;
+    for (const WgWebFile *w = wg_web_files; w->address; w++)
+        if (!strcmp(w->address, "/index.html")) html = (const char *)w->bytes;
+    if (!html) return NULL;
+    for (const char *p = html; *p;) {
         if (!strncmp(p, "@TOKEN@", 7)) {
             fputs(token, f);
             p += 7;

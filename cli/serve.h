@@ -33,6 +33,23 @@ void serve_sets_free(char **sets, int n);
  * changed, and wakes /events. */
 void serve_publish(Serve *s, const WgGraph *g, const WgRequest *r, const WgResult *res,
                    const WgError *err, const char *const *sets, int n_sets);
+/* The 3D view's material and light, set once before the first render: inputs, the --input
+ * list (NAME=FILE: the graph's image inputs are served at /map/$NAME as the dry material), and
+ * envs, the --env files (equirectangular HDR environments); the graph's --input
+ * environment=FILE is one too, and without any the built-in sky is used. */
+int serve_view_setup(Serve *s, const char *const *inputs, int n_inputs, const char *const *envs,
+                     int n_envs);
+/* Prefilter (env_prefilter) the environments that have no atlas yet, with the watch thread's
+ * engine e: once per environment and session; a file that cannot be read is reported (on
+ * stderr and in the state) and not tried again. */
+void serve_prefilter(Serve *s, WgEngine *e);
+/* The node whose image the page asked to see (POST /api/set with $view=ID; $view= with no
+ * value: none), or NULL; the caller frees it. */
+char *serve_view_node(Serve *s);
+/* Publish node id's image img (NULL when it could not be made, err says why), shown at
+ * /view.png; the page hears of it as of a render. */
+void serve_publish_view(Serve *s, const char *id, const WgImage *img, WgColorspace cs,
+                        const WgError *err);
 void serve_stop(Serve *s);
 
 #endif

@@ -59,7 +59,10 @@ static const char help[] =
     "                         graph's parameters (and $time) on http://ADDR:PORT/ (ADDR:\n"
     "                         an IPv4 address, or an IPv6 one in brackets such as [::1];\n"
     "                         default 127.0.0.1, this machine only: the page has no\n"
-    "                         authentication, only a token against other sites' pages)\n";
+    "                         authentication, only a token against other sites' pages)\n"
+    "  --env FILE             an equirectangular HDR environment for the page's 3D view\n"
+    "                         (repeatable; --input environment=FILE is one too; without\n"
+    "                         any, a built-in sky)\n";
 #else
     "  --serve [ADDR:]PORT    not available: this wetgraph was built without libmicrohttpd\n";
 #endif
@@ -380,6 +383,69 @@ static void written_update(Written *w, const Options *o, const WgGraph *g, const
     }
 }
 
+#ifdef WG_HAVE_SERVE
+/* The image of the node the page asked to see: the graph file again with one more output, from
+ * that node (its first port), rendered with the same values, inputs and engine, so that
+ * everything it needs comes from the memory cache; published at /view.png, or why not. */
+static void render_view(const Options *o, WgEngine *e, Serve *serve)
+{
+    char *id = serve_view_node(serve);
+    if (!id) return;
+    static const char name[] = "wetgraph_view";
+    WgError err = {0};
+    WgGraph *g = NULL;
+    WgRequest *r = NULL;
+    WgResult *res = NULL;
+    char *text = NULL, *xml = NULL;
+    size_t size = 0;
+    FILE *f = fopen(o->file, "rb");
+    int rc = WG_OK;
+    if (f) {
+        if (!fseek(f, 0, SEEK_END) && (size = (size_t)ftell(f)) && !fseek(f, 0, SEEK_SET) &&
+            (text = malloc(size + 1)) && fread(text, 1, size, f) == size)
+            text[size] = '\0';
+        else {
+            free(text);
+            text = NULL;
+        }
+        fclose(f);
+    }
+    char *end = NULL;
+    for (char *at = text; at && (at = strstr(at, "</wetgraph>")); at++) end = at;
+    if (!end) {
+        rc = wg_error_set(&err, WG_ERR_IO, NULL, "%s: cannot read the graph again", o->file);
+    } else if (!(xml = malloc(size + strlen(id) + 64))) {
+        rc = wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+    } else {
+        int n = sprintf(xml, "%.*s<output name=\"%s\" from=\"%s\"/>\n", (int)(end - text), text,
+                        name, id);
+        strcpy(xml + n, end);
+        Options vo = *o;
+        vo.outputs = NULL; /* only the node's image */
+        vo.n_outputs = 0;
+        rc = wg_graph_load_memory(xml, strlen(xml), o->file, &g, &err);
+        if (!rc) rc = build_request(&vo, g, &r, &err);
+        if (!rc) rc = wg_request_add_output(r, name, &err);
+        if (!rc) rc = wg_render(e, r, &res, &err);
+    }
+    int k = -1;
+    for (int i = 0; !rc && i < wg_result_output_count(res); i++)
+        if (!strcmp(wg_result_output_name(res, i), name)) k = i;
+    if (!rc && k < 0) rc = wg_error_set(&err, WG_ERR_USAGE, NULL, "node '%s' made no image", id);
+    if (rc)
+        serve_publish_view(serve, id, NULL, WG_LINEAR, &err);
+    else
+        serve_publish_view(serve, id, wg_result_output_image(res, k),
+                           wg_result_output_colorspace(res, k), NULL);
+    wg_result_free(res);
+    wg_request_free(r);
+    wg_graph_free(g);
+    free(xml);
+    free(text);
+    free(id);
+}
+#endif
+
 static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve *serve, int sfd,
                         Written *written)
 {
@@ -461,7 +527,10 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
             cli_warning(wg_result_warning(res, i), NULL);
 #ifdef WG_HAVE_SERVE
     /* the page first: the files follow (a failure to write them is published then) */
-    if (serve) serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
+    if (serve) {
+        serve_publish(serve, g, r, res, NULL, (const char *const *)o->sets, o->n_sets);
+        render_view(o, e, serve);
+    }
 #endif
     bool layered = o->layered != NULL;
     bool *kept = calloc((size_t)wg_result_output_count(res) + 1, sizeof *kept);
@@ -544,9 +613,10 @@ static bool read_events(int fd, const FileSet *files, const int *wds)
     return hit;
 }
 
-/* Take --serve VALUE / --serve=VALUE out of argv (render's parser does not know it); returns
- * the new argc, or -1 after a usage error. */
-static int take_serve(int argc, char **argv, const char **spec)
+/* Take --serve VALUE / --serve=VALUE and --env FILE / --env=FILE (into envs, argc of them at
+ * most) out of argv (render's parser does not know them); returns the new argc, or -1 after a
+ * usage error. */
+static int take_serve(int argc, char **argv, const char **spec, const char **envs, int *n_envs)
 {
     int k = 0;
     for (int i = 0; i < argc; i++) {
@@ -559,6 +629,11 @@ static int take_serve(int argc, char **argv, const char **spec)
             *spec = argv[++i];
         } else if (!strncmp(argv[i], "--serve=", 8)) {
             *spec = argv[i] + 8;
+        } else if (!strcmp(argv[i], "--env")) {
+            if (i + 1 >= argc) return cli_usage_error("watch", "--env needs FILE"), -1;
+            envs[(*n_envs)++] = argv[++i];
+        } else if (!strncmp(argv[i], "--env=", 6)) {
+            envs[(*n_envs)++] = argv[i] + 6;
         } else {
             argv[k++] = argv[i];
         }
@@ -571,9 +646,21 @@ int cmd_watch(int argc, char **argv)
     Options o = {.cmd = "watch", .help = help};
     const char *serve_spec = NULL;
     Serve *serve = NULL;
-    int status;
-    argc = take_serve(argc, argv, &serve_spec);
-    if (argc < 0) return EXIT_USAGE;
+    int status, n_envs = 0;
+    const char **envs = calloc((size_t)argc + 1, sizeof *envs);
+    if (!envs) {
+        fprintf(stderr, "wetgraph: error: out of memory\n");
+        return EXIT_FAILED;
+    }
+    argc = take_serve(argc, argv, &serve_spec, envs, &n_envs);
+    if (argc < 0) {
+        free(envs);
+        return EXIT_USAGE;
+    }
+    if (n_envs && !serve_spec) {
+        free(envs);
+        return cli_usage_error("watch", "--env is for the page's 3D view: it needs --serve");
+    }
 #ifndef WG_HAVE_SERVE
     if (serve_spec)
         return cli_usage_error("watch", "--serve is not available: this wetgraph was built "
@@ -610,7 +697,12 @@ int cmd_watch(int argc, char **argv)
     }
 #ifdef WG_HAVE_SERVE
     /* after the signals are blocked: the server's threads inherit the mask */
-    if (serve_spec && serve_start(serve_spec, o.file, &serve, &err)) {
+    if (serve_spec && (serve_start(serve_spec, o.file, &serve, &err) ||
+                       serve_view_setup(serve, o.inputs, o.n_inputs, envs, n_envs))) {
+        if (serve) {
+            wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
+            serve_stop(serve);
+        }
         cli_report(&err);
         wg_engine_free(e);
         close(sfd);
@@ -622,6 +714,10 @@ int cmd_watch(int argc, char **argv)
                 strchr(serve_spec, ':') ? "" : "127.0.0.1:", serve_spec);
         fflush(stderr);
     }
+#endif
+#ifdef WG_HAVE_SERVE
+    /* the 3D view's lighting, before the first render is published, so that its page has it */
+    if (serve) serve_prefilter(serve, e);
 #endif
     FileSet files = {0};
     Written written = {0};
@@ -684,6 +780,7 @@ int cmd_watch(int argc, char **argv)
     wg_engine_free(e);
     close(sfd);
 out:
+    free(envs);
     free(o.sets);
     free(o.inputs);
     free(o.outputs);

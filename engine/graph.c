@@ -56,6 +56,8 @@ void wg_graph_free(WgGraph *g)
         wg_free((char *)p->info.name);
         wg_free((char *)p->info.default_text);
         wg_free((char *)p->info.label);
+        wg_free((char *)p->info.group);
+        wg_free((char *)p->info.description);
         if (p->value_storage)
             for (int k = 0; p->value_storage[k]; k++) wg_free(p->value_storage[k]);
         wg_free(p->value_storage);

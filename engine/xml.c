@@ -245,10 +245,64 @@ static int parse_enum_values(ParamDef *p, const char *text)
     return n;
 }
 
+/* A <param>'s UI hints (soft_min, soft_max, step: numbers, for float and int parameters): the
+ * soft range lies within the hard range (min, max) and is not empty, the step is positive (and
+ * whole for an int); each error at the attribute's line. */
+static int parse_hints(Doc *d, xmlNodePtr x, ParamDef *p, const char *soft_min,
+                       const char *soft_max, const char *step)
+{
+    bool numeric = p->info.type == WG_PARAM_FLOAT_T || p->info.type == WG_PARAM_INT_T;
+    const char *names[] = {"soft_min", "soft_max", "step"}, *texts[] = {soft_min, soft_max, step};
+    bool *has[] = {&p->info.has_soft_min, &p->info.has_soft_max, &p->info.has_step};
+    double *val[] = {&p->info.soft_min, &p->info.soft_max, &p->info.step};
+    for (int i = 0; i < 3; i++) {
+        if (!texts[i]) continue;
+        int line = attr_line(xmlHasProp(x, (const xmlChar *)names[i]), line_of(x));
+        if (!numeric)
+            return wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                   "%s applies only to float and int parameters", names[i]);
+        WgParamDesc bound = {.name = names[i], .type = WG_PARAM_FLOAT_T};
+        WgValue v;
+        int rc = wg__value_parse(&bound, texts[i], &v, d->err);
+        if (rc) {
+            wg_error_locate(d->err, d->path, line, NULL);
+            return rc;
+        }
+        char num[32], lim[32];
+        wg__number_text(v.num, num, sizeof num);
+        if (i < 2 && ((p->info.has_min && v.num < p->info.min) ||
+                      (p->info.has_max && v.num > p->info.max))) {
+            wg__number_text(p->info.has_min && v.num < p->info.min ? p->info.min : p->info.max, lim,
+                            sizeof lim);
+            return wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line, 0,
+                                   "%s %s of parameter '%s' is outside its range (%s %s)", names[i],
+                                   num, p->info.name,
+                                   p->info.has_min && v.num < p->info.min ? "min" : "max", lim);
+        }
+        if (i == 2 && !(v.num > 0 && (p->info.type == WG_PARAM_FLOAT_T || v.num == floor(v.num))))
+            return wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line, 0,
+                                   "step %s of parameter '%s' must be a positive %s", num,
+                                   p->info.name,
+                                   p->info.type == WG_PARAM_INT_T ? "whole number" : "number");
+        *has[i] = true;
+        *val[i] = v.num;
+    }
+    if (p->info.has_soft_min && p->info.has_soft_max && p->info.soft_min >= p->info.soft_max) {
+        char lo[32], hi[32];
+        wg__number_text(p->info.soft_min, lo, sizeof lo);
+        wg__number_text(p->info.soft_max, hi, sizeof hi);
+        return wg_error_set_at(d->err, WG_ERR_RANGE, d->path, line_of(x), 0,
+                               "soft_min %s of parameter '%s' is not below its soft_max %s", lo,
+                               p->info.name, hi);
+    }
+    return WG_OK;
+}
+
 static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
 {
-    static const char *const allowed[] = {"name", "type",  "default", "min",
-                                          "max",  "label", "values",  NULL};
+    static const char *const allowed[] = {"name",  "type",        "default",  "min",      "max",
+                                          "label", "values",      "soft_min", "soft_max", "step",
+                                          "group", "description", NULL};
     int line = line_of(x);
     int rc = check_attrs(d, x, allowed);
     if (rc) return rc;
@@ -256,11 +310,14 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
     memset(p, 0, sizeof *p);
     p->info.line = line;
     char *name = NULL, *type = NULL, *label = NULL, *def = NULL, *min = NULL, *max = NULL,
-         *values = NULL;
+         *values = NULL, *soft_min = NULL, *soft_max = NULL, *step = NULL, *group = NULL,
+         *description = NULL;
     if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "type", &type)) ||
         (rc = attr(d, x, "label", &label)) || (rc = attr(d, x, "default", &def)) ||
         (rc = attr(d, x, "min", &min)) || (rc = attr(d, x, "max", &max)) ||
-        (rc = attr(d, x, "values", &values)))
+        (rc = attr(d, x, "values", &values)) || (rc = attr(d, x, "soft_min", &soft_min)) ||
+        (rc = attr(d, x, "soft_max", &soft_max)) || (rc = attr(d, x, "step", &step)) ||
+        (rc = attr(d, x, "group", &group)) || (rc = attr(d, x, "description", &description)))
         goto out;
     if (!wg__valid_id(name) || strchr(name, '-')) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
@@ -288,6 +345,10 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
     p->info.type = param_type_values[t];
     p->info.label = label;
     label = NULL;
+    p->info.group = group;
+    group = NULL;
+    p->info.description = description;
+    description = NULL;
     p->desc.name = p->info.name;
     p->desc.type = p->info.type;
     bool numeric = p->info.type == WG_PARAM_FLOAT_T || p->info.type == WG_PARAM_INT_T;
@@ -347,6 +408,7 @@ static int parse_param(Doc *d, WgGraph *g, xmlNodePtr x)
                              "min %s is greater than max %s", lo, hi);
         goto out;
     }
+    if ((rc = parse_hints(d, x, p, soft_min, soft_max, step))) goto out;
     if (!def) {
         static const char *const natural[] = {"0", "0", "false", "0 0 0 1", NULL, ""};
         const char *text = p->info.type == WG_PARAM_ENUM_T ? p->info.values[0] : natural[t];
@@ -378,6 +440,8 @@ out:
     if (rc) {
         wg_free((char *)p->info.name);
         wg_free((char *)p->info.label);
+        wg_free((char *)p->info.group);
+        wg_free((char *)p->info.description);
         if (p->value_storage)
             for (int k = 0; p->value_storage[k]; k++) wg_free(p->value_storage[k]);
         wg_free(p->value_storage);
@@ -390,6 +454,11 @@ out:
     wg_free(min);
     wg_free(max);
     wg_free(values);
+    wg_free(soft_min);
+    wg_free(soft_max);
+    wg_free(step);
+    wg_free(group);
+    wg_free(description);
     return rc;
 }
 

@@ -955,6 +955,7 @@ static void test_inspection_commands(void **state)
         {"nodes bluur"},
         {"nodes --markdown"},
         {"dot g.wetgraph"},
+        {"info --json wet_material"},
     };
     int n = (int)(sizeof c / sizeof c[0]);
     run_batch(c, n);
@@ -1034,6 +1035,14 @@ static void test_inspection_commands(void **state)
     OUT_HAS(&c[9], "\"n:u\" -> \"n:b\" [label=\"source\"]");
     OUT_HAS(&c[9], "\"n:b\" -> \"n:c\" [label=\"foreground\"]");
     OUT_HAS(&c[9], "\"$base\" -> \"n:c\"");
+
+    /* info --json reports the parameters' UI hints (the wet material's relief depth) */
+    expect_status(&c[10], 0);
+    OUT_HAS(&c[10], "{\"name\": \"height_scale\", \"type\": \"float\", \"default\": \"16\", "
+                    "\"min\": 0.001, \"max\": 4096, \"label\": \"Relief depth\", \"soft_min\": 1, "
+                    "\"soft_max\": 64, \"step\": 0.5, \"group\": \"Zones\", \"description\": ");
+    OUT_HAS(&c[10], "\"name\": \"absorption_depth\"");
+    OUT_HAS(&c[10], "\"soft_max\": 64, \"step\": 0.10000000000000001, \"group\": \"Liquid\"");
     free_batch(c, n);
 }
 

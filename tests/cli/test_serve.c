@@ -292,9 +292,55 @@ static void test_serve_session(void **state)
     Reply r = http("GET", "/");
     assert_int_equal(r.status, 200);
     assert_non_null(strstr(r.head, "text/html"));
+    assert_non_null(strstr(r.body, "<script src=\"/page.js\">"));
+    free(r.head);
+    /* its script and style, and the shader the 3D view loads: the files of the source tree */
+    r = http("GET", "/page.js");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "text/javascript"));
     assert_non_null(strstr(r.body, "/api/state"));
     assert_non_null(strstr(r.body, "EventSource('/events')"));
     free(r.head);
+    r = http("GET", "/page.css");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "text/css"));
+    free(r.head);
+    r = http("GET", "/shaders/wet_layered.frag");
+    assert_int_equal(r.status, 200);
+    {
+        char shader[4096];
+        snprintf(shader, sizeof shader, "%s/docs/shaders/wet_layered.frag",
+                 getenv("WETGRAPH_SOURCE"));
+        size_t size;
+        char *text = wgt_read_file(shader, &size);
+        assert_int_equal(r.size, size);
+        assert_memory_equal(r.body, text, size);
+        free(r.head);
+        free(text);
+    }
+    /* the 3D view's data: an output's pixels as half floats, its size in a header; the
+     * environment's atlas (the built-in sky: no environment was given) */
+    r = http("GET", "/map/c");
+    assert_int_equal(r.status, 200);
+    {
+        const char *dims = strstr(r.head, "X-Wetgraph-Size: ");
+        int w = 0, h = 0, c = 0;
+        if (!dims || sscanf(dims + 17, "%d %d %d", &w, &h, &c) != 3) fail_msg("no X-Wetgraph-Size");
+        assert_true(w > 0 && h > 0 && c == 1);
+        assert_int_equal(r.size, (size_t)w * h * c * 2);
+    }
+    free(r.head);
+    r = http("GET", "/env/0");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "X-Wetgraph-Size: 512 512 4"));
+    assert_int_equal(r.size, 512 * 512 * 4 * 2);
+    free(r.head);
+    const char *missing[] = {"/map/nothing", "/map/", "/env/1", "/env/x", "/env/"};
+    for (size_t i = 0; i < sizeof missing / sizeof *missing; i++) {
+        r = http("GET", missing[i]);
+        if (r.status != 404) fail_msg("GET %s: status %d, expected 404", missing[i], r.status);
+        free(r.head);
+    }
 
     /* the state lists the parameters from their declarations */
     r = http("GET", "/api/state");
@@ -383,6 +429,7 @@ static void test_serve_session(void **state)
     free(r.head);
     assert_int_equal(set_status("%24time=soon"), 400);
     assert_int_equal(set_status("%24time=1e999"), 400);
+    assert_int_equal(set_status("%24view=nope"), 400); /* $view names a node of the graph */
     /* four renders with other values, one picture: dot runs when the graph changes */
     assert_int_equal(count_in("dot.args", "-Tsvg\n"), 1);
 
@@ -482,6 +529,35 @@ static void test_serve_previews(void **state)
 }
 
 /* Without dot in PATH there is no picture (the page lists the nodes instead). */
+/* The 3D view's environments: each --env file and --input environment=FILE, in that order,
+ * prefiltered before the first render; a file that cannot be read is reported on stderr and in
+ * the state, and has no atlas (404), while the others are served. */
+static void test_serve_environments(void **state)
+{
+    (void)state;
+    const char *shared = getenv("WETGRAPH_SHARED");
+    if (!shared || !shared[0]) fail_msg("WETGRAPH_SHARED is not set");
+    char env[4096];
+    snprintf(env, sizeof env, "%s/env/potsdamer_platz_1k.hdr", shared);
+    save("g.wetgraph", "4");
+    const char *const more[] = {"--env", "missing.hdr", "--env", env, NULL};
+    start_watch("g.wetgraph", NULL, "nobin", more);
+    assert_int_equal(count_in("werr", "warning: the 3D view's environment missing.hdr: "), 1);
+    Reply r = http("GET", "/api/state");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.body, "\"environments\":[{\"name\":\"missing.hdr\",\"ready\":false,"
+                                   "\"error\":\""));
+    assert_non_null(strstr(r.body, "{\"name\":\"potsdamer_platz_1k.hdr\",\"ready\":true,"
+                                   "\"error\":null}]"));
+    free(r.head);
+    assert_int_equal(status_of("GET", "/env/0"), 404);
+    r = http("GET", "/env/1");
+    assert_int_equal(r.status, 200);
+    assert_non_null(strstr(r.head, "X-Wetgraph-Size: 512 512 4"));
+    free(r.head);
+    stop();
+}
+
 static void test_serve_without_dot(void **state)
 {
     (void)state;
@@ -619,7 +695,8 @@ static void test_serve_refuses_other_sites(void **state)
     snprintf(foreign[5], sizeof foreign[5], "127.0.0.1.nip.io:%d", port);
     snprintf(foreign[6], sizeof foreign[6], "10.1.2.3:%d", port);
     snprintf(foreign[7], sizeof foreign[7], "[::1]:%d0", port);
-    const char *paths[] = {"/", "/api/state", "/out/c.png", "/graph.svg", "/events", "/api/set"};
+    const char *paths[] = {"/",        "/api/state", "/out/c.png", "/graph.svg", "/events",
+                           "/api/set", "/map/c",     "/env/0",     "/page.js"};
     for (size_t h = 0; h < 9; h++)
         for (size_t k = 0; k < sizeof paths / sizeof *paths; k++) {
             const char *name = h < 8 ? foreign[h] : NULL; /* 8: no Host at all */
@@ -696,12 +773,18 @@ static void test_serve_refuses_other_sites(void **state)
             fail_msg("POST with %s: status %d, expected 403", h_origin[i], r.status);
         free(r.head);
     }
-    /* reading from another site's page (not a navigation) is refused too */
-    Reply r = answer(request_full("GET", "/api/state", host(),
-                                  "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: cors\r\n", NULL),
-                     "GET", "cross-site");
-    assert_int_equal(r.status, 403);
-    free(r.head);
+    /* reading from another site's page (not a navigation) is refused too: the state, the 3D
+     * view's maps and environments, and the page's files */
+    Reply r;
+    const char *reads[] = {"/api/state", "/map/c", "/env/0", "/page.js",
+                           "/shaders/wet_layered.frag"};
+    for (size_t i = 0; i < sizeof reads / sizeof *reads; i++) {
+        r = answer(request_full("GET", reads[i], host(),
+                                "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: cors\r\n", NULL),
+                   "GET", reads[i]);
+        if (r.status != 403) fail_msg("GET %s from another site: status %d", reads[i], r.status);
+        free(r.head);
+    }
     /* a link from another site opens the page, which then leaves its address's ?set= alone */
     r = answer(request_full("GET", "/?set=mode=b", host(),
                             "Sec-Fetch-Site: cross-site\r\nSec-Fetch-Mode: navigate\r\n", NULL),
@@ -901,6 +984,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_serve_session, stop_watcher),
+        cmocka_unit_test_teardown(test_serve_environments, stop_watcher),
         cmocka_unit_test_teardown(test_serve_without_dot, stop_watcher),
         cmocka_unit_test_teardown(test_serve_previews, stop_watcher),
         cmocka_unit_test_teardown(test_serve_ipv6, stop_watcher),

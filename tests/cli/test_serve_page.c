@@ -13,13 +13,24 @@
  * output file is the one `wetgraph render --time T` writes for the time the page shows. With
  * /events open (as a person's browser has it), ?play=3 renders three frames too. A page from
  * elsewhere (a file) that aims an image, fetches and a form at /api/set changes nothing, and the
- * real page's change is then the only one. Fails with a
- * clear message when chromium is not installed (scripts/install-deps.sh installs it). chromium
+ * real page's change is then the only one. The 3D view (WebGL2 on SwiftShader): on a wet
+ * material made from a shared material, its picture read back for a fixed camera matches the
+ * `preview` node's within a measured bound (MEAN_BOUND), is not the clear colour, changes with
+ * the camera and between the dry and the wet material, and after a parameter change given with
+ * ?set= the page says the render is done and the view shows that render's maps and picture.
+ * On the foam graph, foam.frag drawn in the page matches the graph's foam mask at a fixed time.
+ * A click on a node of the graph shows that node's pixels.
+ * The controls built from the parameters' UI hints are driven as a person drives them
+ * (tests/cli/page_driver.js, over the DevTools protocol): slider, number box, reset, colour
+ * picker and folding groups set exact values.
+ * Fails with a clear message when chromium is not installed (scripts/install-deps.sh installs
+ * it) or gives the page no WebGL2 context. chromium
  * runs under `timeout` with a virtual time budget (a harness limit, not a timing assertion).
  * Runs WETGRAPH_BIN. */
 #include "wgtest.h"
 
 #include <arpa/inet.h>
+#include <math.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <stdio.h>
@@ -32,6 +43,10 @@
 #include <unistd.h>
 
 enum { LIMIT_MS = 30000 };
+
+/* WebGL2 in headless chromium without a GPU: ANGLE on SwiftShader, the software renderer
+ * Debian's chromium ships */
+#define CHROMIUM_GL "--use-angle=swiftshader --enable-unsafe-swiftshader"
 
 static const char graph[] =
     "<wetgraph version=\"1\" size=\"64\">\n"
@@ -105,13 +120,14 @@ static const char *need_chromium(void)
 
 /* Load the page at http://127.0.0.1:port/query in headless chromium, its DOM into dom.html (a
  * virtual time budget, and `timeout` as the harness limit). */
+static int budget_ms = 5000;
 static void dump_dom(int port, const char *query)
 {
     int st = wgt_shell(dir,
-                       "timeout 60 chromium --headless=new --no-sandbox --disable-gpu "
-                       "--user-data-dir=profile --virtual-time-budget=5000 --window-size=1200,800 "
+                       "timeout 120 chromium --headless=new --no-sandbox " CHROMIUM_GL
+                       " --user-data-dir=profile --virtual-time-budget=%d --window-size=1200,800 "
                        "--dump-dom 'http://127.0.0.1:%d/%s' >dom.html 2>chromium.log",
-                       port, query);
+                       budget_ms, port, query);
     if (st) fail_msg("chromium failed (status %d): see %s", st, path("chromium.log"));
 }
 
@@ -155,8 +171,10 @@ static void test_serve_page(void **state)
                               "data-loaded="))
         fail_msg("the page did not load the image of output 'c' (%s)", path("dom.html"));
     /* no dot: the graph is a list of its nodes */
-    assert_int_equal(count_in("dom.html", "<ul id=\"nodes\"><li>n (noise)"), 1);
-    assert_int_equal(count_in("dom.html", "<li>mix (blend)"), 1);
+    assert_int_equal(count_in("dom.html", "<ul id=\"nodes\"><li data-node=\"n\" class=\"pick\">n "
+                                          "(noise)"),
+                     1);
+    assert_int_equal(count_in("dom.html", "<li data-node=\"mix\" class=\"pick\">mix (blend)"), 1);
     assert_int_equal(count_in("dom.html", "<div id=\"timebox\" hidden=\"\">"), 1);
     wait_for("watch: waiting", 2); /* the render of ?set=level=0.6 */
     assert_int_equal(wgt_shell(dir, "'%s' render g.wetgraph --set level=0.6 -o cli -q", bin), 0);
@@ -195,9 +213,9 @@ static void test_serve_page_false_colour_and_play(void **state)
     int port = start("bin", "shape=shape_s.png");
     wait_for("watch: waiting", 1);
     dump_dom(port, "?cmap=turbo&play=3&big=height&events=0");
-    /* the picture dot drew */
-    assert_int_equal(
-        count_in("dom.html", "<img id=\"graph\" alt=\"the graph\" src=\"/graph.svg?v="), 1);
+    /* the picture dot drew, in the page, and a link to it */
+    assert_int_equal(count_in("dom.html", "id=\"graph\""), 1);
+    assert_int_equal(count_in("dom.html", ">stand-in</text></svg><a href=\"/graph.svg?v="), 1);
     /* the gray output through turbo: the pixel read back from the canvas is coloured */
     if (strcmp(attr("<figure id=\"out-height\"", "data-map"), "turbo"))
         fail_msg("the output is not shown through turbo (%s)", path("dom.html"));
@@ -305,6 +323,589 @@ static void test_serve_page_other_site_cannot_drive(void **state)
     stop();
 }
 
+/* ---- the 3D view ---------------------------------------------------------------------------- */
+
+/* A wet material from a shared material (PavingStones130, in the shared folder the tests get as
+ * WETGRAPH_SHARED) made by wet_material at N x N, the maps the 3D view reads as outputs, and
+ * the `preview` node's picture of them at the same size: 512, the size of the environment's
+ * atlas, which the node would resample to its own size (and the size the server reads the
+ * environment at for the 3D view) through the 3D view's default camera at zoom 2
+ * (tone mapped, sRGB-encoded, 8-bit), the material bound as graphs/wet_preview.wetgraph binds it
+ * and the liquid tea (tint, absorption depth and index from its presets there), so that the
+ * liquid's colour is compared too. */
+enum { N = 512 };
+static const char lookdev[] =
+    "<wetgraph version=\"1\" size=\"512\">\n"
+    "  <input name=\"environment\" type=\"color\"/>\n"
+    "  <input name=\"basecolor\" type=\"color\" colorspace=\"srgb\"/>\n"
+    "  <input name=\"height\" type=\"gray\"/>\n"
+    "  <input name=\"normal\" type=\"color\" default=\"0.5 0.5 1 1\"/>\n"
+    "  <input name=\"roughness\" type=\"gray\" default=\"0.5\"/>\n"
+    "  <input name=\"ao\" type=\"gray\" default=\"1\"/>\n"
+    "  <param name=\"water_level\" type=\"float\" default=\"0.6\" min=\"0\" max=\"1\"/>\n"
+    "  <param name=\"height_scale\" type=\"float\" default=\"16\" min=\"0.001\" max=\"4096\"/>\n"
+    "  <param name=\"liquid\" type=\"enum\" values=\"water|muddy_water|tea|milk|blood|oil\" "
+    "default=\"tea\"/>\n"
+    "  <node id=\"wet\" type=\"wet_material\" water_level=\"=water_level\" liquid=\"=liquid\" "
+    "height_scale=\"=height_scale\">\n"
+    "    <in name=\"basecolor\" from=\"$basecolor\"/><in name=\"height\" from=\"$height\"/>\n"
+    "    <in name=\"normal\" from=\"$normal\"/><in name=\"roughness\" from=\"$roughness\"/>\n"
+    "    <in name=\"ao\" from=\"$ao\"/>\n"
+    "  </node>\n"
+    "  <node id=\"range\" type=\"statistics\"><in name=\"source\" from=\"wet.height\"/></node>\n"
+    "  <node id=\"under_height\" type=\"pixel\" expr=\"(h - lo) / max(hi - lo, 1e-30)\">\n"
+    "    <in name=\"h\" from=\"wet.underheight\"/><in name=\"lo\" from=\"range.min\"/>"
+    "<in name=\"hi\" from=\"range.max\"/>\n"
+    "  </node>\n"
+    "  <node id=\"water_height\" type=\"pixel\" expr=\"(h - lo) / max(hi - lo, 1e-30)\">\n"
+    "    <in name=\"h\" from=\"wet.waterheight\"/><in name=\"lo\" from=\"range.min\"/>"
+    "<in name=\"hi\" from=\"range.max\"/>\n"
+    "  </node>\n"
+    "  <node id=\"under_normal\" type=\"blend\" mode=\"copy\">\n"
+    "    <in name=\"foreground\" from=\"wet.undernormal\"/><in name=\"background\" "
+    "from=\"wet.normal\"/><in name=\"mask\" from=\"wet.watermask\"/>\n"
+    "  </node>\n"
+    "  <node id=\"env\" type=\"env_prefilter\" size=\"512\"><in name=\"environment\" "
+    "from=\"$environment\"/></node>\n"
+    "  <node id=\"view\" type=\"preview\" elevation=\"50\" azimuth=\"20\" zoom=\"2\" "
+    "height_scale=\"=height_scale / 256\" absorption_depth=\"=2.4 / height_scale\" "
+    "water_ior=\"1.334\" water_tint=\"0.8 0.4 0.1\" tonemap=\"aces\" encoding=\"linear\">\n"
+    "    <in name=\"environment\" from=\"env\"/>\n"
+    "    <in name=\"basecolor\" from=\"wet.underbasecolor\"/><in name=\"normal\" "
+    "from=\"under_normal\"/>\n"
+    "    <in name=\"roughness\" from=\"wet.underroughness\"/><in name=\"height\" "
+    "from=\"under_height\"/>\n"
+    "    <in name=\"ao\" from=\"wet.ao\"/><in name=\"metallic\" from=\"wet.undermetallic\"/>\n"
+    "    <in name=\"specular\" from=\"wet.underspecular\"/>\n"
+    "    <in name=\"water_height\" from=\"water_height\"/><in name=\"water_normal\" "
+    "from=\"wet.waternormal\"/>\n"
+    "    <in name=\"water_roughness\" from=\"wet.waterroughness\"/><in name=\"water_specular\" "
+    "from=\"wet.waterspecular\"/>\n"
+    "    <in name=\"water_mask\" from=\"wet.watermask\"/>\n"
+    "  </node>\n"
+    "  <output name=\"view\" from=\"view\" format=\"png\" colorspace=\"srgb\"/>\n"
+    "  <output name=\"basecolor\" from=\"wet.basecolor\"/><output name=\"normal\" "
+    "from=\"wet.normal\"/>\n"
+    "  <output name=\"height\" from=\"wet.height\"/><output name=\"ao\" from=\"wet.ao\"/>\n"
+    "  <output name=\"roughness\" from=\"wet.roughness\"/>\n"
+    "  <output name=\"metallic\" from=\"wet.metallic\"/><output name=\"specular\" "
+    "from=\"wet.specular\"/>\n"
+    "  <output name=\"underbasecolor\" from=\"wet.underbasecolor\"/>\n"
+    "  <output name=\"undernormal\" from=\"wet.undernormal\"/>\n"
+    "  <output name=\"underroughness\" from=\"wet.underroughness\"/>\n"
+    "  <output name=\"underheight\" from=\"wet.underheight\"/>\n"
+    "  <output name=\"undermetallic\" from=\"wet.undermetallic\"/>\n"
+    "  <output name=\"underspecular\" from=\"wet.underspecular\"/>\n"
+    "  <output name=\"waterheight\" from=\"wet.waterheight\"/>\n"
+    "  <output name=\"waternormal\" from=\"wet.waternormal\"/>\n"
+    "  <output name=\"waterroughness\" from=\"wet.waterroughness\"/>\n"
+    "  <output name=\"waterspecular\" from=\"wet.waterspecular\"/>\n"
+    "  <output name=\"watermask\" from=\"wet.watermask\"/>\n"
+    "</wetgraph>\n";
+
+/* Start watch on lookdev.wetgraph with the shared material and environment (the environment
+ * input is the 3D view's environment too); returns the port. */
+static int start_lookdev(void)
+{
+    const char *shared = getenv("WETGRAPH_SHARED");
+    if (!shared || !shared[0]) fail_msg("WETGRAPH_SHARED is not set");
+    static char in[6][4096];
+    const char *m = "materials/pavingstones130_1k/PavingStones130_1K_";
+    snprintf(in[0], sizeof in[0], "environment=%s/env/venice_sunset_1k.hdr", shared);
+    snprintf(in[1], sizeof in[1], "basecolor=%s/%sColor.jpg", shared, m);
+    snprintf(in[2], sizeof in[2], "height=%s/%sDisplacement.jpg", shared, m);
+    snprintf(in[3], sizeof in[3], "normal=%s/%sNormalGL.jpg", shared, m);
+    snprintf(in[4], sizeof in[4], "roughness=%s/%sRoughness.jpg", shared, m);
+    snprintf(in[5], sizeof in[5], "ao=%s/%sAmbientOcclusion.jpg", shared, m);
+    for (int i = 0; i < 6; i++)
+        if (access(strchr(in[i], '=') + 1, R_OK))
+            fail_msg("the shared material file %s is missing", strchr(in[i], '=') + 1);
+    wgt_write_file(path("lookdev.wetgraph"), lookdev);
+    mkdir(path("nobin"), 0777);
+    unlink(path("werr"));
+    int port = wgt_free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
+    const char *args[] = {"watch",   "lookdev.wetgraph",
+                          "-o",      "o",
+                          "--serve", spec,
+                          "--input", in[0],
+                          "--input", in[1],
+                          "--input", in[2],
+                          "--input", in[3],
+                          "--input", in[4],
+                          "--input", in[5],
+                          NULL};
+    watcher = wgt_spawn(dir, "wout", "werr", path("nobin"), args);
+    return port;
+}
+
+/* The 3D view's state after dump_dom: fails with its message unless it is ready. */
+static void view_ready(void)
+{
+    char st[64];
+    snprintf(st, sizeof st, "%s", attr("<figure id=\"view3d\"", "data-state"));
+    if (!strcmp(st, "no-webgl2"))
+        fail_msg("chromium gives the page no WebGL2 context (SwiftShader, with " CHROMIUM_GL
+                 "): the 3D view cannot be tested (%s)",
+                 path("dom.html"));
+    if (strcmp(st, "ready"))
+        fail_msg("the 3D view is '%s': %s (%s)", st, attr("<figure id=\"view3d\"", "data-error"),
+                 path("dom.html"));
+}
+
+/* The N x N picture the page read back (data-probe, hex RGB from the top row) into px. */
+static void probe(unsigned char *px)
+{
+    size_t size;
+    char *dom = wgt_read_file(path("dom.html"), &size);
+    char *at = strstr(dom, "<figure id=\"view3d\"");
+    char *p = at ? strstr(at, " data-probe=\"") : NULL;
+    if (!p || p > strchr(at, '>'))
+        fail_msg("the 3D view read no picture back (%s)", path("dom.html"));
+    p += strlen(" data-probe=\"");
+    for (int i = 0; i < N * N * 3; i++) {
+        unsigned v;
+        if (sscanf(p + 2 * i, "%2x", &v) != 1)
+            fail_msg("data-probe is shorter than %d values", N * N * 3);
+        px[i] = (unsigned char)v;
+    }
+    free(dom);
+}
+
+/* px as a binary PPM in the test's folder, to look at when a comparison fails. */
+static void save_ppm(const char *name, const unsigned char *px)
+{
+    FILE *f = fopen(path(name), "wb");
+    if (!f) fail_msg("cannot write %s", path(name));
+    fprintf(f, "P6 %d %d 255\n", N, N);
+    fwrite(px, 1, N * N * 3, f);
+    fclose(f);
+}
+
+/* Mean |a - b| over the pixels and channels, 8-bit levels; *far: the share of values more than
+ * 16 levels apart. */
+static double mean_diff(const unsigned char *a, const unsigned char *b, double *far)
+{
+    double sum = 0;
+    int n = 0;
+    for (int i = 0; i < N * N * 3; i++) {
+        int d = abs(a[i] - b[i]);
+        sum += d;
+        n += d > 16;
+    }
+    if (far) *far = (double)n / (N * N * 3);
+    return sum / (N * N * 3);
+}
+
+/* The preview node's picture the watch session wrote, as 8-bit values. */
+static void cpu_view(unsigned char *px)
+{
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path("o/lookdev_view.png"), 4, WG_LINEAR, &img, &err))
+        fail_msg("%s", err.message);
+    assert_int_equal(img->width, N);
+    assert_int_equal(img->height, N);
+    for (int y = 0; y < N; y++)
+        for (int x = 0; x < N; x++)
+            for (int c = 0; c < 3; c++)
+                px[3 * (y * N + x) + c] =
+                    (unsigned char)lrintf(wg_image_row(img, y)[4 * x + c] * 255);
+    wg_image_unref(img);
+}
+
+/* The bound: the mean |GPU - CPU| over the picture within 2.5 of 255 levels (8-bit, sRGB-encoded
+ * after the tone curve), and at most 3% of the values more than 16 levels apart. Measured with
+ * chromium's SwiftShader: 1.73 levels and 1.5% at water_level 0.6, 0.68 and 0.6% at 0.25; the
+ * error gathers in the far rows, where the relief is seen at a grazing angle and one pixel
+ * covers several texels. What differs: the GPU reads the rough levels of the prefiltered
+ * environment from a mip chain (web/view3d.js: loadEnv) where the node reads the blocks, maps
+ * at half-float precision, the normal under the liquid blended by the page rather than by the
+ * graph's blend node, 8-bit rounding on both sides, and the relief's edges where one side's
+ * parallax search meets a texel the other misses. For scale: the dry material against the wet
+ * one differs by about 9 levels, a change of water level by about 12, another camera by tens. */
+#define MEAN_BOUND 2.5
+#define FAR_BOUND 0.03
+
+static void test_view3d_matches_preview(void **state)
+{
+    (void)state;
+    need_chromium();
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    unsigned char gpu[N * N * 3], cpu[N * N * 3], moved[N * N * 3], dry[N * N * 3];
+    char q[256];
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=50,20,2,0", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(gpu);
+    cpu_view(cpu);
+    /* not the clear colour: the material and the environment are drawn */
+    int clear = 0;
+    for (int i = 0; i < N * N; i++)
+        clear += abs(gpu[3 * i] - 18) <= 1 && abs(gpu[3 * i + 1] - 18) <= 1 &&
+                 abs(gpu[3 * i + 2] - 20) <= 1;
+    if (clear > N * N / 100)
+        fail_msg("%d of %d pixels of the 3D view are the clear colour", clear, N * N);
+    save_ppm("view_gpu.ppm", gpu);
+    save_ppm("view_cpu.ppm", cpu);
+    double far, mean = mean_diff(gpu, cpu, &far);
+    /* the same view, all dry: the liquid's own effect */
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=1&view=50,20,2,0", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(dry);
+    double wet_effect = mean_diff(gpu, dry, NULL);
+    print_message("3D view against the preview node (%d x %d, wet): mean |GPU - CPU| %.2f of 255 "
+                  "levels, %.2f%% of the values more than 16 apart; the liquid's own effect %.2f\n",
+                  N, N, mean, 100 * far, wet_effect);
+    if (mean > MEAN_BOUND || far > FAR_BOUND)
+        fail_msg("the 3D view differs from the preview node by %.2f levels on average (bound "
+                 "%.1f), %.2f%% of the values by more than 16 (bound %.0f%%)",
+                 mean, MEAN_BOUND, 100 * far, 100 * FAR_BOUND);
+    assert_true(wet_effect > 2 * MEAN_BOUND);
+    /* another camera: another picture */
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=70,110,1.4,90", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(moved);
+    double camera_change = mean_diff(gpu, moved, NULL);
+    print_message("3D view: another camera changes the picture by %.2f levels on average\n",
+                  camera_change);
+    assert_true(camera_change > 4 * MEAN_BOUND);
+    stop();
+}
+
+/* A parameter change reaches the 3D view once its render is done: the page opened with
+ * ?set=water_level=0.25 says the render is done (<body data-render="done">), shows the maps of
+ * that render (data-version), and its picture is the preview node's of that render, within the
+ * bound, and not the picture before the change. */
+static void test_view3d_follows_a_render(void **state)
+{
+    (void)state;
+    need_chromium();
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    unsigned char before[N * N * 3], after[N * N * 3], cpu[N * N * 3];
+    char q[256];
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=50,20,2,0", N);
+    dump_dom(port, q);
+    view_ready();
+    probe(before);
+    int v0 = atoi(attr("<figure id=\"view3d\"", "data-version"));
+    snprintf(q, sizeof q, "?events=0&probe=%d&split=0&view=50,20,2,0&set=water_level=0.25", N);
+    dump_dom(port, q);
+    view_ready();
+    assert_string_equal(attr("<body", "data-render"), "done");
+    int v1 = atoi(attr("<figure id=\"view3d\"", "data-version"));
+    if (v1 <= v0) fail_msg("the 3D view shows render %d after the change, %d before", v1, v0);
+    probe(after);
+    wait_for("watch: waiting", 2);
+    cpu_view(cpu);
+    double far, mean = mean_diff(after, cpu, &far), change = mean_diff(before, after, NULL);
+    print_message("3D view after water_level=0.25: mean |GPU - CPU| %.2f levels (%.2f%% more than "
+                  "16 apart); the change moved the picture by %.2f\n",
+                  mean, 100 * far, change);
+    if (mean > MEAN_BOUND || far > FAR_BOUND)
+        fail_msg("after the change the 3D view differs from the preview node by %.2f levels", mean);
+    assert_true(change > 2 * MEAN_BOUND);
+    stop();
+}
+
+/* ---- controls an artist can use ---------------------------------------------------------------
+ */
+
+static const char hinted[] =
+    "<wetgraph version=\"1\" size=\"16\">\n"
+    "  <param name=\"depth\" type=\"float\" default=\"16\" min=\"0.001\" max=\"4096\" "
+    "soft_min=\"1\" soft_max=\"64\" step=\"0.5\" group=\"Zones\" label=\"Relief depth\" "
+    "description=\"The length the range stands for\"/>\n"
+    "  <param name=\"count\" type=\"int\" default=\"3\" min=\"0\" max=\"10\" step=\"2\" "
+    "group=\"Puddles\"/>\n"
+    "  <param name=\"tint_r\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" "
+    "group=\"Liquid\"/>\n"
+    "  <param name=\"tint_g\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" "
+    "group=\"Liquid\"/>\n"
+    "  <param name=\"tint_b\" type=\"float\" default=\"-1\" min=\"-1\" max=\"1\" "
+    "group=\"Liquid\"/>\n"
+    "  <node id=\"u\" type=\"uniform\" value=\"=depth / 4096\"/>\n"
+    "  <output name=\"c\" from=\"u\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
+/* The steps page_driver.js runs in the page: each moves a control as a person does (the events
+ * a drag, a typed number, a click fire) and waits until the session's last render used the
+ * value (the state's --set list), then reads the controls back. */
+static const char hinted_steps[] =
+    "await until(() => document.getElementById('param-depth'), 'the controls');\n"
+    "const i = document.getElementById('param-depth'), b = document.getElementById('num-depth');\n"
+    "const row = document.getElementById('row-depth');\n"
+    "return [i.min, i.max, i.step, b.min, b.max, row.title, row.closest('details').dataset.group,\n"
+    "        [...document.querySelectorAll('details.group > summary')].map(x => "
+    "x.textContent).join(','),\n"
+    "        document.getElementById('param-count').step];\n"
+    "----\n"
+    "const used = async v => until(async () => (await (await fetch('/api/state')).json()).sets\n"
+    "    .includes(v), v);\n"
+    "window.used = used;\n"
+    "const i = document.getElementById('param-depth');\n"
+    "i.value = '37.5'; i.dispatchEvent(new Event('input'));\n"
+    "await used('depth=37.5');\n"
+    "return document.getElementById('num-depth').value;\n"
+    "----\n"
+    "const b = document.getElementById('num-depth');\n"
+    "b.value = '1000.125'; b.dispatchEvent(new Event('change'));\n"
+    "await window.used('depth=1000.125');\n"
+    "return document.getElementById('param-depth').value;\n"
+    "----\n"
+    "document.getElementById('reset-depth').click();\n"
+    "await window.used('depth=16');\n"
+    "return [document.getElementById('num-depth').value, "
+    "document.getElementById('param-depth').value];\n"
+    "----\n"
+    "const c = document.getElementById('color-tint');\n"
+    "c.value = '#ff8000'; c.dispatchEvent(new Event('input'));\n"
+    "await window.used('tint_r=1.0000'); await window.used('tint_g=0.2159');\n"
+    "await window.used('tint_b=0.0000');\n"
+    "return document.getElementById('num-tint_g').value;\n"
+    "----\n"
+    "document.querySelector('#rgb-tint button').click();\n"
+    "await window.used('tint_r=-1'); await window.used('tint_g=-1'); await "
+    "window.used('tint_b=-1');\n"
+    "const g = document.querySelector('details.group');\n"
+    "g.querySelector('summary').click();\n"
+    "return g.open;\n";
+
+/* The controls from the parameters' UI hints, driven in chromium: the slider spans the soft
+ * range with the declared step and sets exact values, the number box takes exact values beyond
+ * the soft range (the slider stays at its end), reset goes back to the default, the three
+ * tint_* floats get one colour picker (linear values from its sRGB) and a button back to the
+ * preset, and the groups fold. Needs Node.js (scripts/install-deps.sh installs it). */
+static void test_param_controls(void **state)
+{
+    (void)state;
+    need_chromium();
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    wgt_write_file(path("g.wetgraph"), hinted);
+    wgt_write_file(path("steps.js"), hinted_steps);
+    int port = start("nobin", NULL);
+    wait_for("watch: waiting", 1);
+    int st = wgt_shell(dir,
+                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
+                       "steps.js profile_driver >driver.out 2>driver.err",
+                       getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("driver.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%s", st, out);
+    static const char *const want[] = {
+        "[\"1\",\"64\",\"0.5\",\"0.001\",\"4096\",\"The length the range stands for\",\"Zones\","
+        "\"Zones,Puddles,Liquid\",\"2\"]",
+        "\"37.5\"",        /* the slider's value, exact, in the number box */
+        "\"64\"",          /* 1000.125 typed: the slider at its end */
+        "[\"16\",\"16\"]", /* reset */
+        "\"0.2159\"",      /* the picker's green, linear */
+        "false",           /* the group folded */
+    };
+    char *line = out;
+    for (size_t i = 0; i < sizeof want / sizeof *want; i++) {
+        char *end = strchr(line, '\n');
+        if (!end) fail_msg("the page driver stopped after %zu steps:\n%s", i, out);
+        *end = '\0';
+        if (strcmp(line, want[i])) fail_msg("step %zu: '%s', expected '%s'", i + 1, line, want[i]);
+        line = end + 1;
+    }
+    free(out);
+    stop();
+}
+
+/* ---- any node's image -------------------------------------------------------------------------
+ */
+
+/* Steps for page_driver.js: click the node `node` (selector: the list item or the picture's box)
+ * and return the caption, the channels and the gray values of the image the page then shows,
+ * and whether anything of the picture's own scripts ran. */
+static const char node_steps[] =
+    "await until(() => document.querySelector(SELECTOR), 'the graph');\n"
+    "document.querySelector(SELECTOR).dispatchEvent(new MouseEvent('click', {bubbles: true}));\n"
+    "await until(() => { const f = document.getElementById('out-$view');\n"
+    "  return f && f.dataset.node === NODE && f.dataset.loaded; }, 'the node view');\n"
+    "const f = document.getElementById('out-$view'), im = f.querySelector('img');\n"
+    "const c = document.createElement('canvas'); c.width = im.naturalWidth; c.height = "
+    "im.naturalHeight;\n"
+    "const x = c.getContext('2d'); x.drawImage(im, 0, 0);\n"
+    "const d = x.getImageData(0, 0, c.width, c.height).data, g = [];\n"
+    "for (let k = 0; k < d.length; k += 4) g.push(d[k]);\n"
+    "return [f.querySelector('figcaption span').textContent, f.dataset.channels, c.width,\n"
+    "        document.title, !!document.querySelector('#graph [onclick], #graph script'), g];\n";
+
+/* Run node_steps on the page for node `node` found by selector; check the caption and that the
+ * gray values shown are those of the 8-bit PNG `want` (a file of the test's folder). */
+static void check_node_view(int port, const char *selector, const char *node, const char *want)
+{
+    char steps[4096], *at;
+    snprintf(steps, sizeof steps, "%s", node_steps);
+    while ((at = strstr(steps, "SELECTOR")) || (at = strstr(steps, "NODE"))) {
+        bool sel = !strncmp(at, "SELECTOR", 8);
+        char rest[4096], q[128];
+        snprintf(rest, sizeof rest, "%s", at + (sel ? 8 : 4));
+        snprintf(q, sizeof q, "'%s'", sel ? selector : node);
+        snprintf(at, sizeof steps - (size_t)(at - steps), "%s%s", q, rest);
+    }
+    wgt_write_file(path("node_steps.js"), steps);
+    int st = wgt_shell(dir,
+                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
+                       "node_steps.js profile_node >node.out 2>node.err",
+                       getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("node.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
+    char head[256];
+    snprintf(head, sizeof head, "[\"node %s\",\"1\",64,\"wetgraph watch\",false,[", node);
+    if (strncmp(out, head, strlen(head)))
+        fail_msg("the node view: %.300s, expected %s...", out, head);
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path(want), 1, WG_LINEAR, &img, &err)) fail_msg("%s", err.message);
+    char *p = out + strlen(head);
+    int worst = 0;
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < 64; x++) {
+            char *end;
+            long v = strtol(p, &end, 10);
+            if (end == p) fail_msg("the node view has fewer than 64 x 64 values");
+            p = end + 1;
+            int d = abs((int)v - (int)lrintf(wg_image_row(img, y)[x] * 255));
+            worst = d > worst ? d : worst;
+        }
+    wg_image_unref(img);
+    free(out);
+    /* the preview's 8 bits against the file's: the same rounding of the same image */
+    if (worst > 1) fail_msg("the node view differs from %s by up to %d levels", want, worst);
+}
+
+/* A click on a node in the graph shows that node's image: on the list of nodes (no dot), the
+ * noise node `n`, which no output shows, equal to the file `wetgraph render` writes for an
+ * output from `n`; on dot's picture (a stand-in dot that draws the SVG dot draws, plus a script
+ * and an event attribute, which must not run), the node `mix`, equal to output c's file. */
+static void test_node_view(void **state)
+{
+    (void)state;
+    const char *bin = need_chromium();
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    char g_n[2048];
+    snprintf(g_n, sizeof g_n, "%s", graph);
+    char *end = strstr(g_n, "</wetgraph>");
+    snprintf(end, sizeof g_n - (size_t)(end - g_n),
+             "  <output name=\"n\" from=\"n\" format=\"png\"/>\n</wetgraph>\n");
+    wgt_write_file(path("gn.wetgraph"), g_n);
+    assert_int_equal(wgt_shell(dir, "'%s' render gn.wetgraph -o cli -q", bin), 0);
+    wgt_write_file(path("g.wetgraph"), graph);
+    int port = start("nobin", NULL);
+    wait_for("watch: waiting", 1);
+    check_node_view(port, "#nodes li[data-node=n]", "n", "cli/gn_n.png");
+    stop();
+    /* dot's picture, as dot draws it: a group of class node titled n:ID per node */
+    mkdir(path("svgbin"), 0777);
+    wgt_write_file(path("svgbin/dot"),
+                   "#!/bin/sh\n"
+                   "PATH=/usr/bin:/bin\n"
+                   "cat >/dev/null\n"
+                   "echo '<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"200pt\" "
+                   "height=\"60pt\" viewBox=\"0 0 200 60\"><g id=\"graph0\" class=\"graph\">"
+                   "<g id=\"node1\" class=\"node\"><title>n:mix</title><polygon fill=\"none\" "
+                   "stroke=\"black\" points=\"0,0 100,0 100,40 0,40\"/><text x=\"10\" "
+                   "y=\"24\">mix</text></g><script>document.title=\"ran\"</script>"
+                   "<g id=\"node2\" class=\"node\" onclick=\"document.title=1\"><title>n:u</title>"
+                   "<ellipse cx=\"150\" cy=\"20\" rx=\"40\" ry=\"18\"/></g></g></svg>'\n");
+    chmod(path("svgbin/dot"), 0755);
+    port = start("svgbin", NULL);
+    wait_for("watch: waiting", 1);
+    check_node_view(port, "#graph g.node[data-node=mix]", "mix", "o/g_c.png");
+    stop();
+}
+
+/* ---- foam.frag in real time -------------------------------------------------------------------
+ */
+
+/* The foam graph's page: foam.frag drawn in the page from the render's `maps`, still at $time T
+ * (?foamtime=T) and read back at the graph's size, against the graph's own `foam` rendered at
+ * --time T: the same mask (foam > 1/2) but at a few edge pixels (measured on SwiftShader: 7 of
+ * 16384 at t = 3.3; tests/graphs/test_glsl.c says why edges may differ: fwidth against half the
+ * Sobel gradient), few values far apart, and another time gives another picture. */
+static void test_foam_view(void **state)
+{
+    (void)state;
+    const char *bin = need_chromium();
+    wgt_write_file(path("shore.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"128\"><node id=\"s\" type=\"pixel\" "
+                   "expr=\"cos(6.283185307179586 * u) + 0.6 * sin(12.566370614359172 * v) &gt; "
+                   "0.3\"/><output name=\"shore\" from=\"s\" format=\"png\"/></wetgraph>\n");
+    assert_int_equal(wgt_shell(dir, "'%s' render shore.wetgraph -o . -q", bin), 0);
+    char graph_path[4096];
+    snprintf(graph_path, sizeof graph_path, "%s/graphs/foam.wetgraph", getenv("WETGRAPH_SOURCE"));
+    mkdir(path("nobin"), 0777);
+    unlink(path("werr"));
+    int port = wgt_free_port();
+    char spec[64];
+    snprintf(spec, sizeof spec, "127.0.0.1:%d", port);
+    const char *args[] = {"watch",   graph_path, "-o",  "fo",      "--size",
+                          "128",     "--time",   "3.3", "--input", "shore=shore_shore.png",
+                          "--serve", spec,       NULL};
+    watcher = wgt_spawn(dir, "wout", "werr", path("nobin"), args);
+    wait_for("watch: waiting", 1);
+    budget_ms = 20000;
+    static unsigned char gpu[128 * 128], later[128 * 128];
+    for (int k = 0; k < 2; k++) {
+        dump_dom(port, k ? "?events=0&foamtime=5.1&probe=128" : "?events=0&foamtime=3.3&probe=128");
+        char st[64];
+        snprintf(st, sizeof st, "%s", attr("<figure id=\"foamview\"", "data-state"));
+        if (strcmp(st, "ready"))
+            fail_msg("the foam view is '%s': %s (%s)", st,
+                     attr("<figure id=\"foamview\"", "data-error"), path("dom.html"));
+        size_t size;
+        char *dom = wgt_read_file(path("dom.html"), &size);
+        char *at = strstr(dom, "<figure id=\"foamview\""),
+             *p = at ? strstr(at, " data-probe=\"") : NULL;
+        if (!p || p > strchr(at, '>')) fail_msg("the foam view read no picture back");
+        p += strlen(" data-probe=\"");
+        for (int i = 0; i < 128 * 128; i++) {
+            unsigned v;
+            if (sscanf(p + 2 * i, "%2x", &v) != 1) fail_msg("data-probe is too short");
+            (k ? later : gpu)[i] = (unsigned char)v;
+        }
+        free(dom);
+    }
+    WgImage *img = NULL;
+    WgError err = {0};
+    if (wg_image_read(path("fo/foam_foam.png"), 1, WG_LINEAR, &img, &err))
+        fail_msg("%s", err.message);
+    assert_int_equal(img->width, 128);
+    int differ = 0, far = 0, foam = 0, clear = 0, moved = 0;
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 128; x++) {
+            float c = wg_image_row(img, y)[x], g = gpu[y * 128 + x] / 255.0f;
+            differ += (c > 0.5f) != (g > 0.5f);
+            far += fabsf(c - g) > 0.5f;
+            foam += c > 0.5f, clear += c <= 0.5f;
+            moved += (gpu[y * 128 + x] > 127) != (later[y * 128 + x] > 127);
+        }
+    wg_image_unref(img);
+    print_message("foam.frag in the page at t = 3.3: the mask differs from the graph's at %d of "
+                  "16384 pixels (%d foam), %d values more than 0.5 apart; t = 5.1 changes %d\n",
+                  differ, foam, far, moved);
+    assert_true(foam > 300 && clear > 300);
+    if (differ > 82)
+        fail_msg("foam.frag's mask differs from the graph's at %d pixels (bound 82, 0.5%%)",
+                 differ);
+    if (far > 164) fail_msg("%d values differ by more than 0.5 (bound 164, 1%%)", far);
+    assert_true(moved > 300);
+    stop();
+}
+
 static int stop_watcher(void **state)
 {
     (void)state;
@@ -329,6 +930,11 @@ int main(void)
         cmocka_unit_test_teardown(test_serve_page_false_colour_and_play, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_plays_with_events, stop_watcher),
         cmocka_unit_test_teardown(test_serve_page_other_site_cannot_drive, stop_watcher),
+        cmocka_unit_test_teardown(test_param_controls, stop_watcher),
+        cmocka_unit_test_teardown(test_node_view, stop_watcher),
+        cmocka_unit_test_teardown(test_foam_view, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_matches_preview, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_follows_a_render, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

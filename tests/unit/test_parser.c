@@ -254,6 +254,76 @@ static const char *const valid_xml =
     "  <output name=\"raw\" from=\"$base\" format=\"png16\" colorspace=\"srgb\"/>\n"      /* 23 */
     "</wetgraph>\n";
 
+/* ---- UI hints of <param> -------------------------------------------------------------------- */
+
+static const char *hint_graph(const char *param_attrs)
+{
+    static char xml[1024];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"4\">\n"
+             "  <param name=\"p\" %s/>\n"
+             "  <node id=\"u\" type=\"uniform\"/>\n"
+             "  <output name=\"o\" from=\"u\"/>\n"
+             "</wetgraph>\n",
+             param_attrs);
+    return xml;
+}
+
+/* soft_min, soft_max, step, group and description are read and reported; the hard range still
+ * validates (a value beyond the soft range but within min..max is taken); bad hints are errors
+ * at their attribute's line, naming the parameter. */
+static void test_param_hints(void **state)
+{
+    (void)state;
+    WgGraph *g = wgt_load(hint_graph(
+        "type=\"float\" default=\"16\" min=\"0.001\" max=\"4096\" soft_min=\"1\" soft_max=\"64\" "
+        "step=\"0.5\" group=\"Zones\" label=\"Relief depth\" description=\"The length the range "
+        "stands for\""));
+    const WgGraphParamInfo *p = wg_graph_param_info(g, 0);
+    assert_true(p->has_soft_min && p->has_soft_max && p->has_step);
+    assert_true(p->soft_min == 1 && p->soft_max == 64 && p->step == 0.5);
+    assert_string_equal(p->group, "Zones");
+    assert_string_equal(p->label, "Relief depth");
+    assert_string_equal(p->description, "The length the range stands for");
+    WgRequest *r = wg_request_new(g);
+    WgError err = {0};
+    assert_int_equal(wg_request_set(r, "p", "1000", &err), WG_OK); /* beyond the soft range */
+    assert_int_equal(wg_request_set(r, "p", "5000", &err), WG_ERR_RANGE); /* beyond the hard */
+    wg_request_free(r);
+    wg_graph_free(g);
+    /* without hints: none reported */
+    g = wgt_load(hint_graph("type=\"int\" default=\"2\" min=\"0\" max=\"8\""));
+    p = wg_graph_param_info(g, 0);
+    assert_false(p->has_soft_min || p->has_soft_max || p->has_step);
+    assert_null(p->group);
+    assert_null(p->description);
+    wg_graph_free(g);
+    /* a group and a description suit every type; an int step is whole */
+    wg_graph_free(wgt_load(hint_graph("type=\"color\" group=\"Colour\" description=\"d\"")));
+    wg_graph_free(wgt_load(hint_graph("type=\"int\" min=\"0\" max=\"8\" step=\"2\"")));
+    load_fails(hint_graph("type=\"float\" min=\"0\" max=\"10\" soft_max=\"11\""), WG_ERR_RANGE, 2,
+               "soft_max 11 of parameter 'p' is outside its range (max 10)");
+    load_fails(hint_graph("type=\"float\" min=\"0\" max=\"10\" soft_min=\"-1\""), WG_ERR_RANGE, 2,
+               "soft_min -1 of parameter 'p' is outside its range (min 0)");
+    load_fails(hint_graph("type=\"float\" soft_min=\"5\" soft_max=\"5\""), WG_ERR_RANGE, 2,
+               "soft_min 5 of parameter 'p' is not below its soft_max 5");
+    load_fails(hint_graph("type=\"float\" step=\"0\""), WG_ERR_RANGE, 2,
+               "step 0 of parameter 'p' must be a positive number");
+    load_fails(hint_graph("type=\"int\" step=\"0.5\""), WG_ERR_RANGE, 2,
+               "step 0.5 of parameter 'p' must be a positive whole number");
+    load_fails(hint_graph("type=\"bool\" soft_min=\"0\""), WG_ERR_PARSE, 2,
+               "soft_min applies only to float and int parameters");
+    load_fails(hint_graph("type=\"float\" step=\"fast\""), WG_ERR_TYPE, 2,
+               "'step' expects a number, got 'fast'");
+    /* the attribute's own line, when the element spans several */
+    load_fails("<wetgraph version=\"1\" size=\"4\">\n"
+               "  <param name=\"p\" type=\"float\" min=\"0\" max=\"1\"\n"
+               "         soft_max=\"2\"/>\n"
+               "  <node id=\"u\" type=\"uniform\"/><output name=\"o\" from=\"u\"/>\n"
+               "</wetgraph>\n",
+               WG_ERR_RANGE, 3, "soft_max 2");
+}
+
 static void test_valid_file_and_info(void **state)
 {
     (void)state;
@@ -1573,6 +1643,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_lines_of_multi_line_tags),
         cmocka_unit_test(test_valid_file_and_info),
+        cmocka_unit_test(test_param_hints),
         cmocka_unit_test(test_defaults_of_the_root),
         cmocka_unit_test(test_load_from_a_file),
         cmocka_unit_test(test_malformed_xml),

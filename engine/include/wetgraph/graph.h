@@ -28,6 +28,13 @@ typedef struct WgGraphParamInfo {
     const char *label;         /* may be NULL */
     const char *const *values; /* enum values, NULL-terminated; NULL for other types */
     int line;
+    /* UI hints (float and int; they change nothing the graph computes): the range a slider
+     * spans (within the hard range, which still validates every value), its step, the group the
+     * control is shown in, and a description longer than the label (a tooltip) */
+    bool has_soft_min, has_soft_max, has_step;
+    double soft_min, soft_max, step;
+    const char *group;       /* may be NULL (every type) */
+    const char *description; /* may be NULL (every type) */
 } WgGraphParamInfo;
 
 typedef struct WgGraphInputInfo {
