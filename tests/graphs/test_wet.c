@@ -1257,6 +1257,58 @@ static void test_wet_material_level_and_drying(void **state)
     wg_graph_free(g);
 }
 
+/* wet_gltf and wet_preview forward the level image and the drying and rain parameters to
+ * wet_material: a constant level image is the same as that water_level, and a drying band or
+ * rain changes what they make. */
+static void test_graphs_built_on_wet_material_forward_wetness(void **state)
+{
+    (void)state;
+    Material m = material(W, H);
+    float v = 0.625f;
+    WgImage *c = wgt_image(1, 1, 1, &v);
+    WgImage *env = wgt_image_fn(64, 32, 4, grey_env);
+    static const char *const graphs[] = {"wet_gltf", "wet_preview"};
+    for (int i = 0; i < 2; i++) {
+        WgGraph *g = load_builtin(graphs[i]);
+        static const char *const by_param[] = {"water_level", "0.625", NULL};
+        static const char *const by_image[] = {"water_level", "0.1", NULL};
+        static const char *const drained[] = {"water_level", "0.4", "high_water", "0.7", NULL};
+        static const char *const rained[] = {"water_level", "0.4", "rain", "0.8", NULL};
+        static const char *const plain[] = {"water_level", "0.4", NULL};
+        const char *const *sets[] = {by_param, by_image, drained, rained, plain};
+        WgResult *res[5];
+        for (int k = 0; k < 5; k++) {
+            WgRequest *r = wet_request(g, &m, sets[k]);
+            if (k == 1) set_input(r, "level", c);
+            if (i == 1) {
+                set_input(r, "environment", env);
+                wg_request_set_size(r, 48, 48);
+            }
+            res[k] = render_with(r, 2, true, false);
+            wg_request_free(r);
+        }
+        int n = wg_result_output_count(res[0]);
+        assert_true(n > 0);
+        for (int k = 0; k < n; k++)
+            wgt_assert_identical(wg_result_output_image(res[1], k), wg_result_output_image(res[0], k));
+        const char *shown = i == 0 ? "basecolor" : "preview_wet";
+        for (int k = 2; k < 4; k++) {
+            const WgImage *a = wgt_output(res[k], shown), *b = wgt_output(res[4], shown);
+            double diff = 0;
+            for (int y = 0; y < a->height; y++)
+                for (int x = 0; x < a->width * a->channels; x++)
+                    diff = fmax(diff, fabs(wg_image_row(a, y)[x] - wg_image_row(b, y)[x]));
+            if (diff < 1e-3)
+                fail_msg("%s: %s does not change with %s", graphs[i], shown, sets[k][2]);
+        }
+        for (int k = 0; k < 5; k++) wg_result_free(res[k]);
+        wg_graph_free(g);
+    }
+    wg_image_unref(c);
+    wg_image_unref(env);
+    material_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1279,6 +1331,7 @@ int main(void)
         cmocka_unit_test(test_wet_material_fused_identical),
         cmocka_unit_test(test_wet_material_fused_warm_equals_cold),
         cmocka_unit_test(test_wet_material_level_and_drying),
+        cmocka_unit_test(test_graphs_built_on_wet_material_forward_wetness),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
