@@ -193,24 +193,6 @@ static char *mem_take(Mem *m)
     return m->buf;
 }
 
-static const char *type_name(WgParamType t)
-{
-    switch (t) {
-    case WG_PARAM_FLOAT_T:
-        return "float";
-    case WG_PARAM_INT_T:
-        return "int";
-    case WG_PARAM_BOOL_T:
-        return "bool";
-    case WG_PARAM_ENUM_T:
-        return "enum";
-    case WG_PARAM_COLOR_T:
-        return "color";
-    default:
-        return "string";
-    }
-}
-
 int serve_fd(const Serve *s)
 {
     return s->efd;
@@ -284,7 +266,7 @@ static char *params_json(const WgGraph *g, const char *const *sets, int n_sets)
             if (!strncmp(sets[k], p->name, len) && sets[k][len] == '=') value = sets[k] + len + 1;
         fprintf(f, "%s{\"name\":", i ? "," : "");
         cli_json_string(f, p->name);
-        fprintf(f, ",\"type\":\"%s\",\"label\":", type_name(p->type));
+        fprintf(f, ",\"type\":\"%s\",\"label\":", wg_param_type_name(p->type));
         cli_json_string(f, p->label ? p->label : "");
         fputs(",\"default\":", f);
         cli_json_string(f, p->default_text);

@@ -86,7 +86,6 @@ int wg__color_parse(const char *text, float out[4]);
 /* Length of the unsigned decimal number at s (digits, optional fraction, optional exponent;
  * no sign, no hex, no inf/nan), 0 when s does not start with one. */
 size_t wg__number_length(const char *s);
-const char *wg__type_name(WgParamType t);
 
 /* ---- loaded graph definitions ------------------------------------------------------------ */
 

@@ -101,7 +101,7 @@ int wg_request_set(WgRequest *r, const char *name, const char *value, WgError *e
             p->info.type != WG_PARAM_BOOL_T)
             return wg_error_set(err, WG_ERR_TYPE, NULL, "'%s' is %s %s parameter, not a number",
                                 name, p->info.type == WG_PARAM_ENUM_T ? "an" : "a",
-                                wg__type_name(p->info.type));
+                                wg_param_type_name(p->info.type));
         rc = wg__value_check(&p->desc, &v, err);
     } else {
         rc = wg__value_parse(&p->desc, value, &v, err);

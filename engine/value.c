@@ -13,7 +13,7 @@
 #include <string.h>
 #include <strings.h>
 
-const char *wg__type_name(WgParamType t)
+const char *wg_param_type_name(WgParamType t)
 {
     switch (t) {
     case WG_PARAM_FLOAT_T:

@@ -574,7 +574,7 @@ static bool resolve_scope(void *user, const char *name, size_t len, int *slot)
     if (p < 0) return false;
     WgParamType t = sr->g->params[p].info.type;
     if (t == WG_PARAM_COLOR_T || t == WG_PARAM_STRING_T) {
-        sr->bad = wg__type_name(t);
+        sr->bad = wg_param_type_name(t);
         return false;
     }
     *slot = p;
@@ -633,8 +633,8 @@ static int parse_attr_value(Doc *d, const WgGraph *g, NodeDef *n, AttrDef *a,
                 return wg_error_set_at(d->err, WG_ERR_TYPE, d->path, a->line, 0,
                                        "node '%s': '%s' is %s %s parameter: its value can only "
                                        "be a literal or '=name' of a graph %s parameter",
-                                       n->id, a->name, article(wg__type_name(desc->type)),
-                                       wg__type_name(desc->type), wg__type_name(desc->type));
+                                       n->id, a->name, article(wg_param_type_name(desc->type)),
+                                       wg_param_type_name(desc->type), wg_param_type_name(desc->type));
             a->ref_param = p;
             return WG_OK;
         }

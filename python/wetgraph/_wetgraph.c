@@ -727,25 +727,6 @@ static PyObject *Graph_set_input(GraphObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
-static const char *type_name(WgParamType t)
-{
-    switch (t) {
-    case WG_PARAM_FLOAT_T:
-        return "float";
-    case WG_PARAM_INT_T:
-        return "int";
-    case WG_PARAM_BOOL_T:
-        return "bool";
-    case WG_PARAM_ENUM_T:
-        return "enum";
-    case WG_PARAM_COLOR_T:
-        return "color";
-    case WG_PARAM_STRING_T:
-        return "string";
-    }
-    return "unknown";
-}
-
 static PyObject *opt_float(bool has, double v)
 {
     return has ? PyFloat_FromDouble(v) : Py_NewRef(Py_None);
@@ -772,7 +753,7 @@ static PyObject *Graph_param_info(GraphObject *self, PyObject *unused)
                 PyTuple_SET_ITEM(values, k, PyUnicode_FromString(p->values[k]));
         }
         PyObject *t =
-            values ? Py_BuildValue("(sssNNNNi)", p->name, type_name(p->type), p->default_text,
+            values ? Py_BuildValue("(sssNNNNi)", p->name, wg_param_type_name(p->type), p->default_text,
                                    opt_float(p->has_min, p->min), opt_float(p->has_max, p->max),
                                    opt_str(p->label), values, p->line)
                    : NULL;

@@ -67,6 +67,10 @@ enum {
                                the file's content is part of the cache key */
 };
 
+/* "float", "int", "bool", "enum", "color" or "string": a parameter type as graph files and
+ * messages write it. */
+const char *wg_param_type_name(WgParamType t);
+
 typedef struct WgParamSpec {
     const char *name;
     WgParamType type;
