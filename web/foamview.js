@@ -17,7 +17,7 @@ const foamView = (function () {
   const probeN = Math.max(0, Math.min(1024, +args.get('probe') || 0));
   const still = args.get('foamtime') !== null ? +args.get('foamtime') || 0 : null;
   let fig, canvas, gl = null, prog, vao, tex = null, shownVersion = -1, params = {};
-  let started = null, playing = still === null, t0 = performance.now(), tPaused = 0, probeFbo = null;
+  let started = null, playing = still === null, t0 = performance.now(), tPaused = 0, probeTarget = {};
   const VS = `#version 300 es
 layout(location = 0) in vec2 pos;
 out vec2 uv;
@@ -56,18 +56,7 @@ void main() { uv = pos * 0.5 + 0.5; gl_Position = vec4(pos, 0.0, 1.0); }`;
     gl.bindVertexArray(null);
   }
   function probe() {
-    if (!probeFbo) {
-      probeFbo = gl.createFramebuffer();
-      const t = gl.createTexture();
-      gl.bindTexture(gl.TEXTURE_2D, t);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, probeN, probeN, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
-      gl.bindFramebuffer(gl.FRAMEBUFFER, probeFbo);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t, 0);
-    }
-    drawTo(probeN, probeN, probeFbo);
-    const px = new Uint8Array(probeN * probeN * 4);
-    gl.readPixels(0, 0, probeN, probeN, gl.RGBA, gl.UNSIGNED_BYTE, px);
-    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    const px = wgReadBack(gl, probeTarget, probeN, drawTo);
     let hex = '';
     for (let y = 0; y < probeN; y++) // GL's rows from the bottom: the image's rows in order
       for (let x = 0; x < probeN; x++) hex += px[(y * probeN + x) * 4].toString(16).padStart(2, '0');

@@ -38,6 +38,24 @@ function wgSetDefaults(gl, prog, defaults, what) {
   }
 }
 
+// an n x n RGBA8 picture drawn by draw(n, n, framebuffer) into an offscreen framebuffer (made
+// once, kept in holder.fbo), read back: GL's rows, from the bottom, 4 bytes a pixel
+function wgReadBack(gl, holder, n, draw) {
+  if (!holder.fbo) {
+    holder.fbo = gl.createFramebuffer();
+    const t = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, t);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, n, n, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, holder.fbo);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t, 0);
+  }
+  draw(n, n, holder.fbo);
+  const px = new Uint8Array(n * n * 4);
+  gl.readPixels(0, 0, n, n, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  return px;
+}
+
 const WG_HALF = (function () { // IEEE half float to number, for every 16-bit code
   const t = new Float32Array(65536);
   for (let h = 0; h < 65536; h++) {

@@ -60,7 +60,7 @@ const view3d = (function () {
 
   const cam = { elevation: 50, azimuth: 20, zoom: 1, envRotation: 0 };
   const opt = { split: 0.5, tiling: 1, exposure: 0, env: 0 };
-  let fig, canvas, gl, prog, bgProg, vao, bgVao, probeFbo = null;
+  let fig, canvas, gl, prog, bgProg, vao, bgVao, probeTarget = {};
   const probeN = Math.max(0, Math.min(1024, +args.get('probe') || 0));
   const uniformDefaults = [];
   const maps = {}; // name -> {version, w, h, c, data: Float32Array}
@@ -437,18 +437,7 @@ void main()
   quad.tile = {};
 
   function probe() {
-    if (!probeFbo) {
-      probeFbo = gl.createFramebuffer();
-      const t = gl.createTexture();
-      gl.bindTexture(gl.TEXTURE_2D, t);
-      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, probeN, probeN, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
-      gl.bindFramebuffer(gl.FRAMEBUFFER, probeFbo);
-      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t, 0);
-    }
-    drawTo(probeN, probeN, probeFbo);
-    const px = new Uint8Array(probeN * probeN * 4);
-    gl.readPixels(0, 0, probeN, probeN, gl.RGBA, gl.UNSIGNED_BYTE, px);
-    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    const px = wgReadBack(gl, probeTarget, probeN, drawTo);
     let hex = '';
     for (let y = probeN - 1; y >= 0; y--) // GL's rows are from the bottom
       for (let x = 0; x < probeN; x++)
