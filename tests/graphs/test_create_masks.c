@@ -80,14 +80,17 @@ static int teardown(void **state)
     return 0;
 }
 
-/* Render the masks of `height` (and `noise`, may be NULL) with parameters "name=value ...". */
-static Masks render(const WgImage *height, const WgImage *noise, const char *sets)
+/* Render the masks with the given images connected (names[i] <- images[i]) on an engine of
+ * `threads` workers (2: the suite's own engine), with parameters "name=value ...". */
+static Masks render_with(const char *const *names, const WgImage *const *images, int n,
+                         const char *sets, int threads)
 {
     WgError err = {0};
     WgRequest *r = wg_request_new(graph);
     assert_non_null(r);
-    if (wg_request_set_input_image(r, "height", height, &err)) fail_msg("%s", err.message);
-    if (noise && wg_request_set_input_image(r, "noise", noise, &err)) fail_msg("%s", err.message);
+    for (int i = 0; i < n; i++)
+        if (wg_request_set_input_image(r, names[i], images[i], &err))
+            fail_msg("%s: %s", names[i], err.message);
     char buf[1024];
     snprintf(buf, sizeof buf, "%s", sets ? sets : "");
     char *save = NULL;
@@ -100,7 +103,9 @@ static Masks render(const WgImage *height, const WgImage *noise, const char *set
     const char *outs[] = {"immersed", "wet", "moist", "puddles", "water_height"};
     for (int i = 0; i < 5; i++)
         if (wg_request_add_output(r, outs[i], &err)) fail_msg("%s", err.message);
-    WgResult *res = wgt_render_request(engine, r);
+    WgEngine *e = threads == 2 ? engine : wgt_engine(threads, 0, NULL);
+    WgResult *res = wgt_render_request(e, r);
+    if (e != engine) wg_engine_free(e);
     Masks m = {
         wg_image_ref(wgt_output(res, "immersed")),     wg_image_ref(wgt_output(res, "wet")),
         wg_image_ref(wgt_output(res, "moist")),        wg_image_ref(wgt_output(res, "puddles")),
@@ -109,6 +114,14 @@ static Masks render(const WgImage *height, const WgImage *noise, const char *set
     wg_result_free(res);
     wg_request_free(r);
     return m;
+}
+
+/* Render the masks of `height` (and `noise`, may be NULL) with parameters "name=value ...". */
+static Masks render(const WgImage *height, const WgImage *noise, const char *sets)
+{
+    const char *const names[] = {"height", "noise"};
+    const WgImage *const images[] = {height, noise};
+    return render_with(names, images, noise ? 2 : 1, sets, 2);
 }
 
 static void masks_free(Masks *m)
@@ -850,42 +863,6 @@ static void test_noise_input(void **state)
 }
 
 /* ---- a painted water level ----------------------------------------------------------------- */
-
-/* Render the masks with the given images connected (names[i] <- images[i]) on an engine of
- * `threads` workers, parameters as in render(). */
-static Masks render_with(const char *const *names, const WgImage *const *images, int n,
-                         const char *sets, int threads)
-{
-    WgError err = {0};
-    WgRequest *r = wg_request_new(graph);
-    assert_non_null(r);
-    for (int i = 0; i < n; i++)
-        if (wg_request_set_input_image(r, names[i], images[i], &err))
-            fail_msg("%s: %s", names[i], err.message);
-    char buf[1024];
-    snprintf(buf, sizeof buf, "%s", sets ? sets : "");
-    char *save = NULL;
-    for (char *p = strtok_r(buf, " ", &save); p; p = strtok_r(NULL, " ", &save)) {
-        char *eq = strchr(p, '=');
-        assert_non_null(eq);
-        *eq = 0;
-        if (wg_request_set(r, p, eq + 1, &err)) fail_msg("%s=%s: %s", p, eq + 1, err.message);
-    }
-    const char *outs[] = {"immersed", "wet", "moist", "puddles", "water_height"};
-    for (int i = 0; i < 5; i++)
-        if (wg_request_add_output(r, outs[i], &err)) fail_msg("%s", err.message);
-    WgEngine *e = threads == 2 ? engine : wgt_engine(threads, 0, NULL);
-    WgResult *res = wgt_render_request(e, r);
-    if (e != engine) wg_engine_free(e);
-    Masks m = {
-        wg_image_ref(wgt_output(res, "immersed")),     wg_image_ref(wgt_output(res, "wet")),
-        wg_image_ref(wgt_output(res, "moist")),        wg_image_ref(wgt_output(res, "puddles")),
-        wg_image_ref(wgt_output(res, "water_height")),
-    };
-    wg_result_free(res);
-    wg_request_free(r);
-    return m;
-}
 
 static void assert_masks_identical(const Masks *a, const Masks *b)
 {
