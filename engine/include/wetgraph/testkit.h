@@ -18,7 +18,7 @@
  *
  * Checks return true when they pass and fill a report saying what failed (or what was
  * checked), so a cmocka, Check or plain-assert test can print it. Not thread-safe: run checks
- * one at a time. */
+ * one at a time, with no other thread of the program running (the hard-input battery forks). */
 #ifndef WETGRAPH_TESTKIT_H
 #define WETGRAPH_TESTKIT_H
 
