@@ -12,8 +12,10 @@
 #    oiiotool's own --runstats total for `-i:now=1:type=float FILE` (OpenImageIO's timer, 10 ms
 #    resolution; the process start-up excluded).
 # 3. The five JPEGs of the wet material's wall as `image` nodes, at their own size and
-#    resampled to 2048², beside cv2.imread + conversion to float (+ cv2.resize) of the same
-#    files, in the same run (python3-opencv); then the host's CPU and load average.
+#    resampled to 2048², in a new process (--stats: the output is new memory) and pooled
+#    (bench/bench_read: the output from the engine's pool, compute alone), beside cv2.imread +
+#    conversion to float (+ cv2.resize) of the same files in a warm Python loop, in the same run
+#    (python3-opencv); then the host's CPU and load average.
 # Builds BUILD_DIR first (default: build, set up as a release build if missing); needs oiiotool
 # and the OpenImageIO headers (scripts/install-deps.sh --bench). Timing is noisy on a loaded
 # machine: run it on an idle one.
@@ -203,14 +205,20 @@ a = cv2.imread(path, cv2.IMREAD_UNCHANGED)
 print("%.2f %dx%d" % (t[len(t) // 2], a.shape[1], a.shape[0]))
 PY
     }
+    ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
+    sum() { awk -v a="$1" -v b="$2" 'BEGIN { print a + b }'; }
     echo
-    echo "The wet material's JPEGs as image nodes against cv2.imread + float (+ cv2.resize), median of $runs (ms):"
+    echo "The wet material's JPEGs as image nodes against cv2.imread + float (+ cv2.resize), median of $runs (ms)."
+    echo "node: a new process (--stats), its output new memory; pooled: bench_read, the node in one"
+    echo "engine whose output comes from its buffer pool, as the Python loop reuses its heap."
     echo
-    printf '| %-26s | %9s | %9s | %10s | %9s | %9s | %10s |\n' "file" "node file" "cv2 file" "node/cv2" \
-        "node 2K" "cv2 2K" "node/cv2"
-    printf '|%s|%s|%s|%s|%s|%s|%s|\n' "----------------------------" "-----------" "-----------" \
-        "------------" "-----------" "-----------" "------------"
-    sum_n1=0 sum_c1=0 sum_n2=0 sum_c2=0
+    printf '| %-17s | %9s | %9s | %9s | %8s | %11s | %9s | %9s | %9s | %8s | %11s |\n' "file" \
+        "node file" "pooled" "cv2 file" "node/cv2" "pooled/cv2" "node 2K" "pooled 2K" "cv2 2K" \
+        "node/cv2" "pooled/cv2"
+    printf '|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n' "-------------------" "-----------" "-----------" \
+        "-----------" "----------" "-------------" "-----------" "-----------" "-----------" \
+        "----------" "-------------"
+    s_n1=0 s_p1=0 s_c1=0 s_n2=0 s_p2=0 s_c2=0
     for map in Color AmbientOcclusion Displacement NormalGL Roughness; do
         file=$mat/Bricks102_1K-JPG_$map.jpg
         cs=linear
@@ -219,20 +227,20 @@ PY
         wh=${c1#* }
         c1=${c1% *}
         n1=$(node_ms "$file" "$wh" "$cs")
+        p1=$("$build/bench/bench_read" --reps "$runs" "$file" "$cs" "$wh")
         n2=$(node_ms "$file" 2048 "$cs")
+        p2=$("$build/bench/bench_read" --reps "$runs" "$file" "$cs" 2048x2048)
         c2=$(cv2_ms "$file" 2048)
         c2=${c2% *}
-        printf '| %-26s | %9s | %9s | %10s | %9s | %9s | %10s |\n' "$map" "$n1" "$c1" \
-            "$(awk -v a="$n1" -v b="$c1" 'BEGIN { printf "%.2f", a / b }')" "$n2" "$c2" \
-            "$(awk -v a="$n2" -v b="$c2" 'BEGIN { printf "%.2f", a / b }')"
-        sum_n1=$(awk -v a="$sum_n1" -v b="$n1" 'BEGIN { print a + b }')
-        sum_c1=$(awk -v a="$sum_c1" -v b="$c1" 'BEGIN { print a + b }')
-        sum_n2=$(awk -v a="$sum_n2" -v b="$n2" 'BEGIN { print a + b }')
-        sum_c2=$(awk -v a="$sum_c2" -v b="$c2" 'BEGIN { print a + b }')
+        printf '| %-17s | %9s | %9s | %9s | %8s | %11s | %9s | %9s | %9s | %8s | %11s |\n' "$map" \
+            "$n1" "$p1" "$c1" "$(ratio "$n1" "$c1")" "$(ratio "$p1" "$c1")" "$n2" "$p2" "$c2" \
+            "$(ratio "$n2" "$c2")" "$(ratio "$p2" "$c2")"
+        s_n1=$(sum "$s_n1" "$n1") s_p1=$(sum "$s_p1" "$p1") s_c1=$(sum "$s_c1" "$c1")
+        s_n2=$(sum "$s_n2" "$n2") s_p2=$(sum "$s_p2" "$p2") s_c2=$(sum "$s_c2" "$c2")
     done
-    printf '| %-26s | %9s | %9s | %10s | %9s | %9s | %10s |\n' "all five" "$sum_n1" "$sum_c1" \
-        "$(awk -v a="$sum_n1" -v b="$sum_c1" 'BEGIN { printf "%.2f", a / b }')" "$sum_n2" "$sum_c2" \
-        "$(awk -v a="$sum_n2" -v b="$sum_c2" 'BEGIN { printf "%.2f", a / b }')"
+    printf '| %-17s | %9s | %9s | %9s | %8s | %11s | %9s | %9s | %9s | %8s | %11s |\n' "all five" \
+        "$s_n1" "$s_p1" "$s_c1" "$(ratio "$s_n1" "$s_c1")" "$(ratio "$s_p1" "$s_c1")" "$s_n2" \
+        "$s_p2" "$s_c2" "$(ratio "$s_n2" "$s_c2")" "$(ratio "$s_p2" "$s_c2")"
 else
     echo
     echo "(no python3-opencv or no $mat: the cv2 comparison is left out)"

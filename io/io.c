@@ -353,30 +353,63 @@ static int check_regular(const char *path, WgError *err)
     return WG_OK;
 }
 
-int wg_image_probe(const char *path, int *width, int *height, int *channels, WgError *err)
+/* What a file's first bytes say it is, so that only its own reader opens it; each reader
+ * checks the signature again. */
+typedef enum { FILE_OTHER, FILE_PNG, FILE_EXR, FILE_JPEG } FileKind;
+
+static FileKind file_kind(const char *path)
+{
+    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static const unsigned char exr[4] = {0x76, 0x2f, 0x31, 0x01};
+    unsigned char head[8] = {0};
+    FILE *f = fopen(path, "rb");
+    if (!f) return FILE_OTHER; /* the reader reports it */
+    size_t n = fread(head, 1, sizeof head, f);
+    fclose(f);
+    if (n == 8 && !memcmp(head, png, 8)) return FILE_PNG;
+    if (n >= 4 && !memcmp(head, exr, 4)) return FILE_EXR;
+    if (n >= 2 && head[0] == 0xff && head[1] == 0xd8) return FILE_JPEG;
+    return FILE_OTHER;
+}
+
+/* wg_image_probe, with what the file is and whether its header was read natively (*native). */
+static int probe(const char *path, int *width, int *height, int *channels, FileKind *kind,
+                 bool *native, WgError *err)
 {
     char msg[512];
     int rc = check_regular(path, err);
     if (rc) return rc;
-    if (wg__png_check(path, false, msg, sizeof msg))
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+    *kind = file_kind(path);
     /* PNG, EXR and JPEG headers are read here: checking a graph needs no OpenImageIO */
-    rc = wg__png_probe(path, width, height, channels, msg, sizeof msg);
-    if (rc > 0 && wg__exr_is_exr(path) && wg__exr_check(path, msg, sizeof msg))
-        return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
-    if (rc > 0 && wg__exr_is_exr(path)) {
+    rc = 1;
+    if (*kind == FILE_PNG) {
+        if (wg__png_check(path, false, msg, sizeof msg))
+            return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
+        rc = wg__png_probe(path, width, height, channels, msg, sizeof msg);
+    } else if (*kind == FILE_EXR) {
+        if (wg__exr_check(path, msg, sizeof msg))
+            return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
         WgExrIn *in;
         int strip;
         rc = wg__exr_open(path, &in, width, height, channels, &strip, msg, sizeof msg);
         wg__exr_close(in);
+    } else if (*kind == FILE_JPEG) {
+        rc = wg__jpeg_probe(path, width, height, channels);
     }
-    if (rc > 0) rc = wg__jpeg_probe(path, width, height, channels);
+    *native = rc == 0;
     if (rc > 0) rc = wg__oiio_probe(path, width, height, channels, msg, sizeof msg);
     if (rc) return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     if (*width < 1 || *height < 1 || *width > WG_MAX_SIDE || *height > WG_MAX_SIDE)
         return wg_error_set_at(err, WG_ERR_RANGE, path, 0, 0, "image is %dx%d; sides must be 1..%d",
                                *width, *height, WG_MAX_SIDE);
     return WG_OK;
+}
+
+int wg_image_probe(const char *path, int *width, int *height, int *channels, WgError *err)
+{
+    FileKind kind;
+    bool native;
+    return probe(path, width, height, channels, &kind, &native, err);
 }
 
 /* Rows decoded and converted at a time, so reading and writing hold a strip, not an image. */
@@ -661,22 +694,16 @@ static int read_png(const char *path, WgColorspace cs, WgImage *dst, WgError *er
     return rc;
 }
 
-/* The DCT scale (1..8, the largest) at which a w x h JPEG decodes to dw x dh, or 0. */
-static int jpeg_scale_for(int w, int h, int dw, int dh)
-{
-    for (int s = 8; s >= 1; s--)
-        if (wg__jpeg_scaled_side(w, s) == dw && wg__jpeg_scaled_side(h, s) == dh) return s;
-    return 0;
-}
-
 int wg_image_decode_size(const char *path, int width, int height, int *dw, int *dh, WgError *err)
 {
     int w, h, c;
-    int rc = wg_image_probe(path, &w, &h, &c, err);
+    FileKind kind;
+    bool native;
+    int rc = probe(path, &w, &h, &c, &kind, &native, err);
     if (rc) return rc;
     *dw = w;
     *dh = h;
-    if (wg__jpeg_probe(path, &w, &h, &c)) return WG_OK;
+    if (kind != FILE_JPEG || !native) return WG_OK;
     for (int s = 1; s < 8; s++) {
         int sw = wg__jpeg_scaled_side(w, s), sh = wg__jpeg_scaled_side(h, s);
         if (sw >= width && sh >= height) {
@@ -722,18 +749,15 @@ static void jpeg_row(void *user, int y, const unsigned char *data, int depth)
     }
 }
 
-/* 1 when the file is not a JPEG decoded natively at the destination's size. */
+/* 1 when the file is not a JPEG decoded natively at the destination's size (then the general
+ * path reads it, or says that it changed). */
 static int read_jpeg(const char *path, WgColorspace cs, WgImage *dst, WgError *err)
 {
-    int w, h, c;
-    if (wg__jpeg_probe(path, &w, &h, &c)) return 1;
-    int scale = jpeg_scale_for(w, h, dst->width, dst->height);
-    if (!scale) return 1; /* the general path says the file changed */
     pthread_once(&code8_once, code8_tables_build);
-    PngRows rows = {dst, cs, c, NULL};
-    WgPngSink sink = {dst->width, dst->height, c, jpeg_row, &rows};
+    PngRows rows = {dst, cs, 0, NULL};
+    WgPngSink sink = {dst->width, dst->height, 0, jpeg_row, &rows};
     char msg[512];
-    int rc = wg__jpeg_read(path, scale, &sink, msg, sizeof msg);
+    int rc = wg__jpeg_read(path, &sink, &rows.c, msg, sizeof msg);
     if (rc < 0)
         return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read the image: %s", msg);
     return rc;
@@ -743,8 +767,9 @@ int wg_image_read_into(const char *path, WgColorspace cs, WgImage *dst, WgError 
 {
     int rc = check_regular(path, err);
     if (rc) return rc;
-    if ((rc = read_png(path, cs, dst, err)) <= 0) return rc;
-    if ((rc = read_jpeg(path, cs, dst, err)) <= 0) return rc;
+    FileKind kind = file_kind(path);
+    if (kind == FILE_PNG && (rc = read_png(path, cs, dst, err)) <= 0) return rc;
+    if (kind == FILE_JPEG && (rc = read_jpeg(path, cs, dst, err)) <= 0) return rc;
     char msg[512];
     Reader r;
     if (wg__png_check(path, true, msg, sizeof msg) || reader_open(path, &r, NULL, msg, sizeof msg))

@@ -18,10 +18,8 @@ static bool is_frame(int m)
 }
 
 /* The frame's marker in *frame (0xc2, 0xc6, 0xca and 0xce are progressive). */
-static int probe(const char *path, int *w, int *h, int *c, int *frame)
+int wg__jpeg_probe_file(FILE *f, int *w, int *h, int *c, int *frame)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return 1;
     unsigned char b[8];
     int rc = 1, frames = 0;
     int fw = 0, fh = 0, fc = 0, precision = 0;
@@ -58,6 +56,14 @@ static int probe(const char *path, int *w, int *h, int *c, int *frame)
         if (fseek(f, len - 3, SEEK_CUR) != 0 || fgetc(f) == EOF) goto out;
     }
 out:
+    return rc;
+}
+
+static int probe(const char *path, int *w, int *h, int *c, int *frame)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 1;
+    int rc = wg__jpeg_probe_file(f, w, h, c, frame);
     fclose(f);
     return rc;
 }

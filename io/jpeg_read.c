@@ -46,12 +46,25 @@ int wg__jpeg_scaled_side(int side, int scale)
     return (int)(((long)side * scale + 7) / 8);
 }
 
-int wg__jpeg_read(const char *path, int scale, const WgPngSink *sink, char *msg, size_t size)
+/* The largest DCT scale (1..8) at which a w x h file decodes to the sink's size, or 0. */
+static int scale_for(int w, int h, const WgPngSink *sink)
 {
-    int w, h, c;
-    if (scale < 1 || scale > 8 || wg__jpeg_probe(path, &w, &h, &c)) return 1;
+    for (int s = 8; s >= 1; s--)
+        if (wg__jpeg_scaled_side(w, s) == sink->width && wg__jpeg_scaled_side(h, s) == sink->height)
+            return s;
+    return 0;
+}
+
+int wg__jpeg_read(const char *path, const WgPngSink *sink, int *channels, char *msg, size_t size)
+{
     FILE *f = fopen(path, "rb");
     if (!f) return 1;
+    int w, h, c, frame, scale;
+    if (wg__jpeg_probe_file(f, &w, &h, &c, &frame) || !(scale = scale_for(w, h, sink)) ||
+        fseek(f, 0, SEEK_SET) != 0) {
+        fclose(f);
+        return 1;
+    }
     struct jpeg_decompress_struct cinfo;
     ErrorMgr jerr;
     /* volatile: changed between setjmp and a longjmp back to it */
@@ -69,7 +82,7 @@ int wg__jpeg_read(const char *path, int scale, const WgPngSink *sink, char *msg,
     jpeg_create_decompress(&cinfo);
     jpeg_stdio_src(&cinfo, f);
     jpeg_read_header(&cinfo, TRUE);
-    /* the header libjpeg reads is the one jpeg_header.c walked; a file replaced in between
+    /* the header libjpeg reads is the one jpeg_header.c walked; a file rewritten in between
      * is refused rather than written out of bounds */
     cinfo.out_color_space = c == 1 ? JCS_GRAYSCALE : JCS_RGB;
     cinfo.dct_method = JDCT_ISLOW;
@@ -78,12 +91,13 @@ int wg__jpeg_read(const char *path, int scale, const WgPngSink *sink, char *msg,
     cinfo.scale_denom = 8;
     jpeg_calc_output_dimensions(&cinfo);
     if ((int)cinfo.output_width != sink->width || (int)cinfo.output_height != sink->height ||
-        cinfo.output_components != c || sink->channels != c) {
+        cinfo.output_components != c) {
         snprintf(msg, size,
                  "the file changed while it was being read (decodes to %ux%u, %d channels)",
                  cinfo.output_width, cinfo.output_height, cinfo.output_components);
         goto out;
     }
+    *channels = c;
     jpeg_start_decompress(&cinfo);
     int rows = cinfo.rec_outbuf_height > 0 ? cinfo.rec_outbuf_height : 1;
     size_t row = (size_t)sink->width * (size_t)c;

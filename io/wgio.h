@@ -11,6 +11,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -123,12 +124,17 @@ bool wg__png_decodable(const char *path);
 /* JPEG header read natively (jpeg_header.c): 0 with the size and channels of an 8-bit gray or
  * colour JPEG whose header is well formed; 1 for anything else, which OpenImageIO probes. */
 int wg__jpeg_probe(const char *path, int *w, int *h, int *c);
+/* The same, on an open file from its current position (left anywhere); *frame is the frame
+ * header's marker (0xc2, 0xc6, 0xca and 0xce are progressive). */
+int wg__jpeg_probe_file(FILE *f, int *w, int *h, int *c, int *frame);
 /* JPEG pixels decoded natively (jpeg_read.c, libjpeg-turbo) for the files wg__jpeg_probe
- * answers for, at scale/8 of the file's size (scale 1..8; each side wg__jpeg_scaled_side).
- * Each row of 8-bit codes (1 or 3 channels, as probed) goes to `row` as it is decoded. 1 when
- * the file is not such a JPEG (nothing was decoded), -1 with msg when it is damaged (a warning of
- * libjpeg's included) or does not decode to the sink's size and channels. */
-int wg__jpeg_read(const char *path, int scale, const WgPngSink *sink, char *msg, size_t size);
+ * answers for, at the largest scale/8 of the file's size (scale 1..8; each side
+ * wg__jpeg_scaled_side) that gives the sink's size; the header is walked and the pixels decoded
+ * on one open of the file. The file's channels (1 or 3; the sink's are not read) go to
+ * *channels before the first row; each row of 8-bit codes goes to `row` as it is decoded. 1 when
+ * the file is not such a JPEG or no scale gives the sink's size (nothing was decoded), -1 with
+ * msg when it is damaged (a warning of libjpeg's included). */
+int wg__jpeg_read(const char *path, const WgPngSink *sink, int *channels, char *msg, size_t size);
 /* A side of `side` pixels decoded at scale/8: rounded up, as libjpeg does. */
 int wg__jpeg_scaled_side(int side, int scale);
 /* What libjpeg holds while it decodes such a file (0 for other files): a few rows of blocks, or

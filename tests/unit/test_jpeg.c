@@ -222,6 +222,38 @@ static void write_bytes(const char *path, const unsigned char *d, size_t n)
 /* Damaged files, each refused with one line naming the file: cut within the scan at several
  * points (baseline and progressive), cut just before EOI, bytes of the scan overwritten with
  * garbage, a Huffman table with impossible counts, and stray bytes before the EOI marker. */
+/* A destination of other channels than the file's: gray spread to colour with alpha 1, colour
+ * reduced to its luminance, as for any other 8-bit file; the decoder takes the file's own
+ * channels, not the destination's. */
+static void test_channels_other_than_the_files(void **state)
+{
+    (void)state;
+    JpegSpec gray = {67, 45, 1, false, false, 90, 0.3}, colour = {67, 45, 3, true, true, 90, 0.3};
+    write_jpeg(wgt_path("chan_gray.jpg"), &gray);
+    write_jpeg(wgt_path("chan_rgb.jpg"), &colour);
+    for (int srgb = 0; srgb < 2; srgb++) {
+        WgColorspace cs = srgb ? WG_SRGB : WG_LINEAR;
+        WgImage *g1 = read_ok(wgt_path("chan_gray.jpg"), 1, cs);
+        WgImage *g4 = read_ok(wgt_path("chan_gray.jpg"), 4, cs);
+        WgImage *c4 = read_ok(wgt_path("chan_rgb.jpg"), 4, cs);
+        WgImage *c1 = read_ok(wgt_path("chan_rgb.jpg"), 1, cs);
+        assert_int_equal(g4->channels, 4);
+        assert_int_equal(c1->channels, 1);
+        for (int y = 0; y < 45; y++)
+            for (int x = 0; x < 67; x++) {
+                float v = wgt_px(g1, x, y, 0);
+                for (int k = 0; k < 3; k++) assert_true(wgt_px(g4, x, y, k) == v);
+                assert_true(wgt_px(g4, x, y, 3) == 1.0f);
+                float px[4] = {wgt_px(c4, x, y, 0), wgt_px(c4, x, y, 1), wgt_px(c4, x, y, 2), 1};
+                assert_true(wgt_px(c1, x, y, 0) == wg__luminance(px));
+            }
+        wg_image_unref(g1);
+        wg_image_unref(g4);
+        wg_image_unref(c4);
+        wg_image_unref(c1);
+    }
+}
+
 static void test_damaged_jpeg_refused_in_one_line(void **state)
 {
     (void)state;
@@ -376,6 +408,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_native_decode_equals_openimageio),
         cmocka_unit_test(test_damaged_jpeg_refused_in_one_line),
+        cmocka_unit_test(test_channels_other_than_the_files),
         cmocka_unit_test(test_scaled_decode_matches_full_decode),
         cmocka_unit_test(test_jpeg_scratch_counts_progressive_coefficients),
     };

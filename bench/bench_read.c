@@ -1,0 +1,49 @@
+/* SPDX-License-Identifier: MIT */
+/* The `image` node's compute alone: reads FILE (colorspace COLORSPACE) as an `image` node of a
+ * WxH graph (the file's own size, or another for resampling) --reps times on one engine with the
+ * cache cleared before each render, so that every render after the first decodes into buffers
+ * from the engine's pool, and prints the node's median time in ms. `wetgraph render --stats`
+ * gives the same node in a new process, where its output is new memory the kernel clears on
+ * first touch; the difference is that allocation. The first render of the engine is one of the
+ * reps (the median drops it for reps >= 3).
+ * Usage: bench_read [--threads T] [--reps R] FILE COLORSPACE WxH */
+#include "benchlib.h"
+
+#include <stdio.h>
+#include <string.h>
+
+int main(int argc, char **argv)
+{
+    const char *pos[3] = {0};
+    char *opts[16] = {argv[0]};
+    int n_opts = 1, n_pos = 0;
+    for (int i = 1; i < argc; i++) {
+        if (argv[i][0] == '-' && n_opts + 2 <= 16) { /* an option and its value */
+            opts[n_opts++] = argv[i];
+            if (i + 1 < argc) opts[n_opts++] = argv[++i];
+        } else if (n_pos < 3) {
+            pos[n_pos++] = argv[i];
+        }
+    }
+    BenchArgs a;
+    int rc = bench_args(n_opts, opts, &a);
+    if (rc) return rc == 2 ? 0 : 1;
+    if (n_pos != 3) {
+        fprintf(stderr, "usage: bench_read [--threads T] [--reps R] FILE COLORSPACE WxH\n");
+        return 1;
+    }
+    char xml[8192];
+    snprintf(xml, sizeof xml,
+             "<wetgraph version=\"1\" size=\"%s\">\n"
+             "  <node id=\"n\" type=\"image\" path=\"%s\" colorspace=\"%s\"/>\n"
+             "  <output name=\"o\" from=\"n\"/>\n"
+             "</wetgraph>\n",
+             pos[2], pos[0], pos[1]);
+    WgEngine *e = bench_engine(a.threads);
+    if (!e) return 1;
+    double ms = bench_node_ms(e, xml, "n", a.reps, "bench_read");
+    wg_engine_free(e);
+    if (ms < 0) return 1;
+    printf("%.2f\n", ms);
+    return 0;
+}
