@@ -372,6 +372,67 @@ static void test_upsample_is_bilinear_with_wrap(void **state)
     wg_image_unref(s);
 }
 
+/* Enlarging a row by 2 or 4 gives, bit for bit, each output's two-tap sum in float as the
+ * tap table defines it (the tent's weights in double, normalised, rounded to float; the sum
+ * (a·f) + (b·g), kept only where the taps differ, and saturated), for gray and colour, at the
+ * wrapping edges and inside; rows kept 1:1 are copied. Values include runs of equal samples and
+ * magnitudes near FLT_MAX. */
+static void test_enlarge_row_bits(void **state)
+{
+    (void)state;
+    static const int widths[] = {8, 9, 13, 64, 101};
+    for (size_t wi = 0; wi < sizeof widths / sizeof widths[0]; wi++)
+        for (int factor = 2; factor <= 4; factor += 2)
+            for (int c = 1; c <= 4; c += 3) {
+                int w = widths[wi], dw = factor * w, h = 3;
+                WgImage *src = wg_image_new(w, h, c);
+                assert_non_null(src);
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w; x++)
+                        for (int k = 0; k < c; k++) {
+                            float v = (float)pattern(x, y, k);
+                            if (x % 5 == 2) v = (float)pattern(x - 1, y, k); /* a run */
+                            if (y == 2 && x % 3 == 0) v = (x % 2 ? -1 : 1) * FLT_MAX * 0.9f;
+                            wg_image_row(src, y)[x * c + k] = v;
+                        }
+                WgImage *dst = wg_image_convert(src, dw, h, c);
+                assert_non_null(dst);
+                double scale = (double)w / dw;
+                for (int o = 0; o < dw; o++) {
+                    double centre = (o + 0.5) * scale - 0.5;
+                    int first = (int)floor(centre - 1) + 1;
+                    double wt[4], sum = 0;
+                    for (int t = 0; t < 4; t++) {
+                        double dd = fabs(first + t - centre);
+                        wt[t] = dd < 1 ? 1 - dd : 0;
+                        sum += wt[t];
+                    }
+                    int idx[2], n = 0;
+                    float fw[2];
+                    for (int t = 0; t < 4 && n < 2; t++)
+                        if (wt[t] != 0) {
+                            idx[n] = ((first + t) % w + w) % w;
+                            fw[n++] = (float)(wt[t] / sum);
+                        }
+                    assert_int_equal(n, 2);
+                    for (int y = 0; y < h; y++)
+                        for (int k = 0; k < c; k++) {
+                            float f = wg_image_row(src, y)[idx[0] * c + k];
+                            float g = wg_image_row(src, y)[idx[1] * c + k];
+                            float v = fw[0] * f + fw[1] * g;
+                            v = v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
+                            float want = f != g ? v : f, got = wgt_px(dst, o, y, k);
+                            if (memcmp(&want, &got, sizeof got))
+                                fail_msg("%d -> %d, %d channels: output %d row %d channel %d is "
+                                         "%.9g, expected %.9g",
+                                         w, dw, c, o, y, k, got, want);
+                        }
+                }
+                wg_image_unref(dst);
+                wg_image_unref(src);
+            }
+}
+
 /* wg_image_resample_into: the float64 reference within 1e-6 over sizes that enlarge, shrink
  * and mix, gray and colour, and the same bits as wg_image_convert with no threads and with 2,
  * 3 and 4 workers (each output value sums its taps in one order, whichever thread computes
@@ -680,6 +741,7 @@ int main(void)
         cmocka_unit_test(test_downsample),
         cmocka_unit_test(test_upsample_is_bilinear_with_wrap),
         cmocka_unit_test(test_resample_into_threads),
+        cmocka_unit_test(test_enlarge_row_bits),
         cmocka_unit_test(test_infinity_stays_local),
         cmocka_unit_test(test_same_size_is_a_copy),
         cmocka_unit_test(test_channel_conversion),
