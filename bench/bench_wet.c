@@ -13,8 +13,10 @@
  * rows is what first touching new memory cost that render; the minor page faults of each render
  * are printed with it. Then one line per node: its first and pooled time, slowest first.
  * The yardstick, timed in the same run: one memcpy of a gray float plane of the render's size
- * into memory written before (median of 9, after the renders); node time is also given in such
- * copies. The host's CPU model and load average (at the start and the end) are printed first
+ * into memory written before (median of 9, after the renders: at 2048² both planes can sit in a
+ * large last-level cache), and one between planes out of the cache (planes four times the
+ * cache's size copied in turn, as the render's nodes meet their images); node time is also
+ * given in both kinds of copies. The host's CPU model and load average (at the start and the end) are printed first
  * and last, since a loaded machine's figures are not a quiet one's.
  * --no-fuse evaluates every node whole (WgEngineOptions.no_fuse), for comparison.
  * Usage: bench_wet [--size N] [--threads T] [--reps R] [--no-fuse] [GRAPH [MATERIAL_DIR]] */
@@ -171,6 +173,11 @@ int main(int argc, char **argv)
     printf("# memcpy of a %dx%d float plane: %.4f ms; node time in such copies: first %.0f, "
            "pooled %.0f\n",
            a.size, a.size, copy, first.node_ms / copy, m->node_ms / copy);
+    size_t span = 0;
+    double mem = bench_memcpy_memory_ms((size_t)a.size * (size_t)a.size * sizeof(float), 24, &span);
+    printf("# memcpy of a %dx%d float plane from memory (planes of %zu MiB in turn, beyond the "
+           "cache): %.4f ms; node time in such copies: first %.0f, pooled %.0f\n",
+           a.size, a.size, span >> 20, mem, first.node_ms / mem, m->node_ms / mem);
     /* per node, slowest pooled first */
     WgResult *res = NULL;
     if (wg_render(e, r, &res, &err)) return 1;

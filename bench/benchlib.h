@@ -32,6 +32,11 @@ bool bench_node_line(WgEngine *e, const char *xml, const char *label, const char
 /* One memcpy of `bytes`, median of `reps`: into a buffer written before, or (fresh) into newly
  * mapped pages, which the kernel maps on first touch as it does for a node's new output. */
 double bench_memcpy_ms(size_t bytes, int reps, bool fresh);
+/* One memcpy of `bytes` between planes that are not in the cache: pairs of a set of planes
+ * four times the last-level cache (or more, at least four planes; *span: their total) copied in
+ * turn, as a node reads and writes images the render's other images pushed out; median of
+ * `reps`. */
+double bench_memcpy_memory_ms(size_t bytes, int reps, size_t *span);
 /* The memcpy lines for a gray and a colour image of the benchmark's size, warm and fresh. */
 void bench_memcpy_lines(const BenchArgs *a);
 

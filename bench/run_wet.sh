@@ -11,7 +11,8 @@
 #  floor  bench_wet at SIZE² and (2·SIZE)²: node time of the first render in a process (new
 #         memory, touched for the first time: what `wetgraph render` pays) and of later renders
 #         whose buffers come from the pool (compute alone), each in copies of a SIZE² float
-#         plane timed in the same run (memcpy), and the growth from SIZE² to (2·SIZE)².
+#         plane timed in the same run (memcpy: two planes that may stay in the last-level
+#         cache, and planes copied in turn from memory), and the growth from SIZE² to (2·SIZE)².
 # Builds wetgraph in BUILD_DIR (default build) first. Timing is noisy on a loaded machine: the
 # load average is printed with the results; run it on an idle machine for the real numbers.
 # Usage: bench/run_wet.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
@@ -69,16 +70,18 @@ def read(path):
     t = open(path).read()
     rows = {l.split("\t")[0]: l.split("\t") for l in t.splitlines() if l.startswith(("first\t", "pooled\t"))}
     copy = float(re.search(r"float plane: ([0-9.]+) ms", t).group(1))
+    mem = float(re.search(r"from memory \(planes of ([0-9]+) MiB.*?\): ([0-9.]+) ms", t).group(2))
     hosts = re.findall(r"^# host.*$", t, re.M)
-    return float(rows["first"][3]), float(rows["pooled"][3]), copy, hosts
+    return float(rows["first"][3]), float(rows["pooled"][3]), copy, mem, hosts
 s, l, n = read(sys.argv[1]), read(sys.argv[2]), int(sys.argv[3])
-for (first, pooled, copy, hosts), size in ((s, n), (l, 2 * n)):
-    print("%d²: node time first render %.0f ms (%.0f copies of a %d² plane), pooled %.0f ms "
-          "(%.0f copies), first touch %.0f ms; memcpy %.4f ms" % (size, first, first / copy, size,
-          pooled, pooled / copy, first - pooled, copy))
+for (first, pooled, copy, mem, hosts), size in ((s, n), (l, 2 * n)):
+    print("%d²: node time first render %.0f ms, pooled %.0f ms, first touch %.0f ms; a copy of a "
+          "%d² plane %.4f ms in cache, %.4f ms from memory: pooled %.0f / %.0f copies" % (size,
+          first, pooled, first - pooled, size, copy, mem, pooled / copy, pooled / mem))
     for h in hosts: print("  " + h[2:])
 print("%d² over %d²: first render %.2fx, pooled %.2fx (target at most 4.5x)" % (2 * n, n,
       l[0] / s[0], l[1] / s[1]))
-print("%d² node time in copies of a %d² plane (target at most 200): first %.0f, pooled %.0f" %
-      (n, n, s[0] / s[2], s[1] / s[2]))
+print("%d² pooled node time in copies of a %d² plane (target at most 200): %.0f in cache, %.0f "
+      "from memory; first render %.0f / %.0f" % (n, n, s[1] / s[2], s[1] / s[3], s[0] / s[2],
+      s[0] / s[3]))
 PY
