@@ -945,18 +945,24 @@ static void pack_rows(const WgImage *img, WgColorspace cs, int c, int bits, int 
 }
 
 /* PNG: the whole image packed, then png_write.c filters and compresses it in one go. */
+typedef struct {
+    const WgImage *img;
+    WgColorspace cs;
+    int c, bits;
+} PngPack;
+
+static void png_pack_row(void *user, int y, void *row)
+{
+    const PngPack *p = user;
+    pack_rows(p->img, p->cs, p->c, p->bits, y, y + 1, row);
+}
+
 static int encode_png(const char *path, const WgImage *img, WgColorspace cs, int c, int bits,
                       char *msg, size_t msg_size)
 {
-    void *buf = wg_malloc((size_t)img->width * (size_t)img->height * (size_t)c * (bits / 8));
-    if (!buf) {
-        snprintf(msg, msg_size, "out of memory");
-        return -1;
-    }
-    pack_rows(img, cs, c, bits, 0, img->height, buf);
-    int rc = wg__png_write(path, buf, img->width, img->height, c, bits, msg, msg_size);
-    wg_free(buf);
-    return rc;
+    PngPack p = {img, cs, c, bits};
+    return wg__png_write_rows(path, img->width, img->height, c, bits, png_pack_row, &p, msg,
+                              msg_size);
 }
 
 /* Other formats go through OpenImageIO, STRIP_ROWS rows at a time, so writing holds a strip of

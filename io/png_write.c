@@ -4,8 +4,9 @@
  * of the five whose output has the smallest sum of absolute values taken as signed bytes (libpng's
  * own heuristic), and libdeflate compresses the whole filtered image into the zlib stream in
  * one call: several times faster than zlib at a similar size, and the reason PNG is not
- * written through OpenImageIO. The caller hands over packed samples (16-bit ones in host
- * order); readers of every kind decode the files, the tests check them with libpng. */
+ * written through OpenImageIO. The caller packs the rows one at a time as they are filtered
+ * (16-bit samples in host order); readers of every kind decode the files, the tests check them
+ * with libpng. */
 #include "internal.h"
 #include "wgio.h"
 
@@ -113,8 +114,8 @@ static int write_all(int fd, const unsigned char *p, size_t n)
     return 0;
 }
 
-int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned char **out,
-                   size_t *out_size, char *msg, size_t msg_size)
+int wg__png_encode_rows(int w, int h, int c, int bits, WgPngPack pack, void *user,
+                        unsigned char **out, size_t *out_size, char *msg, size_t msg_size)
 {
     *out = NULL, *out_size = 0;
     int bpp = c * bits / 8;
@@ -130,16 +131,14 @@ int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned 
         goto done;
     }
     for (int y = 0; y < h; y++) {
-        const unsigned char *src = (const unsigned char *)samples + row * (size_t)y;
+        pack(user, y, cur);
         if (bits == 16) { /* PNG stores 16-bit samples most significant byte first */
             for (size_t i = 0; i < row; i += 2) {
                 uint16_t v;
-                memcpy(&v, src + i, 2);
+                memcpy(&v, cur + i, 2);
                 cur[i] = (unsigned char)(v >> 8);
                 cur[i + 1] = (unsigned char)v;
             }
-        } else {
-            memcpy(cur, src, row);
         }
         filter_row(cur, prev, row, bpp, filtered + (row + 1) * (size_t)y, scratch);
         unsigned char *t = prev;
@@ -199,12 +198,30 @@ done:
     return rc;
 }
 
-int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
-                  size_t msg_size)
+typedef struct {
+    const unsigned char *samples;
+    size_t row;
+} Packed;
+
+static void copy_row(void *user, int y, void *row)
+{
+    const Packed *p = user;
+    memcpy(row, p->samples + p->row * (size_t)y, p->row);
+}
+
+int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned char **out,
+                   size_t *out_size, char *msg, size_t msg_size)
+{
+    Packed p = {samples, (size_t)w * (size_t)c * (size_t)(bits / 8)};
+    return wg__png_encode_rows(w, h, c, bits, copy_row, &p, out, out_size, msg, msg_size);
+}
+
+int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngPack pack, void *user,
+                       char *msg, size_t msg_size)
 {
     unsigned char *file;
     size_t total;
-    if (wg__png_encode(samples, w, h, c, bits, &file, &total, msg, msg_size)) return -1;
+    if (wg__png_encode_rows(w, h, c, bits, pack, user, &file, &total, msg, msg_size)) return -1;
     int rc = -1;
     int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd < 0 || write_all(fd, file, total)) {

@@ -57,13 +57,20 @@ int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, v
 void wg__oiio_close(WgOiioIn *in);
 /* Whether this process has loaded the module (for tests). */
 bool wg__oiio_loaded(void);
-/* Write a PNG (png_write.c): `samples` packed rows of `c` channels (1-4) of `bits` (8 or 16, 16-bit
- * ones in host order). Nonzero with msg (and errno where the system refused) on failure. */
-/* The same PNG in memory: *out (wg_free it) holds *out_size bytes. */
+/* PNG (png_write.c) of w x h pixels of `c` channels (1-4) of `bits` (8 or 16), its rows asked
+ * for one at a time, top down: pack(user, y, row) writes row y packed, 16-bit samples in host
+ * order, so that no packed copy of the image is made. In memory: *out (wg_free it) holds
+ * *out_size bytes. Nonzero with msg on failure. */
+typedef void (*WgPngPack)(void *user, int y, void *row);
+int wg__png_encode_rows(int w, int h, int c, int bits, WgPngPack pack, void *user,
+                        unsigned char **out, size_t *out_size, char *msg, size_t msg_size);
+/* The same from `samples`, the packed rows one after the other. */
 int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned char **out,
                    size_t *out_size, char *msg, size_t msg_size);
-int wg__png_write(const char *path, const void *samples, int w, int h, int c, int bits, char *msg,
-                  size_t msg_size);
+/* Encoded with wg__png_encode_rows and written to path. Nonzero with msg (and errno where the
+ * system refused) on failure. */
+int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngPack pack, void *user,
+                       char *msg, size_t msg_size);
 /* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);
  * rows packed, `c` channels of that type for 8/16, float for -16/32. finish closes and frees;
  * with ok false it only cleans up. */
