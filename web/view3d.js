@@ -3,7 +3,11 @@
 // (loaded from /shaders/wet_layered.frag, the shipped file), on the tile's plane seen by the
 // `preview` node's camera (elevation and azimuth in degrees, zoom 1 showing the whole tile from
 // straight above, a 35 degree vertical field of view, the tile 2 x 2 with tiling 2), in a WebGL2
-// canvas. The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes only what
+// canvas. Two more shapes: a sphere (the shader compiled with WG_TANGENT_FRAME, given each
+// point's tangent frame so that it reads the environment in world space; the relief by parallax
+// as on the plane, taken as locally flat) and a displaced grid (the plane subdivided, raised to
+// the top of the layers, the shader told so with `displaced`: the relief drawn by the mesh, not
+// again by parallax). The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes only what
 // the language needs (web/glsl.js: the version line, the uniforms' initial values), and main,
 // renamed, called by a main that adds what the preview node does after the shader: Narkowicz's
 // ACES fit and sRGB encoding. Directions off the tile show the environment (the prefiltered
@@ -28,14 +32,16 @@
 // liquid presets below are that file's, which tests/cli/presets_match.js checks).
 //
 // Controls: drag to orbit (elevation 1-90 degrees), the wheel to zoom, shift-drag (or drag
-// with the right button) to turn the environment; the split slider puts the dry material left
-// of the line and the wet one right of it; tiling 1 x 1 or 2 x 2; exposure in stops; the
-// environment menu. The address takes ?view=ELEVATION,AZIMUTH,ZOOM,ENV_ROTATION, ?split=S (0:
-// all wet, 1: all dry), ?tiling=2, ?exposure=E, ?env=K and ?probe=N (after each picture, an
-// N x N picture of the same view is read back into data-probe, hex RGB from the top row, for
-// tests). The figure's data-state says where the view is: loading, ready, no-webgl2 or error
-// (with data-error); data-version is the render whose maps it shows and data-draws counts the
-// pictures drawn. The page starts the view for a graph whose outputs include a base colour
+// with the right button) to turn the environment; the shape menu (plane, sphere, grid); the
+// split slider puts the dry material left of the line and the wet one right of it; tiling 1 x 1
+// or 2 x 2 (on the sphere, 2 or 4 tiles around); exposure in stops; the environment menu. The
+// address takes ?view=ELEVATION,AZIMUTH,ZOOM,ENV_ROTATION, ?shape=plane|sphere|grid, ?split=S
+// (0: all wet, 1: all dry), ?tiling=2, ?exposure=E, ?env=K and ?probe=N (after each picture, an
+// N x N picture of the same view is read back into data-probe, hex RGB from the top row, and
+// data-cover, '1' where the shape was drawn and '0' where the background shows, for tests). The
+// figure's data-state says where the view is: loading, ready, no-webgl2 or error (with
+// data-error); data-shape is the shape shown, data-version the render whose maps it shows and
+// data-draws counts the pictures drawn. The page starts the view for a graph whose outputs include a base colour
 // (basecolor or underbasecolor): a material.
 'use strict';
 
