@@ -703,9 +703,23 @@ static int off_disc(const unsigned char *cover, const unsigned char *disc)
     return wrong;
 }
 
+/* Steps for page_driver.js: the 3D view's shape menu, used as a person uses it, redraws the view
+ * on the chosen shape. */
+static const char shape_steps[] =
+    "const f = () => document.getElementById('view3d');\n"
+    "await until(() => f() && f().dataset.state === 'ready' && f().dataset.draws, 'the 3D view');\n"
+    "const s = document.getElementById('view-shape');\n"
+    "const before = [f().dataset.shape, [...s.options].map(o => o.value).join(',')];\n"
+    "s.value = 'sphere'; s.dispatchEvent(new Event('change'));\n"
+    "await until(() => f().dataset.shape === 'sphere', 'the sphere');\n"
+    "s.value = 'grid'; s.dispatchEvent(new Event('change'));\n"
+    "await until(() => f().dataset.shape === 'grid', 'the grid');\n"
+    "return before.concat([f().dataset.state]);\n";
+
 /* The sphere: round from every side (the surface is the disc the sphere's size and distance
  * give, the corners the background), lit material inside (bright enough, and not the plane's
- * silhouette), and its picture changes when the camera orbits and when the environment turns. */
+ * silhouette), and its picture changes when the camera orbits and when the environment turns;
+ * the page's shape menu, driven in the page, switches the view to the sphere and the grid. */
 static void test_view3d_sphere(void **state)
 {
     (void)state;
@@ -747,6 +761,20 @@ static void test_view3d_sphere(void **state)
     shape_view(port, "shape=plane&split=0&view=30,20,1,0", "plane", plane, cplane);
     if (off_disc(cplane, disc) < P * P / 10)
         fail_msg("the plane's silhouette is the sphere's disc too");
+    /* the menu */
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    wgt_write_file(path("shape_steps.js"), shape_steps);
+    int st = wgt_shell(dir,
+                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
+                       "shape_steps.js profile_shape >shape.out 2>shape.err",
+                       getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("shape.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
+    if (strcmp(out, "[\"plane\",\"plane,sphere,grid\",\"ready\"]\n"))
+        fail_msg("the shape menu: %s", out);
+    free(out);
     stop();
 }
 
