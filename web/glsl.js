@@ -39,7 +39,8 @@ function wgSetDefaults(gl, prog, defaults, what) {
 }
 
 // an n x n RGBA8 picture drawn by draw(n, n, framebuffer) into an offscreen framebuffer (made
-// once, kept in holder.fbo), read back: GL's rows, from the bottom, 4 bytes a pixel
+// once, kept in holder.fbo, with a depth buffer for views that draw meshes), read back: GL's
+// rows, from the bottom, 4 bytes a pixel
 function wgReadBack(gl, holder, n, draw) {
   if (!holder.fbo) {
     holder.fbo = gl.createFramebuffer();
@@ -48,6 +49,10 @@ function wgReadBack(gl, holder, n, draw) {
     gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, n, n, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
     gl.bindFramebuffer(gl.FRAMEBUFFER, holder.fbo);
     gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t, 0);
+    const depth = gl.createRenderbuffer();
+    gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+    gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, n, n);
+    gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
   }
   draw(n, n, holder.fbo);
   const px = new Uint8Array(n * n * 4);

@@ -3,7 +3,11 @@
 // (loaded from /shaders/wet_layered.frag, the shipped file), on the tile's plane seen by the
 // `preview` node's camera (elevation and azimuth in degrees, zoom 1 showing the whole tile from
 // straight above, a 35 degree vertical field of view, the tile 2 x 2 with tiling 2), in a WebGL2
-// canvas. The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes only what
+// canvas. Two more shapes: a sphere (the shader compiled with WG_TANGENT_FRAME, given each
+// point's tangent frame so that it reads the environment in world space; the relief by parallax
+// as on the plane, taken as locally flat) and a displaced grid (the plane subdivided, raised to
+// the top of the layers, the shader told so with `displaced`: the relief drawn by the mesh, not
+// again by parallax). The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes only what
 // the language needs (web/glsl.js: the version line, the uniforms' initial values), and main,
 // renamed, called by a main that adds what the preview node does after the shader: Narkowicz's
 // ACES fit and sRGB encoding. Directions off the tile show the environment (the prefiltered
@@ -28,14 +32,16 @@
 // liquid presets below are that file's, which tests/cli/presets_match.js checks).
 //
 // Controls: drag to orbit (elevation 1-90 degrees), the wheel to zoom, shift-drag (or drag
-// with the right button) to turn the environment; the split slider puts the dry material left
-// of the line and the wet one right of it; tiling 1 x 1 or 2 x 2; exposure in stops; the
-// environment menu. The address takes ?view=ELEVATION,AZIMUTH,ZOOM,ENV_ROTATION, ?split=S (0:
-// all wet, 1: all dry), ?tiling=2, ?exposure=E, ?env=K and ?probe=N (after each picture, an
-// N x N picture of the same view is read back into data-probe, hex RGB from the top row, for
-// tests). The figure's data-state says where the view is: loading, ready, no-webgl2 or error
-// (with data-error); data-version is the render whose maps it shows and data-draws counts the
-// pictures drawn. The page starts the view for a graph whose outputs include a base colour
+// with the right button) to turn the environment; the shape menu (plane, sphere, grid); the
+// split slider puts the dry material left of the line and the wet one right of it; tiling 1 x 1
+// or 2 x 2 (on the sphere, 2 or 4 tiles around); exposure in stops; the environment menu. The
+// address takes ?view=ELEVATION,AZIMUTH,ZOOM,ENV_ROTATION, ?shape=plane|sphere|grid, ?split=S
+// (0: all wet, 1: all dry), ?tiling=2, ?exposure=E, ?env=K and ?probe=N (after each picture, an
+// N x N picture of the same view is read back into data-probe, hex RGB from the top row, and
+// data-cover, '1' where the shape was drawn and '0' where the background shows, for tests). The
+// figure's data-state says where the view is: loading, ready, no-webgl2 or error (with
+// data-error); data-shape is the shape shown, data-version the render whose maps it shows and
+// data-draws counts the pictures drawn. The page starts the view for a graph whose outputs include a base colour
 // (basecolor or underbasecolor): a material.
 'use strict';
 
@@ -59,15 +65,17 @@ const view3d = (function () {
   const SAMPLERS = Object.keys(NEUTRAL);
 
   const cam = { elevation: 50, azimuth: 20, zoom: 1, envRotation: 0 };
-  const opt = { split: 0.5, tiling: 1, exposure: 0, env: 0 };
-  let fig, canvas, gl, prog, bgProg, vao, bgVao, probeTarget = {};
+  const opt = { split: 0.5, tiling: 1, exposure: 0, env: 0, shape: 'plane' };
+  const SHAPES = ['plane', 'sphere', 'grid'];
+  let fig, canvas, gl, prog, bgProg, bgVao, fsSource, probeTarget = {};
+  const progs = {}; // shape -> its program, linked when the shape is first drawn
   const probeN = Math.max(0, Math.min(1024, +args.get('probe') || 0));
   const uniformDefaults = [];
   const maps = {}; // name -> {version, w, h, c, data: Float32Array}
   const envs = {}; // index -> {prefiltered, irradiance, lut}
   const tex = { dry: {}, wet: {} };
   let params = {}, stateVersion = -1, shown = -1, loading = null, pending = null, draws = 0;
-  let queued = false;
+  let queued = false, drawFailed = false;
 
   function setState(s, err) {
     fig.dataset.state = s;
@@ -115,6 +123,63 @@ void main()
     view_ts = cam - p;
     gl_Position = vec4(dot(r, right) / (tan_half * aspect), dot(r, up) / tan_half, 0.0, dot(r, fwd));
 }`;
+  // The sphere, of radius SPHERE_R about the origin, from pos = (longitude in turns, latitude
+  // from the south pole in half turns): T along +u (east), B = N x T along +v (north), N outward;
+  // view_ts is the eye's direction in that frame, and the frame goes to the shader, which reads
+  // the environment in world space through it (WG_TANGENT_FRAME). The texture wraps 2 x tiling
+  // times around and tiling times from pole to pole, so its tiles are square on the equator;
+  // towards the poles they narrow (cos(latitude)) and pinch to a point at each pole. Clip z from
+  // the depth (near 0.01, far 1000) for the depth test.
+  const SPHERE_R = 0.4;
+  const SPHERE_VS = `#version 300 es
+layout(location = 0) in vec2 pos;
+uniform vec3 cam, right, up, fwd;
+uniform float tan_half, aspect, radius;
+uniform vec2 repeat, depth_ab;
+out vec2 uv;
+out vec3 view_ts;
+out mat3 tangent_to_world;
+const float PI = 3.141592653589793;
+void main()
+{
+    float lon = 2.0 * PI * pos.x, lat = PI * (pos.y - 0.5);
+    vec3 n = vec3(cos(lat) * cos(lon), cos(lat) * sin(lon), sin(lat));
+    vec3 t = vec3(-sin(lon), cos(lon), 0.0), b = cross(n, t);
+    vec3 p = radius * n, r = p - cam, e = cam - p;
+    uv = pos * repeat;
+    view_ts = vec3(dot(e, t), dot(e, b), dot(e, n));
+    tangent_to_world = mat3(t, b, n);
+    float depth = dot(r, fwd);
+    gl_Position = vec4(dot(r, right) / (tan_half * aspect), dot(r, up) / tan_half,
+                       depth * depth_ab.x + depth_ab.y, depth);
+}`;
+  // The displaced grid: the tile's plane subdivided (GRID_CELLS a tile), each vertex raised to
+  // the top of the layers the side draws (the shader's own surface_top, taken from the shipped
+  // file: the water's surface where there is water, else the relief) through height_scale, in
+  // the tile's flat frame; the shader, told the mesh is displaced, starts its search there.
+  const GRID_CELLS = 256;
+  const gridVs = top => `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+layout(location = 0) in vec2 pos;
+uniform vec3 cam, right, up, fwd;
+uniform float tan_half, aspect, height_scale;
+uniform vec2 depth_ab;
+uniform sampler2D height, water_height, water_mask;
+out vec2 uv;
+out vec3 view_ts;
+${top}
+void main()
+{
+    vec3 p = vec3(pos, height_scale * (surface_top(pos) - 1.0)), r = p - cam;
+    uv = pos;
+    view_ts = cam - p;
+    float depth = dot(r, fwd);
+    gl_Position = vec4(dot(r, right) / (tan_half * aspect), dot(r, up) / tan_half,
+                       depth * depth_ab.x + depth_ab.y, depth);
+}`;
+  const NEAR = 0.01, FAR = 1000, DEPTH_AB = [(FAR + NEAR) / (FAR - NEAR), -2 * FAR * NEAR / (FAR - NEAR)];
   const BG_VS = `#version 300 es
 layout(location = 0) in vec2 pos;
 out vec2 ndc;
@@ -139,7 +204,8 @@ void main()
     vec3 d = normalize(fwd + (right * (ndc.x * aspect) + up * ndc.y) * tan_half);
     float phi = atan(d.y, d.x) + env_rotation;
     vec2 st = vec2(fract(0.5 - phi / (2.0 * PI)), 1.0 - acos(clamp(d.z, -1.0, 1.0)) / PI);
-    frag_color = vec4(view_finish(textureLod(prefiltered, st, 0.0).rgb * exp2(exposure)), 1.0);
+    // alpha 0: the background (the probe's data-cover tells it from the surface)
+    frag_color = vec4(view_finish(textureLod(prefiltered, st, 0.0).rgb * exp2(exposure)), 0.0);
 }`;
 
   function compile(type, src, what) {
@@ -169,6 +235,57 @@ void main()
     gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
     gl.bindVertexArray(null);
     return v;
+  }
+
+  // An indexed grid of (cols + 1) x (rows + 1) vertices over [0, sx] x [0, sy], two triangles a
+  // cell: {vao, count}.
+  function mesh(cols, rows, sx, sy) {
+    const v = new Float32Array((cols + 1) * (rows + 1) * 2), ix = new Uint32Array(cols * rows * 6);
+    for (let j = 0, k = 0; j <= rows; j++)
+      for (let i = 0; i <= cols; i++, k += 2) { v[k] = i / cols * sx; v[k + 1] = j / rows * sy; }
+    for (let j = 0, k = 0; j < rows; j++)
+      for (let i = 0; i < cols; i++, k += 6) {
+        const a = j * (cols + 1) + i, b = a + cols + 1;
+        ix.set([a, a + 1, b + 1, a, b + 1, b], k);
+      }
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+    gl.bufferData(gl.ARRAY_BUFFER, v, gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, gl.createBuffer());
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, ix, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    return { vao, count: ix.length };
+  }
+  const meshes = {};
+  function shapeMesh(shape, span) {
+    const key = shape + span;
+    if (!meshes[key])
+      meshes[key] = shape === 'sphere' ? mesh(128, 64, 1, 1) :
+        shape === 'grid' ? mesh(GRID_CELLS * span, GRID_CELLS * span, span, span) :
+          { vao: quad([0, 0, span, 0, span, span, 0, 0, span, span, 0, span]), count: 6, flat: true };
+    return meshes[key];
+  }
+
+  // the shape's program, linked the first time it is drawn: the plane's is the shipped shader as
+  // it is; the sphere's defines WG_TANGENT_FRAME; the grid's sets displaced
+  function shapeProgram(shape) {
+    if (progs[shape]) return progs[shape];
+    let p;
+    if (shape === 'sphere')
+      p = link(SPHERE_VS, fsSource.replace(/^#version 300 es\n/, '#version 300 es\n#define WG_TANGENT_FRAME\n'),
+        'wet_layered.frag (sphere)');
+    else if (shape === 'grid') {
+      const top = fsSource.match(/\nfloat surface_top\(vec2 st\)\n\{[\s\S]*?\n\}\n/);
+      if (!top) throw new Error('wet_layered.frag: no surface_top()');
+      p = link(gridVs(top[0]), fsSource, 'wet_layered.frag (grid)');
+    } else p = link(VS, fsSource, 'wet_layered.frag');
+    gl.useProgram(p);
+    wgSetDefaults(gl, p, uniformDefaults, 'wet_layered.frag');
+    if (shape === 'grid') gl.uniform1i(gl.getUniformLocation(p, 'displaced'), 1);
+    return (progs[shape] = p);
   }
 
   // ---- textures ------------------------------------------------------------------------------
@@ -346,9 +463,12 @@ void main()
       back[0] * right[1] - back[1] * right[0]];
     const ul = Math.hypot(...up);
     up = up.map(x => x / ul);
-    const span = opt.tiling, dist = 0.5 * span / cam.zoom / tanHalf;
+    // the sphere about the origin, the same size for any tiling; the tile's plane (and the grid)
+    // about the middle of its tiles
+    const sphere = opt.shape === 'sphere';
+    const span = sphere ? 1 : opt.tiling, dist = 0.5 * span / cam.zoom / tanHalf, mid = sphere ? 0 : 0.5 * span;
     return {
-      cam: [0.5 * span + back[0] * dist, 0.5 * span + back[1] * dist, back[2] * dist],
+      cam: [mid + back[0] * dist, mid + back[1] * dist, back[2] * dist],
       right, up, fwd: back.map(x => -x), tanHalf, aspect,
     };
   }
@@ -400,8 +520,8 @@ void main()
     gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
     gl.viewport(0, 0, w, h);
     gl.disable(gl.SCISSOR_TEST);
-    gl.clearColor(0.07, 0.07, 0.08, 1);
-    gl.clear(gl.COLOR_BUFFER_BIT);
+    gl.clearColor(0.07, 0.07, 0.08, 0);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     const c = camera(w / h);
     gl.useProgram(bgProg);
     setCamera(bgProg, c);
@@ -410,6 +530,7 @@ void main()
     gl.uniform1i(gl.getUniformLocation(bgProg, 'prefiltered'), 0);
     gl.bindVertexArray(bgVao);
     gl.drawArrays(gl.TRIANGLES, 0, 3);
+    prog = shapeProgram(opt.shape);
     gl.useProgram(prog);
     setCamera(prog, c);
     gl.uniform3fv(gl.getUniformLocation(prog, 'cam'), c.cam);
@@ -419,9 +540,16 @@ void main()
     if (lq.absorption !== null) gl.uniform1f(gl.getUniformLocation(prog, 'absorption_depth'), lq.absorption);
     gl.uniform3fv(gl.getUniformLocation(prog, 'water_tint'), lq.tint);
     gl.uniform1f(gl.getUniformLocation(prog, 'water_ior'), lq.ior);
-    const span = opt.tiling;
-    gl.bindVertexArray(quad.tile[span] || (quad.tile[span] =
-      quad([0, 0, span, 0, span, span, 0, 0, span, span, 0, span])));
+    const m = shapeMesh(opt.shape, opt.tiling);
+    if (!m.flat) {
+      gl.uniform2fv(gl.getUniformLocation(prog, 'depth_ab'), DEPTH_AB);
+      gl.enable(gl.DEPTH_TEST);
+    }
+    if (opt.shape === 'sphere') {
+      gl.uniform1f(gl.getUniformLocation(prog, 'radius'), SPHERE_R);
+      gl.uniform2f(gl.getUniformLocation(prog, 'repeat'), 2 * opt.tiling, opt.tiling);
+    }
+    gl.bindVertexArray(m.vao);
     // the dry material left of the split line, the wet one right of it
     const cut = Math.round(opt.split * w);
     gl.enable(gl.SCISSOR_TEST);
@@ -429,20 +557,24 @@ void main()
       if (x1 <= x0) continue;
       gl.scissor(x0, 0, x1 - x0, h);
       bindSide(side, e);
-      gl.drawArrays(gl.TRIANGLES, 0, 6);
+      if (m.flat) gl.drawArrays(gl.TRIANGLES, 0, 6);
+      else gl.drawElements(gl.TRIANGLES, m.count, gl.UNSIGNED_INT, 0);
     }
     gl.disable(gl.SCISSOR_TEST);
+    gl.disable(gl.DEPTH_TEST);
     gl.bindVertexArray(null);
   }
-  quad.tile = {};
 
   function probe() {
     const px = wgReadBack(gl, probeTarget, probeN, drawTo);
-    let hex = '';
+    let hex = '', cover = '';
     for (let y = probeN - 1; y >= 0; y--) // GL's rows are from the bottom
-      for (let x = 0; x < probeN; x++)
+      for (let x = 0; x < probeN; x++) {
         for (let c = 0; c < 3; c++) hex += px[(y * probeN + x) * 4 + c].toString(16).padStart(2, '0');
+        cover += px[(y * probeN + x) * 4 + 3] > 127 ? '1' : '0';
+      }
     fig.dataset.probe = hex;
+    fig.dataset.cover = cover;
   }
 
   function draw() {
@@ -451,10 +583,18 @@ void main()
     const r = canvas.getBoundingClientRect(), dpr = window.devicePixelRatio || 1;
     const w = Math.max(1, Math.round(r.width * dpr)), h = Math.max(1, Math.round(r.height * dpr));
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
-    drawTo(w, h, null);
-    if (probeN) probe();
+    try {
+      drawTo(w, h, null);
+      if (probeN) probe();
+    } catch (e) { // a shape's program that does not link
+      setState('error', String(e.message || e));
+      drawFailed = true;
+      return;
+    }
+    if (drawFailed) { drawFailed = false; setState('ready'); }
     draws++;
     fig.dataset.draws = draws;
+    fig.dataset.shape = opt.shape;
     fig.dataset.camera = [cam.elevation, cam.azimuth, cam.zoom, cam.envRotation].map(x => +x.toFixed(3)).join(',');
   }
   function redraw() {
@@ -484,6 +624,11 @@ void main()
     const split = Object.assign(document.createElement('input'),
       { id: 'view-split', type: 'range', min: 0, max: 1, step: 0.01, value: opt.split });
     split.oninput = () => { opt.split = +split.value; redraw(); };
+    const shape = document.createElement('select');
+    shape.id = 'view-shape';
+    for (const v of SHAPES) shape.add(new Option(v, v));
+    shape.value = opt.shape;
+    shape.onchange = () => { opt.shape = shape.value; redraw(); };
     const tiling = document.createElement('select');
     tiling.id = 'view-tiling';
     for (const [v, t] of [[1, '1 x 1'], [2, '2 x 2']]) tiling.add(new Option(t, v));
@@ -498,7 +643,7 @@ void main()
     reset.onclick = () => { Object.assign(cam, { elevation: 50, azimuth: 20, zoom: 1, envRotation: 0 }); redraw(); };
     const title = document.createElement('span');
     title.textContent = '3D view';
-    cap.append(title, control('environment', env), control('dry | wet', split),
+    cap.append(title, control('shape', shape), control('environment', env), control('dry | wet', split),
       control('tiling', tiling), control('exposure', expo, expoOut), reset);
     fig.append(canvas, msg, cap);
     fig.title = 'drag: orbit · wheel: zoom · shift-drag or right-drag: turn the environment';
@@ -603,13 +748,16 @@ void main()
     ['elevation', 'azimuth', 'zoom', 'envRotation'].forEach((k, i) => { if (Number.isFinite(v[i]) && args.get('view')) cam[k] = v[i]; });
     if (args.get('split') !== null) opt.split = Math.min(1, Math.max(0, +args.get('split') || 0));
     if (args.get('tiling') === '2') opt.tiling = 2;
+    if (SHAPES.includes(args.get('shape'))) opt.shape = args.get('shape');
     if (args.get('exposure') !== null) opt.exposure = +args.get('exposure') || 0;
     if (args.get('env') !== null) opt.env = Math.max(0, Math.floor(+args.get('env') || 0));
     fig.querySelector('#view-split').value = opt.split;
     fig.querySelector('#view-tiling').value = opt.tiling;
+    fig.querySelector('#view-shape').value = opt.shape;
     fig.querySelector('#view-exposure').value = opt.exposure;
     fig.querySelector('#view-exposure').nextSibling.textContent = ' ' + opt.exposure.toFixed(1);
-    gl = canvas.getContext('webgl2', { antialias: false });
+    // no alpha in the canvas: the background's alpha 0 only marks it in the probe's read-back
+    gl = canvas.getContext('webgl2', { antialias: false, alpha: false });
     if (!gl) {
       setState('no-webgl2', 'this browser gives the page no WebGL2 context: the 3D view needs one');
       return;
@@ -618,9 +766,9 @@ void main()
     try {
       const r = await fetch('/shaders/wet_layered.frag');
       if (!r.ok) throw new Error('/shaders/wet_layered.frag: ' + r.status);
-      prog = link(VS, adapt(await r.text()), 'wet_layered.frag');
-      gl.useProgram(prog);
-      wgSetDefaults(gl, prog, uniformDefaults, 'wet_layered.frag');
+      fsSource = adapt(await r.text());
+      shapeProgram('plane');
+      if (opt.shape !== 'plane') shapeProgram(opt.shape);
       bgProg = link(BG_VS, BG_FS, 'the background');
       bgVao = quad([-1, -1, 3, -1, -1, 3]);
     } catch (e) {

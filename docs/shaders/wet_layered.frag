@@ -27,6 +27,26 @@
 // Inputs from the vertex shader: uv, and view_ts, the direction from the surface towards the
 // eye in tangent space (unnormalised). The result is linear radiance × 2^exposure, before any
 // tone mapping (preview applies Narkowicz's ACES fit and sRGB encoding after this).
+//
+// Surfaces other than the flat tile (both off by default, so that the tile is shaded exactly as
+// without them):
+// - Curved surfaces: compiled with WG_TANGENT_FRAME defined (a line `#define WG_TANGENT_FRAME`
+//   after the version line), the shader takes a third input, tangent_to_world (mat3; columns T
+//   along +u, B along +v, N the outward normal, in world space, z up; orthonormalised here with
+//   B = N × T), and the environment (and sun_dir, then a world direction) is read in world
+//   space: tangent space is world space only for the flat tile. The parallax search and the
+//   water's relief stay in tangent space, with the surface taken as flat around each point: on a
+//   surface curved within a few relief depths (a small sphere, height_scale large) the relief is
+//   only approximate, slipping at grazing angles and near the silhouette.
+// - Displaced surfaces: with displaced true the mesh itself is raised to the top of the layers
+//   (surface_top: the water's surface where water_mask > 0 and the water stands over the relief,
+//   else the relief, height_scale × (top − 1) below the tile's plane, in the tile's flat frame),
+//   so the view ray starts there rather than at the tile's plane: the dry relief is hit at once
+//   (the parallax search adds nothing the mesh has not drawn), and under the water the refracted
+//   ray is searched from the water's own surface, so the depth of water and its absorption are
+//   the same as on the flat tile. The normal maps stay relative to the flat tile (they hold the
+//   whole relief), so the mesh's own normals are not used. Relief finer than the mesh is drawn
+//   flat (its shading, from the normal map, is kept).
 #version 330 core
 
 uniform sampler2D basecolor;
@@ -51,22 +71,30 @@ uniform int pom_steps = 48;
 uniform float env_rotation = 0.0; // radians
 uniform float exposure = 0.0;     // stops
 uniform bool sun = false;
-uniform vec3 sun_dir = vec3(0.0, 0.57, 0.82); // towards the sun, tangent space
+uniform vec3 sun_dir = vec3(0.0, 0.57, 0.82); // towards the sun, tangent space (world: WG_TANGENT_FRAME)
 uniform vec3 sun_radiance = vec3(3.0);        // irradiance on a surface facing the sun
 uniform float water_ior = 1.33;
 uniform bool specular_from_map = false; // else specular_level everywhere
 uniform float specular_level = 0.5;     // F0 = 0.08 × specular for dielectrics
 uniform vec3 water_tint = vec3(1.0);    // transmittance over absorption_depth (clear)
 uniform float absorption_depth = 1.0;           // height units
+uniform bool displaced = false; // the mesh is raised to surface_top (see above)
 
 in vec2 uv;
 in vec3 view_ts;
+#ifdef WG_TANGENT_FRAME
+in mat3 tangent_to_world;
+mat3 frame; // tangent_to_world orthonormalised, set by main
+#endif
 out vec4 frag_color;
 
 const float PI = 3.141592653589793;
 
 vec2 equirect(vec3 d)
 {
+#ifdef WG_TANGENT_FRAME
+    d = frame * d;
+#endif
     float phi = atan(d.y, d.x) + env_rotation;
     float u = fract(0.5 - phi / (2.0 * PI));
     float v = acos(clamp(d.z, -1.0, 1.0)) / PI;
@@ -271,14 +299,30 @@ vec3 shade(vec2 st, vec3 v, bool submerged, vec3 nw, float f0w, vec3 sun_l, vec3
     return color;
 }
 
+// The top of the layers at st, the height a displaced mesh is raised to: the water's surface
+// where there is water standing over the relief, else the relief.
+float surface_top(vec2 st)
+{
+    float h = texture(height, st).r;
+    return texture(water_mask, st).r > 0.0 ? max(h, texture(water_height, st).r) : h;
+}
+
 void main()
 {
+    vec3 sun_d = sun_dir;
+#ifdef WG_TANGENT_FRAME
+    vec3 fn = normalize(tangent_to_world[2]);
+    vec3 ft = normalize(tangent_to_world[0] - fn * dot(fn, tangent_to_world[0]));
+    frame = mat3(ft, cross(fn, ft), fn);
+    sun_d = sun_dir * frame; // world to tangent space
+#endif
     vec3 v = normalize(view_ts);
     vec3 d = -v;
     vec3 p = vec3(uv, 0.0);
+    if (displaced) p.z = height_scale * (surface_top(uv) - 1.0);
     // the dry material (one layer)
     vec3 pd = march(height, p, d, 0.0, -height_scale);
-    vec3 color = shade(pd.xy, v, false, vec3(0.0, 0.0, 1.0), 0.0, sun_dir, sun_radiance);
+    vec3 color = shade(pd.xy, v, false, vec3(0.0, 0.0, 1.0), 0.0, sun_d, sun_radiance);
 
     vec3 pw = march(water_height, p, d, 0.0, -height_scale);
     float m = clamp(texture(water_mask, pw.xy).r, 0.0, 1.0);
@@ -299,17 +343,17 @@ void main()
         // the environment
         vec3 rr = reflect(d, nw), q;
         vec3 mirror = relief_above(pw, rr, q)
-                          ? shade(q.xy, -rr, false, vec3(0.0, 0.0, 1.0), 0.0, sun_dir, sun_radiance)
+                          ? shade(q.xy, -rr, false, vec3(0.0, 0.0, 1.0), 0.0, sun_d, sun_radiance)
                           : env_spec(dominant_dir(nw, rr, rw), rw);
         vec3 top = mirror * fss + env_irr(nw) * ms;
-        vec3 sun_l = sun_dir, sun_under = vec3(0.0);
-        float nl = dot(nw, sun_dir);
+        vec3 sun_l = sun_d, sun_under = vec3(0.0);
+        float nl = dot(nw, sun_d);
         if (sun && nl > 0.0) {
-            vec3 h = normalize(v + sun_dir);
+            vec3 h = normalize(v + sun_d);
             float a = max(rw * rw, 2e-3);
             top += sun_radiance * ggx(clamp(dot(nw, h), 0.0, 1.0), a) * vis_smith(nv, nl, a)
                    * water_fresnel(f0, clamp(dot(v, h), 0.0, 1.0)) * nl;
-            sun_l = -refract(-sun_dir, nw, 1.0 / water_ior);
+            sun_l = -refract(-sun_d, nw, 1.0 / water_ior);
             sun_under = sun_radiance * (1.0 - water_fresnel(f0, nl));
         }
         vec3 t = refract(d, nw, 1.0 / water_ior);

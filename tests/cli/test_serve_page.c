@@ -18,6 +18,12 @@
  * `preview` node's within a measured bound (MEAN_BOUND), is not the clear colour, changes with
  * the camera and between the dry and the wet material, and after a parameter change given with
  * ?set= the page says the render is done and the view shows that render's maps and picture.
+ * The view's other shapes: the sphere is a disc of the size its radius and distance give from
+ * every side (the background in the corners, lit material inside), its picture changes with the
+ * camera and the environment's rotation, and under a sky bright above and dark below its top is
+ * bright and its bottom dark (the environment read in world space); the displaced grid at a
+ * grazing angle is another picture than the plane, its near edge notched by the relief (the
+ * plane's straight), under the plane and levelled where the liquid covers it.
  * On the foam graph, foam.frag drawn in the page matches the graph's foam mask at a fixed time.
  * A click on a node of the graph shows that node's pixels.
  * The controls built from the parameters' UI hints are driven as a person drives them
@@ -41,6 +47,10 @@
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
 
 enum { LIMIT_MS = 30000 };
 
@@ -404,14 +414,18 @@ static const char lookdev[] =
     "</wetgraph>\n";
 
 /* Start watch on lookdev.wetgraph with the shared material and environment (the environment
- * input is the 3D view's environment too); returns the port. */
-static int start_lookdev(void)
+ * input is the 3D view's environment too: env, a file of the test's folder, or with NULL the
+ * shared venice_sunset_1k.hdr); returns the port. */
+static int start_lookdev_env(const char *env)
 {
     const char *shared = getenv("WETGRAPH_SHARED");
     if (!shared || !shared[0]) fail_msg("WETGRAPH_SHARED is not set");
     static char in[6][4096];
     const char *m = "materials/pavingstones130_1k/PavingStones130_1K_";
-    snprintf(in[0], sizeof in[0], "environment=%s/env/venice_sunset_1k.hdr", shared);
+    if (env)
+        snprintf(in[0], sizeof in[0], "environment=%s", path(env));
+    else
+        snprintf(in[0], sizeof in[0], "environment=%s/env/venice_sunset_1k.hdr", shared);
     snprintf(in[1], sizeof in[1], "basecolor=%s/%sColor.jpg", shared, m);
     snprintf(in[2], sizeof in[2], "height=%s/%sDisplacement.jpg", shared, m);
     snprintf(in[3], sizeof in[3], "normal=%s/%sNormalGL.jpg", shared, m);
@@ -440,6 +454,11 @@ static int start_lookdev(void)
     return port;
 }
 
+static int start_lookdev(void)
+{
+    return start_lookdev_env(NULL);
+}
+
 /* The 3D view's state after dump_dom: fails with its message unless it is ready. */
 static void view_ready(void)
 {
@@ -454,8 +473,10 @@ static void view_ready(void)
                  path("dom.html"));
 }
 
-/* The N x N picture the page read back (data-probe, hex RGB from the top row) into px. */
-static void probe(unsigned char *px)
+/* The n x n picture the page read back (data-probe, hex RGB from the top row) into px, and,
+ * when cover is not NULL, which of its pixels are the surface rather than the background
+ * (data-cover, one '0' or '1' a pixel, in the same order) into cover. */
+static void probe_n(unsigned char *px, unsigned char *cover, int n)
 {
     size_t size;
     char *dom = wgt_read_file(path("dom.html"), &size);
@@ -464,13 +485,25 @@ static void probe(unsigned char *px)
     if (!p || p > strchr(at, '>'))
         fail_msg("the 3D view read no picture back (%s)", path("dom.html"));
     p += strlen(" data-probe=\"");
-    for (int i = 0; i < N * N * 3; i++) {
+    for (int i = 0; i < n * n * 3; i++) {
         unsigned v;
         if (sscanf(p + 2 * i, "%2x", &v) != 1)
-            fail_msg("data-probe is shorter than %d values", N * N * 3);
+            fail_msg("data-probe is shorter than %d values", n * n * 3);
         px[i] = (unsigned char)v;
     }
+    if (cover) {
+        char *c = strstr(at, " data-cover=\"");
+        if (!c || c > strchr(at, '>')) fail_msg("the 3D view gave no data-cover");
+        c += strlen(" data-cover=\"");
+        if ((int)strspn(c, "01") != n * n) fail_msg("data-cover is not %d values", n * n);
+        for (int i = 0; i < n * n; i++) cover[i] = c[i] == '1';
+    }
     free(dom);
+}
+
+static void probe(unsigned char *px)
+{
+    probe_n(px, NULL, N);
 }
 
 /* px as a binary PPM in the test's folder, to look at when a comparison fails. */
@@ -612,6 +645,246 @@ static void test_view3d_follows_a_render(void **state)
     if (mean > MEAN_BOUND || far > FAR_BOUND)
         fail_msg("after the change the 3D view differs from the preview node by %.2f levels", mean);
     assert_true(change > 2 * MEAN_BOUND);
+    stop();
+}
+
+/* ---- the 3D view's shapes ------------------------------------------------------------------- */
+
+enum { P = 128 }; /* the shapes' pictures read back: P x P */
+
+/* The 3D view opened with ?events=0&probe=P& + q: fails unless it is ready and shows `shape`;
+ * its picture into px and which pixels are the surface into cover. */
+static void shape_view(int port, const char *q, const char *shape, unsigned char *px,
+                       unsigned char *cover)
+{
+    char url[256];
+    snprintf(url, sizeof url, "?events=0&probe=%d&%s", P, q);
+    dump_dom(port, url);
+    view_ready();
+    if (strcmp(attr("<figure id=\"view3d\"", "data-shape"), shape))
+        fail_msg("the 3D view shows '%s', not the %s (%s)",
+                 attr("<figure id=\"view3d\"", "data-shape"), shape, path("dom.html"));
+    probe_n(px, cover, P);
+}
+
+/* Mean |a - b| over the pixels where mask is set (all with NULL), 8-bit levels. */
+static double mean_diff_in(const unsigned char *a, const unsigned char *b,
+                           const unsigned char *mask)
+{
+    double sum = 0;
+    int n = 0;
+    for (int i = 0; i < P * P; i++)
+        if (!mask || mask[i])
+            for (int c = 0; c < 3; c++, n++) sum += abs(a[3 * i + c] - b[3 * i + c]);
+    return n ? sum / n : 0;
+}
+
+/* The sphere of the 3D view (radius 0.4 about the origin, which the camera looks at from
+ * 0.5 / zoom / tan(17.5 degrees)): its silhouette is a disc about the picture's centre of
+ * radius tan(asin(0.4 / distance)) / tan(17.5 degrees) half-pictures. disc[i]: 1 inside by
+ * more than 1.5 pixels, 0 outside by more than 1.5, 2 on the edge. Returns the radius. */
+static double sphere_disc(unsigned char *disc)
+{
+    double th = tan(17.5 * M_PI / 180), dist = 0.5 / th;
+    double r = tan(asin(0.4 / dist)) / th * P / 2;
+    for (int y = 0; y < P; y++)
+        for (int x = 0; x < P; x++) {
+            double d = hypot(x + 0.5 - P / 2.0, y + 0.5 - P / 2.0);
+            disc[y * P + x] = d < r - 1.5 ? 1 : d > r + 1.5 ? 0 : 2;
+        }
+    return r;
+}
+
+/* Pixels whose cover is not the disc's (off its edge). */
+static int off_disc(const unsigned char *cover, const unsigned char *disc)
+{
+    int wrong = 0;
+    for (int i = 0; i < P * P; i++) wrong += disc[i] != 2 && cover[i] != disc[i];
+    return wrong;
+}
+
+/* Steps for page_driver.js: the 3D view's shape menu, used as a person uses it, redraws the view
+ * on the chosen shape. */
+static const char shape_steps[] =
+    "const f = () => document.getElementById('view3d');\n"
+    "await until(() => f() && f().dataset.state === 'ready' && f().dataset.draws, 'the 3D view');\n"
+    "const s = document.getElementById('view-shape');\n"
+    "const before = [f().dataset.shape, [...s.options].map(o => o.value).join(',')];\n"
+    "s.value = 'sphere'; s.dispatchEvent(new Event('change'));\n"
+    "await until(() => f().dataset.shape === 'sphere', 'the sphere');\n"
+    "s.value = 'grid'; s.dispatchEvent(new Event('change'));\n"
+    "await until(() => f().dataset.shape === 'grid', 'the grid');\n"
+    "return before.concat([f().dataset.state]);\n";
+
+/* The sphere: round from every side (the surface is the disc the sphere's size and distance
+ * give, the corners the background), lit material inside (bright enough, and not the plane's
+ * silhouette), and its picture changes when the camera orbits and when the environment turns;
+ * the page's shape menu, driven in the page, switches the view to the sphere and the grid. */
+static void test_view3d_sphere(void **state)
+{
+    (void)state;
+    need_chromium();
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    static unsigned char a[P * P * 3], b[P * P * 3], c[P * P * 3], plane[P * P * 3];
+    static unsigned char ca[P * P], cb[P * P], cc[P * P], cplane[P * P], disc[P * P];
+    double r = sphere_disc(disc);
+    shape_view(port, "shape=sphere&split=0&view=30,20,1,0", "sphere", a, ca);
+    int wrong = off_disc(ca, disc);
+    double lum = 0;
+    int in = 0;
+    for (int i = 0; i < P * P; i++)
+        if (disc[i] == 1) in++, lum += (a[3 * i] + a[3 * i + 1] + a[3 * i + 2]) / 3.0;
+    lum /= in;
+    print_message("sphere: %d of %d pixels off the disc of radius %.1f; mean level inside %.1f\n",
+                  wrong, P * P, r, lum);
+    if (wrong)
+        fail_msg("the sphere's silhouette is not the disc of radius %.1f: %d pixels off", r, wrong);
+    assert_true(!ca[0] && !ca[P - 1] && !ca[P * (P - 1)] && !ca[P * P - 1]);
+    if (lum < 30) fail_msg("the sphere is dark inside: mean level %.1f", lum);
+    /* orbiting: the same disc, another picture in it */
+    shape_view(port, "shape=sphere&split=0&view=70,140,1,0", "sphere", b, cb);
+    wrong = off_disc(cb, disc);
+    double orbit = mean_diff_in(a, b, disc);
+    /* the environment turned: another picture on the same disc */
+    shape_view(port, "shape=sphere&split=0&view=30,20,1,120", "sphere", c, cc);
+    double turned = mean_diff_in(a, c, disc);
+    print_message("sphere: orbiting changes the disc's picture by %.2f levels (%d pixels off the "
+                  "disc), turning the environment by %.2f\n",
+                  orbit, wrong, turned);
+    if (wrong)
+        fail_msg("seen from elevation 70, azimuth 140 the sphere is not round: %d pixels", wrong);
+    assert_true(orbit > 8);
+    assert_true(turned > 4);
+    /* the plane through the same camera: not a disc (the shape control took effect) */
+    shape_view(port, "shape=plane&split=0&view=30,20,1,0", "plane", plane, cplane);
+    if (off_disc(cplane, disc) < P * P / 10)
+        fail_msg("the plane's silhouette is the sphere's disc too");
+    /* the menu */
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    wgt_write_file(path("shape_steps.js"), shape_steps);
+    int st = wgt_shell(dir,
+                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
+                       "shape_steps.js profile_shape >shape.out 2>shape.err",
+                       getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("shape.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
+    if (strcmp(out, "[\"plane\",\"plane,sphere,grid\",\"ready\"]\n"))
+        fail_msg("the shape menu: %s", out);
+    free(out);
+    stop();
+}
+
+/* The environment on the sphere is read in world space: lit by a sky that is bright above the
+ * horizon and dark below (an equirectangular picture made by a pixel node), the sphere seen from
+ * the side is bright on its upper half and dark on its lower half, as the background is. In its
+ * own tangent frame (z along each point's normal) every point would see the bright side (measured
+ * so: 167 levels above, 167 below; in world space 153 and 80). */
+static void test_view3d_sphere_world_environment(void **state)
+{
+    (void)state;
+    const char *bin = need_chromium();
+    wgt_write_file(path("sky.wetgraph"),
+                   "<wetgraph version=\"1\" size=\"256\"><node id=\"s\" type=\"pixel\" "
+                   "expr=\"(v &lt; 0.5) * 0.98 + 0.02\"/><output name=\"sky\" from=\"s\" "
+                   "format=\"png\"/></wetgraph>\n");
+    assert_int_equal(wgt_shell(dir, "'%s' render sky.wetgraph -o . -q", bin), 0);
+    int port = start_lookdev_env("sky_sky.png");
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    static unsigned char a[P * P * 3], ca[P * P], disc[P * P];
+    double r = sphere_disc(disc);
+    shape_view(port, "shape=sphere&split=1&view=5,20,1,0", "sphere", a, ca);
+    double top = 0, bottom = 0, bg_top = 0, bg_bottom = 0;
+    int nt = 0, nb = 0, mt = 0, mb = 0;
+    for (int y = 0; y < P; y++)
+        for (int x = 0; x < P; x++) {
+            int i = y * P + x;
+            double l = (a[3 * i] + a[3 * i + 1] + a[3 * i + 2]) / 3.0, dy = y + 0.5 - P / 2.0;
+            if (disc[i] == 1 && dy < -r / 3) top += l, nt++;
+            if (disc[i] == 1 && dy > r / 3) bottom += l, nb++;
+            if (!ca[i] && y < P / 8) bg_top += l, mt++;
+            if (!ca[i] && y >= P - P / 8) bg_bottom += l, mb++;
+        }
+    top /= nt, bottom /= nb, bg_top /= mt, bg_bottom /= mb;
+    print_message("sphere under a sky bright above, dark below: upper part %.1f, lower part %.1f "
+                  "levels; the background %.1f above, %.1f below\n",
+                  top, bottom, bg_top, bg_bottom);
+    if (!(bg_top > bg_bottom + 100))
+        fail_msg("the sky is not bright above and dark below: %.1f, %.1f", bg_top, bg_bottom);
+    if (!(top > 1.5 * bottom && top > bottom + 40))
+        fail_msg("the sphere is not lit from above: upper part %.1f, lower part %.1f levels", top,
+                 bottom);
+    stop();
+}
+
+/* The last row from the top where cover is set in column x, or -1. */
+static int bottom_row(const unsigned char *cover, int x)
+{
+    for (int y = P - 1; y >= 0; y--)
+        if (cover[y * P + x]) return y;
+    return -1;
+}
+
+/* The displaced grid against the plane at a grazing camera: another picture, and where the
+ * plane's near edge is a straight line (its second differences along the edge are below a
+ * pixel) the grid's near edge is its profile through the relief, notched by the joints between
+ * the stones: its drop under the plane's edge varies from column to column by more than a pixel
+ * (standard deviation), all dry; the wet grid's edge, where the liquid's flat surface covers
+ * the joints, varies less. The grid lies at or under the plane (the tile's plane is the top of
+ * the relief, height 1, and this water stays under it), lower in many columns. (The far edge,
+ * at this angle, is hidden behind the stones in front of it, which fill its notches.) */
+static void test_view3d_grid(void **state)
+{
+    (void)state;
+    need_chromium();
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    budget_ms = 30000;
+    static unsigned char plane[P * P * 3], grid[P * P * 3], wet[P * P * 3];
+    static unsigned char cp[P * P], cg[P * P], cw[P * P];
+    shape_view(port, "shape=plane&split=1&view=8,20,1,0", "plane", plane, cp);
+    shape_view(port, "shape=grid&split=1&view=8,20,1,0", "grid", grid, cg);
+    shape_view(port, "shape=grid&split=0&view=8,20,1,0", "grid", wet, cw);
+    double change = mean_diff_in(plane, grid, NULL);
+    double bend = 0, drop = 0, drop2 = 0, wdrop = 0, wdrop2 = 0;
+    int cols = 0, lower = 0, above = 0;
+    for (int x = 1; x < P - 1; x++) {
+        int p0 = bottom_row(cp, x - 1), p1 = bottom_row(cp, x), p2 = bottom_row(cp, x + 1);
+        int g1 = bottom_row(cg, x), w1 = bottom_row(cw, x);
+        if (p0 < 0 || p0 == P - 1 || p1 < 0 || p1 == P - 1 || p2 < 0 || p2 == P - 1 || g1 < 0 ||
+            w1 < 0)
+            continue;
+        cols++;
+        bend += abs(p0 - 2 * p1 + p2);
+        drop += g1 - p1, drop2 += (double)(g1 - p1) * (g1 - p1);
+        wdrop += w1 - p1, wdrop2 += (double)(w1 - p1) * (w1 - p1);
+        lower += g1 > p1 + 1;
+        above += g1 < p1 - 1;
+    }
+    if (cols < P / 4) fail_msg("the plane's near edge is in %d columns only", cols);
+    bend /= cols, drop /= cols, wdrop /= cols;
+    double spread = sqrt(fmax(drop2 / cols - drop * drop, 0));
+    double wspread = sqrt(fmax(wdrop2 / cols - wdrop * wdrop, 0));
+    print_message("grid against plane at elevation 8, dry: the picture changes by %.2f levels; "
+                  "the grid's near edge is %.2f pixels under the plane's on average, varying by "
+                  "%.2f (the plane's edge bends by %.2f a column), lower in %d of %d columns, "
+                  "higher in %d; wet, %.2f under, varying by %.2f\n",
+                  change, drop, spread, bend, lower, cols, above, wdrop, wspread);
+    assert_true(change > 1.5);
+    if (!(bend < 0.5 && spread > 1))
+        fail_msg("the grid's near edge shows no relief: it varies by %.2f pixels (the plane's "
+                 "bends by %.2f)",
+                 spread, bend);
+    assert_true(lower > cols / 4);
+    assert_int_equal(above, 0);
+    if (!(wspread < spread))
+        fail_msg("the liquid does not level the grid's edge: it varies by %.2f pixels wet, %.2f "
+                 "dry",
+                 wspread, spread);
     stop();
 }
 
@@ -935,6 +1208,9 @@ int main(void)
         cmocka_unit_test_teardown(test_foam_view, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_matches_preview, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_follows_a_render, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_sphere, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_sphere_world_environment, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_grid, stop_watcher),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

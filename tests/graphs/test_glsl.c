@@ -14,7 +14,9 @@
  *   a water layer with its own height, normal, roughness, F0 and mask) and lighting atlas
  *   (env_prefilter) are baked by the engine, drawn as the tile's plane through the `preview`
  *   node's camera: the mean difference to the `preview` node's linear radiance stays within
- *   0.25% of the mean radiance (check_layered says why), with and without the sun.
+ *   0.25% of the mean radiance (check_layered says why), with and without the sun; and built
+ *   with WG_TANGENT_FRAME on the tile turned by 75 degrees in the world, the environment and
+ *   the sun given in world space, within the same bound (the frame is applied to both).
  * Without a GL driver every test is skipped with the reason (exit status 77, meson's SKIP);
  * WETGRAPH_REQUIRE_GL=1 makes that a failure instead (CI, where the driver is installed). */
 #include "wggl.h"
@@ -283,8 +285,11 @@ static void run_ripples(float loop, const double *times, int n_times)
     WgEngine *e = wgt_engine(2, 0, NULL);
     unsigned prog = wgt_gl_program(foam_vs, shader_path("rain_ripples.frag"));
     unsigned sites = 0, open = 0;
-    const Setting sets[] = {{"rain", 0.7f}, {"drop_size", 24}, {"ripple_seconds", 0.7f},
-                            {"strength", 0.8f}, {"loop_seconds", loop}};
+    const Setting sets[] = {{"rain", 0.7f},
+                            {"drop_size", 24},
+                            {"ripple_seconds", 0.7f},
+                            {"strength", 0.8f},
+                            {"loop_seconds", loop}};
     for (int i = 0; i < n_times; i++) {
         WgRequest *r = wg_request_new(g);
         wg_request_set_size(r, RW, RH);
@@ -327,7 +332,8 @@ static void run_ripples(float loop, const double *times, int n_times)
                       times[i], loop, off, RW * RH, maxd, nd / fmax(nn, 1e-9));
         assert_true(energy > 100);
         if (off > RW * RH / 1000)
-            fail_msg("t=%g: the shader's heights differ from the graph's at %d pixels", times[i], off);
+            fail_msg("t=%g: the shader's heights differ from the graph's at %d pixels", times[i],
+                     off);
         if (!(nd < 0.2 * nn))
             fail_msg("t=%g: the shader's normals differ from the graph's by %.2f of their tilt",
                      times[i], nd / nn);
@@ -427,6 +433,46 @@ static const char layered_vs[] =
 
 static const float tile[] = {0, 0, 1, 0, 1, 1, 0, 0, 1, 1, 0, 1};
 
+/* The same plane with a tangent frame, for the shader built with WG_TANGENT_FRAME: T, B and N
+ * the world's x, y and z turned by `turn` radians about the vertical, as though the tile lay
+ * turned in a world whose environment is read in world space. */
+static const char layered_frame_vs[] =
+    "#version 330 core\n"
+    "layout(location = 0) in vec2 pos;\n"
+    "uniform vec3 cam, right, up, fwd;\n"
+    "uniform float tan_half, aspect, turn;\n"
+    "out vec2 uv;\n"
+    "out vec3 view_ts;\n"
+    "out mat3 tangent_to_world;\n"
+    "void main()\n"
+    "{\n"
+    "    vec3 p = vec3(pos, 0.0), r = p - cam;\n"
+    "    uv = pos;\n"
+    "    view_ts = cam - p;\n"
+    "    tangent_to_world = mat3(cos(turn), sin(turn), 0.0, -sin(turn), cos(turn), 0.0, 0.0, 0.0, "
+    "1.0);\n"
+    "    gl_Position = vec4(dot(r, right) / (tan_half * aspect), dot(r, up) / tan_half, 0.0, "
+    "dot(r, fwd));\n"
+    "}\n";
+
+/* wet_layered.frag with `#define WG_TANGENT_FRAME` after its version line, written to the
+ * test's temporary folder: its path. */
+static const char *framed_shader_path(void)
+{
+    static char path[2048];
+    char *src = wgt_read_file(shader_path("wet_layered.frag"), NULL);
+    char *v = strstr(src, "\n#version 330 core\n");
+    if (!v) fail_msg("wet_layered.frag has no line #version 330 core");
+    v += strlen("\n#version 330 core\n");
+    snprintf(path, sizeof path, "%s/wet_layered_framed.frag", wgt_tmpdir());
+    FILE *f = fopen(path, "wb");
+    if (!f) fail_msg("cannot write %s", path);
+    fprintf(f, "%.*s#define WG_TANGENT_FRAME\n%s", (int)(v - src), src, v);
+    fclose(f);
+    free(src);
+    return path;
+}
+
 /* The top-left w0 x h0 pixels of block `block` of the env_prefilter atlas (2 across, 4 down),
  * box-filtered down by 2^level (to at least 1 x 1), as a GL mip level. */
 static WgImage *atlas_block(const WgImage *atlas, int block, int level, int w0, int h0)
@@ -477,14 +523,20 @@ typedef struct {
 #define NEED(set, name, ...)                                                                       \
     if (!set(prog, name, __VA_ARGS__)) fail_msg("wet_layered.frag has no uniform %s", name)
 
-static LayeredStats run_layered(bool sun)
+/* The shader against the preview node on the scene; with turn not NULL, the shader built with
+ * WG_TANGENT_FRAME on the tile turned by *turn radians (layered_frame_vs), the environment's
+ * rotation and the sun's direction given in world space so that in the tile's frame they are
+ * the plain run's: the same picture only if the shader reads the environment and the sun
+ * through the frame. */
+static LayeredStats run_layered(bool sun, const float *turn)
 {
     WgGraph *g = wgt_load(scene_xml);
     WgRequest *r = wg_request_new(g);
     WgEngine *e = wgt_engine(2, 0, NULL);
     WgResult *res = wgt_render_request(e, r);
     const WgImage *atlas = wgt_output(res, "atlas");
-    unsigned prog = wgt_gl_program(layered_vs, shader_path("wet_layered.frag"));
+    unsigned prog = turn ? wgt_gl_program(layered_frame_vs, framed_shader_path())
+                         : wgt_gl_program(layered_vs, shader_path("wet_layered.frag"));
 
     /* the lighting: prefiltered blocks 0-5 as one mip chain (level l = block l at 1/2^l of its
      * size), irradiance (block 6), the BRDF table (block 7's left square, u = n·v, v =
@@ -599,11 +651,13 @@ static LayeredStats run_layered(bool sun)
     NEED(wgt_gl_set1f, "prefiltered_levels", 5);
     NEED(wgt_gl_set1f, "height_scale", 0.04f);
     NEED(wgt_gl_set1i, "pom_steps", 48);
-    NEED(wgt_gl_set1f, "env_rotation", 30 * deg);
+    float t = turn ? *turn : 0;
+    if (turn) NEED(wgt_gl_set1f, "turn", t);
+    NEED(wgt_gl_set1f, "env_rotation", 30 * deg - t);
     NEED(wgt_gl_set1f, "exposure", -0.5f);
     NEED(wgt_gl_set1i, "sun", sun);
     float se = 35 * deg, sa = 120 * deg;
-    NEED(wgt_gl_set3f, "sun_dir", cosf(se) * cosf(sa), cosf(se) * sinf(sa), sinf(se));
+    NEED(wgt_gl_set3f, "sun_dir", cosf(se) * cosf(sa + t), cosf(se) * sinf(sa + t), sinf(se));
     NEED(wgt_gl_set3f, "sun_radiance", 3, 3 * 0.95f, 3 * 0.9f);
     NEED(wgt_gl_set1f, "water_ior", 1.33f);
     NEED(wgt_gl_set3f, "water_tint", 0.3f, 0.7f, 0.6f);
@@ -658,14 +712,15 @@ static LayeredStats run_layered(bool sun)
  * 1.45% (1.75% with the sun), a height scale 5% off 0.54% (0.94%), an index of refraction of
  * 1.30 instead of 1.33 0.09% (0.41%); the water layer itself changes the picture by about 35%,
  * checked to stay above 10 times the bound so that the scene does test the water. */
-static void check_layered(bool sun)
+static void check_layered(bool sun, const float *turn)
 {
-    LayeredStats st = run_layered(sun);
-    print_message("wet_layered.frag (sun %s): mean |GL - CPU| %.5f, mean radiance %.4f (%.2f%%), "
+    LayeredStats st = run_layered(sun, turn);
+    print_message("wet_layered.frag (sun %s%s): mean |GL - CPU| %.5f, mean radiance %.4f (%.2f%%), "
                   "the water's own effect %.4f, %d pixels; where the water leaves the dry "
                   "render untouched (%d pixels): %.2f%%, elsewhere %.2f%%\n",
-                  sun ? "on" : "off", st.mean_abs, st.mean_cpu, 100 * st.mean_abs / st.mean_cpu,
-                  st.wet_effect, st.covered, st.dry, 100 * st.dry_abs / fmax(st.dry_cpu, 1e-9),
+                  sun ? "on" : "off", turn ? ", WG_TANGENT_FRAME, the tile turned" : "",
+                  st.mean_abs, st.mean_cpu, 100 * st.mean_abs / st.mean_cpu, st.wet_effect,
+                  st.covered, st.dry, 100 * st.dry_abs / fmax(st.dry_cpu, 1e-9),
                   100 * (st.mean_abs * 3 * st.covered - st.dry_abs) /
                       fmax(st.mean_cpu * 3 * st.covered - st.dry_cpu, 1e-9));
     assert_int_equal(st.covered, S * S); /* zoom 2.5: the tile fills the picture */
@@ -680,14 +735,27 @@ static void test_layered_ambient(void **state)
 {
     (void)state;
     if (!gl_ok) skip();
-    check_layered(false);
+    check_layered(false, NULL);
 }
 
 static void test_layered_sun(void **state)
 {
     (void)state;
     if (!gl_ok) skip();
-    check_layered(true);
+    check_layered(true, NULL);
+}
+
+/* The shader's tangent frame (WG_TANGENT_FRAME): the tile turned by 75 degrees in the world,
+ * the environment and the sun turned with it, is the preview node's picture within the same
+ * bound, with the sun and without. Were the frame not applied to the environment, the
+ * environment would stand 75 degrees off; were it not applied to the sun, the sun too. */
+static void test_layered_tangent_frame(void **state)
+{
+    (void)state;
+    if (!gl_ok) skip();
+    const float turn = (float)(75 * M_PI / 180);
+    check_layered(false, &turn);
+    check_layered(true, &turn);
 }
 
 int main(void)
@@ -707,10 +775,9 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_foam_unlooped),   cmocka_unit_test(test_foam_loop_half_waves),
         cmocka_unit_test(test_foam_short_loop), cmocka_unit_test(test_foam_sine_warp),
-        cmocka_unit_test(test_foam_layer3),
-        cmocka_unit_test(test_foam_speed_noise),     cmocka_unit_test(test_rain_ripples),
-        cmocka_unit_test(test_layered_ambient),
-        cmocka_unit_test(test_layered_sun),
+        cmocka_unit_test(test_foam_layer3),     cmocka_unit_test(test_foam_speed_noise),
+        cmocka_unit_test(test_rain_ripples),    cmocka_unit_test(test_layered_ambient),
+        cmocka_unit_test(test_layered_sun),     cmocka_unit_test(test_layered_tangent_frame),
     };
     int failed = cmocka_run_group_tests(tests, NULL, NULL);
     wgt_gl_close();
