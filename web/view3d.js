@@ -7,10 +7,10 @@
 // point's tangent frame so that it reads the environment in world space; the relief by parallax
 // as on the plane, taken as locally flat) and a displaced grid (the plane subdivided, raised to
 // the top of the layers, the shader told so with `displaced`: the relief drawn by the mesh, not
-// again by parallax). The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes only what
-// the language needs (web/glsl.js: the version line, the uniforms' initial values), and main,
-// renamed, called by a main that adds what the preview node does after the shader: Narkowicz's
-// ACES fit and sRGB encoding. Directions off the tile show the environment (the prefiltered
+// again by parallax). The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes
+// only what the language needs (web/glsl.js: the version line, the uniforms' initial values),
+// and main, renamed, called by a main that adds what the preview node does after the shader:
+// Narkowicz's ACES fit and sRGB encoding. Directions off the tile show the environment (the prefiltered
 // level of roughness 0, as the preview node's background).
 //
 // Lighting: the environment's env_prefilter atlas (/env/K, half floats, made once per
@@ -41,8 +41,8 @@
 // data-cover, '1' where the shape was drawn and '0' where the background shows, for tests). The
 // figure's data-state says where the view is: loading, ready, no-webgl2 or error (with
 // data-error); data-shape is the shape shown, data-version the render whose maps it shows and
-// data-draws counts the pictures drawn. The page starts the view for a graph whose outputs include a base colour
-// (basecolor or underbasecolor): a material.
+// data-draws counts the pictures drawn. The page starts the view for a graph whose outputs
+// include a base colour (basecolor or underbasecolor): a material.
 'use strict';
 
 const view3d = (function () {
