@@ -171,7 +171,7 @@ static int row_request(const Options *o, const WgGraph *g, const char *list, con
 }
 
 static void json_row(const Options *o, const WgGraph *g, int index, const BatchRow *row,
-                     const WgResult *res, double ms, const char *error)
+                     const WgResult *res, double ms, size_t cached, const char *error)
 {
     printf("{\"row\": %d, \"line\": %d, \"status\": \"%s\", \"outputs\": [", index, row->line,
            error ? "failed" : "ok");
@@ -181,8 +181,8 @@ static void json_row(const Options *o, const WgGraph *g, int index, const BatchR
         if (i) printf(", ");
         cli_json_string(stdout, p);
     }
-    printf("], \"computed\": %d, \"ms\": %.3f, \"warnings\": [",
-           res ? wg_result_evaluated_count(res) : 0, ms);
+    printf("], \"computed\": %d, \"ms\": %.3f, \"cached_bytes\": %zu, \"warnings\": [",
+           res ? wg_result_evaluated_count(res) : 0, ms, cached);
     for (int i = 0; !error && res && i < wg_result_warning_count(res); i++) {
         if (i) printf(", ");
         cli_json_warning(stdout, wg_result_warning(res, i));
@@ -257,6 +257,13 @@ int render_batch(const Options *o, const WgGraph *g)
         wg_error_clear(&err);
         int rc = row_request(&ro, g, o->batch, row, &r, &err);
         if (!rc) rc = output_files_check(&ro, g, r, -1, &err);
+        /* each output written while the rest of the row renders, as a single render does; a
+         * layered EXR wants them all */
+        Stream *stream = NULL;
+        if (!rc && !ro.layered && !(rc = stream_new(&ro, g, -1, false, &stream, &err))) {
+            wg_request_set_output_fn(r, stream_output, stream);
+            if (ro.cache) wg_request_set_output_held(r, stream_held, stream);
+        }
         if (!rc) rc = wg_render(e, r, &res, &err);
         if (progress) fprintf(stderr, "\r%*s\r", 60, ""); /* the paths go to the same terminal */
         if (!rc && !o->quiet) {
@@ -266,7 +273,10 @@ int render_batch(const Options *o, const WgGraph *g)
             for (int k = 0; k < wg_result_warning_count(res); k++)
                 cli_warning(wg_result_warning(res, k), row_at);
         }
-        if (!rc) rc = write_outputs(&ro, g, res, -1, &err);
+        if (stream)
+            rc = stream_finish(stream, res, rc, &err);
+        else if (!rc)
+            rc = write_outputs(&ro, g, res, -1, &err);
         double ms = now_ms() - t0;
         char text[sizeof err.message + 4096] = "";
         if (rc) {
@@ -283,7 +293,19 @@ int render_batch(const Options *o, const WgGraph *g)
             if (progress) fprintf(stderr, "\r%*s\r", 60, "");
             fprintf(stderr, "wetgraph: error: %s\n", text);
         }
-        if (o->batch_json) json_row(&ro, g, i, row, res, ms, rc ? text : NULL);
+        /* The memory cache keeps about twice what the row used, the least recently used going
+         * first: what rows share (a material's maps) is read by every row of it and stays, while
+         * earlier rows' own results go, their buffers to the pool, which keeps what a row takes.
+         * Kept up to the budget instead, the cache would grow with every row and each row would
+         * take new memory, which on some machines costs more than computing what it holds. */
+        if (res) {
+            size_t used = 0;
+            for (int k = 0; k < wg_result_stat_count(res); k++) used += wg_result_stat(res, k)->bytes;
+            wg_engine_trim(e, 2 * used, wg_result_peak_bytes(res));
+        }
+        WgMemoryStats mem;
+        wg_engine_memory_stats(e, &mem);
+        if (o->batch_json) json_row(&ro, g, i, row, res, ms, mem.cache_bytes, rc ? text : NULL);
         done++;
         if (progress) {
             fprintf(stderr, "\r[%d/%d] rows, %d failed", done, mine, failed);

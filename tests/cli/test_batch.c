@@ -243,6 +243,43 @@ static void test_shared_nodes_computed_once(void **state)
     assert_true(contains("out", "[\"s3/g_a.exr\", \"s3/g_b.png\"], \"computed\": 0,"));
 }
 
+/* The memory cache after each row stays near what a row uses instead of growing with every
+ * row, and what the rows share is still served from it: 16 rows over one texture, each with a
+ * level of its own, compute the shared blur once; the cache holds no more after the last row
+ * than after the fourth, and a level seen two rows before is still cached. */
+static void test_cache_bounded_across_rows(void **state)
+{
+    (void)state;
+    FILE *f = fopen(path("many.csv"), "w");
+    assert_non_null(f);
+    fprintf(f, "input:tex,set:level,out\n");
+    for (int i = 0; i < 16; i++) fprintf(f, "in1/gen_img.png,0.%02d,m%d\n", 10 + i, i);
+    fprintf(f, "in1/gen_img.png,0.24,m16\n"); /* row 14's level again */
+    fclose(f);
+    assert_int_equal(sh("\"$WG\" render g.wetgraph --batch many.csv --batch-json"), 0);
+    FILE *in = fopen(path("out"), "r");
+    assert_non_null(in);
+    char line[8192];
+    long long cached[17];
+    int computed[17], n = 0;
+    while (n < 17 && fgets(line, sizeof line, in)) {
+        const char *c = strstr(line, "\"computed\": "), *b = strstr(line, "\"cached_bytes\": ");
+        assert_non_null(c);
+        assert_non_null(b);
+        computed[n] = atoi(c + 12);
+        cached[n++] = atoll(b + 16);
+    }
+    fclose(in);
+    assert_int_equal(n, 17);
+    assert_int_equal(computed[0], 4); /* the texture, soft, lvl, mix */
+    for (int i = 1; i < 16; i++) assert_int_equal(computed[i], 2); /* the texture and soft cached */
+    assert_int_equal(computed[16], 0);
+    assert_true(cached[3] > 0);
+    if (cached[15] > cached[3])
+        fail_msg("the cache grew from %lld bytes after row 3 to %lld after row 15", cached[3],
+                 cached[15]);
+}
+
 /* The sum of the "computed" counts of the JSON lines in `name`, and the rows there. */
 static int computed_sum(const char *name, int *rows)
 {
@@ -572,6 +609,7 @@ int main(void)
         cmocka_unit_test(test_failing_rows),
         cmocka_unit_test(test_warnings_per_row),
         cmocka_unit_test(test_shared_nodes_computed_once),
+        cmocka_unit_test(test_cache_bounded_across_rows),
         cmocka_unit_test(test_shard_blocks),
         cmocka_unit_test(test_concurrent_shards),
         cmocka_unit_test(test_usage_errors),
