@@ -12,6 +12,25 @@
 #include <stdio.h>
 #include <string.h>
 
+/* s with XML's special characters escaped, into out (size bytes); false when it does not fit */
+static bool xml_escape(const char *s, char *out, size_t size)
+{
+    size_t n = 0;
+    for (; *s; s++) {
+        const char *e = *s == '&'   ? "&amp;"
+                        : *s == '<' ? "&lt;"
+                        : *s == '>' ? "&gt;"
+                        : *s == '"' ? "&quot;"
+                                    : NULL;
+        size_t k = e ? strlen(e) : 1;
+        if (n + k + 1 > size) return false;
+        memcpy(out + n, e ? e : s, k);
+        n += k;
+    }
+    out[n] = 0;
+    return true;
+}
+
 int main(int argc, char **argv)
 {
     const char *pos[3] = {0};
@@ -32,13 +51,17 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: bench_read [--threads T] [--reps R] FILE COLORSPACE WxH\n");
         return 1;
     }
-    char xml[8192];
+    char file[4096], xml[8192];
+    if (!xml_escape(pos[0], file, sizeof file)) {
+        fprintf(stderr, "bench_read: the path is too long\n");
+        return 1;
+    }
     snprintf(xml, sizeof xml,
              "<wetgraph version=\"1\" size=\"%s\">\n"
              "  <node id=\"n\" type=\"image\" path=\"%s\" colorspace=\"%s\"/>\n"
              "  <output name=\"o\" from=\"n\"/>\n"
              "</wetgraph>\n",
-             pos[2], pos[0], pos[1]);
+             pos[2], file, pos[1]);
     WgEngine *e = bench_engine(a.threads);
     if (!e) return 1;
     double ms = bench_node_ms(e, xml, "n", a.reps, "bench_read");

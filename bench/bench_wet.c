@@ -16,8 +16,8 @@
  * into memory written before (median of 9, after the renders: at 2048² both planes can sit in a
  * large last-level cache), and one between planes out of the cache (planes four times the
  * cache's size copied in turn, as the render's nodes meet their images); node time is also
- * given in both kinds of copies. The host's CPU model and load average (at the start and the end) are printed first
- * and last, since a loaded machine's figures are not a quiet one's.
+ * given in both kinds of copies. The host's CPU model and load average (at the start and the end)
+ * are printed first and last, since a loaded machine's figures are not a quiet one's.
  * --no-fuse evaluates every node whole (WgEngineOptions.no_fuse), for comparison.
  * Usage: bench_wet [--size N] [--threads T] [--reps R] [--no-fuse] [GRAPH [MATERIAL_DIR]] */
 #include "benchlib.h"

@@ -300,7 +300,8 @@ int render_batch(const Options *o, const WgGraph *g)
          * take new memory, which on some machines costs more than computing what it holds. */
         if (res) {
             size_t used = 0;
-            for (int k = 0; k < wg_result_stat_count(res); k++) used += wg_result_stat(res, k)->bytes;
+            for (int k = 0; k < wg_result_stat_count(res); k++)
+                used += wg_result_stat(res, k)->bytes;
             wg_engine_trim(e, 2 * used, wg_result_peak_bytes(res));
         }
         WgMemoryStats mem;

@@ -247,7 +247,8 @@ static void axis_find_period(Axis *ax, int src, int dst)
             const int *idx = ax->index + (size_t)o * (size_t)ax->taps;
             const float *wt = ax->weight + (size_t)o * (size_t)ax->taps;
             if (ax->n[o] != 2 || idx[0] != m + ax->d[j] || idx[1] != idx[0] + 1 ||
-                memcmp(&wt[0], &ax->a[j], sizeof(float)) || memcmp(&wt[1], &ax->b[j], sizeof(float)))
+                memcmp(&wt[0], &ax->a[j], sizeof(float)) ||
+                memcmp(&wt[1], &ax->b[j], sizeof(float)))
                 return;
         }
     ax->lo = lo;

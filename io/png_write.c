@@ -76,7 +76,8 @@ HOT static void filter_row(const unsigned char *cur, const unsigned char *prev, 
     for (size_t i = k; i < n; i++) avg[i] = (unsigned char)(cur[i] - ((cur[i - k] + prev[i]) >> 1));
     for (size_t i = k; i < n; i++) {
         int a = cur[i - k], b = prev[i], c = prev[i - k];
-        int pa = b - c, pb = a - c, pc = a + b - 2 * c; /* |p - a|, |p - b|, |p - c|, p = a + b - c */
+        /* |p - a|, |p - b| and |p - c| for p = a + b - c */
+        int pa = b - c, pb = a - c, pc = a + b - 2 * c;
         pa = pa < 0 ? -pa : pa;
         pb = pb < 0 ? -pb : pb;
         pc = pc < 0 ? -pc : pc;

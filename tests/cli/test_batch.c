@@ -271,8 +271,9 @@ static void test_cache_bounded_across_rows(void **state)
     }
     fclose(in);
     assert_int_equal(n, 17);
-    assert_int_equal(computed[0], 4); /* the texture, soft, lvl, mix */
-    for (int i = 1; i < 16; i++) assert_int_equal(computed[i], 2); /* the texture and soft cached */
+    /* the texture, soft, lvl and mix; then lvl and mix, the texture and soft cached */
+    assert_int_equal(computed[0], 4);
+    for (int i = 1; i < 16; i++) assert_int_equal(computed[i], 2);
     assert_int_equal(computed[16], 0);
     assert_true(cached[3] > 0);
     if (cached[15] > cached[3])
