@@ -860,25 +860,30 @@ static void file_layout(const WgImage *img, WgFormat format, int *channels, int 
 #define HOT
 #endif
 
-/* n linear samples to 16-bit codes with quantize()'s rounding, NaN to 0 by the comparisons: a
- * function of its own with restrict pointers, so that the loop is vectorised (inside pack_rows
- * GCC compiled it into branches per sample). */
+/* n linear samples to 16-bit codes with quantize()'s rounding. The code is clamped after the
+ * scaling: v·65535 + 0.5 is exact in double (a float has 24 bits, 65535 16), so clamping it to
+ * [0.5, 65535.5] gives what clamping v to [0, 1] first gives, NaN failing the first compare and
+ * becoming 0. Written so, the loop is vectorised; clamping v first, GCC turned the clamped cases
+ * into constants and the loop into a branch per sample. */
 HOT static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t n)
 {
     for (size_t j = 0; j < n; j++) {
-        float v = r[j];
-        double d = v > 0 ? (v < 1 ? (double)v : 1.0) : 0.0;
-        o[j] = (uint16_t)(int32_t)(d * 65535.0 + 0.5); /* in [0.5, 65535.5]: int32 is exact */
+        double m = (double)r[j] * 65535.0 + 0.5;
+        m = m > 0.5 ? m : 0.5;
+        m = m < 65535.5 ? m : 65535.5;
+        o[j] = (uint16_t)(int32_t)m;
     }
 }
 
-/* n linear samples to 8-bit codes (quantize8_linear), vectorised as pack16_linear. */
+/* n linear samples to 8-bit codes (quantize8_linear's), as pack16_linear: v·255 + 0.5 is exact
+ * in double too. */
 HOT static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_t n)
 {
     for (size_t j = 0; j < n; j++) {
-        float v = r[j];
-        double d = v > 0 ? (v < 1 ? (double)v : 1.0) : 0.0;
-        o[j] = (uint8_t)(int32_t)(d * 255.0 + 0.5);
+        double m = (double)r[j] * 255.0 + 0.5;
+        m = m > 0.5 ? m : 0.5;
+        m = m < 255.5 ? m : 255.5;
+        o[j] = (uint8_t)(int32_t)m;
     }
 }
 
