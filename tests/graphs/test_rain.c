@@ -243,22 +243,6 @@ static void test_shelter(void **state)
     wg_image_unref(n);
 }
 
-/* Mean |difference| between column c and the next one (wrapping), and the same for rows. */
-static double column_step(const WgImage *f, int c)
-{
-    double s = 0;
-    for (int y = 0; y < f->height; y++)
-        s += fabs(wgt_px(f, c, y, 0) - wgt_px(f, (c + 1) % f->width, y, 0));
-    return s / f->height;
-}
-static double row_step(const WgImage *f, int r)
-{
-    double s = 0;
-    for (int x = 0; x < f->width; x++)
-        s += fabs(wgt_px(f, x, r, 0) - wgt_px(f, x, (r + 1) % f->height, 0));
-    return s / f->width;
-}
-
 /* Seamless at every frame (a seam would show as a step across the last column or row far above
  * the steps inside, on a non-square tile with small drops that often cross the edges), and the
  * same bits for 1, 2 and 3 threads. */
@@ -269,10 +253,8 @@ static void test_tiles_and_threads(void **state)
     for (int i = 0; i < 3; i++) {
         WgResult *res = render(NULL, NULL, NULL, times[i], "rain=1 drop_size=3", 2);
         const WgImage *f = wgt_output(res, "ripples");
-        double inner_c = 0, inner_r = 0;
-        for (int c = 0; c < W - 1; c++) inner_c += column_step(f, c) / (W - 1);
-        for (int r = 0; r < H - 1; r++) inner_r += row_step(f, r) / (H - 1);
-        double seam_c = column_step(f, W - 1), seam_r = row_step(f, H - 1);
+        WgtSeams st = wgt_seams(f);
+        double inner_c = st.inner_c, inner_r = st.inner_r, seam_c = st.seam_c, seam_r = st.seam_r;
         printf("t=%g: seam steps %.4f / %.4f, inside %.4f / %.4f\n", times[i], seam_c, seam_r,
                inner_c, inner_r);
         if (!(seam_c <= 3 * inner_c && seam_r <= 3 * inner_r))
@@ -606,10 +588,8 @@ static void test_wet_rain_threads_and_seams(void **state)
     static const char *const seamed[] = {"streaks", "puddles", "wet"};
     for (int i = 0; i < 3; i++) {
         const WgImage *f = wgt_output(res[1], seamed[i]);
-        double inner_c = 0, inner_r = 0;
-        for (int c = 0; c < W - 1; c++) inner_c += column_step(f, c) / (W - 1);
-        for (int r = 0; r < H - 1; r++) inner_r += row_step(f, r) / (H - 1);
-        double seam_c = column_step(f, W - 1), seam_r = row_step(f, H - 1);
+        WgtSeams st = wgt_seams(f);
+        double inner_c = st.inner_c, inner_r = st.inner_r, seam_c = st.seam_c, seam_r = st.seam_r;
         printf("wet_rain %s: seam steps %.4f / %.4f, inside %.4f / %.4f\n", seamed[i], seam_c,
                seam_r, inner_c, inner_r);
         assert_true(inner_c > 0.001);

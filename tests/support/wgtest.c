@@ -91,6 +91,34 @@ WgImage *wgt_image_fn(int w, int h, int channels, double (*fn)(int x, int y, int
     return img;
 }
 
+/* Mean |difference| of channel 0 between column c and the next one (wrapping), and for rows. */
+static double column_step(const WgImage *f, int c)
+{
+    double s = 0;
+    for (int y = 0; y < f->height; y++)
+        s += fabs(wgt_px(f, c, y, 0) - wgt_px(f, (c + 1) % f->width, y, 0));
+    return s / f->height;
+}
+
+static double row_step(const WgImage *f, int r)
+{
+    double s = 0;
+    for (int x = 0; x < f->width; x++)
+        s += fabs(wgt_px(f, x, r, 0) - wgt_px(f, x, (r + 1) % f->height, 0));
+    return s / f->width;
+}
+
+WgtSeams wgt_seams(const WgImage *img)
+{
+    WgtSeams s = {0};
+    int w = img->width, h = img->height;
+    for (int c = 0; c < w - 1; c++) s.inner_c += column_step(img, c) / (w - 1);
+    for (int r = 0; r < h - 1; r++) s.inner_r += row_step(img, r) / (h - 1);
+    s.seam_c = column_step(img, w - 1);
+    s.seam_r = row_step(img, h - 1);
+    return s;
+}
+
 static void fail_with(const char *what, const WgError *err)
 {
     char buf[2048];

@@ -83,6 +83,13 @@ static inline float wgt_px(const WgImage *img, int x, int y, int k)
 {
     return wg_image_row(img, y)[x * img->channels + k];
 }
+/* A tile's seams, channel 0: the mean |difference| between each column and the next one inside
+ * the image (inner_c) and across the wrap, last column to first (seam_c); rows the same way. A
+ * seam shows as a wrap step far above the steps inside. */
+typedef struct {
+    double inner_c, inner_r, seam_c, seam_r;
+} WgtSeams;
+WgtSeams wgt_seams(const WgImage *img);
 
 /* Load a graph from text; `path` (may be NULL) is where it pretends to live (default:
  * wgt_tmpdir()/test.wetgraph). Fails the test on error. */
