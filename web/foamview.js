@@ -30,13 +30,6 @@ void main() { uv = pos * 0.5 + 0.5; gl_Position = vec4(pos, 0.0, 1.0); }`;
     m.textContent = s === 'ready' ? '' : s === 'loading' ? 'loading…' : err || s;
     m.hidden = s === 'ready';
   }
-  function compile(type, src) {
-    const s = gl.createShader(type);
-    gl.shaderSource(s, src);
-    gl.compileShader(s);
-    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error('foam.frag: ' + gl.getShaderInfoLog(s));
-    return s;
-  }
   function now() { return still !== null ? still : playing ? (performance.now() - t0) / 1000 : tPaused; }
 
   function drawTo(w, h, fbo) {
@@ -110,12 +103,7 @@ void main() { uv = pos * 0.5 + 0.5; gl_Position = vec4(pos, 0.0, 1.0); }`;
       const r = await fetch('/shaders/foam.frag');
       if (!r.ok) throw new Error('/shaders/foam.frag: ' + r.status);
       const es = wgGlslEs(await r.text(), 'foam.frag');
-      prog = gl.createProgram();
-      gl.attachShader(prog, compile(gl.VERTEX_SHADER, VS));
-      gl.attachShader(prog, compile(gl.FRAGMENT_SHADER, es.source));
-      gl.bindAttribLocation(prog, 0, 'pos');
-      gl.linkProgram(prog);
-      if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error('foam.frag: ' + gl.getProgramInfoLog(prog));
+      prog = wgLink(gl, VS, es.source, 'foam.frag');
       gl.useProgram(prog);
       wgSetDefaults(gl, prog, es.defaults, 'foam.frag');
       vao = gl.createVertexArray();

@@ -21,6 +21,25 @@ function wgGlslEs(src, what) {
   return { source: out, defaults };
 }
 
+// a program of the vertex and fragment sources, attribute 0 bound to `pos`; errors name `what`
+function wgLink(gl, vs, fs, what) {
+  const compile = (type, src, label) => {
+    const s = gl.createShader(type);
+    gl.shaderSource(s, src);
+    gl.compileShader(s);
+    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS))
+      throw new Error(label + ': ' + gl.getShaderInfoLog(s));
+    return s;
+  };
+  const p = gl.createProgram();
+  gl.attachShader(p, compile(gl.VERTEX_SHADER, vs, what + ' (vertex)'));
+  gl.attachShader(p, compile(gl.FRAGMENT_SHADER, fs, what));
+  gl.bindAttribLocation(p, 0, 'pos');
+  gl.linkProgram(p);
+  if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(what + ': ' + gl.getProgramInfoLog(p));
+  return p;
+}
+
 // set the initial values wgGlslEs took out (a number, true/false or a vecN(...) of numbers) on
 // the program in use
 function wgSetDefaults(gl, prog, defaults, what) {

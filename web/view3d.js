@@ -208,23 +208,7 @@ void main()
     frag_color = vec4(view_finish(textureLod(prefiltered, st, 0.0).rgb * exp2(exposure)), 0.0);
 }`;
 
-  function compile(type, src, what) {
-    const s = gl.createShader(type);
-    gl.shaderSource(s, src);
-    gl.compileShader(s);
-    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS))
-      throw new Error(what + ': ' + gl.getShaderInfoLog(s));
-    return s;
-  }
-  function link(vs, fs, what) {
-    const p = gl.createProgram();
-    gl.attachShader(p, compile(gl.VERTEX_SHADER, vs, what + ' (vertex)'));
-    gl.attachShader(p, compile(gl.FRAGMENT_SHADER, fs, what));
-    gl.bindAttribLocation(p, 0, 'pos');
-    gl.linkProgram(p);
-    if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(what + ': ' + gl.getProgramInfoLog(p));
-    return p;
-  }
+  const link = (vs, fs, what) => wgLink(gl, vs, fs, what);
   function quad(points) {
     const v = gl.createVertexArray();
     gl.bindVertexArray(v);
