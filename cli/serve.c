@@ -887,6 +887,19 @@ static enum MHD_Result not_found(struct MHD_Connection *c)
     return respond_text(c, MHD_HTTP_NOT_FOUND, "text/plain", "not found\n");
 }
 
+/* The maps the page can load: [{"name":..,"version":..,"channels":..},...] */
+static void json_maps(FILE *f, const Output *maps, int n)
+{
+    fputc('[', f);
+    for (int i = 0; i < n; i++) {
+        fputs(i ? ",{\"name\":" : "{\"name\":", f);
+        cli_json_string(f, maps[i].name);
+        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)maps[i].version,
+                maps[i].channels);
+    }
+    fputc(']', f);
+}
+
 static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
 {
     /* ?after=V: answer once render V+1 is published (at most PING_S later): a page that does not
@@ -922,21 +935,11 @@ static enum MHD_Result state(Serve *s, struct MHD_Connection *c)
         fprintf(f, "%llu", (unsigned long long)s->svg_version);
     else
         fputs("null", f);
-    fputs(",\"outputs\":[", f);
-    for (int i = 0; i < s->n_outs; i++) {
-        fputs(i ? ",{\"name\":" : "{\"name\":", f);
-        cli_json_string(f, s->outs[i].name);
-        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->outs[i].version,
-                s->outs[i].channels);
-    }
-    fputs("],\"inputs\":[", f);
-    for (int i = 0; i < s->n_ins; i++) {
-        fputs(i ? ",{\"name\":" : "{\"name\":", f);
-        cli_json_string(f, s->ins[i].name);
-        fprintf(f, ",\"version\":%llu,\"channels\":%d}", (unsigned long long)s->ins[i].version,
-                s->ins[i].channels);
-    }
-    fputs("],\"view\":", f);
+    fputs(",\"outputs\":", f);
+    json_maps(f, s->outs, s->n_outs);
+    fputs(",\"inputs\":", f);
+    json_maps(f, s->ins, s->n_ins);
+    fputs(",\"view\":", f);
     if (s->view_node && s->view_node[0]) {
         /* asked: the node the page asked for; node: the one whose image (or error) is there */
         fputs("{\"asked\":", f);
