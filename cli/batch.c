@@ -293,17 +293,11 @@ int render_batch(const Options *o, const WgGraph *g)
             if (progress) fprintf(stderr, "\r%*s\r", 60, "");
             fprintf(stderr, "wetgraph: error: %s\n", text);
         }
-        /* The memory cache keeps about twice what the row used, the least recently used going
-         * first: what rows share (a material's maps) is read by every row of it and stays, while
-         * earlier rows' own results go, their buffers to the pool, which keeps what a row takes.
-         * Kept up to the budget instead, the cache would grow with every row and each row would
-         * take new memory, which on some machines costs more than computing what it holds. */
-        if (res) {
-            size_t used = 0;
-            for (int k = 0; k < wg_result_stat_count(res); k++)
-                used += wg_result_stat(res, k)->bytes;
-            wg_engine_trim(e, 2 * used, wg_result_peak_bytes(res));
-        }
+        /* what rows share (a material's maps) is read by every row of it and stays; earlier
+         * rows' own results go. Kept up to the budget instead, the cache would grow with every
+         * row and each row would take new memory, which on some machines costs more than
+         * computing what it holds. */
+        if (res) cli_trim_after(e, res);
         WgMemoryStats mem;
         wg_engine_memory_stats(e, &mem);
         if (o->batch_json) json_row(&ro, g, i, row, res, ms, mem.cache_bytes, rc ? text : NULL);

@@ -42,6 +42,12 @@ void cli_json_string(FILE *f, const char *s);
 void cli_warning(const WgWarning *w, const char *prefix);
 /* A warning as a JSON object: {"file": ..., "line": ..., "node": ... or null, "message": ...}. */
 void cli_json_warning(FILE *f, const WgWarning *w);
+/* For an engine that renders one request after another (watch, a batch): the memory cache
+ * trimmed to about twice what `res` used, least recently used first (room for what the next
+ * render shares with this one, not every result so far), and the pool to what a render like it
+ * takes, so a long session stays near the size of one render and each render reuses memory
+ * instead of taking new. */
+void cli_trim_after(WgEngine *e, const WgResult *res);
 /* Make a graph runnable for checking: placeholder images for inputs without a default. */
 int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err);
 

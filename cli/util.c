@@ -173,3 +173,10 @@ int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err)
     }
     return WG_OK;
 }
+
+void cli_trim_after(WgEngine *e, const WgResult *res)
+{
+    size_t used = 0;
+    for (int i = 0; i < wg_result_stat_count(res); i++) used += wg_result_stat(res, i)->bytes;
+    wg_engine_trim(e, 2 * used, wg_result_peak_bytes(res));
+}

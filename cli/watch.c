@@ -543,12 +543,8 @@ static bool render_once(const Options *base, WgEngine *e, FileSet *files, Serve 
     free(kept);
     if (rc) goto fail;
     if (!layered) written_update(written, o, g, res);
-    /* The memory cache keeps about what this render used (twice: room for a change and its
-     * undo), not a version of every node for every edit so far, and the pool what a render
-     * like it takes: a long session stays near the size of one render. */
-    size_t used = 0;
-    for (int i = 0; i < wg_result_stat_count(res); i++) used += wg_result_stat(res, i)->bytes;
-    wg_engine_trim(e, 2 * used, wg_result_peak_bytes(res));
+    /* room for a change and its undo, not a version of every node for every edit so far */
+    cli_trim_after(e, res);
     if (!o->quiet) {
         if (o->stats)
             print_stats(e, res, o->stats_json);
