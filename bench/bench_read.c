@@ -33,24 +33,14 @@ static bool xml_escape(const char *s, char *out, size_t size)
 
 int main(int argc, char **argv)
 {
-    const char *pos[3] = {0};
-    char *opts[16] = {argv[0]};
-    int n_opts = 1, n_pos = 0;
-    for (int i = 1; i < argc; i++) {
-        if (argv[i][0] == '-' && n_opts + 2 <= 16) { /* an option and its value */
-            opts[n_opts++] = argv[i];
-            if (i + 1 < argc) opts[n_opts++] = argv[++i];
-        } else if (n_pos < 3) {
-            pos[n_pos++] = argv[i];
-        }
-    }
     BenchArgs a;
-    int rc = bench_args(n_opts, opts, &a);
+    int rc = bench_args_pos(argc, argv, &a, 3);
     if (rc) return rc == 2 ? 0 : 1;
-    if (n_pos != 3) {
+    if (a.n_pos != 3) {
         fprintf(stderr, "usage: bench_read [--threads T] [--reps R] FILE COLORSPACE WxH\n");
         return 1;
     }
+    const char *const *pos = a.pos;
     char file[4096], xml[8192];
     if (!xml_escape(pos[0], file, sizeof file)) {
         fprintf(stderr, "bench_read: the path is too long\n");

@@ -103,30 +103,23 @@ static const char *const maps[][2] = {
 
 int main(int argc, char **argv)
 {
-    /* GRAPH and MATERIAL_DIR apart, the options go to bench_args */
-    const char *graph = "graphs/wet_material.wetgraph";
-    const char *dir = "../shared/materials/bricks102_stonewall_1k";
+    /* --no-fuse apart, the options and GRAPH and MATERIAL_DIR go to bench_args_pos */
     const char *prefix = "Bricks102_1K-JPG_";
     char **opts = calloc((size_t)argc + 1, sizeof(char *));
-    int n_opts = 0, pos = 0;
+    int n_opts = 0;
     bool no_fuse = false;
-    opts[n_opts++] = argv[0];
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--no-fuse")) {
+    for (int i = 0; i < argc; i++) {
+        if (i && !strcmp(argv[i], "--no-fuse"))
             no_fuse = true;
-        } else if (argv[i][0] == '-') { /* an option and its value */
+        else
             opts[n_opts++] = argv[i];
-            if (i + 1 < argc) opts[n_opts++] = argv[++i];
-        } else if (pos++ == 0) {
-            graph = argv[i];
-        } else {
-            dir = argv[i];
-        }
     }
     BenchArgs a;
-    int rc = bench_args(n_opts, opts, &a);
+    int rc = bench_args_pos(n_opts, opts, &a, 2);
     free(opts);
     if (rc) return rc == 2 ? 0 : 1;
+    const char *graph = a.n_pos > 0 ? a.pos[0] : "graphs/wet_material.wetgraph";
+    const char *dir = a.n_pos > 1 ? a.pos[1] : "../shared/materials/bricks102_stonewall_1k";
     WgGraph *g = NULL;
     WgError err = {0};
     if (wg_graph_load(graph, &g, &err)) {

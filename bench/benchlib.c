@@ -8,16 +8,21 @@
 #include <sys/mman.h>
 #include <time.h>
 
-int bench_args(int argc, char **argv, BenchArgs *a)
+int bench_args_pos(int argc, char **argv, BenchArgs *a, int max_pos)
 {
-    *a = (BenchArgs){2048, 2, 9};
+    *a = (BenchArgs){2048, 2, 9, {0}, 0};
     for (int i = 1; i < argc; i++) {
+        if (argv[i][0] != '-' && a->n_pos < max_pos && a->n_pos < BENCH_MAX_POS) {
+            a->pos[a->n_pos++] = argv[i];
+            continue;
+        }
         int *field = !strcmp(argv[i], "--size")      ? &a->size
                      : !strcmp(argv[i], "--threads") ? &a->threads
                      : !strcmp(argv[i], "--reps")    ? &a->reps
                                                      : NULL;
         if (!field || i + 1 >= argc) {
-            fprintf(stderr, "usage: %s [--size N] [--threads T] [--reps R]\n", argv[0]);
+            fprintf(stderr, "usage: %s [--size N] [--threads T] [--reps R]%s\n", argv[0],
+                    max_pos ? " ARGUMENTS" : "");
             return 2;
         }
         *field = atoi(argv[++i]);
@@ -25,6 +30,11 @@ int bench_args(int argc, char **argv, BenchArgs *a)
     if (a->reps < 1 || a->reps > 1000) a->reps = 9;
     if (a->size < 1 || a->size > 16384) a->size = 2048;
     return 0;
+}
+
+int bench_args(int argc, char **argv, BenchArgs *a)
+{
+    return bench_args_pos(argc, argv, a, 0);
 }
 
 double bench_now_ms(void)

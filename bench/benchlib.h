@@ -11,12 +11,18 @@
 #include <stdbool.h>
 #include <stddef.h>
 
+enum { BENCH_MAX_POS = 4 };
+
 typedef struct BenchArgs {
     int size, threads, reps;
+    const char *pos[BENCH_MAX_POS]; /* the arguments that are not options, in order */
+    int n_pos;
 } BenchArgs;
 
 /* Parses --size N (default 2048), --threads T (2), --reps R (9); 2 after printing the usage. */
 int bench_args(int argc, char **argv, BenchArgs *a);
+/* The same, with up to max_pos (at most BENCH_MAX_POS) other arguments kept in a->pos. */
+int bench_args_pos(int argc, char **argv, BenchArgs *a, int max_pos);
 double bench_now_ms(void);
 /* The median of t[0..n) (sorts t). */
 double bench_median(double *t, int n);
