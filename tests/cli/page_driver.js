@@ -4,9 +4,9 @@
 // DevTools protocol on a pipe (--remote-debugging-pipe: file descriptors 3 and 4, messages ended
 // by NUL), so no port is opened and nothing but chromium and Node.js is needed. The page is
 // opened at URL; STEPS is a file of steps separated by lines "----", each the body of an async
-// function run in the page (it can use until(fn, what): wait until fn() is true, up to 60 s of
-// real time). Each step's value is printed as one line of JSON; a step that throws prints
-// "error: ..." and ends the run with status 1. Chromium uses SwiftShader for WebGL2.
+// function run in the page (it can use until(fn, what[, limitMs]): wait until fn() is true, up to
+// 60 s of real time or limitMs). Each step's value is printed as one line of JSON; a step that
+// throws prints "error: ..." and ends the run with status 1. Chromium uses SwiftShader for WebGL2.
 'use strict';
 const { spawn } = require('child_process');
 const fs = require('fs');
@@ -45,11 +45,11 @@ function call(method, params, sessionId) {
 }
 
 const helpers = `
-async function until(fn, what) {
+async function until(fn, what, limitMs = 60000) {
   const t0 = Date.now();
   for (;;) {
     if (await fn()) return true;
-    if (Date.now() - t0 > 60000) throw new Error('timed out waiting for ' + (what || fn));
+    if (Date.now() - t0 > limitMs) throw new Error('timed out waiting for ' + (what || fn));
     await new Promise(r => setTimeout(r, 50));
   }
 }`;

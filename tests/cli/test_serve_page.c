@@ -25,7 +25,8 @@
  * grazing angle is another picture than the plane, its near edge notched by the relief (the
  * plane's straight), under the plane and levelled where the liquid covers it; on a checker of
  * raised and sunken squares its picture is the plane's (the relief drawn once, by the mesh) and its
- * far edge is notched by the sunken squares.
+ * far edge is notched by the sunken squares. Moving the view draws at a lower resolution when
+ * pictures cost more than the frame budget, and at full resolution once it stops.
  * On the foam graph, foam.frag drawn in the page matches the graph's foam mask at a fixed time.
  * A click on a node of the graph shows that node's pixels.
  * The controls built from the parameters' UI hints are driven as a person drives them
@@ -996,6 +997,66 @@ static void test_view3d_grid_relief_once(void **state)
     stop();
 }
 
+/* Steps for page_driver.js: a drag on the 3D view, the mouse moving every 16 ms (as a person's
+ * does) until a picture drawn while moving has the smallest scale (at most 15 s), then let go;
+ * returns the scales seen while moving, the number of pictures drawn then, and the scale once
+ * the view has settled (the next picture after the drag). */
+static const char move_steps[] =
+    "const f = () => document.getElementById('view3d');\n"
+    "await until(() => f() && f().dataset.state === 'ready' && f().dataset.draws, 'the 3D view');\n"
+    "const c = f().querySelector('canvas'), r = c.getBoundingClientRect();\n"
+    "const ev = (t, x) => c.dispatchEvent(new PointerEvent(t, {clientX: r.left + x, clientY: "
+    "r.top + 50, button: 0, buttons: 1, pointerId: 1, bubbles: true}));\n"
+    "ev('pointerdown', 100);\n"
+    "const d0 = +f().dataset.draws, seen = new Set();\n"
+    "let x = 100;\n"
+    "const id = setInterval(() => { ev('pointermove', ++x); seen.add(f().dataset.scale); }, 16);\n"
+    "try { await until(() => f().dataset.scale === '0.25', 'a picture at scale 0.25', 15000); }\n"
+    "finally { clearInterval(id); }\n"
+    "ev('pointerup', x);\n"
+    "const d1 = +f().dataset.draws;\n"
+    "await until(() => +f().dataset.draws > d1 && f().dataset.scale === '1', 'the settled view');\n"
+    "return [[...seen].filter(v => v !== '1').length > 0, d1 - d0 > 1, f().dataset.scale,\n"
+    "        f().dataset.camera !== '50,20,1,0'];\n";
+
+/* Moving the view draws at a lower resolution when pictures cost more than the page's frame
+ * budget, and at full resolution again once it stops: with a budget of 1 ms a frame (?frame_ms=1,
+ * which any renderer exceeds), a drag brings the pictures down to the smallest scale, 1/4 of the
+ * canvas's resolution, and the view then settles at scale 1; with ?frame_ms=0 (always full
+ * resolution) a drag never lowers it. How many pictures a second this gives is measured by
+ * bench/run_view3d.sh. */
+static void test_view3d_moves_at_lower_resolution(void **state)
+{
+    (void)state;
+    need_chromium();
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    int port = start_lookdev();
+    wait_for("watch: waiting", 1);
+    wgt_write_file(path("move_steps.js"), move_steps);
+    int st =
+        wgt_shell(dir,
+                  "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0&frame_ms=1' "
+                  "move_steps.js profile_move >move.out 2>move.err",
+                  getenv("WETGRAPH_SOURCE"), port);
+    size_t size;
+    char *out = wgt_read_file(path("move.out"), &size);
+    if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
+    if (strcmp(out, "[true,true,\"1\",true]\n"))
+        fail_msg("moving the view at a budget of 1 ms a frame: %s", out);
+    free(out);
+    /* always full resolution: the driver never sees scale 0.25 (it gives up after 15 s) */
+    st = wgt_shell(dir,
+                   "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0&frame_ms=0' "
+                   "move_steps.js profile_move0 >move0.out 2>move0.err",
+                   getenv("WETGRAPH_SOURCE"), port);
+    out = wgt_read_file(path("move0.out"), &size);
+    if (!st || !strstr(out, "a picture at scale 0.25"))
+        fail_msg("with ?frame_ms=0 the view moved at a lower resolution: %s", out);
+    free(out);
+    stop();
+}
+
 /* ---- controls an artist can use ---------------------------------------------------------------
  */
 
@@ -1320,6 +1381,7 @@ int main(void)
         cmocka_unit_test_teardown(test_view3d_sphere_world_environment, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_grid, stop_watcher),
         cmocka_unit_test_teardown(test_view3d_grid_relief_once, stop_watcher),
+        cmocka_unit_test_teardown(test_view3d_moves_at_lower_resolution, stop_watcher),
     };
     /* WGT_ONLY=PATTERN runs the tests whose names match it (cmocka's * and ? wildcards) */
     if (getenv("WGT_ONLY")) cmocka_set_test_filter(getenv("WGT_ONLY"));
