@@ -7,7 +7,9 @@
 # tests/cli/page_driver.js), with the page's frame budget (50 ms a picture: moving pictures drawn
 # at a lower resolution) and with ?frame_ms=0 (always full resolution); prints the pictures a
 # second during the drag, the smallest scale drawn while moving, and the cost of a still
-# full-resolution picture. RUNS (default 2) drags each, the best kept. Prints the CPU model and
+# full-resolution picture. RUNS (default 2) drags each, the best kept. Then the foam graph's
+# page (graphs/foam.wetgraph at SIZE / 2 on a made-up shore): the pictures a second of foam.frag
+# playing in the page (bench/foamview_play.js). Prints the CPU model and
 # the load average: SwiftShader runs on the CPU, so the figures are this host's, not a GPU's.
 # Needs chromium and node (scripts/install-deps.sh installs both).
 # Usage: bench/run_view3d.sh [BUILD_DIR] [SIZE] [RUNS]
@@ -58,3 +60,29 @@ print("%-7s %-18s %9s %12.1f %12.2f %14s" % (shape, label, "%dx%d" % (w, h), fps
 PY
     done
 done
+kill $watcher 2>/dev/null
+wait $watcher 2>/dev/null || true
+# the foam graph's page: a shore made by a pixel node, then foam.frag playing
+half=$((size / 2))
+cat >"$tmp/shore.wetgraph" <<XML
+<wetgraph version="1" size="$half"><node id="s" type="pixel"
+  expr="cos(6.283185307179586 * u) + 0.6 * sin(12.566370614359172 * v) &gt; 0.3"/>
+  <output name="shore" from="s" format="png"/></wetgraph>
+XML
+"$build/cli/wetgraph" render "$tmp/shore.wetgraph" -o "$tmp" -q
+: >"$tmp/watch.log"
+"$build/cli/wetgraph" watch "$root/graphs/foam.wetgraph" -o "$tmp/foam" --size "$half" \
+    --input shore="$tmp/shore_shore.png" --serve "$port" >"$tmp/watch.log" 2>&1 &
+watcher=$!
+until grep -q "watch: waiting" "$tmp/watch.log"; do
+    kill -0 $watcher 2>/dev/null || { cat "$tmp/watch.log"; exit 1; }
+    sleep 0.2
+done
+out=$(node "$root/tests/cli/page_driver.js" "http://127.0.0.1:$port/?events=0" \
+    "$root/bench/foamview_play.js" "$tmp/profile_foam")
+python3 - "$out" "$half" <<'PY'
+import json, sys
+w, h, n, fps = json.loads(sys.argv[1])
+print("foam.frag playing (foam graph at %s²): %dx%d canvas, %.1f pictures a second" % (sys.argv[2], w, h, fps))
+PY
+
