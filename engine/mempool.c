@@ -3,9 +3,10 @@
  * engine's pool and are handed out again before anything new is allocated, so a render does not
  * pay for fresh pages (the kernel's first touch of new memory costs more than a copy of it) for
  * every node. Idle buffers sit in free lists by size class (the size rounded up to 64 bytes, or
- * to a page from 1 MiB on); a request takes the most recently freed buffer of exactly its class.
- * A graph's images come in a few sizes, so CLASSES lists suffice; a buffer of yet another size
- * while all of them hold buffers is given back to the system.
+ * to a page from 1 MiB on); a request takes the most recently freed buffer of exactly its class,
+ * else, for a mapping, a piece cut from the smallest larger idle mapping (see split). A graph's
+ * images come in a few sizes, so CLASSES lists suffice; a buffer of yet another size while all of
+ * them hold buffers is given back to the system.
  * The engine counts the idle bytes against its memory budget and trims the pool before it evicts
  * cached images (eval.c); the pool never keeps more idle bytes than its limit. The free lists are
  * intrusive (an idle buffer's first bytes link it), so putting a buffer back never allocates.
@@ -176,6 +177,59 @@ void wg__mempool_close(WgMemPool *p)
     unref(p);
 }
 
+/* Adds an idle buffer to the class of its size (a free slot when none has it yet); false when
+ * every slot holds another size. Called with the lock held. */
+static bool keep_idle(WgMemPool *p, void *ptr, size_t cb, int mapped)
+{
+    Class *c = NULL, *spare = NULL;
+    for (int i = 0; i < CLASSES && !c; i++) {
+        Class *k = &p->classes[i];
+        if (k->bytes == cb && k->mapped == mapped) c = k;
+        if (!spare && k->count == 0) spare = k;
+    }
+    if (!c && spare) {
+        c = spare;
+        c->bytes = cb;
+        c->mapped = mapped;
+    }
+    if (!c) return false;
+    Idle *b = ptr;
+    b->next = c->head;
+    b->bytes = cb;
+    b->mapped = mapped;
+    c->head = b;
+    c->count++;
+    p->idle += cb;
+    p->idle_count++;
+    return true;
+}
+
+/* A mapping of cb bytes cut from the smallest idle mapping larger than it, when there is one:
+ * its pages were touched before, so the request costs no first touch (a fresh mapping's pages
+ * are cleared by the kernel as they are first written, which in the virtual machines measured
+ * costs more than the copy of a buffer). The rest stays idle as a buffer of its own when it is a
+ * mapping's size and a class slot is free; otherwise it is returned in *tail for the caller to
+ * give back outside the lock. Called with the lock held. */
+static void *split(WgMemPool *p, size_t cb, void **tail, size_t *tail_bytes)
+{
+    Class *best = NULL;
+    for (int i = 0; i < CLASSES; i++) {
+        Class *k = &p->classes[i];
+        if (k->mapped && k->head && k->bytes > cb && (!best || k->bytes < best->bytes)) best = k;
+    }
+    if (!best) return NULL;
+    Idle *b = best->head;
+    best->head = b->next;
+    best->count--;
+    p->idle -= best->bytes;
+    p->idle_count--;
+    char *rest = (char *)b + cb;
+    size_t rest_bytes = best->bytes - cb;
+    if (rest_bytes < MAP_MIN_BYTES || !keep_idle(p, rest, rest_bytes, 1))
+        *tail = rest, *tail_bytes = rest_bytes;
+    return b;
+}
+
 void *wg__mempool_get(WgMemPool *p, size_t bytes, int *mapped)
 {
     size_t cb = class_bytes(bytes);
@@ -194,11 +248,15 @@ void *wg__mempool_get(WgMemPool *p, size_t bytes, int *mapped)
             ptr = b;
             break;
         }
+        void *tail = NULL;
+        size_t tail_bytes = 0;
+        if (!ptr && kind) ptr = split(p, cb, &tail, &tail_bytes);
         if (ptr)
             p->hits++;
         else
             p->misses++;
         pthread_mutex_unlock(&p->mu);
+        if (tail) give_back(tail, tail_bytes, 1);
     }
     if (!ptr) ptr = fresh(cb, kind);
     if (!ptr) return NULL;
@@ -218,30 +276,7 @@ void wg__mempool_put(WgMemPool *p, void *ptr, size_t bytes, int mapped)
     }
     bool kept = false;
     pthread_mutex_lock(&p->mu);
-    if (!p->closed && p->idle + cb <= p->limit) {
-        Class *c = NULL, *spare = NULL;
-        for (int i = 0; i < CLASSES && !c; i++) {
-            Class *k = &p->classes[i];
-            if (k->bytes == cb && k->mapped == mapped) c = k;
-            if (!spare && k->count == 0) spare = k;
-        }
-        if (!c && spare) {
-            c = spare;
-            c->bytes = cb;
-            c->mapped = mapped;
-        }
-        if (c) {
-            Idle *b = ptr;
-            b->next = c->head;
-            b->bytes = cb;
-            b->mapped = mapped;
-            c->head = b;
-            c->count++;
-            p->idle += cb;
-            p->idle_count++;
-            kept = true;
-        }
-    }
+    if (!p->closed && p->idle + cb <= p->limit) kept = keep_idle(p, ptr, cb, mapped);
     if (!kept) p->released += cb;
     pthread_mutex_unlock(&p->mu);
     if (!kept) give_back(ptr, cb, mapped);

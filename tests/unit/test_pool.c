@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /* The buffer pool (engine/mempool.c): freed buffers are handed out again by size class, within
- * the pool's limit; a second render on the same engine takes every buffer from the pool and
- * gives the same bytes as a fresh engine with another thread count, even when every buffer
- * handed out is first filled with NaNs (so no node may read memory it has not written); the
- * memory budget holds with the pool's idle buffers counted; images may outlive their engine;
- * and under injected allocation failures at every point, a render (first or second on one
- * engine) fails with WG_ERR_NOMEM or gives the normal result, leaking nothing. */
+ * the pool's limit, and a mapping that misses its class is cut from a larger idle one; a second
+ * render on the same engine takes every buffer from the pool and gives the same bytes as a fresh
+ * engine with another thread count, even when every buffer handed out is first filled with NaNs (so
+ * no node may read memory it has not written); the memory budget holds with the pool's idle buffers
+ * counted; images may outlive their engine; and under injected allocation failures at every point,
+ * a render (first or second on one engine) fails with WG_ERR_NOMEM or gives the normal result,
+ * leaking nothing. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -18,7 +19,7 @@
 #define MIB ((size_t)1 << 20)
 
 /* Most node families, with intermediates at 512² (1 MiB gray: mapped buffers; colour 4 MiB:
- * 2 MiB aligned huge-page buffers), scratch memory (exact and fast blur, distance, sharpen) and
+ * 2 MiB aligned buffers), scratch memory (exact and fast blur, distance, sharpen) and
  * inputs the engine converts (a half-size image resampled, gray promoted to colour). */
 static const char *mixed_xml(int size)
 {
@@ -102,7 +103,7 @@ static void test_classes(void **state)
     assert_int_equal(m3, 1);
     void *c = wg__mempool_get(p, 3 * MIB, &m3);
     assert_non_null(c);
-    assert_true(((uintptr_t)c & ((2 * MIB) - 1)) == 0); /* huge-page aligned */
+    assert_true(((uintptr_t)c & ((2 * MIB) - 1)) == 0); /* 2 MiB aligned */
     wg__mempool_stats(p, &s);
     assert_int_equal(s.pool_hits, 1);
     assert_int_equal(s.pool_misses, 3);
@@ -116,6 +117,50 @@ static void test_classes(void **state)
     wg__mempool_stats(p, &s);
     assert_int_equal(s.pool_bytes, 0);
     assert_int_equal(s.pool_buffers, 0);
+    wg__mempool_close(p);
+}
+
+/* A mapping request that misses its class is cut from the smallest larger idle mapping (pages
+ * touched before), the rest staying idle as a buffer of its own; a rest smaller than a mapping's
+ * size goes back to the system. */
+static void test_split(void **state)
+{
+    (void)state;
+    WgMemPool *p = wg__mempool_new(64 * MIB);
+    WgMemoryStats s;
+    int m;
+    char *big = wg__mempool_get(p, 8 * MIB, &m), *mid = wg__mempool_get(p, 6 * MIB, &m);
+    memset(big, 1, 8 * MIB);
+    memset(mid, 2, 6 * MIB);
+    wg__mempool_put(p, big, 8 * MIB, 1);
+    wg__mempool_put(p, mid, 6 * MIB, 1);
+    /* 2 MiB: from the smaller of the two (6 MiB), whose other 4 MiB stay idle */
+    char *a = wg__mempool_get(p, 2 * MIB, &m);
+    assert_ptr_equal(a, mid);
+    assert_int_equal(m, 1);
+    wg__mempool_stats(p, &s);
+    assert_int_equal(s.pool_bytes, 12 * MIB);
+    assert_int_equal(s.pool_buffers, 2);
+    /* 4 MiB: the rest, exactly */
+    char *b = wg__mempool_get(p, 4 * MIB, &m);
+    assert_ptr_equal(b, mid + 2 * MIB);
+    /* 7.5 MiB from the 8 MiB: the last half MiB is too small to keep */
+    char *c = wg__mempool_get(p, 7 * MIB + MIB / 2, &m);
+    assert_ptr_equal(c, big);
+    wg__mempool_stats(p, &s);
+    assert_int_equal(s.pool_bytes, 0);
+    assert_int_equal(s.pool_buffers, 0);
+    assert_int_equal(s.pool_hits, 3);
+    assert_int_equal(s.pool_misses, 2);
+    /* the pieces are buffers of their own: written, put back and given back one by one */
+    memset(a, 3, 2 * MIB);
+    memset(b, 4, 4 * MIB);
+    memset(c, 5, 7 * MIB + MIB / 2);
+    wg__mempool_put(p, b, 4 * MIB, 1);
+    wg__mempool_put(p, a, 2 * MIB, 1);
+    wg__mempool_put(p, c, 7 * MIB + MIB / 2, 1);
+    wg__mempool_stats(p, &s);
+    assert_int_equal(s.pool_bytes, 13 * MIB + MIB / 2);
     wg__mempool_close(p);
 }
 
@@ -363,6 +408,7 @@ int main(void)
         cmocka_unit_test(test_classes),         cmocka_unit_test(test_outlives_engine),
         cmocka_unit_test(test_reuse_identical), cmocka_unit_test(test_budget_counts_pool),
         cmocka_unit_test(test_alloc_failures),  cmocka_unit_test(test_trim),
+        cmocka_unit_test(test_split),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
