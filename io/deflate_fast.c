@@ -269,6 +269,7 @@ size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, si
 size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char *out, size_t cap)
 {
     if (cap < wg__zlib_fast_bound(n)) return 0;
+    if (!n) return wg__zlib_stored(in, n, out, cap);
     if (dist < 1 || dist > 8) dist = 1;
     /* the count */
     uint32_t lit_freq[4][286] = {{0}}, dist_freq[30] = {0};
