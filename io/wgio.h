@@ -80,9 +80,9 @@ int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCom
 size_t wg__zlib_fast_bound(size_t n);
 size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char *out, size_t cap);
 size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, size_t cap);
-/* Code lengths (at most `limit` bits) of a complete prefix code for the n symbols of freq:
- * Huffman's, limited by the heuristic of zlib and miniz; symbols of frequency 0 get 0, except
- * that a code of fewer than two symbols is completed with one or two of them. */
+/* Code lengths (at most `limit` bits, limit <= 30) of a complete prefix code for the n (<= 320)
+ * symbols of freq: Huffman's, limited by the heuristic of zlib and miniz; symbols of frequency 0
+ * get 0, except that a code of fewer than two symbols is completed with one or two of them. */
 void wg__huffman_lengths(const uint32_t *freq, int n, int limit, uint8_t *len);
 /* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);
  * rows packed, `c` channels of that type for 8/16, float for -16/32. finish closes and frees;

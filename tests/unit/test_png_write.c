@@ -60,7 +60,7 @@ static int unlimited_depth(const unsigned char *b, size_t n)
     uint8_t len[286];
     for (size_t i = 0; i < n; i++) freq[b[i]]++;
     freq[256] = 1;
-    wg__huffman_lengths(freq, 286, 64, len);
+    wg__huffman_lengths(freq, 286, 30, len);
     int max = 0;
     for (int s = 0; s < 286; s++) max = len[s] > max ? len[s] : max;
     return max;
