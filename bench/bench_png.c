@@ -5,7 +5,8 @@
  * the speed in MB/s of raw image data (width x height x channels x bytes per sample), the total
  * size of the encoded files and their ratio to the default mode's. Run on the wet material's
  * outputs by bench/run_write.sh.
- * Usage: bench_png [--reps R] FILE.png... */
+ * Usage: bench_png [--reps R] [--mode default|fast|none] FILE.png... (--mode: that mode only, for
+ * a profiler) */
 #include "wgio.h"
 
 #include <stdint.h>
@@ -50,13 +51,16 @@ static double now_ms(void)
 
 int main(int argc, char **argv)
 {
-    int reps = 3, first = 1;
-    if (argc > 2 && !strcmp(argv[1], "--reps")) {
-        reps = atoi(argv[2]);
-        first = 3;
+    int reps = 3, first = 1, only = -1;
+    while (first + 1 < argc && (!strcmp(argv[first], "--reps") || !strcmp(argv[first], "--mode"))) {
+        if (!strcmp(argv[first], "--reps"))
+            reps = atoi(argv[first + 1]);
+        else if ((only = wg_png_compression_parse(argv[first + 1])) < 0)
+            reps = 0;
+        first += 2;
     }
     if (first >= argc || reps < 1) {
-        fprintf(stderr, "usage: bench_png [--reps R] FILE.png...\n");
+        fprintf(stderr, "usage: bench_png [--reps R] [--mode default|fast|none] FILE.png...\n");
         return 1;
     }
     int n = argc - first;
@@ -92,6 +96,7 @@ int main(int argc, char **argv)
     printf("%d files, %.1f MB of raw image data, one thread, best of %d\n", n, raw / 1e6, reps);
     printf("mode      ms      MB/s    size MB  / default\n");
     for (int m = 0; m < 3; m++) {
+        if (only >= 0 && m != only) continue;
         double best = 0, size = 0;
         for (int r = 0; r < reps; r++) {
             double t0 = now_ms();
@@ -112,7 +117,7 @@ int main(int argc, char **argv)
             double t = now_ms() - t0;
             if (r == 0 || t < best) best = t;
         }
-        if (m == 0) base_size = size;
+        if (m == 0 || base_size == 0) base_size = size;
         printf("%-8s %6.0f %7.0f %9.2f %8.2f\n", names[m], best, raw / 1e3 / best, size / 1e6,
                size / base_size);
     }
