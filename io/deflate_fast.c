@@ -187,7 +187,7 @@ static void distance_code(int dist, int *sym, int *extra_bits, int *extra)
     *extra = dist - base[k];
 }
 
-/* A run of `run` (>= MIN_RUN) bytes as matches of at most 258, none shorter than 3. */
+/* A run of `run` (>= 8) bytes as matches of at most 258, none shorter than 3. */
 #define RUN_PIECES(run, EMIT)                                                                      \
     do {                                                                                           \
         size_t left_ = (run);                                                                      \
@@ -200,7 +200,7 @@ static void distance_code(int dist, int *sym, int *extra_bits, int *extra)
     } while (0)
 
 /* The parse, shared by the counting and the coding pass: for each stretch of literals
- * LITS(from, count), for each run RUN(from, to) (at least MIN_RUN bytes). Runs are looked for a
+ * LITS(from, count), for each run RUN(from, to) (at least 8 bytes). Runs are looked for a
  * word at a time: when the 8 bytes at i equal those `dist` before, a run starts there; otherwise
  * the bytes up to the last one that differs are literals. */
 #define PARSE(in, n, dist, LITS, RUN)                                                              \
