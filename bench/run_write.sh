@@ -14,22 +14,28 @@
 #           the other, zlib level 1 (IMWRITE_PNG_COMPRESSION=1, as OpenImageIO wrote them before)
 #  rerender a --cache render after a change of one texturing parameter (dark_wet) into the
 #           folder of the previous one: whole process wall time, outputs kept, its share of cold
-# Best of RUNS (default 3) each. Prints the CPU model and the load average: timing is noisy on a
-# loaded machine. Needs python3-opencv (scripts/install-deps.sh --bench).
-# Usage: bench/run_write.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
+#  files    the total size of the PNG files of the cold render, and of cv2's
+#  encoder  the PNG encoder alone on those files, every compression mode, one thread, from
+#           memory (build/bench/bench_png): MB/s of raw image data and the files' total size
+# Best of RUNS (default 3) each. Every render writes its PNGs with --png-compression
+# PNG_COMPRESSION (default, fast or none; default: default). Prints the CPU model and the load
+# average: timing is noisy on a loaded machine. Needs python3-opencv (scripts/install-deps.sh
+# --bench).
+# Usage: [PNG_COMPRESSION=MODE] bench/run_write.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
 size=${2:-2048}
 threads=${3:-2}
 runs=${4:-3}
+compression=${PNG_COMPRESSION:-default}
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
-ninja -C "$build" cli/wetgraph bench/bench_wet >/dev/null
+ninja -C "$build" cli/wetgraph bench/bench_wet bench/bench_png >/dev/null
 py=${PYTHON:-/usr/bin/python3}  # the system python, which python3-opencv installs into
 . "$root/bench/bricks.sh"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-inputs=("${bricks_inputs[@]}" --set water_level=0.65)
+inputs=("${bricks_inputs[@]}" --set water_level=0.65 --png-compression "$compression")
 render() { # out-folder, extra args...
     local out=$1
     shift
@@ -57,7 +63,8 @@ PY
 }
 echo "host: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores;" \
     "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "wet_material ${size}², $threads threads, its PNG outputs, best of $runs"
+echo "wet_material ${size}², $threads threads, its PNG outputs (--png-compression $compression)," \
+    "best of $runs"
 best_wall=0
 for i in $(seq "$runs"); do
     rm -rf "$tmp/cold"
@@ -78,7 +85,7 @@ echo "cold:     whole process $best_wall ms (CPU $best_cpu ms, peak RSS $best_rs
     "(during the render), $best_write ms after it ($n files)"
 echo "alone:    the render writing nothing $alone ms; whole process / render alone" \
     "$(python3 -c "print('%.2f' % ($best_wall / $alone))")"
-cv2_ms=$("$py" - "$tmp/cold" "$runs" <<'PY'
+read -r cv2_ms cv2_bytes < <("$py" - "$tmp/cold" "$runs" <<'PY'
 import cv2, glob, os, sys, time
 imgs = [cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sorted(glob.glob(sys.argv[1] + "/*.png"))]
 out = os.path.join(sys.argv[1], "..", "cv2.png")
@@ -89,11 +96,21 @@ for _ in range(int(sys.argv[2])):
         cv2.imwrite(out, im, [cv2.IMWRITE_PNG_COMPRESSION, 1])
     t = (time.perf_counter() - t) * 1e3
     best = t if best is None else min(best, t)
-print("%.0f" % best)
+size = 0
+for im in imgs:
+    cv2.imwrite(out, im, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    size += os.path.getsize(out)
+print("%.0f %d" % (best, size))
 PY
 )
 echo "cv2:      cv2.imwrite of the same $n images $cv2_ms ms; output work (summed over the" \
     "workers) / cv2 $(python3 -c "print('%.2f' % ($best_out / $cv2_ms))")"
+bytes=$(cat "$tmp/cold"/*.png | wc -c)
+echo "files:    the $n PNG files $(python3 -c "print('%.1f' % ($bytes / 1e6))") MB, cv2's" \
+    "$(python3 -c "print('%.1f' % ($cv2_bytes / 1e6))") MB; / cv2" \
+    "$(python3 -c "print('%.2f' % ($bytes / $cv2_bytes))")"
+echo "encoder:  the PNG encoder alone on the same files, each mode (build/bench/bench_png)"
+"$build/bench/bench_png" --reps "$runs" "$tmp/cold"/*.png | sed 's/^/          /'
 rm -rf "$tmp/warm"
 render "$tmp/warm" --cache "$tmp/cache" >/dev/null
 best=0

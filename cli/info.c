@@ -96,7 +96,7 @@ static void print_json(const WgGraph *g)
             cli_json_string(stdout, o->group);
         else
             printf("null");
-        printf("}");
+        printf(", \"compression\": \"%s\"}", wg_png_compression_name(o->compression));
     }
     printf("\n  ],\n  \"gltf\": [");
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {
@@ -167,10 +167,11 @@ static void print_text(const WgGraph *g)
     printf("outputs:\n");
     for (int i = 0; i < wg_graph_output_count(g); i++) {
         const WgGraphOutputInfo *o = wg_graph_output_info(g, i);
-        printf("  %-20s from %-20s %s %s%s%s\n", o->name, o->from,
+        printf("  %-20s from %-20s %s %s%s%s%s%s\n", o->name, o->from,
                o->format ? wg_format_name(o->format) : "default",
                o->colorspace == WG_SRGB ? "srgb" : "linear", o->group ? " group " : "",
-               o->group ? o->group : "");
+               o->group ? o->group : "", o->compression ? " compression " : "",
+               o->compression ? wg_png_compression_name(o->compression) : "");
     }
     if (wg_graph_gltf_count(g)) printf("glTF assets:\n");
     for (int i = 0; i < wg_graph_gltf_count(g); i++) {

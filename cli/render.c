@@ -52,6 +52,9 @@ static const char help[] =
     "  --format FMT           png | png16 | tif16 | exr | exr32 | jpeg | tga for every output;\n"
     "                         --format NAME=FMT for one output (repeatable)\n"
     "  --jpeg-quality Q       quality of JPEG outputs, 1..100 (default 92)\n"
+    "  --png-compression C    default | fast | none for every PNG output (default: each\n"
+    "                         output's compression attribute): fast encodes about 4x\n"
+    "                         faster, none writes uncompressed files\n"
     "  --name PATTERN         file names: {graph}, {output}, {group}, {frame}, {row}, a batch\n"
     "                         row's {input:NAME} {set:NAME} {#NAME} {out}; '/' makes\n"
     "                         folders (default {graph}_{output}, _{frame} in a sequence)\n"
@@ -186,6 +189,7 @@ int parse_args(int argc, char **argv, Options *o)
     o->inputs = calloc((size_t)argc, sizeof(char *));
     o->outputs = calloc((size_t)argc, sizeof(char *));
     o->format = -1;
+    o->png_compression = -1;
     if (!o->sets || !o->inputs || !o->outputs) return cli_usage_error(o->cmd, "out of memory");
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -287,6 +291,11 @@ int parse_args(int argc, char **argv, Options *o)
             } else {
                 o->format = wg_format_parse(val);
             }
+        } else if (TAKE("--png-compression")) {
+            NEED;
+            if ((o->png_compression = wg_png_compression_parse(val)) < 0)
+                return cli_usage_error(o->cmd,
+                                       "unknown --png-compression '%s' (default, fast, none)", val);
         } else if (TAKE("--jpeg-quality")) {
             NEED;
             uint64_t q;
@@ -554,6 +563,11 @@ WgFormat output_format(const Options *o, const char *output, WgFormat graph_form
     return o->format >= 0 ? (WgFormat)o->format : graph_format;
 }
 
+WgPngCompression output_compression(const Options *o, WgPngCompression graph_compression)
+{
+    return o->png_compression >= 0 ? (WgPngCompression)o->png_compression : graph_compression;
+}
+
 /* The value of placeholder `key` ({graph}, {output}, {frame}, {row}, {input:NAME}, {set:NAME},
  * {#NAME}, {out}) into buf; false when it has none here. */
 /* `group` is the file's kind when it is not one of the graph's outputs (a glTF asset), else
@@ -807,21 +821,25 @@ static bool key_read(const char *path, OutKey *image, OutKey *source, char *file
     return true;
 }
 
+/* What else than the pixels, the format and the colour space makes another file: a JPEG's
+ * quality, a PNG's compression (0 for the default, so that the keys of files written before
+ * there was a choice still match). */
+static int file_setting(WgFormat f, WgPngCompression png)
+{
+    if (f == WG_FORMAT_JPEG) return jpeg_quality;
+    return f == WG_FORMAT_PNG || f == WG_FORMAT_PNG16 ? (int)png : 0;
+}
+
 /* 0, 0 when out of memory: no key, never matched nor stored */
-static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs)
+static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs, WgPngCompression png)
 {
     XXH3_state_t *st = XXH3_createState();
     OutKey k = {0, 0};
     if (!st) return k;
     XXH3_128bits_reset(st);
-    /* a JPEG written at another quality is another file */
-    int head[7] = {KEYS_VERSION,
-                   img->width,
-                   img->height,
-                   img->channels,
-                   (int)f,
-                   (int)cs,
-                   f == WG_FORMAT_JPEG ? jpeg_quality : 0};
+    /* a JPEG written at another quality, a PNG at another compression, is another file */
+    int head[7] = {KEYS_VERSION, img->width, img->height,         img->channels,
+                   (int)f,       (int)cs,    file_setting(f, png)};
     XXH3_128bits_update(st, head, sizeof head);
     for (int y = 0; y < img->height; y++)
         XXH3_128bits_update(st, wg_image_row(img, y),
@@ -852,11 +870,10 @@ static bool key_matches(const char *path, OutKey key)
 }
 
 /* The source key of an output written in format f: the engine's key for it, the format and
- * colour space it is written in and the writer's version. */
-static OutKey source_key(const WgOutputInfo *out, WgFormat f)
+ * colour space it is written in (with a PNG's compression) and the writer's version. */
+static OutKey source_key(const WgOutputInfo *out, WgFormat f, WgPngCompression png)
 {
-    int head[4] = {KEYS_VERSION, (int)f, (int)out->colorspace,
-                   f == WG_FORMAT_JPEG ? jpeg_quality : 0};
+    int head[4] = {KEYS_VERSION, (int)f, (int)out->colorspace, file_setting(f, png)};
     uint64_t buf[6] = {out->key[0], out->key[1], 0, 0, 0, 0};
     memcpy(buf + 2, head, sizeof head);
     XXH128_hash_t h = XXH3_128bits(buf, sizeof buf);
@@ -1024,14 +1041,16 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
         s->first = wg_image_ref(out->image);
         s->first_cs = out->colorspace;
     }
-    s->keys[i] = output_key(out->image, f, out->colorspace);
-    s->sources[i] = source_key(out, f);
+    WgPngCompression png = output_compression(s->o, out->compression);
+    s->keys[i] = output_key(out->image, f, out->colorspace, png);
+    s->sources[i] = source_key(out, f, png);
     if (key_matches(s->paths[i], s->keys[i])) {
         s->skip[i] = s->refresh[i] = true;
     } else if (!(s->sets[i] = wg_write_set_new())) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     } else {
-        rc = wg_write_set_image(s->sets[i], s->paths[i], out->image, f, out->colorspace, err);
+        rc = wg_write_set_image_png(s->sets[i], s->paths[i], out->image, f, out->colorspace, png,
+                                    err);
         s->wrote[i] = !rc;
     }
     s->ms[i] = now_ms() - t0;
@@ -1049,7 +1068,8 @@ bool stream_held(void *user, const WgOutputInfo *out)
     WgFormat f = output_format(s->o, out->name, out->format);
     char path[4096];
     output_path_of(s->o, s->g, out->name, f, s->frame, path, sizeof path);
-    if (!path[0] || !key_matches_as(path, source_key(out, f), true)) return false;
+    OutKey source = source_key(out, f, output_compression(s->o, out->compression));
+    if (!path[0] || !key_matches_as(path, source, true)) return false;
     /* temporaries a killed render left in the folder go, as when an output is written */
     if (stream_folder(s, NULL)) return false;
     memcpy(s->paths[i], path, sizeof path);
@@ -1185,7 +1205,8 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     const WgImage **wimages = calloc((size_t)n + 1, sizeof *wimages);
     WgFormat *wformats = calloc((size_t)n + 1, sizeof *wformats);
     WgColorspace *wcs = calloc((size_t)n + 1, sizeof *wcs);
-    if (!rc && (!wpaths || !wimages || !wformats || !wcs))
+    WgPngCompression *wpng = calloc((size_t)n + 1, sizeof *wpng);
+    if (!rc && (!wpaths || !wimages || !wformats || !wcs || !wpng))
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -1199,18 +1220,20 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         if ((rc = name_folder(paths[i], err))) break;
         WgFormat f =
             output_format(o, wg_result_output_name(res, i), wg_result_output_format(res, i));
+        WgPngCompression png = output_compression(o, wg_result_output_compression(res, i));
         keys[i] =
-            output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i));
+            output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i), png);
         skip[i] = (kept && kept[i]) || key_matches(paths[i], keys[i]);
         if (skip[i]) continue;
         wrote[i] = true;
         wpaths[nw] = paths[i];
         wimages[nw] = wg_result_output_image(res, i);
         wformats[nw] = f;
+        wpng[nw] = png;
         wcs[nw++] = wg_result_output_colorspace(res, i);
     }
     if (!rc && nw)
-        rc = wg_write_set_images(set, nw, wpaths, wimages, wformats, wcs, o->threads, err);
+        rc = wg_write_set_images(set, nw, wpaths, wimages, wformats, wcs, wpng, o->threads, err);
     int n_gltf = 0;
     char(*gltf_paths)[4096] = calloc((size_t)wg_graph_gltf_count(g) + 1, sizeof *gltf_paths);
     if (!rc && !gltf_paths) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -1221,6 +1244,7 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     free(wimages);
     free(wformats);
     free(wcs);
+    free(wpng);
     if (!rc) rc = wg_write_set_commit(set, err);
     wg_write_set_free(set);
     for (int i = 0; !rc && separate && i < n; i++)

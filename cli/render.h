@@ -30,6 +30,7 @@ typedef struct {
     const char *name; /* --name PATTERN (NULL: {graph}_{output}, with _{frame} in a sequence) */
     const BatchRowInfo *row; /* the batch row being written, for {row} and its columns */
     int width, height, threads, format;
+    int png_compression; /* --png-compression, -1 when not given */
     bool has_seed, has_time, has_frames, has_fps, quiet, stats, stats_json, no_fuse;
     bool has_shard, batch_json;
     int shard_index, shard_count;
@@ -52,6 +53,8 @@ int build_request(const Options *o, const WgGraph *g, WgRequest **out, WgError *
 /* The path output i of res is written to (frame >= 0: with "_<frame>"). */
 /* An output's format: its --format NAME=FMT, else --format FMT, else the graph's. */
 WgFormat output_format(const Options *o, const char *output, WgFormat graph_format);
+/* A PNG output's compression: --png-compression, else the graph's. */
+WgPngCompression output_compression(const Options *o, WgPngCompression graph_compression);
 /* The file of output `name` (extension from f): --name's pattern, or {graph}_{output}[_{frame}],
  * in the output folder. Returns false when the pattern names what is not there (a batch column
  * outside a batch). */

@@ -86,6 +86,10 @@ _wetgraph()
         mapfile -t COMPREPLY < <(compgen -W "png png16 tif16 exr exr32" -- "$cur")
         return
         ;;
+    --png-compression)
+        mapfile -t COMPREPLY < <(compgen -W "default fast none" -- "$cur")
+        return
+        ;;
     --plugin)
         mapfile -t COMPREPLY < <(compgen -d -- "$cur"; compgen -f -X '!*.so' -- "$cur")
         return

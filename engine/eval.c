@@ -119,6 +119,7 @@ struct WgResult {
     const WgImage **images;
     WgFormat *formats;
     WgColorspace *colorspaces;
+    WgPngCompression *compressions;
     int n_stats;
     WgNodeStat *stats;
     int evaluated;
@@ -539,8 +540,9 @@ static WgOutputInfo output_info(const Run *run, int k)
 {
     const WgPlanOutput *po = &run->plan->outputs[k];
     const Node *src = &run->nodes[po->ref.inst];
-    WgOutputInfo info = {k, po->name, src->out ? src->out[po->ref.port] : NULL, po->format,
-                         po->colorspace, {0, 0}};
+    WgOutputInfo info = {k,          po->name,       src->out ? src->out[po->ref.port] : NULL,
+                         po->format, po->colorspace, po->compression,
+                         {0, 0}};
     output_key(run->plan, k, info.key);
     return info;
 }
@@ -1241,6 +1243,7 @@ void wg_result_free(WgResult *r)
     wg_free(r->images);
     wg_free(r->formats);
     wg_free(r->colorspaces);
+    wg_free(r->compressions);
     for (int i = 0; i < r->n_stats; i++) wg_free((char *)r->stats[i].id);
     wg_free(r->stats);
     wg_warnings_free(r->warnings, r->n_warnings);
@@ -1258,8 +1261,10 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
     r->images = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgImage *));
     r->formats = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgFormat));
     r->colorspaces = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgColorspace));
+    r->compressions = wg_calloc((size_t)p->n_outputs + 1, sizeof(WgPngCompression));
     r->stats = wg_calloc((size_t)p->n_insts + 1, sizeof(WgNodeStat));
-    if (!r->names || !r->images || !r->formats || !r->colorspaces || !r->stats) {
+    if (!r->names || !r->images || !r->formats || !r->colorspaces || !r->compressions ||
+        !r->stats) {
         r->n_outputs = 0;
         wg_result_free(r);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -1272,6 +1277,7 @@ static int collect(Run *run, WgResult **out, double t0, WgError *err)
             r->images[k] = wg_image_ref(run->nodes[po->ref.inst].out[po->ref.port]);
         r->formats[k] = po->format;
         r->colorspaces[k] = po->colorspace;
+        r->compressions[k] = po->compression;
     }
     for (int i = 0; i < p->n_insts; i++) {
         Node *n = &run->nodes[i];
@@ -1512,6 +1518,10 @@ WgFormat wg_result_output_format(const WgResult *r, int i)
 WgColorspace wg_result_output_colorspace(const WgResult *r, int i)
 {
     return r->colorspaces[i];
+}
+WgPngCompression wg_result_output_compression(const WgResult *r, int i)
+{
+    return r->compressions[i];
 }
 int wg_result_stat_count(const WgResult *r)
 {

@@ -234,6 +234,7 @@ typedef struct WgPlanOutput {
     WgRef ref;
     WgFormat format;
     WgColorspace colorspace;
+    WgPngCompression compression;
 } WgPlanOutput;
 
 typedef struct WgPlan {

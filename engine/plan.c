@@ -1187,6 +1187,7 @@ int wg__plan_build(const WgRequest *r, WgPlan *plan, WgError *err)
         po->name = wg_strdup(g->outputs[o].name);
         po->format = g->outputs[o].format;
         po->colorspace = g->outputs[o].colorspace;
+        po->compression = g->outputs[o].compression;
         if (!po->name) {
             rc = WG_ERR_NOMEM;
             goto out;

@@ -830,18 +830,18 @@ fail:
 
 static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
 {
-    static const char *const allowed[] = {"name",  "from",  "format", "colorspace",
-                                          "label", "group", NULL};
+    static const char *const allowed[] = {"name",  "from",  "format",      "colorspace",
+                                          "label", "group", "compression", NULL};
     int line = line_of(x);
     int rc = check_attrs(d, x, allowed);
     if (rc) return rc;
     WgGraphOutputInfo *o = &g->outputs[g->n_outputs];
     memset(o, 0, sizeof *o);
     o->line = line;
-    char *name = NULL, *from = NULL, *format = NULL, *cs = NULL, *group = NULL;
+    char *name = NULL, *from = NULL, *format = NULL, *cs = NULL, *group = NULL, *comp = NULL;
     if ((rc = need_attr(d, x, "name", &name)) || (rc = need_attr(d, x, "from", &from)) ||
         (rc = attr(d, x, "format", &format)) || (rc = attr(d, x, "colorspace", &cs)) ||
-        (rc = attr(d, x, "group", &group)))
+        (rc = attr(d, x, "group", &group)) || (rc = attr(d, x, "compression", &comp)))
         goto out;
     if (group && !wg__valid_id(group)) {
         rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
@@ -869,6 +869,16 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
         }
         o->format = (WgFormat)f;
     }
+    if (comp) {
+        int c = wg_png_compression_parse(comp);
+        if (c < 0) {
+            rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
+                                 "output '%s': unknown compression '%s' (default, fast, none)",
+                                 name, comp);
+            goto out;
+        }
+        o->compression = (WgPngCompression)c;
+    }
     if (cs) {
         if (!strcmp(cs, "srgb"))
             o->colorspace = WG_SRGB;
@@ -893,6 +903,7 @@ out:
     wg_free(group);
     wg_free(format);
     wg_free(cs);
+    wg_free(comp);
     return rc;
 }
 

@@ -47,6 +47,20 @@ void wg_set_jpeg_quality(int quality)
     atomic_store(&jpeg_quality, quality < 1 ? 1 : quality > 100 ? 100 : quality);
 }
 
+static const char *const png_compression_names[] = {"default", "fast", "none"};
+
+int wg_png_compression_parse(const char *name)
+{
+    for (int i = 0; i < 3; i++)
+        if (!strcmp(name, png_compression_names[i])) return i;
+    return -1;
+}
+
+const char *wg_png_compression_name(WgPngCompression c)
+{
+    return (unsigned)c < 3 ? png_compression_names[c] : "?";
+}
+
 int wg_format_parse(const char *name)
 {
     for (int i = 1; i < FORMAT_COUNT; i++)
@@ -963,20 +977,20 @@ static void png_pack_row(void *user, int y, void *row)
 }
 
 static int encode_png(const char *path, const WgImage *img, WgColorspace cs, int c, int bits,
-                      char *msg, size_t msg_size)
+                      WgPngCompression png, char *msg, size_t msg_size)
 {
     PngPack p = {img, cs, c, bits};
-    return wg__png_write_rows(path, img->width, img->height, c, bits, png_pack_row, &p, msg,
+    return wg__png_write_rows(path, img->width, img->height, c, bits, png, png_pack_row, &p, msg,
                               msg_size);
 }
 
 /* Other formats go through OpenImageIO, STRIP_ROWS rows at a time, so writing holds a strip of
  * packed pixels, not a packed copy of the image. Nonzero with msg on failure. */
 static int encode_to_file(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
-                          int c, int bits, char *msg, size_t msg_size)
+                          int c, int bits, WgPngCompression png, char *msg, size_t msg_size)
 {
     if (format == WG_FORMAT_PNG || format == WG_FORMAT_PNG16)
-        return encode_png(path, img, cs, c, bits, msg, msg_size);
+        return encode_png(path, img, cs, c, bits, png, msg, msg_size);
     size_t row = (size_t)img->width * (size_t)c;
     size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
     void *buf = wg_malloc(row * STRIP_ROWS * elem);
@@ -1108,7 +1122,7 @@ static int write_failed(WgError *err, const char *path, const char *msg)
 
 /* Encode one image into the temporary `tmp` of target `path`. */
 static int encode_one(const char *tmp, const char *path, const WgImage *img, WgFormat format,
-                      WgColorspace cs, WgError *err)
+                      WgColorspace cs, WgPngCompression png, WgError *err)
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c, bits;
@@ -1118,7 +1132,7 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
     errno = 0;
     if (format == WG_FORMAT_EXR || format == WG_FORMAT_EXR32)
         rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, err);
-    else if (encode_to_file(tmp, img, format, cs, c, bits, msg, sizeof msg))
+    else if (encode_to_file(tmp, img, format, cs, c, bits, png, msg, sizeof msg))
         rc = write_failed(err, path, msg);
     return rc;
 }
@@ -1146,13 +1160,19 @@ int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t
     return stage_end(s, rc, err);
 }
 
-int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
-                       WgColorspace cs, WgError *err)
+int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                           WgColorspace cs, WgPngCompression png, WgError *err)
 {
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
-    return stage_end(s, encode_one(tmp, path, img, format, cs, err), err);
+    return stage_end(s, encode_one(tmp, path, img, format, cs, png, err), err);
+}
+
+int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                       WgColorspace cs, WgError *err)
+{
+    return wg_write_set_image_png(s, path, img, format, cs, WG_PNG_COMPRESSION_DEFAULT, err);
 }
 
 typedef struct {
@@ -1161,6 +1181,7 @@ typedef struct {
     const WgImage *const *images;
     const WgFormat *formats;
     const WgColorspace *cs;
+    const WgPngCompression *png;
     atomic_int next;
     int *rc;
     WgError *errs;
@@ -1171,7 +1192,8 @@ static void *batch_worker(void *arg)
     Batch *b = arg;
     for (int i; (i = atomic_fetch_add(&b->next, 1)) < b->n;) {
         const Staged *f = &b->s->files[b->base + i];
-        int rc = encode_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i], &b->errs[i]);
+        int rc = encode_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i],
+                            b->png ? b->png[i] : WG_PNG_COMPRESSION_DEFAULT, &b->errs[i]);
         b->rc[i] = rc ? rc : sync_temp(f->temp, f->path, &b->errs[i]);
     }
     return NULL;
@@ -1190,7 +1212,8 @@ static void unstage(WgWriteSet *s, int from)
 
 int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
                         const WgImage *const *images, const WgFormat *formats,
-                        const WgColorspace *cs, int threads, WgError *err)
+                        const WgColorspace *cs, const WgPngCompression *png, int threads,
+                        WgError *err)
 {
     int base = s->count, rc = WG_OK;
     for (int i = 0; i < n && !rc; i++) {
@@ -1212,6 +1235,7 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
                images,
                formats,
                cs,
+               png,
                0,
                wg_calloc((size_t)n + 1, sizeof(int)),
                wg_calloc((size_t)n + 1, sizeof(WgError))};

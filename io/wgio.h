@@ -57,20 +57,33 @@ int wg__oiio_read_rows(WgOiioIn *in, int y0, int y1, int cb, int ce, int bits, v
 void wg__oiio_close(WgOiioIn *in);
 /* Whether this process has loaded the module (for tests). */
 bool wg__oiio_loaded(void);
-/* PNG (png_write.c) of w x h pixels of `c` channels (1-4) of `bits` (8 or 16), its rows asked
- * for one at a time, top down: pack(user, y, row) writes row y packed, 16-bit samples in host
- * order, so that no packed copy of the image is made. In memory: *out (wg_free it) holds
- * *out_size bytes. Nonzero with msg on failure. */
+/* PNG (png_write.c) of w x h pixels of `c` channels (1-4) of `bits` (8 or 16), compressed as
+ * `png` says, its rows asked for one at a time, top down: pack(user, y, row) writes row y
+ * packed, 16-bit samples in host order, so that no packed copy of the image is made. In
+ * memory: *out (wg_free it) holds *out_size bytes. Nonzero with msg on failure. */
 typedef void (*WgPngPack)(void *user, int y, void *row);
-int wg__png_encode_rows(int w, int h, int c, int bits, WgPngPack pack, void *user,
-                        unsigned char **out, size_t *out_size, char *msg, size_t msg_size);
+int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression png, WgPngPack pack,
+                        void *user, unsigned char **out, size_t *out_size, char *msg,
+                        size_t msg_size);
 /* The same from `samples`, the packed rows one after the other. */
-int wg__png_encode(const void *samples, int w, int h, int c, int bits, unsigned char **out,
-                   size_t *out_size, char *msg, size_t msg_size);
+int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngCompression png,
+                   unsigned char **out, size_t *out_size, char *msg, size_t msg_size);
 /* Encoded with wg__png_encode_rows and written to path. Nonzero with msg (and errno where the
  * system refused) on failure. */
-int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngPack pack, void *user,
-                       char *msg, size_t msg_size);
+int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
+                       WgPngPack pack, void *user, char *msg, size_t msg_size);
+/* The zlib encoders of deflate_fast.c. wg__zlib_fast: in[0..n) Huffman-coded in one dynamic
+ * block, runs of bytes equal to the byte `dist` (1..8) before as matches, or stored when that
+ * is not smaller; wg__zlib_stored: stored blocks. Both write at most wg__zlib_fast_bound(n)
+ * bytes and return the stream's size, 0 when cap is smaller than the bound (fast) or the
+ * stream (stored). */
+size_t wg__zlib_fast_bound(size_t n);
+size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char *out, size_t cap);
+size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, size_t cap);
+/* Code lengths (at most `limit` bits, limit <= 30) of a complete prefix code for the n (<= 320)
+ * symbols of freq: Huffman's, limited by the heuristic of zlib and miniz; symbols of frequency 0
+ * get 0, except that a code of fewer than two symbols is completed with one or two of them. */
+void wg__huffman_lengths(const uint32_t *freq, int n, int limit, uint8_t *len);
 /* Writing a file in strips of rows. bits: 8, 16 (unsigned integers), -16 (half), 32 (float);
  * rows packed, `c` channels of that type for 8/16, float for -16/32. finish closes and frees;
  * with ok false it only cleans up. */

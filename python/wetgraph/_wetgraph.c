@@ -1068,8 +1068,8 @@ static PyObject *Graph_render_files(GraphObject *self, PyObject *args, PyObject 
     WgWriteSet *set = wg_write_set_new();
     rc = set ? WG_OK : wg_error_set(&err, WG_ERR_NOMEM, NULL, "out of memory");
     if (!rc)
-        rc = wg_write_set_images(set, n, (const char *const *)paths, images, formats, spaces, 0,
-                                 &err);
+        rc = wg_write_set_images(set, n, (const char *const *)paths, images, formats, spaces, NULL,
+                                 0, &err);
     if (!rc) rc = wg_write_set_commit(set, &err);
     wg_write_set_free(set);
     PyEval_RestoreThread(ts);

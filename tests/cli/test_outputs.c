@@ -752,6 +752,105 @@ static void test_failing_output_mid_render_replaces_nothing(void **state)
     rm_rf(at("lfkeep"));
 }
 
+/* ---- PNG compression ----------------------------------------------------------------------- */
+
+/* `fast` compresses "first" in the graph; the other PNG is compressed by default. */
+static const char *const graph_compression =
+    "<wetgraph version=\"1\" size=\"160x90\" seed=\"5\">\n"
+    "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+    "  <node id=\"g\" type=\"gradient\"/>\n"
+    "  <output name=\"first\" from=\"n\" format=\"png16\" compression=\"fast\"/>\n"
+    "  <output name=\"second\" from=\"g\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
+static long file_size(const char *path)
+{
+    struct stat st;
+    if (stat(path, &st)) fail_msg("no %s", path);
+    return (long)st.st_size;
+}
+
+/* The pixels of two files are the same (read back by the library). */
+static void expect_same_pixels(const char *a, const char *b)
+{
+    WgImage *ia = NULL, *ib = NULL;
+    WgError err = {0};
+    if (wg_image_read(a, 0, WG_LINEAR, &ia, &err) || wg_image_read(b, 0, WG_LINEAR, &ib, &err))
+        fail_msg("cannot read back: %s", err.message);
+    wgt_assert_identical(ia, ib);
+    wg_image_unref(ia);
+    wg_image_unref(ib);
+}
+
+/* The graph's compression attribute and --png-compression (which overrides it for every PNG)
+ * change the files, never their pixels; a file kept from a render with another compression is
+ * written again; unknown values are errors naming the option or the file and line. */
+static void test_png_compression_from_graph_and_command_line(void **state)
+{
+    (void)state;
+    static const char *const files[] = {"c_first.png", "c_second.png"};
+    wgt_write_file(at("c.wetgraph"), graph_compression);
+    static const char *const dirs[] = {"cgraph", "cdefault", "cfast", "cnone"};
+    for (int d = 0; d < 4; d++) rm_rf(at(dirs[d]));
+    Run r = run("render", "c.wetgraph", "-o", "cgraph", "-q", NULL);
+    expect(&r, 0, "render with the graph's compression");
+    run_free(&r);
+    static const char *const modes[] = {"default", "fast", "none"};
+    for (int m = 0; m < 3; m++) {
+        r = run("render", "c.wetgraph", "-o", dirs[m + 1], "-q", "--png-compression", modes[m],
+                NULL);
+        expect(&r, 0, modes[m]);
+        run_free(&r);
+        for (int i = 0; i < 2; i++)
+            expect_same_pixels(in("cgraph", files[i]), in(dirs[m + 1], files[i]));
+    }
+    /* the graph's: first fast, second default */
+    expect_same_file(in("cgraph", files[0]), in("cfast", files[0]));
+    expect_same_file(in("cgraph", files[1]), in("cdefault", files[1]));
+    if (wgt_same_file(in("cgraph", files[0]), in("cdefault", files[0])))
+        fail_msg("compression=\"fast\" wrote the default's file");
+    /* none: the raw rows (160 x 90 16-bit and 8-bit gray), a filter byte each */
+    assert_true(file_size(in("cnone", files[0])) >= 90 * (160 * 2 + 1));
+    assert_true(file_size(in("cnone", files[1])) >= 90 * (160 + 1));
+    assert_true(file_size(in("cdefault", files[1])) < 90 * (160 + 1) / 2);
+
+    /* the same folder with another compression: both files are written again; with the same,
+     * both are kept */
+    r = run("render", "c.wetgraph", "-o", "cgraph", "--png-compression", "none", NULL);
+    expect(&r, 0, "render with another compression");
+    assert_string_equal(r.out, "cgraph/c_first.png\ncgraph/c_second.png\n");
+    run_free(&r);
+    for (int i = 0; i < 2; i++) expect_same_file(in("cgraph", files[i]), in("cnone", files[i]));
+    r = run("render", "c.wetgraph", "-o", "cgraph", "--png-compression", "none", NULL);
+    expect(&r, 0, "render with the same compression");
+    assert_string_equal(r.out, "");
+    run_free(&r);
+    r = run("render", "c.wetgraph", "-o", "cgraph", NULL);
+    expect(&r, 0, "render with the graph's compression again");
+    assert_string_equal(r.out, "cgraph/c_first.png\ncgraph/c_second.png\n");
+    run_free(&r);
+    expect_same_file(in("cgraph", files[0]), in("cfast", files[0]));
+    expect_same_file(in("cgraph", files[1]), in("cdefault", files[1]));
+
+    /* unknown values */
+    r = run("render", "c.wetgraph", "-o", "cbad", "--png-compression", "fastest", NULL);
+    expect(&r, 2, "unknown --png-compression");
+    expect_err(&r, "unknown --png-compression 'fastest' (default, fast, none)");
+    run_free(&r);
+    char *bad = strdup(graph_compression);
+    assert_non_null(bad);
+    memcpy(strstr(bad, "\"fast\""), "\"zip\" ", 6);
+    wgt_write_file(at("cbad.wetgraph"), bad);
+    free(bad);
+    r = run("render", "cbad.wetgraph", "-o", "cbad", NULL);
+    if (r.status == 0) fail_msg("a graph with compression=\"zip\" rendered");
+    expect_err(&r, "cbad.wetgraph:4: output 'first': unknown compression 'zip' (default, fast, "
+                   "none)");
+    run_free(&r);
+    assert_false(exists(at("cbad")));
+    for (int d = 0; d < 4; d++) rm_rf(at(dirs[d]));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -762,6 +861,7 @@ int main(void)
         cmocka_unit_test(test_unchanged_outputs_are_kept),
         cmocka_unit_test(test_streamed_outputs_are_the_files_written_after_the_render),
         cmocka_unit_test(test_failing_output_mid_render_replaces_nothing),
+        cmocka_unit_test(test_png_compression_from_graph_and_command_line),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

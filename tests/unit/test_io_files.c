@@ -1281,7 +1281,7 @@ static void test_parallel_write_failure_leaves_the_old_set(void **state)
         WgWriteSet *s = wg_write_set_new();
         WgError err = {0};
         assert_int_not_equal(wg_write_set_images(s, 6, ptrs, (const WgImage *const *)img, formats,
-                                                 cs, threads, &err),
+                                                 cs, NULL, threads, &err),
                              WG_OK);
         assert_string_equal(err.file, paths[3]);
         assert_int_equal(wg_write_set_commit(s, &err), WG_OK); /* nothing left to commit */
@@ -1305,7 +1305,8 @@ static void test_parallel_write_failure_leaves_the_old_set(void **state)
     WgWriteSet *s = wg_write_set_new();
     WgError err = {0};
     assert_int_equal(
-        wg_write_set_images(s, 6, ptrs, (const WgImage *const *)img, formats, cs, 3, &err), WG_OK);
+        wg_write_set_images(s, 6, ptrs, (const WgImage *const *)img, formats, cs, NULL, 3, &err),
+        WG_OK);
     assert_int_equal(wg_write_set_commit(s, &err), WG_OK);
     wg_write_set_free(s);
     for (int i = 0; i < 6; i++) {

@@ -130,6 +130,7 @@ typedef struct WgOutputInfo {
     const WgImage *image;
     WgFormat format; /* resolved, never DEFAULT */
     WgColorspace colorspace;
+    WgPngCompression compression; /* the graph's, for a PNG */
     /* the output's key: a hash of everything its pixels depend on (the cache key of the node
      * that makes it, and the port), known before anything is computed; the same key, the same
      * pixels, in any render, engine or process of this version */
@@ -219,6 +220,7 @@ const char *wg_result_output_name(const WgResult *r, int i);
 const WgImage *wg_result_output_image(const WgResult *r, int i);
 WgFormat wg_result_output_format(const WgResult *r, int i); /* resolved, never DEFAULT */
 WgColorspace wg_result_output_colorspace(const WgResult *r, int i);
+WgPngCompression wg_result_output_compression(const WgResult *r, int i); /* the graph's */
 int wg_result_stat_count(const WgResult *r);
 const WgNodeStat *wg_result_stat(const WgResult *r, int i);
 int wg_result_evaluated_count(const WgResult *r); /* nodes computed (not cache hits) */

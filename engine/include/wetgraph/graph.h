@@ -51,6 +51,7 @@ typedef struct WgGraphOutputInfo {
     const char *from; /* "node", "node.port" or "$input" */
     WgFormat format;  /* WG_FORMAT_DEFAULT when not given */
     WgColorspace colorspace;
+    WgPngCompression compression; /* `compression`: how a PNG is compressed (default: DEFAULT) */
     int line;
     const char *group; /* the kind of map it is (`group`, e.g. maps, layers, masks), or NULL */
 } WgGraphOutputInfo;

@@ -1,0 +1,403 @@
+/* SPDX-License-Identifier: MIT */
+/* The PNG writer's compression modes (png_write.c) and the zlib encoders under them
+ * (deflate_fast.c): every mode's files read back exactly through libpng (its own reader, not
+ * through OpenImageIO) for 8- and 16-bit gray, gray+alpha, RGB and RGBA, odd sizes, flat, noisy
+ * and run-heavy images, one that needs a length-limited Huffman code and one large enough to be
+ * counted on a sample; the zlib streams inflate through zlib's uncompress, inputs the sample
+ * misjudges included; stored blocks split at 65535 bytes; the Huffman code lengths are a
+ * complete code within the limit. */
+#include "wgtest.h"
+
+#include "internal.h"
+#include "wgio.h"
+
+#include <png.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+
+static uint32_t rng = 12345;
+static uint32_t next_rand(void)
+{
+    rng = rng * 1664525u + 1013904223u;
+    return rng >> 8;
+}
+
+/* Fibonacci counts: 1, 1, 2, 3, 5, ... for `n` symbols; Huffman's code for them alone is n - 1
+ * bits deep, far past 15 for n = 25. */
+static void fibonacci(uint32_t *f, int n)
+{
+    for (int i = 0; i < n; i++) f[i] = i < 2 ? 1 : f[i - 1] + f[i - 2];
+}
+
+/* Bytes whose counts are powers of two: 2^18 zeros, 2^17 ones, ..., one 18, shuffled; returns
+ * the count (2^19 - 1, under the size from which counts are sampled). Each count is more than
+ * all smaller ones together, a few more symbols (end of block, runs) included, so Huffman's code
+ * for them is about 18 bits deep: coding them needs the 15-bit limit. */
+static size_t skewed_bytes(unsigned char **out)
+{
+    size_t n = (1u << 19) - 1, at = 0;
+    unsigned char *b = malloc(n);
+    assert_non_null(b);
+    for (int i = 0; i < 19; i++)
+        for (size_t k = 0; k < (size_t)1 << (18 - i); k++) b[at++] = (unsigned char)i;
+    for (size_t i = n - 1; i > 0; i--) {
+        size_t j = next_rand() % (i + 1);
+        unsigned char t = b[i];
+        b[i] = b[j];
+        b[j] = t;
+    }
+    *out = b;
+    return n;
+}
+
+/* The deepest code Huffman's tree (no limit) gives the bytes and one end-of-block symbol. */
+static int unlimited_depth(const unsigned char *b, size_t n)
+{
+    uint32_t freq[286] = {0};
+    uint8_t len[286];
+    for (size_t i = 0; i < n; i++) freq[b[i]]++;
+    freq[256] = 1;
+    wg__huffman_lengths(freq, 286, 30, len);
+    int max = 0;
+    for (int s = 0; s < 286; s++) max = len[s] > max ? len[s] : max;
+    return max;
+}
+
+/* ---- the zlib streams --------------------------------------------------------------------- */
+
+/* in[0..n) through wg__zlib_fast (dist > 0) or wg__zlib_stored (dist 0), inflated by zlib. */
+static size_t deflate_round_trip(const unsigned char *in, size_t n, int dist, unsigned char **z)
+{
+    /* bytes past the bound must stay untouched */
+    size_t cap = wg__zlib_fast_bound(n), guard = 4096;
+    unsigned char *o = malloc(cap + guard), *back = malloc(n + 1);
+    assert_non_null(o);
+    assert_non_null(back);
+    memset(o + cap, 0xa5, guard);
+    size_t zn = dist ? wg__zlib_fast(in, n, dist, o, cap) : wg__zlib_stored(in, n, o, cap);
+    if (!zn || zn > cap)
+        fail_msg("n %zu dist %d: stream of %zu bytes, bound %zu", n, dist, zn, cap);
+    for (size_t i = 0; i < guard; i++)
+        if (o[cap + i] != 0xa5) fail_msg("n %zu dist %d: written past the bound", n, dist);
+    uLongf bn = n + 1;
+    int rc = uncompress(back, &bn, o, zn);
+    if (rc != Z_OK || bn != n || (n && memcmp(back, in, n)))
+        fail_msg("n %zu dist %d: zlib says %d, %lu bytes back", n, dist, rc, (unsigned long)bn);
+    free(back);
+    if (z)
+        *z = o;
+    else
+        free(o);
+    return zn;
+}
+
+static void test_fast_streams_inflate_through_zlib(void **state)
+{
+    (void)state;
+    static const size_t sizes[] = {0, 1, 2, 7, 8, 9, 15, 16, 17, 100, 1000, 65535, 65536, 200000};
+    for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
+        for (int kind = 0; kind < 5; kind++) {
+            size_t n = sizes[si];
+            unsigned char *in = malloc(n + 1);
+            assert_non_null(in);
+            for (size_t i = 0; i < n; i++) {
+                uint32_t r = next_rand();
+                in[i] = kind == 0   ? (unsigned char)r                      /* noise */
+                        : kind == 1 ? 0                                     /* flat */
+                        : kind == 2 ? (unsigned char)(i / 300 % 3)          /* long runs */
+                        : kind == 3 ? (unsigned char)(r % 7 ? i % 4 : r)    /* runs at distance 4 */
+                                    : (unsigned char)(r % 3 ? r % 5 : 200); /* skewed */
+            }
+            for (int dist = 0; dist <= 8; dist++) deflate_round_trip(in, n, dist, NULL);
+            free(in);
+        }
+}
+
+/* Inputs from 1 MiB are counted on a sample: noise is stored; a sample that sees only four
+ * symbols while the rest is noise gives a code that would make the block larger, which the coder
+ * notices and stores; small symbols everywhere are coded in far less than stored. */
+static void test_sampled_counts_never_overflow(void **state)
+{
+    (void)state;
+    size_t n = 4u << 20;
+    unsigned char *in = malloc(n);
+    assert_non_null(in);
+    for (size_t i = 0; i < n; i++) in[i] = (unsigned char)next_rand();
+    assert_true(deflate_round_trip(in, n, 1, NULL) > n);
+    for (size_t i = 0; i < n; i++)
+        in[i] = (unsigned char)(i % 65536 < 16384 ? next_rand() & 3 : next_rand());
+    assert_true(deflate_round_trip(in, n, 1, NULL) > n);
+    for (size_t i = 0; i < n; i++) in[i] = i % 65536 < 16384 ? 0 : (unsigned char)next_rand();
+    deflate_round_trip(in, n, 1, NULL);
+    for (size_t i = 0; i < n; i++) in[i] = (unsigned char)(next_rand() & 3);
+    assert_true(deflate_round_trip(in, n, 1, NULL) < n / 3);
+    free(in);
+}
+
+/* Stored blocks: 65535 bytes each, the last one short and final, LEN and NLEN right. */
+static void test_stored_blocks_split_at_65535(void **state)
+{
+    (void)state;
+    size_t n = 2 * 65535 + 10;
+    unsigned char *in = malloc(n), *z;
+    assert_non_null(in);
+    for (size_t i = 0; i < n; i++) in[i] = (unsigned char)(i * 7);
+    size_t zn = deflate_round_trip(in, n, 0, &z);
+    assert_int_equal(zn, 2 + 3 * 5 + n + 4);
+    const unsigned char *p = z + 2;
+    static const size_t lens[3] = {65535, 65535, 10};
+    for (int b = 0; b < 3; b++) {
+        assert_int_equal(p[0], b == 2); /* BFINAL on the last only, BTYPE 00 */
+        size_t len = p[1] | (size_t)p[2] << 8, nlen = p[3] | (size_t)p[4] << 8;
+        assert_int_equal(len, lens[b]);
+        assert_int_equal(nlen, ~len & 0xffff);
+        assert_memory_equal(p + 5, in + 65535 * (size_t)b, len);
+        p += 5 + len;
+    }
+    /* an empty input is one empty final block */
+    assert_int_equal(deflate_round_trip(in, 0, 0, NULL), 2 + 5 + 4);
+    free(z);
+    free(in);
+}
+
+/* Kraft's sum of the lengths in units of 2^-limit; the code is complete when it is 2^limit. */
+static uint64_t kraft(const uint8_t *len, int n, int limit)
+{
+    uint64_t sum = 0;
+    for (int s = 0; s < n; s++)
+        if (len[s]) sum += 1ull << (limit - len[s]);
+    return sum;
+}
+
+static void test_huffman_lengths_are_limited_and_complete(void **state)
+{
+    (void)state;
+    uint32_t freq[286] = {0};
+    uint8_t len[286];
+    /* Fibonacci counts: 24 bits deep unlimited, cut to 15 (and 7 for the code lengths' code) */
+    for (int limit = 7; limit <= 15; limit += 8) {
+        int n = limit == 7 ? 19 : 286, used = limit == 7 ? 19 : 25;
+        memset(freq, 0, sizeof freq);
+        fibonacci(freq + (n - used), used);
+        wg__huffman_lengths(freq, n, limit, len);
+        int max = 0;
+        for (int s = 0; s < n; s++) {
+            if (len[s] > max) max = len[s];
+            if (!freq[s] && len[s]) fail_msg("symbol %d has no count but a code", s);
+            if (freq[s] && !len[s]) fail_msg("symbol %d has a count but no code", s);
+        }
+        assert_int_equal(max, limit);
+        assert_int_equal(kraft(len, n, limit), 1ull << limit);
+        /* more frequent, never longer */
+        for (int s = n - used + 1; s < n; s++) assert_true(len[s] <= len[s - 1]);
+    }
+    /* counts Huffman needs no limit for: the code is Huffman's (here, 1, 2, 3, 3) */
+    memset(freq, 0, sizeof freq);
+    freq[3] = 10, freq[7] = 5, freq[8] = 2, freq[9] = 2;
+    wg__huffman_lengths(freq, 286, 15, len);
+    assert_int_equal(len[3], 1);
+    assert_int_equal(len[7], 2);
+    assert_int_equal(len[8], 3);
+    assert_int_equal(len[9], 3);
+    /* one symbol, or none: completed to two codes of one bit */
+    memset(freq, 0, sizeof freq);
+    freq[5] = 9;
+    wg__huffman_lengths(freq, 30, 15, len);
+    assert_int_equal(len[5], 1);
+    assert_int_equal(kraft(len, 30, 15), 1u << 15);
+    memset(freq, 0, sizeof freq);
+    wg__huffman_lengths(freq, 30, 15, len);
+    assert_int_equal(kraft(len, 30, 15), 1u << 15);
+}
+
+/* A stream whose literal code needs the limit inflates. */
+static void test_skewed_stream_inflates(void **state)
+{
+    (void)state;
+    unsigned char *in;
+    size_t n = skewed_bytes(&in);
+    assert_true(unlimited_depth(in, n) > 15);
+    deflate_round_trip(in, n, 1, NULL);
+    deflate_round_trip(in, n, 3, NULL);
+    free(in);
+}
+
+/* ---- PNG files, read by libpng -------------------------------------------------------------- */
+
+typedef struct {
+    const unsigned char *data;
+    size_t size, at;
+} Mem;
+
+static void mem_read(png_structp png, png_bytep out, png_size_t n)
+{
+    Mem *m = png_get_io_ptr(png);
+    if (m->at + n > m->size) png_error(png, "read past the end");
+    memcpy(out, m->data + m->at, n);
+    m->at += n;
+}
+
+/* The file's pixels through libpng's reader, 16-bit samples in host order (malloc'ed); fails
+ * the test on any complaint of libpng's. */
+static unsigned char *libpng_decode(const unsigned char *file, size_t size, int *w, int *h, int *c,
+                                    int *bits)
+{
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png_create_info_struct(png);
+    assert_non_null(png);
+    assert_non_null(info);
+    Mem m = {file, size, 0};
+    unsigned char *px = NULL;
+    png_bytep *rows = NULL;
+    if (setjmp(png_jmpbuf(png))) fail_msg("libpng refused the file");
+    png_set_user_limits(png, 0x7fffffff, 0x7fffffff);
+    png_set_read_fn(png, &m, mem_read);
+    png_read_info(png, info);
+    *w = (int)png_get_image_width(png, info);
+    *h = (int)png_get_image_height(png, info);
+    *c = png_get_channels(png, info);
+    *bits = png_get_bit_depth(png, info);
+    if (*bits == 16) {
+        uint16_t probe = 1;
+        unsigned char first;
+        memcpy(&first, &probe, 1);
+        if (first) png_set_swap(png); /* little-endian host */
+    }
+    png_read_update_info(png, info);
+    size_t row = png_get_rowbytes(png, info);
+    px = malloc(row * (size_t)*h + 1);
+    rows = malloc(sizeof *rows * (size_t)*h + 1);
+    assert_non_null(px);
+    assert_non_null(rows);
+    for (int y = 0; y < *h; y++) rows[y] = px + row * (size_t)y;
+    png_read_image(png, rows);
+    png_read_end(png, NULL);
+    png_destroy_read_struct(&png, &info, NULL);
+    free(rows);
+    return px;
+}
+
+enum { FLAT, NOISE, RUNS, GRADIENT, SKEWED, CONTENTS };
+static const char *const content_names[] = {"flat", "noise", "runs", "gradient", "skewed"};
+
+/* Samples of one content: bytes per sample `bytes`, host order. */
+static void fill(unsigned char *px, int w, int h, int c, int bytes, int content)
+{
+    size_t n = (size_t)w * (size_t)h * (size_t)c;
+    unsigned char *skew = NULL;
+    size_t skew_n = content == SKEWED ? skewed_bytes(&skew) : 0;
+    for (size_t i = 0; i < n; i++) {
+        size_t x = i / (size_t)c % (size_t)w, y = i / (size_t)c / (size_t)w, k = i % (size_t)c;
+        uint32_t v = content == FLAT       ? 0x9a5e
+                     : content == NOISE    ? next_rand()
+                     : content == RUNS     ? (uint32_t)((x / 37 + y / 5) % 3) * 0x5151
+                     : content == GRADIENT ? (uint32_t)(x * 517 + y * 1031 + k * 77)
+                                           : skew[i % skew_n];
+        if (bytes == 1) {
+            px[i] = (unsigned char)(content == SKEWED ? v : v >> 4);
+        } else {
+            uint16_t s = (uint16_t)v;
+            memcpy(px + 2 * i, &s, 2);
+        }
+    }
+    free(skew);
+}
+
+static const char *const mode_names[] = {"default", "fast", "none"};
+
+static void round_trip(int w, int h, int c, int bits, int content, WgPngCompression mode)
+{
+    size_t raw = (size_t)w * (size_t)h * (size_t)c * (size_t)(bits / 8);
+    unsigned char *px = malloc(raw + 1), *file;
+    assert_non_null(px);
+    fill(px, w, h, c, bits / 8, content);
+    size_t size;
+    char msg[256];
+    if (wg__png_encode(px, w, h, c, bits, mode, &file, &size, msg, sizeof msg))
+        fail_msg("%s %dx%d c%d %d-bit %s: %s", mode_names[mode], w, h, c, bits,
+                 content_names[content], msg);
+    int rw, rh, rc, rbits;
+    unsigned char *back = libpng_decode(file, size, &rw, &rh, &rc, &rbits);
+    if (rw != w || rh != h || rc != c || rbits != bits || memcmp(back, px, raw))
+        fail_msg("%s %dx%d c%d %d-bit %s: read back as %dx%d c%d %d-bit%s", mode_names[mode], w, h,
+                 c, bits, content_names[content], rw, rh, rc, rbits,
+                 rw == w && rh == h && rc == c && rbits == bits ? ", other samples" : "");
+    /* none: the raw rows, a filter byte each, in stored blocks (5 bytes each), the zlib stream
+     * (6 bytes) in IDAT chunks of 8192 (12 bytes each), after the signature and IHDR and before
+     * IEND (45 bytes) */
+    size_t filtered = raw + (size_t)h, blocks = (filtered + 65534) / 65535;
+    size_t zn = filtered + 6 + 5 * (blocks ? blocks : 1);
+    if (mode == WG_PNG_COMPRESSION_NONE)
+        assert_int_equal(size, 45 + 12 * ((zn + 8191) / 8192) + zn);
+    free(back);
+    wg_free(file);
+    free(px);
+}
+
+static void test_every_mode_reads_back_through_libpng(void **state)
+{
+    (void)state;
+    static const int sizes[][2] = {{1, 1}, {3, 7}, {257, 5}, {64, 48}};
+    int files = 0;
+    for (int mode = 0; mode < 3; mode++)
+        for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
+            for (int c = 1; c <= 4; c++)
+                for (int bits = 8; bits <= 16; bits += 8)
+                    for (int content = 0; content < CONTENTS; content++) {
+                        round_trip(sizes[si][0], sizes[si][1], c, bits, content,
+                                   (WgPngCompression)mode);
+                        files++;
+                    }
+    assert_int_equal(files, 3 * 4 * 4 * 2 * CONTENTS);
+}
+
+/* One row of the skewed bytes: its filter is none (the bytes are small), so the literal code
+ * needs the 15-bit limit; and images large enough to be counted on a sample, with the pair and
+ * four-literal coding. */
+static void test_limited_and_sampled_images_read_back(void **state)
+{
+    (void)state;
+    int w = (1 << 19) - 1;
+    for (int mode = 0; mode < 3; mode++) {
+        round_trip(w, 1, 1, 8, SKEWED, (WgPngCompression)mode);
+        round_trip(w / 4, 2, 2, 8, SKEWED, (WgPngCompression)mode);
+        round_trip(1024, 520, 4, 8, GRADIENT, (WgPngCompression)mode);
+        round_trip(700, 400, 3, 16, NOISE, (WgPngCompression)mode);
+        round_trip(1000, 300, 1, 16, RUNS, (WgPngCompression)mode);
+    }
+}
+
+/* The fast mode on rendered-like content is far smaller than the raw rows. */
+static void test_fast_mode_compresses(void **state)
+{
+    (void)state;
+    int w = 512, h = 256, c = 4;
+    unsigned char *px = malloc((size_t)w * h * c), *file;
+    assert_non_null(px);
+    fill(px, w, h, c, 1, GRADIENT);
+    size_t size;
+    char msg[256];
+    assert_int_equal(
+        wg__png_encode(px, w, h, c, 8, WG_PNG_COMPRESSION_FAST, &file, &size, msg, sizeof msg), 0);
+    assert_true(size < (size_t)w * h * c / 4);
+    wg_free(file);
+    free(px);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_fast_streams_inflate_through_zlib),
+        cmocka_unit_test(test_sampled_counts_never_overflow),
+        cmocka_unit_test(test_stored_blocks_split_at_65535),
+        cmocka_unit_test(test_huffman_lengths_are_limited_and_complete),
+        cmocka_unit_test(test_skewed_stream_inflates),
+        cmocka_unit_test(test_every_mode_reads_back_through_libpng),
+        cmocka_unit_test(test_limited_and_sampled_images_read_back),
+        cmocka_unit_test(test_fast_mode_compresses),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
