@@ -11,11 +11,8 @@
  * cached images (eval.c); the pool never keeps more idle bytes than its limit. The free lists are
  * intrusive (an idle buffer's first bytes link it), so putting a buffer back never allocates.
  * Buffers of 1 MiB and more, without an allocation hook, are memory mappings of their own; from
- * 2 MiB on they are aligned to 2 MiB, so that a kernel that gives every mapping transparent huge
- * pages can, but they are not advised as such: in the virtual machines measured (bench/README.md)
- * the first touch of a fresh huge page cost two to three times that of the same memory in 4 KiB
- * pages, which made a render's first touch of its buffers cost more than its compute; reused
- * buffers lose a few percent to the smaller pages. Smaller buffers, and all buffers while an
+ * 2 MiB on they are aligned to 2 MiB and advised as transparent huge pages where the kernel
+ * allows (the advice failing changes nothing). Smaller buffers, and all buffers while an
  * allocation hook is installed, come from the hook or aligned_alloc (wg__malloc_aligned). The pool
  * is thread-safe (one mutex); each buffer handed out holds a reference to it, so images may outlive
  * their engine: after wg__mempool_close, returned buffers go straight back to the system. */
@@ -95,6 +92,9 @@ static void *fresh(size_t bytes, int mapped)
     size_t head = (size_t)(p - raw), tail = span - head - bytes;
     if (head) munmap(raw, head);
     if (tail) munmap(p + bytes, tail);
+#ifdef MADV_HUGEPAGE
+    madvise(p, bytes, MADV_HUGEPAGE);
+#endif
     return p;
 }
 
