@@ -3,9 +3,9 @@
  * into packed rows, then encoded from memory by png_write.c in each mode, one file after the
  * other on one thread, best of --reps; nothing is written to disk. Prints, per mode, the time,
  * the speed in MB/s of raw image data (width x height x channels x bytes per sample), the total
- * size of the encoded files and their ratio to the default mode's. Run on the wet material's
+ * size of the encoded files and their ratio to the default mode's (fast). Run on the wet material's
  * outputs by bench/run_write.sh.
- * Usage: bench_png [--reps R] [--mode default|fast|none] FILE.png... (--mode: that mode only, for
+ * Usage: bench_png [--reps R] [--mode fast|deflate|none] FILE.png... (--mode: that mode only, for
  * a profiler) */
 #include "wgio.h"
 
@@ -60,7 +60,7 @@ int main(int argc, char **argv)
         first += 2;
     }
     if (first >= argc || reps < 1) {
-        fprintf(stderr, "usage: bench_png [--reps R] [--mode default|fast|none] FILE.png...\n");
+        fprintf(stderr, "usage: bench_png [--reps R] [--mode fast|deflate|none] FILE.png...\n");
         return 1;
     }
     int n = argc - first;
@@ -91,10 +91,10 @@ int main(int argc, char **argv)
         }
         raw += (double)w * h * c * (im->bits / 8);
     }
-    static const char *const names[] = {"default", "fast", "none"};
+    static const char *const names[] = {"fast", "deflate", "none"};
     double base_size = 0;
     printf("%d files, %.1f MB of raw image data, one thread, best of %d\n", n, raw / 1e6, reps);
-    printf("mode      ms      MB/s    size MB  / default\n");
+    printf("mode      ms      MB/s    size MB   / fast\n");
     for (int m = 0; m < 3; m++) {
         if (only >= 0 && m != only) continue;
         double best = 0, size = 0;

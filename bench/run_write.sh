@@ -18,7 +18,7 @@
 #  encoder  the PNG encoder alone on those files, every compression mode, one thread, from
 #           memory (build/bench/bench_png): MB/s of raw image data and the files' total size
 # Best of RUNS (default 3) each. Every render writes its PNGs with --png-compression
-# PNG_COMPRESSION (default, fast or none; default: default). Prints the CPU model and the load
+# PNG_COMPRESSION (fast, deflate or none; default: fast). Prints the CPU model and the load
 # average: timing is noisy on a loaded machine. Needs python3-opencv (scripts/install-deps.sh
 # --bench).
 # Usage: [PNG_COMPRESSION=MODE] bench/run_write.sh [BUILD_DIR] [SIZE] [THREADS] [RUNS]
@@ -28,7 +28,7 @@ build=${1:-$root/build}
 size=${2:-2048}
 threads=${3:-2}
 runs=${4:-3}
-compression=${PNG_COMPRESSION:-default}
+compression=${PNG_COMPRESSION:-fast}
 [[ -f "$build/build.ninja" ]] || meson setup "$build" "$root" --buildtype=release >/dev/null
 ninja -C "$build" cli/wetgraph bench/bench_wet bench/bench_png >/dev/null
 py=${PYTHON:-/usr/bin/python3}  # the system python, which python3-opencv installs into

@@ -295,7 +295,7 @@ int parse_args(int argc, char **argv, Options *o)
             NEED;
             if ((o->png_compression = wg_png_compression_parse(val)) < 0)
                 return cli_usage_error(o->cmd,
-                                       "unknown --png-compression '%s' (default, fast, none)", val);
+                                       "unknown --png-compression '%s' (fast, deflate, none)", val);
         } else if (TAKE("--jpeg-quality")) {
             NEED;
             uint64_t q;
@@ -822,12 +822,13 @@ static bool key_read(const char *path, OutKey *image, OutKey *source, char *file
 }
 
 /* What else than the pixels, the format and the colour space makes another file: a JPEG's
- * quality, a PNG's compression (0 for the default, so that the keys of files written before
- * there was a choice still match). */
+ * quality, a PNG's compression (0 for deflate, which every PNG was written with before there was
+ * a choice, so that those files' keys still match a deflate render; 1 fast, 2 none). */
 static int file_setting(WgFormat f, WgPngCompression png)
 {
     if (f == WG_FORMAT_JPEG) return jpeg_quality;
-    return f == WG_FORMAT_PNG || f == WG_FORMAT_PNG16 ? (int)png : 0;
+    if (f != WG_FORMAT_PNG && f != WG_FORMAT_PNG16) return 0;
+    return png == WG_PNG_COMPRESSION_DEFLATE ? 0 : png == WG_PNG_COMPRESSION_FAST ? 1 : 2;
 }
 
 /* 0, 0 when out of memory: no key, never matched nor stored */

@@ -87,7 +87,7 @@ _wetgraph()
         return
         ;;
     --png-compression)
-        mapfile -t COMPREPLY < <(compgen -W "default fast none" -- "$cur")
+        mapfile -t COMPREPLY < <(compgen -W "fast deflate none" -- "$cur")
         return
         ;;
     --plugin)

@@ -873,7 +873,7 @@ static int parse_output(Doc *d, WgGraph *g, xmlNodePtr x)
         int c = wg_png_compression_parse(comp);
         if (c < 0) {
             rc = wg_error_set_at(d->err, WG_ERR_PARSE, d->path, line, 0,
-                                 "output '%s': unknown compression '%s' (default, fast, none)",
+                                 "output '%s': unknown compression '%s' (fast, deflate, none)",
                                  name, comp);
             goto out;
         }

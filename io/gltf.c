@@ -118,7 +118,7 @@ static int encode_texture(const WgImage *size_of, const WgImage *const *maps, Ch
                 px[((size_t)y * (size_t)w + (size_t)x) * (size_t)c + (size_t)j] =
                     code8(chan(maps, x, y, j), srgb && j < 3);
     char msg[256];
-    int rc = wg__png_encode(px, w, h, c, 8, WG_PNG_COMPRESSION_DEFAULT, &out->data, &out->size, msg,
+    int rc = wg__png_encode(px, w, h, c, 8, WG_PNG_COMPRESSION_DEFLATE, &out->data, &out->size, msg,
                             sizeof msg);
     wg_free(px);
     if (rc) return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot encode a texture: %s", msg);

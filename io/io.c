@@ -47,7 +47,7 @@ void wg_set_jpeg_quality(int quality)
     atomic_store(&jpeg_quality, quality < 1 ? 1 : quality > 100 ? 100 : quality);
 }
 
-static const char *const png_compression_names[] = {"default", "fast", "none"};
+static const char *const png_compression_names[] = {"fast", "deflate", "none"};
 
 int wg_png_compression_parse(const char *name)
 {
@@ -1172,7 +1172,7 @@ int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, 
 int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                        WgColorspace cs, WgError *err)
 {
-    return wg_write_set_image_png(s, path, img, format, cs, WG_PNG_COMPRESSION_DEFAULT, err);
+    return wg_write_set_image_png(s, path, img, format, cs, WG_PNG_COMPRESSION_FAST, err);
 }
 
 typedef struct {
@@ -1193,7 +1193,7 @@ static void *batch_worker(void *arg)
     for (int i; (i = atomic_fetch_add(&b->next, 1)) < b->n;) {
         const Staged *f = &b->s->files[b->base + i];
         int rc = encode_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i],
-                            b->png ? b->png[i] : WG_PNG_COMPRESSION_DEFAULT, &b->errs[i]);
+                            b->png ? b->png[i] : WG_PNG_COMPRESSION_FAST, &b->errs[i]);
         b->rc[i] = rc ? rc : sync_temp(f->temp, f->path, &b->errs[i]);
     }
     return NULL;

@@ -173,10 +173,10 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
     unsigned char *cur = wg_malloc(row), *prev = wg_calloc(row ? row : 1, 1),
                   *scratch = wg_malloc(4 * row + 1);
     struct libdeflate_compressor *z =
-        mode == WG_PNG_COMPRESSION_DEFAULT ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL) : NULL;
+        mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL) : NULL;
     unsigned char *file = NULL;
     int rc = -1;
-    if (!filtered || !cur || !prev || !scratch || (mode == WG_PNG_COMPRESSION_DEFAULT && !z)) {
+    if (!filtered || !cur || !prev || !scratch || (mode == WG_PNG_COMPRESSION_DEFLATE && !z)) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }

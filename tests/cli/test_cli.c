@@ -996,7 +996,7 @@ static void test_inspection_commands(void **state)
     OUT_HAS(&c[3], "{\"name\": \"base\", \"type\": \"color\", \"colorspace\": \"linear\", "
                    "\"default\": \"0.2 0.3 0.4 1\"}");
     OUT_HAS(&c[3], "{\"name\": \"mask\", \"from\": \"b\", \"format\": \"png16\", \"colorspace\": "
-                   "\"linear\", \"group\": null, \"compression\": \"default\"}");
+                   "\"linear\", \"group\": null, \"compression\": \"fast\"}");
     OUT_HAS(&c[3], "{\"name\": \"color\", \"from\": \"c\", \"format\": \"default\"");
     assert_int_equal(count_substr(j, "{"), 1 + 2 + 1 + 4);
     expect_status(&c[4], 2);

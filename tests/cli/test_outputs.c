@@ -754,12 +754,12 @@ static void test_failing_output_mid_render_replaces_nothing(void **state)
 
 /* ---- PNG compression ----------------------------------------------------------------------- */
 
-/* `fast` compresses "first" in the graph; the other PNG is compressed by default. */
+/* `deflate` compresses "first" in the graph; the other PNG is compressed by default (fast). */
 static const char *const graph_compression =
     "<wetgraph version=\"1\" size=\"160x90\" seed=\"5\">\n"
     "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
     "  <node id=\"g\" type=\"gradient\"/>\n"
-    "  <output name=\"first\" from=\"n\" format=\"png16\" compression=\"fast\"/>\n"
+    "  <output name=\"first\" from=\"n\" format=\"png16\" compression=\"deflate\"/>\n"
     "  <output name=\"second\" from=\"g\" format=\"png\"/>\n"
     "</wetgraph>\n";
 
@@ -790,12 +790,12 @@ static void test_png_compression_from_graph_and_command_line(void **state)
     (void)state;
     static const char *const files[] = {"c_first.png", "c_second.png"};
     wgt_write_file(at("c.wetgraph"), graph_compression);
-    static const char *const dirs[] = {"cgraph", "cdefault", "cfast", "cnone"};
+    static const char *const dirs[] = {"cgraph", "cfast", "cdeflate", "cnone"};
     for (int d = 0; d < 4; d++) rm_rf(at(dirs[d]));
     Run r = run("render", "c.wetgraph", "-o", "cgraph", "-q", NULL);
     expect(&r, 0, "render with the graph's compression");
     run_free(&r);
-    static const char *const modes[] = {"default", "fast", "none"};
+    static const char *const modes[] = {"fast", "deflate", "none"};
     for (int m = 0; m < 3; m++) {
         r = run("render", "c.wetgraph", "-o", dirs[m + 1], "-q", "--png-compression", modes[m],
                 NULL);
@@ -804,15 +804,16 @@ static void test_png_compression_from_graph_and_command_line(void **state)
         for (int i = 0; i < 2; i++)
             expect_same_pixels(in("cgraph", files[i]), in(dirs[m + 1], files[i]));
     }
-    /* the graph's: first fast, second default */
-    expect_same_file(in("cgraph", files[0]), in("cfast", files[0]));
-    expect_same_file(in("cgraph", files[1]), in("cdefault", files[1]));
-    if (wgt_same_file(in("cgraph", files[0]), in("cdefault", files[0])))
-        fail_msg("compression=\"fast\" wrote the default's file");
+    /* the graph's: first deflate, second the default, fast */
+    expect_same_file(in("cgraph", files[0]), in("cdeflate", files[0]));
+    expect_same_file(in("cgraph", files[1]), in("cfast", files[1]));
+    if (wgt_same_file(in("cgraph", files[0]), in("cfast", files[0])))
+        fail_msg("compression=\"deflate\" wrote the default's file");
     /* none: the raw rows (160 x 90 16-bit and 8-bit gray), a filter byte each */
     assert_true(file_size(in("cnone", files[0])) >= 90 * (160 * 2 + 1));
     assert_true(file_size(in("cnone", files[1])) >= 90 * (160 + 1));
-    assert_true(file_size(in("cdefault", files[1])) < 90 * (160 + 1) / 2);
+    assert_true(file_size(in("cfast", files[1])) < 90 * (160 + 1) / 2);
+    assert_true(file_size(in("cdeflate", files[1])) < 90 * (160 + 1) / 2);
 
     /* the same folder with another compression: both files are written again; with the same,
      * both are kept */
@@ -829,22 +830,22 @@ static void test_png_compression_from_graph_and_command_line(void **state)
     expect(&r, 0, "render with the graph's compression again");
     assert_string_equal(r.out, "cgraph/c_first.png\ncgraph/c_second.png\n");
     run_free(&r);
-    expect_same_file(in("cgraph", files[0]), in("cfast", files[0]));
-    expect_same_file(in("cgraph", files[1]), in("cdefault", files[1]));
+    expect_same_file(in("cgraph", files[0]), in("cdeflate", files[0]));
+    expect_same_file(in("cgraph", files[1]), in("cfast", files[1]));
 
     /* unknown values */
     r = run("render", "c.wetgraph", "-o", "cbad", "--png-compression", "fastest", NULL);
     expect(&r, 2, "unknown --png-compression");
-    expect_err(&r, "unknown --png-compression 'fastest' (default, fast, none)");
+    expect_err(&r, "unknown --png-compression 'fastest' (fast, deflate, none)");
     run_free(&r);
     char *bad = strdup(graph_compression);
     assert_non_null(bad);
-    memcpy(strstr(bad, "\"fast\""), "\"zip\" ", 6);
+    memcpy(strstr(bad, "\"deflate\""), "\"zip\"    ", 9);
     wgt_write_file(at("cbad.wetgraph"), bad);
     free(bad);
     r = run("render", "cbad.wetgraph", "-o", "cbad", NULL);
     if (r.status == 0) fail_msg("a graph with compression=\"zip\" rendered");
-    expect_err(&r, "cbad.wetgraph:4: output 'first': unknown compression 'zip' (default, fast, "
+    expect_err(&r, "cbad.wetgraph:4: output 'first': unknown compression 'zip' (fast, deflate, "
                    "none)");
     run_free(&r);
     assert_false(exists(at("cbad")));

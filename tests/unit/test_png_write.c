@@ -306,7 +306,7 @@ static void fill(unsigned char *px, int w, int h, int c, int bytes, int content)
     free(skew);
 }
 
-static const char *const mode_names[] = {"default", "fast", "none"};
+static const char *const mode_names[] = {"fast", "deflate", "none"};
 
 static void round_trip(int w, int h, int c, int bits, int content, WgPngCompression mode)
 {
