@@ -1,12 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /* The PNG writer: 8- and 16-bit gray, gray+alpha, RGB and RGBA, non-interlaced, written as
- * IHDR, IDAT chunks of 8 KiB and IEND (PNG specification, ISO/IEC 15948). By default each row
- * gets the filter of the five whose output has the smallest sum of absolute values taken as
- * signed bytes (libpng's own heuristic), and libdeflate compresses the whole filtered image into
- * the zlib stream in one call: several times faster than zlib at a similar size, and the reason
- * PNG is not written through OpenImageIO. The fast compression makes that choice on one row in
- * FAST_CHOICE_ROWS and codes the stream with deflate_fast.c (Huffman coding and runs, about 4x
- * faster in all); none writes the rows unfiltered in stored blocks. The caller packs the rows
+ * IHDR, IDAT chunks of 8 KiB and IEND (PNG specification, ISO/IEC 15948). With the deflate
+ * compression each row gets the filter of the five whose output has the smallest sum of absolute
+ * values taken as signed bytes (libpng's own heuristic), and libdeflate compresses the whole
+ * filtered image into the zlib stream in one call: several times faster than zlib at a similar
+ * size. The fast compression, the default, makes that choice on one row in FAST_CHOICE_ROWS and
+ * codes the stream with deflate_fast.c (Huffman coding and runs, about 4x faster in all); none
+ * writes the rows unfiltered in stored blocks. The caller packs the rows
  * one at a time as they are filtered (16-bit samples in host order); readers of every kind
  * decode the files, the tests check them with libpng. */
 #include "internal.h"
@@ -32,7 +32,7 @@
 /* The fast mode's runs: bytes equal to the one before (runs of equal pixels, distance bytes per
  * pixel, gave files 0.1% larger at the same speed on the wet material's outputs) */
 #define FAST_DIST 1
-/* The fast mode chooses the filter as the default does on every FAST_CHOICE_ROWS-th row and
+/* The fast mode chooses the filter as deflate does on every FAST_CHOICE_ROWS-th row and
  * keeps it for the rows up to the next choice: on the wet material's outputs the files are 0.5%
  * larger than with a choice on every row, and encoding takes a quarter less time. */
 #define FAST_CHOICE_ROWS 32
