@@ -418,6 +418,7 @@ static struct {
     int n;
     char (*paths)[4096];
     bool *kept;
+    bool *copied;     /* streamed: written as a copy of an identical output's file (NULL: none) */
     double ms;        /* from the first key to the last rename; streamed: from the render's end */
     double output_ms; /* streamed: the time of the output calls (hash, encode, flush), summed */
     bool streamed;
@@ -461,7 +462,9 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
         for (int k = 0; k < last_write.n; k++) {
             printf("%s\n    {\"path\": ", k ? "," : "");
             cli_json_string(stdout, last_write.paths[k]);
-            printf(", \"file\": \"%s\"}", last_write.kept[k] ? "kept" : "written");
+            printf(", \"file\": \"%s\"}", last_write.kept[k]                          ? "kept"
+                                          : last_write.copied && last_write.copied[k] ? "copied"
+                                                                                      : "written");
         }
         printf("\n  ],\n  \"write_ms\": %.3f,\n", last_write.ms);
         if (last_write.streamed) printf("  \"output_ms\": %.3f,\n", last_write.output_ms);
@@ -506,17 +509,22 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
             "%.1f MiB given back\n",
             (unsigned long long)m.pool_hits, (unsigned long long)m.pool_misses, m.pool_buffers,
             m.pool_bytes / 1048576.0, m.pool_released / 1048576.0);
-    int n_kept = 0;
-    for (int k = 0; k < last_write.n; k++)
+    int n_kept = 0, n_copied = 0;
+    for (int k = 0; k < last_write.n; k++) {
         if (last_write.kept[k]) {
             fprintf(stderr, "kept %s (it already holds these pixels)\n", last_write.paths[k]);
             n_kept++;
         }
+        n_copied += last_write.copied && last_write.copied[k];
+    }
+    char copies[64] = "";
+    if (n_copied)
+        snprintf(copies, sizeof copies, " (%d a copy of another output's file)", n_copied);
     if (last_write.n && last_write.streamed)
         fprintf(stderr,
-                "outputs: %d written, %d kept, %.1f ms after the render to put them in place; "
+                "outputs: %d written%s, %d kept, %.1f ms after the render to put them in place; "
                 "%.1f ms of hashing, encoding and flushing in all, during the render\n",
-                last_write.n - n_kept, n_kept, last_write.ms, last_write.output_ms);
+                last_write.n - n_kept, copies, n_kept, last_write.ms, last_write.output_ms);
     else if (last_write.n)
         fprintf(stderr, "outputs: %d written, %d kept, %.1f ms\n", last_write.n - n_kept, n_kept,
                 last_write.ms);
@@ -897,8 +905,10 @@ static void last_write_clear(void)
 {
     free(last_write.paths);
     free(last_write.kept);
+    free(last_write.copied);
     last_write.paths = NULL;
     last_write.kept = NULL;
+    last_write.copied = NULL;
     last_write.n = 0;
     last_write.streamed = false;
     last_write.output_ms = 0;
@@ -927,6 +937,12 @@ struct Stream {
     WgWriteSet **sets; /* each output's staged temporary (NULL: none) */
     OutKey *keys, *sources;
     bool *seen, *skip, *wrote;
+    /* Under mu: claimed, its key is final and its file is being staged (or is); staged, the file
+     * is complete, for others to copy. copy_of: 1 + the output whose file this one's is to be a
+     * copy of, once the render is over (it was being staged when this one came); 0 none. */
+    bool *claimed, *staged;
+    int *copy_of;
+    bool *copied;  /* staged as a copy of another output's file, the same image */
     bool *refresh; /* kept (the same image): its keys stored again, with the source key */
     double *ms;
     bool keep_first;      /* keep output 0's image (for the contact sheet) */
@@ -961,6 +977,10 @@ static void stream_free(Stream *s)
     free(s->seen);
     free(s->skip);
     free(s->wrote);
+    free(s->claimed);
+    free(s->staged);
+    free(s->copy_of);
+    free(s->copied);
     free(s->ms);
     free(s);
 }
@@ -985,11 +1005,16 @@ int stream_new(const Options *o, const WgGraph *g, int frame, bool keep_first, S
     s->seen = calloc(n, sizeof *s->seen);
     s->skip = calloc(n, sizeof *s->skip);
     s->wrote = calloc(n, sizeof *s->wrote);
+    s->claimed = calloc(n, sizeof *s->claimed);
+    s->staged = calloc(n, sizeof *s->staged);
+    s->copy_of = calloc(n, sizeof *s->copy_of);
+    s->copied = calloc(n, sizeof *s->copied);
     s->ms = calloc(n, sizeof *s->ms);
     s->held = calloc(n, sizeof *s->held);
     s->names = calloc(n, sizeof *s->names);
-    if (!s->paths || !s->sets || !s->keys || !s->sources || !s->refresh || !s->seen || !s->skip || !s->wrote || !s->ms ||
-        !s->held || !s->names) {
+    if (!s->paths || !s->sets || !s->keys || !s->sources || !s->refresh || !s->seen || !s->skip ||
+        !s->wrote || !s->claimed || !s->staged || !s->copy_of || !s->copied || !s->ms || !s->held ||
+        !s->names) {
         stream_free(s);
         *out = NULL;
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -1020,7 +1045,28 @@ static int stream_folder(Stream *s, WgError *err)
     return rc;
 }
 
-/* The engine's output function: on a worker, concurrently with other outputs and nodes. */
+/* Output i, whose key is final, claims its file unless another output of this render with the
+ * same key (the same pixels, format, colour space and compression: the same file) has: then
+ * that one's index, and whether its file is complete already. */
+static int claim(Stream *s, int i, bool *complete)
+{
+    OutKey key = s->keys[i];
+    int from = -1;
+    pthread_mutex_lock(&s->mu);
+    for (int j = 0; j < s->n && from < 0 && (key.hi || key.lo); j++)
+        if (j != i && s->claimed[j] && s->keys[j].hi == key.hi && s->keys[j].lo == key.lo) from = j;
+    if (from < 0)
+        s->claimed[i] = true;
+    else
+        *complete = s->staged[from];
+    pthread_mutex_unlock(&s->mu);
+    return from;
+}
+
+/* The engine's output function: on a worker, concurrently with other outputs and nodes. An
+ * output the same as another of this render (two outputs of one node, or of nodes that made the
+ * same pixels) is staged as a copy of that one's file instead of being encoded again: at once
+ * when that file is complete, else after the render (stream_finish), so that no worker waits. */
 int stream_output(void *user, const WgOutputInfo *out, WgError *err)
 {
     Stream *s = user;
@@ -1047,12 +1093,25 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
     s->sources[i] = source_key(out, f, png);
     if (key_matches(s->paths[i], s->keys[i])) {
         s->skip[i] = s->refresh[i] = true;
-    } else if (!(s->sets[i] = wg_write_set_new())) {
-        rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     } else {
-        rc = wg_write_set_image_png(s->sets[i], s->paths[i], out->image, f, out->colorspace, png,
-                                    err);
-        s->wrote[i] = !rc;
+        bool complete = false;
+        int from = claim(s, i, &complete);
+        if (from >= 0 && !complete) {
+            s->copy_of[i] = from + 1;
+        } else if (!(s->sets[i] = wg_write_set_new())) {
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        } else {
+            if (from >= 0)
+                rc = wg_write_set_copy(s->sets[i], s->paths[i], s->sets[from], 0, err);
+            else
+                rc = wg_write_set_image_png(s->sets[i], s->paths[i], out->image, f, out->colorspace,
+                                            png, err);
+            s->wrote[i] = !rc;
+            s->copied[i] = !rc && from >= 0;
+            pthread_mutex_lock(&s->mu);
+            s->staged[i] = !rc && from < 0;
+            pthread_mutex_unlock(&s->mu);
+        }
     }
     s->ms[i] = now_ms() - t0;
     return rc;
@@ -1099,6 +1158,15 @@ int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err)
     if (!rc && (!(set = wg_write_set_new()) ||
                 !(gltf_paths = calloc((size_t)wg_graph_gltf_count(s->g) + 1, sizeof *gltf_paths))))
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (int i = 0; !rc && i < s->n; i++) { /* the copies that waited for their file */
+        if (!s->copy_of[i]) continue;
+        int from = s->copy_of[i] - 1;
+        if (!(s->sets[i] = wg_write_set_new()))
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        else
+            rc = wg_write_set_copy(s->sets[i], s->paths[i], s->sets[from], 0, err);
+        s->wrote[i] = s->copied[i] = !rc;
+    }
     for (int i = 0; !rc && i < s->n; i++)
         if (s->sets[i]) rc = wg_write_set_move(set, s->sets[i], err);
     if (!rc)
@@ -1123,10 +1191,12 @@ int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err)
         last_write.n = n;
         last_write.paths = s->paths;
         last_write.kept = s->skip;
+        last_write.copied = s->copied;
         last_write.streamed = true;
         for (int i = 0; i < n; i++) last_write.output_ms += s->ms[i];
         s->paths = NULL;
         s->skip = NULL;
+        s->copied = NULL;
     }
     last_write.ms = now_ms() - t0;
     for (int i = 0; rc && i < s->n; i++) { /* the temporaries first, then the folder */

@@ -1160,6 +1160,55 @@ int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t
     return stage_end(s, rc, err);
 }
 
+int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, int k, WgError *err)
+{
+    if (k < 0 || k >= from->count)
+        return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0, "no staged file %d to copy", k);
+    char *tmp = NULL;
+    int rc = stage_begin(s, path, &tmp, err);
+    if (rc) return rc;
+    int in = open(from->files[k].temp, O_RDONLY | O_CLOEXEC);
+    int out = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+    bool ok = in >= 0 && out >= 0;
+    /* in the kernel, without passing the bytes through this process (a file system that cannot
+     * copies them with read and write) */
+    for (ssize_t n = 1; ok && n > 0;) {
+        n = copy_file_range(in, NULL, out, NULL, (size_t)1 << 30, 0);
+        if (n < 0 && errno == EINTR)
+            n = 1;
+        else if (n < 0 &&
+                 (errno == EXDEV || errno == ENOSYS || errno == EOPNOTSUPP || errno == EINVAL)) {
+            char buf[1 << 16];
+            for (ssize_t r = 1; ok && r > 0;) {
+                r = read(in, buf, sizeof buf);
+                if (r < 0 && errno == EINTR)
+                    r = 1;
+                else if (r < 0)
+                    ok = false;
+                for (ssize_t done = 0; ok && r > 0 && done < r;) {
+                    ssize_t w = write(out, buf + done, (size_t)(r - done));
+                    if (w < 0 && errno == EINTR) continue;
+                    if (w <= 0)
+                        ok = false;
+                    else
+                        done += w;
+                }
+            }
+            n = 0;
+        } else if (n < 0)
+            ok = false;
+    }
+    int e = errno;
+    if (in >= 0) close(in);
+    if (out >= 0 && close(out) != 0) ok = false, e = errno;
+    if (!ok) {
+        const char *cause = wg__write_cause(e);
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the file: %s",
+                             cause ? cause : strerror(e));
+    }
+    return stage_end(s, rc, err);
+}
+
 int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                            WgColorspace cs, WgPngCompression png, WgError *err)
 {

@@ -852,6 +852,74 @@ static void test_png_compression_from_graph_and_command_line(void **state)
     for (int d = 0; d < 4; d++) rm_rf(at(dirs[d]));
 }
 
+/* ---- identical outputs ---------------------------------------------------------------------- */
+
+/* Two outputs of one node, a third of another node that makes the same pixels (the same
+ * expression), a fourth of the first node in another format. */
+static const char *const graph_twins =
+    "<wetgraph version=\"1\" size=\"96x64\" seed=\"2\">\n"
+    "  <node id=\"n\" type=\"pixel\" expr=\"u * v + 0.25 * sin(40 * u)\"/>\n"
+    "  <node id=\"m\" type=\"pixel\" expr=\"u * v + 0.25 * sin(40 * u)\"/>\n"
+    "  <output name=\"a\" from=\"n\" format=\"png16\"/>\n"
+    "  <output name=\"b\" from=\"n\" format=\"png16\"/>\n"
+    "  <output name=\"c\" from=\"m\" format=\"png16\"/>\n"
+    "  <output name=\"d\" from=\"n\" format=\"png\"/>\n"
+    "</wetgraph>\n";
+
+/* An output whose file would be the same as another's of the same render is staged as a copy of
+ * that file: the four files are what a render of each alone writes (the same bytes), --stats=json
+ * lists one of a, b, c as written and the two others as copied, and d (8-bit: another file) as
+ * written. With 1 and 2 threads. */
+static void test_identical_outputs_are_copied(void **state)
+{
+    (void)state;
+    wgt_write_file(at("tw.wetgraph"), graph_twins);
+    static const char *const names[] = {"a", "b", "c", "d"};
+    for (int k = 0; k < 4; k++) { /* each output alone: its own file */
+        char dir[32];
+        snprintf(dir, sizeof dir, "tw_%s", names[k]);
+        rm_rf(at(dir));
+        Run r = run("render", "tw.wetgraph", "-o", dir, "-q", "--output", names[k], NULL);
+        expect(&r, 0, "one output");
+        run_free(&r);
+    }
+    for (int threads = 1; threads <= 2; threads++) {
+        rm_rf(at("tw"));
+        Run r = run("render", "tw.wetgraph", "-o", "tw", "--threads", threads == 1 ? "1" : "2",
+                    "--stats=json", NULL);
+        expect(&r, 0, "the four outputs");
+        int copied = 0, written = 0;
+        for (const char *p = r.out; (p = strstr(p, "\"file\": \"")); p++) {
+            p += strlen("\"file\": \"");
+            copied += !strncmp(p, "copied\"", 7);
+            written += !strncmp(p, "written\"", 8);
+        }
+        if (copied != 2 || written != 2)
+            fail_msg("%d threads: %d copied, %d written (expected 2 and 2):\n%s", threads, copied,
+                     written, r.out);
+        if (!strstr(r.out, "\"path\": \"tw/tw_d.png\", \"file\": \"written\""))
+            fail_msg("the 8-bit output was not written: %s", r.out);
+        run_free(&r);
+        for (int k = 0; k < 4; k++) {
+            char dir[32], file[32];
+            snprintf(dir, sizeof dir, "tw_%s", names[k]);
+            snprintf(file, sizeof file, "tw_%s.png", names[k]);
+            expect_same_file(in("tw", file), in(dir, file));
+        }
+    }
+    /* a second render keeps all four */
+    Run r = run("render", "tw.wetgraph", "-o", "tw", NULL);
+    expect(&r, 0, "again");
+    assert_string_equal(r.out, "");
+    run_free(&r);
+    rm_rf(at("tw"));
+    for (int k = 0; k < 4; k++) {
+        char dir[32];
+        snprintf(dir, sizeof dir, "tw_%s", names[k]);
+        rm_rf(at(dir));
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -863,6 +931,7 @@ int main(void)
         cmocka_unit_test(test_streamed_outputs_are_the_files_written_after_the_render),
         cmocka_unit_test(test_failing_output_mid_render_replaces_nothing),
         cmocka_unit_test(test_png_compression_from_graph_and_command_line),
+        cmocka_unit_test(test_identical_outputs_are_copied),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }

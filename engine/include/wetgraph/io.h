@@ -125,6 +125,9 @@ int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const ch
  * memory both sets are left as they were. */
 int wg_write_set_move(WgWriteSet *into, WgWriteSet *from, WgError *err);
 /* Rename everything into place; the set is empty afterwards, whatever the outcome. */
+/* Stage the file `path` with the bytes of the k-th file staged in `from` (0 the first): an
+ * image the same as one already staged is copied instead of encoded again. */
+int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, int k, WgError *err);
 /* Stage `size` bytes of `data` as the file `path`. */
 int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size,
                        WgError *err);
