@@ -10,16 +10,16 @@
 // again by parallax). The shader is GLSL 3.30; WebGL2 takes GLSL ES 3.00, so the page changes
 // only what the language needs (web/glsl.js: the version line, the uniforms' initial values),
 // and main, renamed, called by a main that adds what the preview node does after the shader:
-// Narkowicz's ACES fit and sRGB encoding. Directions off the tile show the environment (the
-// prefiltered level of roughness 0, as the preview node's background).
+// Narkowicz's ACES fit and sRGB encoding. Directions off the tile show the environment (the prefiltered
+// level of roughness 0, as the preview node's background).
 //
 // Lighting: the environment's env_prefilter atlas (/env/K, half floats, made once per
 // environment by the server and kept for the session; the page keeps each one it loaded) split
 // as the shader wants it: blocks 0-5 as one mip chain (level l = block l; see loadEnv), block 6
-// the irradiance, block 7's left square the split-sum table. Maps (/map/NAME, half floats at the
-// previews' size) are the render's outputs, loaded again when a render made them anew; the material
-// is bound as graphs/wet_preview.wetgraph gives it to its `preview` nodes: the wet side reads the
-// layer maps under the liquid (underbasecolor, underroughness, underheight, undermetallic,
+// the irradiance, block 7's left square the split-sum table. Maps (/map/NAME, half floats at the previews' size) are the render's
+// outputs, loaded again when a render made them anew; the material is bound as
+// graphs/wet_preview.wetgraph gives it to its `preview` nodes: the wet side reads the layer
+// maps under the liquid (underbasecolor, underroughness, underheight, undermetallic,
 // underspecular; each falling back to the output without under, then to a neutral value),
 // the normal as wet_preview's blend (undernormal where the liquid stands, mixed by
 // watermask, over normal) and the liquid's own maps (waterheight, waternormal,
@@ -88,7 +88,7 @@ const view3d = (function () {
   // full resolution), from MIN_SCALE to 1.
   const SETTLE_MS = 250, MIN_SCALE = 0.25;
   const frameMs = args.get('frame_ms') !== null ? Math.max(0, +args.get('frame_ms') || 0) : 50;
-  const motion = {moving : false, timer : 0, scale : 1, fence : null, target : {}};
+  const motion = { moving: false, timer: 0, scale: 1, fence: null, target: {} };
 
   function setState(s, err) {
     fig.dataset.state = s;
@@ -259,21 +259,14 @@ void main()
   const meshes = {};
   // coarse: the grid with GRID_CELLS / 4 cells a tile, drawn while the view moves (its vertices,
   // each reading the maps, are most of its cost on a software renderer)
-  function shapeMesh(shape, span, coarse)
-  {
-      const cells = coarse ? GRID_CELLS / 4 : GRID_CELLS;
-      const key = shape + span + (shape === 'grid' ? '/' + cells : '');
-      if (!meshes[key])
-          meshes[key] =
-              shape === 'sphere' ? mesh(128, 64, 1, 1)
-              : shape === 'grid'
-                  ? mesh(cells * span, cells * span, span, span)
-                  : {
-                        vao : quad([ 0, 0, span, 0, span, span, 0, 0, span, span, 0, span ]),
-                        count : 6,
-                        flat : true
-                    };
-      return meshes[key];
+  function shapeMesh(shape, span, coarse) {
+    const cells = coarse ? GRID_CELLS / 4 : GRID_CELLS;
+    const key = shape + span + (shape === 'grid' ? '/' + cells : '');
+    if (!meshes[key])
+      meshes[key] = shape === 'sphere' ? mesh(128, 64, 1, 1) :
+        shape === 'grid' ? mesh(cells * span, cells * span, span, span) :
+          { vao: quad([0, 0, span, 0, span, span, 0, 0, span, span, 0, span]), count: 6, flat: true };
+    return meshes[key];
   }
 
   // the shape's program, linked the first time it is drawn: the plane's is the shipped shader as
@@ -522,59 +515,54 @@ void main()
     const sp = gl.getUniformLocation(prog, 'specular_from_map');
     if (sp) gl.uniform1i(sp, side === 'wet' ? tex.wetSpecularMap : tex.drySpecularMap);
   }
-  function drawTo(w, h, fbo, moving)
-  {
-      const e = envs[opt.env];
-      gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
-      gl.viewport(0, 0, w, h);
-      gl.disable(gl.SCISSOR_TEST);
-      gl.clearColor(0.07, 0.07, 0.08, 0);
-      gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-      const c = camera(w / h);
-      gl.useProgram(bgProg);
-      setCamera(bgProg, c);
-      gl.activeTexture(gl.TEXTURE0);
-      gl.bindTexture(gl.TEXTURE_2D, e.prefiltered);
-      gl.uniform1i(gl.getUniformLocation(bgProg, 'prefiltered'), 0);
-      gl.bindVertexArray(bgVao);
-      gl.drawArrays(gl.TRIANGLES, 0, 3);
-      prog = shapeProgram(opt.shape);
-      gl.useProgram(prog);
-      setCamera(prog, c);
-      gl.uniform3fv(gl.getUniformLocation(prog, 'cam'), c.cam);
-      gl.uniform1i(gl.getUniformLocation(prog, 'view_tonemap'), 1);
-      const lq = liquid();
-      if (lq.heightScale !== null)
-          gl.uniform1f(gl.getUniformLocation(prog, 'height_scale'), lq.heightScale);
-      if (lq.absorption !== null)
-          gl.uniform1f(gl.getUniformLocation(prog, 'absorption_depth'), lq.absorption);
-      gl.uniform3fv(gl.getUniformLocation(prog, 'water_tint'), lq.tint);
-      gl.uniform1f(gl.getUniformLocation(prog, 'water_ior'), lq.ior);
-      const m = shapeMesh(opt.shape, opt.tiling, moving);
-      if (!m.flat) {
-          gl.uniform2fv(gl.getUniformLocation(prog, 'depth_ab'), DEPTH_AB);
-          gl.enable(gl.DEPTH_TEST);
-      }
-      if (opt.shape === 'sphere') {
-          gl.uniform1f(gl.getUniformLocation(prog, 'radius'), SPHERE_R);
-          gl.uniform2f(gl.getUniformLocation(prog, 'repeat'), 2 * opt.tiling, opt.tiling);
-      }
-      gl.bindVertexArray(m.vao);
-      // the dry material left of the split line, the wet one right of it
-      const cut = Math.round(opt.split * w);
-      gl.enable(gl.SCISSOR_TEST);
-      for (const [side, x0, x1] of [[ 'dry', 0, cut ], [ 'wet', cut, w ]]) {
-          if (x1 <= x0) continue;
-          gl.scissor(x0, 0, x1 - x0, h);
-          bindSide(side, e);
-          if (m.flat)
-              gl.drawArrays(gl.TRIANGLES, 0, 6);
-          else
-              gl.drawElements(gl.TRIANGLES, m.count, gl.UNSIGNED_INT, 0);
-      }
-      gl.disable(gl.SCISSOR_TEST);
-      gl.disable(gl.DEPTH_TEST);
-      gl.bindVertexArray(null);
+  function drawTo(w, h, fbo, moving) {
+    const e = envs[opt.env];
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
+    gl.viewport(0, 0, w, h);
+    gl.disable(gl.SCISSOR_TEST);
+    gl.clearColor(0.07, 0.07, 0.08, 0);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    const c = camera(w / h);
+    gl.useProgram(bgProg);
+    setCamera(bgProg, c);
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D, e.prefiltered);
+    gl.uniform1i(gl.getUniformLocation(bgProg, 'prefiltered'), 0);
+    gl.bindVertexArray(bgVao);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    prog = shapeProgram(opt.shape);
+    gl.useProgram(prog);
+    setCamera(prog, c);
+    gl.uniform3fv(gl.getUniformLocation(prog, 'cam'), c.cam);
+    gl.uniform1i(gl.getUniformLocation(prog, 'view_tonemap'), 1);
+    const lq = liquid();
+    if (lq.heightScale !== null) gl.uniform1f(gl.getUniformLocation(prog, 'height_scale'), lq.heightScale);
+    if (lq.absorption !== null) gl.uniform1f(gl.getUniformLocation(prog, 'absorption_depth'), lq.absorption);
+    gl.uniform3fv(gl.getUniformLocation(prog, 'water_tint'), lq.tint);
+    gl.uniform1f(gl.getUniformLocation(prog, 'water_ior'), lq.ior);
+    const m = shapeMesh(opt.shape, opt.tiling, moving);
+    if (!m.flat) {
+      gl.uniform2fv(gl.getUniformLocation(prog, 'depth_ab'), DEPTH_AB);
+      gl.enable(gl.DEPTH_TEST);
+    }
+    if (opt.shape === 'sphere') {
+      gl.uniform1f(gl.getUniformLocation(prog, 'radius'), SPHERE_R);
+      gl.uniform2f(gl.getUniformLocation(prog, 'repeat'), 2 * opt.tiling, opt.tiling);
+    }
+    gl.bindVertexArray(m.vao);
+    // the dry material left of the split line, the wet one right of it
+    const cut = Math.round(opt.split * w);
+    gl.enable(gl.SCISSOR_TEST);
+    for (const [side, x0, x1] of [['dry', 0, cut], ['wet', cut, w]]) {
+      if (x1 <= x0) continue;
+      gl.scissor(x0, 0, x1 - x0, h);
+      bindSide(side, e);
+      if (m.flat) gl.drawArrays(gl.TRIANGLES, 0, 6);
+      else gl.drawElements(gl.TRIANGLES, m.count, gl.UNSIGNED_INT, 0);
+    }
+    gl.disable(gl.SCISSOR_TEST);
+    gl.disable(gl.DEPTH_TEST);
+    gl.bindVertexArray(null);
   }
 
   function probe() {
@@ -590,70 +578,56 @@ void main()
   }
 
   // A view that moves: drawn at motion.scale until SETTLE_MS pass without another move.
-  function moved()
-  {
-      motion.moving = true;
-      clearTimeout(motion.timer);
-      motion.timer = setTimeout(() => {
-          motion.moving = false;
-          redraw();
-      }, SETTLE_MS);
-      redraw();
+  function moved() {
+    motion.moving = true;
+    clearTimeout(motion.timer);
+    motion.timer = setTimeout(() => { motion.moving = false; redraw(); }, SETTLE_MS);
+    redraw();
   }
   // The picture at scale s of w x h into motion.target's framebuffer (the moving view's: the
   // grid coarse), then stretched onto the canvas (linear filtering).
-  function drawScaled(w, h, s)
-  {
-      const t = motion.target, lw = Math.max(1, Math.round(w * s)),
-            lh = Math.max(1, Math.round(h * s));
-      if (!t.fbo || t.w !== lw || t.h !== lh) {
-          if (t.fbo) {
-              gl.deleteFramebuffer(t.fbo);
-              gl.deleteTexture(t.tex);
-              gl.deleteRenderbuffer(t.depth);
-          }
-          t.fbo = gl.createFramebuffer();
-          t.tex = gl.createTexture();
-          gl.bindTexture(gl.TEXTURE_2D, t.tex);
-          gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, lw, lh, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
-          gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
-          gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t.tex, 0);
-          t.depth = gl.createRenderbuffer();
-          gl.bindRenderbuffer(gl.RENDERBUFFER, t.depth);
-          gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, lw, lh);
-          gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, t.depth);
-          Object.assign(t, {w : lw, h : lh});
-      }
-      drawTo(lw, lh, t.fbo, true);
-      gl.bindFramebuffer(gl.READ_FRAMEBUFFER, t.fbo);
-      gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, null);
-      gl.blitFramebuffer(0, 0, lw, lh, 0, 0, w, h, gl.COLOR_BUFFER_BIT, gl.LINEAR);
-      gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  function drawScaled(w, h, s) {
+    const t = motion.target, lw = Math.max(1, Math.round(w * s)), lh = Math.max(1, Math.round(h * s));
+    if (!t.fbo || t.w !== lw || t.h !== lh) {
+      if (t.fbo) { gl.deleteFramebuffer(t.fbo); gl.deleteTexture(t.tex); gl.deleteRenderbuffer(t.depth); }
+      t.fbo = gl.createFramebuffer();
+      t.tex = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, t.tex);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, lw, lh, 0, gl.RGBA, gl.UNSIGNED_BYTE, null);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t.tex, 0);
+      t.depth = gl.createRenderbuffer();
+      gl.bindRenderbuffer(gl.RENDERBUFFER, t.depth);
+      gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, lw, lh);
+      gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, t.depth);
+      Object.assign(t, { w: lw, h: lh });
+    }
+    drawTo(lw, lh, t.fbo, true);
+    gl.bindFramebuffer(gl.READ_FRAMEBUFFER, t.fbo);
+    gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, null);
+    gl.blitFramebuffer(0, 0, lw, lh, 0, 0, w, h, gl.COLOR_BUFFER_BIT, gl.LINEAR);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
   }
   // What the picture just drawn at scale s costs: a fence polled until the renderer signals it
   // (one at a time); the next moving frames' scale follows from it.
-  function timeFrame(s)
-  {
-      if (motion.fence || !frameMs) return;
-      const f = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
-      if (!f) return;
-      gl.flush();
-      motion.fence = f;
-      const t0 = performance.now();
-      const poll = () => {
-          if (!gl || gl.getSyncParameter(f, gl.SYNC_STATUS) !== gl.SIGNALED) {
-              setTimeout(poll, 2);
-              return;
-          }
-          const ms = performance.now() - t0;
-          gl.deleteSync(f);
-          motion.fence = null;
-          const want = s * Math.sqrt(frameMs / Math.max(ms, 1e-3));
-          // at most 1.5x up or 3x down a step, so that one odd frame does not swing it
-          motion.scale = Math.min(1, Math.max(MIN_SCALE, Math.min(1.5 * s, Math.max(s / 3, want))));
-          fig.dataset.frameMs = ms.toFixed(1);
-      };
-      setTimeout(poll, 0);
+  function timeFrame(s) {
+    if (motion.fence || !frameMs) return;
+    const f = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+    if (!f) return;
+    gl.flush();
+    motion.fence = f;
+    const t0 = performance.now();
+    const poll = () => {
+      if (!gl || gl.getSyncParameter(f, gl.SYNC_STATUS) !== gl.SIGNALED) { setTimeout(poll, 2); return; }
+      const ms = performance.now() - t0;
+      gl.deleteSync(f);
+      motion.fence = null;
+      const want = s * Math.sqrt(frameMs / Math.max(ms, 1e-3));
+      // at most 1.5x up or 3x down a step, so that one odd frame does not swing it
+      motion.scale = Math.min(1, Math.max(MIN_SCALE, Math.min(1.5 * s, Math.max(s / 3, want))));
+      fig.dataset.frameMs = ms.toFixed(1);
+    };
+    setTimeout(poll, 0);
   }
 
   function draw() {
@@ -664,13 +638,11 @@ void main()
     if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
     const s = motion.moving && frameMs ? motion.scale : 1;
     try {
-        if (s < 1)
-            drawScaled(w, h, s);
-        else
-            drawTo(w, h, null);
-        timeFrame(s);
-        fig.dataset.scale = +s.toFixed(3);
-        if (probeN) probe();
+      if (s < 1) drawScaled(w, h, s);
+      else drawTo(w, h, null);
+      timeFrame(s);
+      fig.dataset.scale = +s.toFixed(3);
+      if (probeN) probe();
     } catch (e) { // a shape's program that does not link
       setState('error', String(e.message || e));
       drawFailed = true;

@@ -5,8 +5,8 @@
 // by NUL), so no port is opened and nothing but chromium and Node.js is needed. The page is
 // opened at URL; STEPS is a file of steps separated by lines "----", each the body of an async
 // function run in the page (it can use until(fn, what[, limitMs]): wait until fn() is true, up to
-// 60 s of real time or limitMs). Each step's value is printed as one line of JSON; a step that
-// throws prints "error: ..." and ends the run with status 1. Chromium uses SwiftShader for WebGL2.
+// 60 s of real time or limitMs). Each step's value is printed as one line of JSON; a step that throws prints
+// "error: ..." and ends the run with status 1. Chromium uses SwiftShader for WebGL2.
 'use strict';
 const { spawn } = require('child_process');
 const fs = require('fs');
