@@ -1203,7 +1203,8 @@ int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, i
     if (out >= 0 && close(out) != 0) ok = false, e = errno;
     if (!ok) {
         const char *cause = wg__write_cause(e);
-        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the file: %s",
+        /* worded as an encoder's failure: the file is an image's, written another way */
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s",
                              cause ? cause : strerror(e));
     }
     return stage_end(s, rc, err);
