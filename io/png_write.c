@@ -65,61 +65,15 @@ static uint32_t cost(const unsigned char *d, size_t n)
     return sum;
 }
 
-/* Filter the row `cur` (n bytes, bpp per pixel; `prev` is the row above, zeros for the first)
- * into out[0..n] with the filter type first; `tries` holds 4 rows of n bytes. One loop per
- * filter type without branches, so that the compiler vectorises every one of them: Paeth's
- * predictor reads only unfiltered bytes, and its choice (a on ties with b or c, then b on a tie
- * with c) is two selects. */
-HOT static void filter_row(const unsigned char *cur, const unsigned char *prev, size_t n, int bpp,
-                           unsigned char *out, unsigned char *tries)
+/* The row `cur` (n bytes, bpp per pixel; `prev` is the row above, zeros for the first) through
+ * filter `type` (1 to 4) into o[0..n). One loop per filter type without branches, so that the
+ * compiler vectorises every one of them: Paeth's predictor reads only unfiltered bytes, and its
+ * choice (a on ties with b or c, then b on a tie with c) is two selects. */
+HOT static void filter_as(const unsigned char *cur, const unsigned char *prev, size_t n, int bpp,
+                          int type, unsigned char *o)
 {
     size_t k = (size_t)bpp < n ? (size_t)bpp : n;
-    unsigned char *sub = tries, *up = tries + n, *avg = tries + 2 * n, *pae = tries + 3 * n;
-    for (size_t i = 0; i < k; i++) {
-        sub[i] = cur[i];
-        avg[i] = (unsigned char)(cur[i] - (prev[i] >> 1));
-        pae[i] = (unsigned char)(cur[i] - prev[i]);
-    }
-    for (size_t i = k; i < n; i++) sub[i] = (unsigned char)(cur[i] - cur[i - k]);
-    for (size_t i = 0; i < n; i++) up[i] = (unsigned char)(cur[i] - prev[i]);
-    for (size_t i = k; i < n; i++) avg[i] = (unsigned char)(cur[i] - ((cur[i - k] + prev[i]) >> 1));
-    for (size_t i = k; i < n; i++) {
-        int a = cur[i - k], b = prev[i], c = prev[i - k];
-        /* |p - a|, |p - b| and |p - c| for p = a + b - c */
-        int pa = b - c, pb = a - c, pc = a + b - 2 * c;
-        pa = pa < 0 ? -pa : pa;
-        pb = pb < 0 ? -pb : pb;
-        pc = pc < 0 ? -pc : pc;
-        int pred = pb <= pc ? b : c;
-        pred = (pa <= pb) & (pa <= pc) ? a : pred;
-        pae[i] = (unsigned char)(cur[i] - pred);
-    }
-    const unsigned char *best = cur;
-    uint32_t best_sum = cost(cur, n);
-    int type = 0;
-    for (int t = 1; t < 5; t++) {
-        uint32_t sum = cost(tries + (size_t)(t - 1) * n, n);
-        if (sum < best_sum) {
-            best_sum = sum;
-            best = tries + (size_t)(t - 1) * n;
-            type = t;
-        }
-    }
-    out[0] = (unsigned char)type;
-    memcpy(out + 1, best, n);
-}
-
-/* Filter the row with the given filter type only (the fast mode's rows between choices). */
-HOT static void filter_row_as(const unsigned char *cur, const unsigned char *prev, size_t n,
-                              int bpp, int type, unsigned char *out)
-{
-    size_t k = (size_t)bpp < n ? (size_t)bpp : n;
-    unsigned char *o = out + 1;
-    out[0] = (unsigned char)type;
     switch (type) {
-    case 0:
-        memcpy(o, cur, n);
-        break;
     case 1:
         for (size_t i = 0; i < k; i++) o[i] = cur[i];
         for (size_t i = k; i < n; i++) o[i] = (unsigned char)(cur[i] - cur[i - k]);
@@ -134,8 +88,9 @@ HOT static void filter_row_as(const unsigned char *cur, const unsigned char *pre
         break;
     default:
         for (size_t i = 0; i < k; i++) o[i] = (unsigned char)(cur[i] - prev[i]);
-        for (size_t i = k; i < n; i++) { /* as in filter_row */
+        for (size_t i = k; i < n; i++) {
             int a = cur[i - k], b = prev[i], c = prev[i - k];
+            /* |p - a|, |p - b| and |p - c| for p = a + b - c */
             int pa = b - c, pb = a - c, pc = a + b - 2 * c;
             pa = pa < 0 ? -pa : pa;
             pb = pb < 0 ? -pb : pb;
@@ -145,6 +100,37 @@ HOT static void filter_row_as(const unsigned char *cur, const unsigned char *pre
             o[i] = (unsigned char)(cur[i] - pred);
         }
     }
+}
+
+/* The row filtered into out[0..n] with the filter type first: `type` (the fast mode's rows
+ * between choices), or with -1 the type of the five whose output costs least; `tries` holds 4
+ * rows of n bytes. */
+static void filter_row(const unsigned char *cur, const unsigned char *prev, size_t n, int bpp,
+                       int type, unsigned char *out, unsigned char *tries)
+{
+    if (type >= 0) {
+        out[0] = (unsigned char)type;
+        if (type == 0)
+            memcpy(out + 1, cur, n);
+        else
+            filter_as(cur, prev, n, bpp, type, out + 1);
+        return;
+    }
+    const unsigned char *best = cur;
+    uint32_t best_sum = cost(cur, n);
+    type = 0;
+    for (int t = 1; t < 5; t++) {
+        unsigned char *try = tries + (size_t)(t - 1) * n;
+        filter_as(cur, prev, n, bpp, t, try);
+        uint32_t sum = cost(try, n);
+        if (sum < best_sum) {
+            best_sum = sum;
+            best = try;
+            type = t;
+        }
+    }
+    out[0] = (unsigned char)type;
+    memcpy(out + 1, best, n);
 }
 
 static int write_all(int fd, const unsigned char *p, size_t n)
@@ -192,15 +178,13 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
             }
         }
         unsigned char *f = filtered + (row + 1) * (size_t)y;
-        if (mode == WG_PNG_COMPRESSION_NONE) { /* filter type 0: the bytes as they are */
-            f[0] = 0;
-            memcpy(f + 1, cur, row);
-        } else if (mode == WG_PNG_COMPRESSION_FAST && y % FAST_CHOICE_ROWS) {
-            filter_row_as(cur, prev, row, bpp, type, f);
-        } else {
-            filter_row(cur, prev, row, bpp, f, scratch);
-            type = f[0];
-        }
+        /* none: filter type 0, the bytes as they are; fast: the type chosen on the last choice row
+         */
+        int given = mode == WG_PNG_COMPRESSION_NONE                           ? 0
+                    : mode == WG_PNG_COMPRESSION_FAST && y % FAST_CHOICE_ROWS ? type
+                                                                              : -1;
+        filter_row(cur, prev, row, bpp, given, f, scratch);
+        type = f[0];
         unsigned char *t = prev;
         prev = cur;
         cur = t;
