@@ -1137,27 +1137,62 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
     return rc;
 }
 
+int wg__write_all(int fd, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    while (n) {
+        ssize_t k = write(fd, p, n);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) {
+            if (k == 0) errno = EIO;
+            return -1;
+        }
+        p += k;
+        n -= (size_t)k;
+    }
+    return 0;
+}
+
+/* The rest of file `in` appended to file `out`: in the kernel, without passing the bytes through
+ * this process, or with read and write where the file system cannot. -1 with errno on failure. */
+static int copy_fd(int in, int out)
+{
+    for (;;) {
+        ssize_t n = copy_file_range(in, NULL, out, NULL, (size_t)1 << 30, 0);
+        if (n == 0) return 0;
+        if (n > 0 || errno == EINTR) continue;
+        if (errno != EXDEV && errno != ENOSYS && errno != EOPNOTSUPP && errno != EINVAL) return -1;
+        break;
+    }
+    char buf[1 << 16];
+    for (;;) {
+        ssize_t r = read(in, buf, sizeof buf);
+        if (r == 0) return 0;
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0 || wg__write_all(out, buf, (size_t)r)) return -1;
+    }
+}
+
+/* The staged temporary written by fill (rc: 0 or -1 with errno) and closed, or the error, worded
+ * `what`, naming path. */
+static int stage_fd_done(int fd, int fill, const char *path, const char *what, WgError *err)
+{
+    int rc = fd < 0 ? -1 : fill, e = errno;
+    if (fd >= 0 && close(fd) != 0 && !rc) rc = -1, e = errno;
+    if (!rc) return WG_OK;
+    const char *cause = wg__write_cause(e);
+    return wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the %s: %s", what,
+                           cause ? cause : strerror(e));
+}
+
 int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size, WgError *err)
 {
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
-    const unsigned char *p = data;
-    size_t left = size;
-    while (fd >= 0 && left > 0) {
-        ssize_t k = write(fd, p, left);
-        if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) break;
-        p += k, left -= (size_t)k;
-    }
-    if (fd < 0 || left > 0 || close(fd) != 0) {
-        const char *cause = wg__write_cause(errno);
-        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the file: %s",
-                             cause ? cause : strerror(errno));
-        if (fd >= 0 && left > 0) close(fd);
-    }
-    return stage_end(s, rc, err);
+    int fill = fd >= 0 ? wg__write_all(fd, data, size) : -1;
+    return stage_end(s, stage_fd_done(fd, fill, path, "file", err), err);
 }
 
 int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, int k, WgError *err)
@@ -1168,45 +1203,12 @@ int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, i
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
     int in = open(from->files[k].temp, O_RDONLY | O_CLOEXEC);
-    int out = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
-    bool ok = in >= 0 && out >= 0;
-    /* in the kernel, without passing the bytes through this process (a file system that cannot
-     * copies them with read and write) */
-    for (ssize_t n = 1; ok && n > 0;) {
-        n = copy_file_range(in, NULL, out, NULL, (size_t)1 << 30, 0);
-        if (n < 0 && errno == EINTR)
-            n = 1;
-        else if (n < 0 &&
-                 (errno == EXDEV || errno == ENOSYS || errno == EOPNOTSUPP || errno == EINVAL)) {
-            char buf[1 << 16];
-            for (ssize_t r = 1; ok && r > 0;) {
-                r = read(in, buf, sizeof buf);
-                if (r < 0 && errno == EINTR)
-                    r = 1;
-                else if (r < 0)
-                    ok = false;
-                for (ssize_t done = 0; ok && r > 0 && done < r;) {
-                    ssize_t w = write(out, buf + done, (size_t)(r - done));
-                    if (w < 0 && errno == EINTR) continue;
-                    if (w <= 0)
-                        ok = false;
-                    else
-                        done += w;
-                }
-            }
-            n = 0;
-        } else if (n < 0)
-            ok = false;
-    }
-    int e = errno;
+    int out = in < 0 ? -1 : open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+    int fill = out >= 0 ? copy_fd(in, out) : -1, e = errno;
     if (in >= 0) close(in);
-    if (out >= 0 && close(out) != 0) ok = false, e = errno;
-    if (!ok) {
-        const char *cause = wg__write_cause(e);
-        /* worded as an encoder's failure: the file is an image's, written another way */
-        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the image: %s",
-                             cause ? cause : strerror(e));
-    }
+    errno = e;
+    /* worded as an encoder's failure: the file is an image's, written another way */
+    rc = stage_fd_done(out, fill, path, "image", err);
     return stage_end(s, rc, err);
 }
 

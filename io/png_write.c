@@ -133,21 +133,6 @@ static void filter_row(const unsigned char *cur, const unsigned char *prev, size
     memcpy(out + 1, best, n);
 }
 
-static int write_all(int fd, const unsigned char *p, size_t n)
-{
-    while (n) {
-        ssize_t k = write(fd, p, n);
-        if (k < 0 && errno == EINTR) continue;
-        if (k <= 0) {
-            if (k == 0) errno = EIO;
-            return -1;
-        }
-        p += k;
-        n -= (size_t)k;
-    }
-    return 0;
-}
-
 int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, WgPngPack pack,
                         void *user, unsigned char **out, size_t *out_size, char *msg,
                         size_t msg_size)
@@ -274,7 +259,7 @@ int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCom
         return -1;
     int rc = -1;
     int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
-    if (fd < 0 || write_all(fd, file, total)) {
+    if (fd < 0 || wg__write_all(fd, file, total)) {
         int err = errno;
         snprintf(msg, msg_size, "%s", strerror(err));
         msg[0] = (char)tolower((unsigned char)msg[0]); /* as the other writers' messages */

@@ -72,6 +72,9 @@ int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngComp
  * system refused) on failure. */
 int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
                        WgPngPack pack, void *user, char *msg, size_t msg_size);
+/* Write n bytes to fd, again after short writes and EINTR; -1 with errno (EIO for a write of
+ * nothing) on failure. */
+int wg__write_all(int fd, const void *data, size_t n);
 /* The zlib encoders of deflate_fast.c. wg__zlib_fast: in[0..n) Huffman-coded in one dynamic
  * block, runs of bytes equal to the byte `dist` (1..8) before as matches, or stored when that
  * is not smaller; wg__zlib_stored: stored blocks. Both write at most wg__zlib_fast_bound(n)

@@ -810,6 +810,42 @@ static int temps_in(const char *dir, char names[][256], int max)
     return k;
 }
 
+/* A staged file copied into another set: the copy is staged beside its own target, holds the
+ * same bytes once committed, and the source stays staged; a file the set does not have is an
+ * error that stages nothing. */
+static void test_write_set_copy(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("setcopy");
+    char a[1100], b[1100], c[1100];
+    snprintf(a, sizeof a, "%s/a.bin", dir);
+    snprintf(b, sizeof b, "%s/b.bin", dir);
+    snprintf(c, sizeof c, "%s/c.bin", dir);
+    static unsigned char bytes[300000];
+    for (size_t i = 0; i < sizeof bytes; i++) bytes[i] = (unsigned char)(i * 7 + (i >> 9));
+    WgError err = {0};
+    WgWriteSet *from = wg_write_set_new(), *to = wg_write_set_new();
+    assert_int_equal(wg_write_set_bytes(from, a, bytes, sizeof bytes, &err), WG_OK);
+    assert_int_equal(wg_write_set_copy(to, b, from, 0, &err), WG_OK);
+    assert_int_equal(wg_write_set_copy(to, c, from, 1, &err), WG_ERR_USAGE);
+    assert_non_null(strstr(err.message, "no staged file 1"));
+    char names[4][256];
+    assert_int_equal(temps_in(dir, names, 4), 2); /* a's and b's */
+    assert_int_equal(wg_write_set_commit(to, &err), WG_OK);
+    assert_int_equal(wg_write_set_commit(from, &err), WG_OK);
+    for (int k = 0; k < 2; k++) {
+        size_t n;
+        char *got = wgt_read_file(k ? b : a, &n);
+        assert_int_equal(n, sizeof bytes);
+        assert_memory_equal(got, bytes, n);
+        free(got);
+    }
+    assert_int_equal(access(c, F_OK), -1);
+    assert_int_equal(temps_in(dir, names, 4), 0);
+    wg_write_set_free(to);
+    wg_write_set_free(from);
+}
+
 static void test_write_set_replaces_all_or_reports_which(void **state)
 {
     (void)state;
@@ -1926,6 +1962,7 @@ int main(void)
         cmocka_unit_test(test_temp_names_carry_the_host),
         cmocka_unit_test(test_stale_temporaries_by_host),
         cmocka_unit_test(test_write_set_replaces_all_or_reports_which),
+        cmocka_unit_test(test_write_set_copy),
         cmocka_unit_test(test_layered_exr_channels_and_values),
         cmocka_unit_test(test_layered_exr_rejects_bad_layers),
         cmocka_unit_test(test_non_finite_values_are_rejected),
