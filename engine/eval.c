@@ -336,9 +336,16 @@ static void fit_run(Run *run)
 
 /* ---- evaluating one node ----------------------------------------------------------------- */
 
+/* Whether a node's results go to the disk cache (stored once computed, looked for before).
+ * Not a node whose type says it is cheaper to compute than to read (WG_NODE_CHEAP), nor an
+ * internal constant, nor a point operation (one evaluated in bands, fuse.c): computing it again
+ * from its inputs costs about a pass over memory, about what reading its entry costs, while
+ * storing it costs more than either (a 2048² colour image is 64 MiB of fresh page cache, 60 to
+ * 300 ms on a VM whose first touch of memory is slow). The wet material's cache is half the
+ * size without them, and a re-render after a change of texturing writes no entry at all. */
 static bool disk_cacheable(const WgInst *in)
 {
-    return !(in->type->flags & WG_NODE_CHEAP) && !in->constant;
+    return !(in->type->flags & WG_NODE_CHEAP) && !in->constant && !wg__fuse_capable(in);
 }
 
 /* Names the failing node (and a file it read) in its error. */

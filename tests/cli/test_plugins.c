@@ -119,11 +119,22 @@ static void test_loader_errors(void **state)
 }
 
 /* The plugin's file and version are in its nodes' cache keys: a plugin replaced by another
- * build (same file name, same type) computes again instead of reading what the old one cached. */
+ * build (same file name, same type) computes again instead of reading what the old one cached.
+ * Its node, a point operation, is not stored itself: a blur of it is, under a key made from
+ * the plugin node's. */
 static void test_replaced_plugin_is_not_served_from_the_cache(void **state)
 {
     (void)state;
     const char *d = fresh("cache");
+    wgt_write_file(
+        wgt_join(d, "g.wetgraph"),
+        "<wetgraph version=\"1\" size=\"8\">\n"
+        "  <node id=\"g\" type=\"uniform\" value=\"0.125\"/>\n"
+        "  <node id=\"o\" type=\"plugin_offset\" amount=\"0.25\">"
+        "<in name=\"source\" from=\"g\"/></node>\n"
+        "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"o\"/></node>\n"
+        "  <output name=\"out\" from=\"b\" format=\"exr32\"/>\n"
+        "</wetgraph>\n");
     const char *dir = plugins();
     WGT_SH(d, 0, "cp '%s/offset_v1.so' plug.so && $WG render g.wetgraph -o a -q --cache c "
            "--plugin plug.so", dir);

@@ -350,17 +350,21 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     wg_engine_free(e1);
     expect_same_outputs(computed, ref);
     Entry entries[32];
-    /* lev runs fused into mix (docs/engine.md): never materialised, so no entry */
-    assert_int_equal(cache_entries(dirbuf, entries, 32), 4);
+    /* img and the blurs; not lev and mix, point operations (run fused, docs/engine.md):
+     * computing them again from their inputs costs about what reading them would */
+    assert_int_equal(cache_entries(dirbuf, entries, 32), 3);
     assert_int_equal(cache_temp_files(dirbuf), 0);
 
-    /* a new engine: no memory cache, the disk serves the outputs */
+    /* a new engine: no memory cache, the disk serves the blurs, the point operations are
+     * computed from them */
     WgEngine *e2 = wgt_engine(3, 0, dirbuf);
     WgResult *warm = wgt_render_request(e2, r);
-    assert_int_equal(wg_result_evaluated_count(warm), 0);
-    assert_int_equal(wg_result_stat_count(warm), 2);
-    expect_stat(warm, "mix", WG_HIT_DISK);
+    assert_int_equal(wg_result_evaluated_count(warm), 2);
+    expect_stat(warm, "mix", WG_COMPUTED);
+    expect_stat(warm, "lev", WG_COMPUTED);
     expect_stat(warm, "soft", WG_HIT_DISK);
+    expect_stat(warm, "sharp", WG_HIT_DISK);
+    expect_stat(warm, "img", -1);
     expect_same_outputs(warm, ref);
     /* the same engine again: now from memory */
     WgResult *again = wgt_render_request(e2, r);
@@ -381,7 +385,7 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     expect_stat(edited, "img", -1);
     WgResult *edited_ref = cold(r);
     expect_same_outputs(edited, edited_ref);
-    assert_int_equal(cache_entries(dirbuf, entries, 32), 5); /* the new mix */
+    assert_int_equal(cache_entries(dirbuf, entries, 32), 3); /* nothing new stored */
     wg_engine_free(e3);
 
     wg_result_free(edited_ref);
@@ -393,21 +397,25 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     wg_graph_free(g);
 }
 
-static void test_cheap_nodes_are_not_written_to_disk(void **state)
+/* Cheap types (uniform) and point operations (blend, pixel) are not stored: only the blur is. */
+static void test_cheap_and_point_nodes_are_not_written_to_disk(void **state)
 {
     (void)state;
     const char *dir = cache_dir("disk_cheap");
     char dirbuf[1024];
     snprintf(dirbuf, sizeof dirbuf, "%s", dir);
-    WgGraph *g =
-        wgt_load("<wetgraph version=\"1\" size=\"16\">\n"
-                 "  <input name=\"src\" type=\"gray\"/>\n"
-                 "  <node id=\"u\" type=\"uniform\" value=\"0.25\"/>\n"
-                 "  <node id=\"m\" type=\"blend\" mode=\"add\"><in name=\"foreground\" from=\"u\"/>"
-                 "<in name=\"background\" from=\"$src\"/></node>\n"
-                 "  <output name=\"u\" from=\"u\"/>\n"
-                 "  <output name=\"m\" from=\"m\"/>\n"
-                 "</wetgraph>\n");
+    WgGraph *g = wgt_load(
+        "<wetgraph version=\"1\" size=\"16\">\n"
+        "  <input name=\"src\" type=\"gray\"/>\n"
+        "  <node id=\"u\" type=\"uniform\" value=\"0.25\"/>\n"
+        "  <node id=\"m\" type=\"blend\" mode=\"add\"><in name=\"foreground\" from=\"u\"/>"
+        "<in name=\"background\" from=\"$src\"/></node>\n"
+        "  <node id=\"b\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"m\"/></node>\n"
+        "  <node id=\"p\" type=\"pixel\" expr=\"A * A\"><in name=\"A\" from=\"b\"/></node>\n"
+        "  <output name=\"u\" from=\"u\"/>\n"
+        "  <output name=\"m\" from=\"m\"/>\n"
+        "  <output name=\"p\" from=\"p\"/>\n"
+        "</wetgraph>\n");
     WgRequest *r = wg_request_new(g);
     WgImage *src = wgt_image_fn(16, 16, 1, pic_fn);
     WgError err = {0};
@@ -416,13 +424,18 @@ static void test_cheap_nodes_are_not_written_to_disk(void **state)
     WgResult *a = wgt_render_request(e, r);
     wg_engine_free(e);
     Entry entries[8];
-    /* only the blend: the uniform is cheaper to recompute, the input image is not a node */
+    /* only the blur: the uniform is cheaper to recompute, the blend and the expression are
+     * computed again from their inputs, the input image is not a node */
     assert_int_equal(cache_entries(dirbuf, entries, 8), 1);
+    assert_int_equal(entries[0].channels, 1);
     e = wgt_engine(2, 0, dirbuf);
     WgResult *b = wgt_render_request(e, r);
-    expect_stat(b, "m", WG_HIT_DISK);
+    expect_stat(b, "b", WG_HIT_DISK);
+    expect_stat(b, "m", WG_COMPUTED);
     expect_stat(b, "u", WG_COMPUTED);
-    assert_int_equal(wg_result_evaluated_count(b), 1);
+    expect_stat(b, "p", WG_COMPUTED);
+    assert_int_equal(wg_result_evaluated_count(b), 4); /* and $src, which the blend reads */
+    assert_int_equal(cache_entries(dirbuf, entries, 8), 1);
     expect_same_outputs(a, b);
     wg_result_free(b);
     wg_result_free(a);
@@ -589,9 +602,9 @@ static void test_all_entries_damaged(void **state)
 }
 
 /* Entries of the same shape have the same size: a file copied over another one is still a
- * well-formed entry with a valid checksum, but of the wrong key. Rotate the three 32x24 colour
- * entries of the chain (soft, sharp, mix; lev runs fused into mix and has none) so each holds
- * another node's pixels. */
+ * well-formed entry with a valid checksum, but of the wrong key. Swap the two 32x24 colour
+ * entries of the chain (soft and sharp; lev and mix, point operations, have none) so each holds
+ * the other's pixels. */
 static void test_swapped_entries_are_misses(void **state)
 {
     (void)state;
@@ -607,18 +620,18 @@ static void test_swapped_entries_are_misses(void **state)
 
     Entry entries[8];
     int n = cache_entries(dirbuf, entries, 8);
-    assert_int_equal(n, 4);
-    int same[3], k = 0;
+    assert_int_equal(n, 3);
+    int same[2], k = 0;
     for (int i = 0; i < n; i++)
-        if (entries[i].width == 32 && entries[i].height == 24 && entries[i].channels == 4 && k < 3)
+        if (entries[i].width == 32 && entries[i].height == 24 && entries[i].channels == 4 && k < 2)
             same[k++] = i;
-    assert_int_equal(k, 3);
-    char *data[3];
-    size_t size[3];
-    for (int i = 0; i < 3; i++) data[i] = wgt_read_file(entries[same[i]].path, &size[i]);
-    for (int i = 0; i < 3; i++) {
-        assert_int_equal(size[i], size[(i + 1) % 3]);
-        spit(entries[same[i]].path, data[(i + 1) % 3], size[(i + 1) % 3]);
+    assert_int_equal(k, 2);
+    char *data[2];
+    size_t size[2];
+    for (int i = 0; i < 2; i++) data[i] = wgt_read_file(entries[same[i]].path, &size[i]);
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(size[i], size[(i + 1) % 2]);
+        spit(entries[same[i]].path, data[(i + 1) % 2], size[(i + 1) % 2]);
     }
 
     e = wgt_engine(2, 0, dirbuf);
@@ -627,11 +640,12 @@ static void test_swapped_entries_are_misses(void **state)
     assert_int_equal(wg_result_evaluated_count(res), 4);
     expect_stat(res, "mix", WG_COMPUTED);
     expect_stat(res, "soft", WG_COMPUTED);
+    expect_stat(res, "sharp", WG_COMPUTED);
     expect_stat(res, "img", WG_HIT_DISK);
     wg_result_free(res);
     wg_engine_free(e);
     /* rewritten as they were, and trusted again */
-    for (int i = 0; i < 3; i++) {
+    for (int i = 0; i < 2; i++) {
         size_t m;
         char *now = wgt_read_file(entries[same[i]].path, &m);
         assert_int_equal(m, size[i]);
@@ -640,12 +654,14 @@ static void test_swapped_entries_are_misses(void **state)
     }
     e = wgt_engine(1, 0, dirbuf);
     res = wgt_render_request(e, r);
-    assert_int_equal(wg_result_evaluated_count(res), 0);
+    assert_int_equal(wg_result_evaluated_count(res), 2); /* lev and mix */
+    expect_stat(res, "soft", WG_HIT_DISK);
+    expect_stat(res, "sharp", WG_HIT_DISK);
     expect_same_outputs(res, ref);
     wg_result_free(res);
     wg_engine_free(e);
 
-    for (int i = 0; i < 3; i++) free(data[i]);
+    for (int i = 0; i < 2; i++) free(data[i]);
     wg_result_free(ref);
     wg_request_free(r);
     wg_graph_free(g);
@@ -844,17 +860,20 @@ static void test_image_key_follows_file_content(void **state)
             }
     assert_true(wgt_max_abs_diff(out, wg_result_output_image(a, 0)) > 0.1);
 
-    /* a fresh engine with the disk cache does not serve the old picture either */
+    /* a fresh engine with the disk cache does not serve the old picture either (the image
+     * comes from the disk, the invert, a point operation, is computed from it) */
     wg_engine_free(e);
     e = wgt_engine(2, 0, dirbuf);
     WgResult *c = wgt_render_request(e, r);
-    assert_int_equal(wg_result_evaluated_count(c), 0);
-    expect_stat(c, "inv", WG_HIT_DISK);
+    assert_int_equal(wg_result_evaluated_count(c), 1);
+    expect_stat(c, "img", WG_HIT_DISK);
+    expect_stat(c, "inv", WG_COMPUTED);
     expect_same_outputs(b, c);
     /* back to the first picture: both versions are cached */
     write_picture(png, pic_fn);
     WgResult *d = wgt_render_request(e, r);
-    assert_int_equal(wg_result_evaluated_count(d), 0);
+    assert_int_equal(wg_result_evaluated_count(d), 1);
+    expect_stat(d, "img", WG_HIT_DISK);
     expect_same_outputs(a, d);
 
     wg_result_free(d);
@@ -914,7 +933,7 @@ int main(void)
         cmocka_unit_test(test_seed_does_not_invalidate_unseeded_nodes),
         cmocka_unit_test(test_seed_in_an_expression_is_a_parameter_change),
         cmocka_unit_test(test_disk_cache_serves_a_fresh_engine),
-        cmocka_unit_test(test_cheap_nodes_are_not_written_to_disk),
+        cmocka_unit_test(test_cheap_and_point_nodes_are_not_written_to_disk),
         cmocka_unit_test(test_damaged_entries_are_recomputed_and_rewritten),
         cmocka_unit_test(test_all_entries_damaged),
         cmocka_unit_test(test_swapped_entries_are_misses),
