@@ -20,7 +20,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <sys/vfs.h>
 #include <unistd.h>
 #include <xxhash.h>
 #if defined(__x86_64__) && __has_include(<xxh_x86dispatch.h>)
@@ -291,46 +293,130 @@ typedef struct DiskHeader {
 _Static_assert(sizeof(DiskHeader) == 40, "the header is written as is, without padding");
 
 /* Open an entry for reading without ever blocking (a FIFO in its place) or following a
- * symbolic link. Returns NULL with *bad set when something that is not a valid entry file is
- * there; NULL with *bad clear when there is nothing (a plain miss). */
-static FILE *open_entry(const char *path, off_t size, bool *bad)
+ * symbolic link. Returns -1 with *bad set when something that is not a valid entry file is
+ * there; -1 with *bad clear when there is nothing (a plain miss). */
+static int open_entry(const char *path, off_t size, bool *bad)
 {
     *bad = false;
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
     if (fd < 0) {
         *bad = errno == ELOOP || errno == ENXIO; /* a symbolic link, a socket */
-        return NULL;
+        return -1;
     }
     struct stat st;
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size != size) {
         *bad = true;
         close(fd);
-        return NULL;
+        return -1;
     }
-    FILE *f = fdopen(fd, "rb");
-    if (!f) close(fd);
-    return f;
+    return fd;
 }
 
-const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
-                                  int height, int channels, bool uniform)
+static bool header_matches(const DiskHeader *h, const uint64_t key[2], int port, int width,
+                           int height, int channels)
 {
-    char *path = wg__cache_entry_path(c, key, port);
-    if (!path) return NULL;
-    WgImage *img = NULL;
-    bool bad = false;
-    size_t row = (size_t)width * (size_t)channels;
-    off_t size = (off_t)(sizeof(DiskHeader) + sizeof(float) * row * (size_t)height + 8);
-    FILE *f = open_entry(path, size, &bad);
-    if (!f) goto out;
+    return !memcmp(h->magic, DISK_MAGIC, 8) && h->width == width && h->height == height &&
+           h->channels == channels && h->port == port && h->key[0] == key[0] && h->key[1] == key[1];
+}
+
+/* Whether an entry can be mapped rather than read: on a local file system, unlinking the file
+ * or renaming another over it (all that pruning, clearing and other renders do to an entry)
+ * leaves its pages to whoever maps it. Not on a network or FUSE file system, where a file
+ * another machine deletes faults when its pages are read again. */
+static _Atomic bool no_mapping;
+
+void wg__cache_map_entries(bool on)
+{
+    no_mapping = !on;
+}
+
+static bool maps_safely(int fd)
+{
+    if (no_mapping) return false;
+    struct statfs fs;
+    if (fstatfs(fd, &fs)) return false;
+    switch ((unsigned long)fs.f_type) {
+    case 0xEF53UL:     /* ext2, ext3, ext4 */
+    case 0x58465342UL: /* xfs */
+    case 0x9123683EUL: /* btrfs */
+    case 0x01021994UL: /* tmpfs */
+    case 0xF2F52010UL: /* f2fs */
+        return true;
+    default:
+        return false;
+    }
+}
+
+typedef struct Mapping {
+    void *addr;
+    size_t len;
+} Mapping;
+
+static void unmap_entry(void *user)
+{
+    Mapping *m = user;
+    munmap(m->addr, m->len);
+    wg_free(m);
+}
+
+/* The entry at fd (size bytes) as an image over a private read-only mapping of the file: its
+ * pixels are the page cache's, neither copied nor written into fresh memory, which on a VM
+ * whose first touch of memory is slow costs more than the copy. A uniform image (one row for
+ * all) gets the file's first row, copied, once the whole file is checked. NULL with *bad set
+ * for an entry that does not match; NULL with *bad clear when it cannot be mapped (then it is
+ * read). */
+static WgImage *map_entry(int fd, size_t size, const uint64_t key[2], int port, int width,
+                          int height, int channels, bool uniform, bool *bad)
+{
+    void *addr = mmap(NULL, size, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
+    if (addr == MAP_FAILED) return NULL;
+    const unsigned char *p = addr;
     DiskHeader h;
-    if (fread(&h, sizeof h, 1, f) != 1 || memcmp(h.magic, DISK_MAGIC, 8) || h.width != width ||
-        h.height != height || h.channels != channels || h.port != port || h.key[0] != key[0] ||
-        h.key[1] != key[1]) {
-        bad = true;
+    uint64_t sum;
+    memcpy(&h, p, sizeof h);
+    memcpy(&sum, p + size - 8, 8);
+    if (!header_matches(&h, key, port, width, height, channels) ||
+        XXH3_64bits(p, size - 8) != sum) {
+        *bad = true;
+        munmap(addr, size);
+        return NULL;
+    }
+    WgImage *img = NULL;
+    if (uniform) {
+        img = wg__image_new_uniform_in(NULL, width, height, channels);
+        if (img)
+            memcpy(wg_image_row(img, 0), p + sizeof h,
+                   sizeof(float) * (size_t)width * (size_t)channels);
+        munmap(addr, size);
+        return img;
+    }
+    Mapping *m = wg_malloc(sizeof *m);
+    if (m) {
+        *m = (Mapping){addr, size};
+        img = wg_image_wrap(width, height, channels, (size_t)width * (size_t)channels,
+                            (float *)(void *)(p + sizeof h), unmap_entry, m);
+    }
+    if (!img) {
+        wg_free(m);
+        munmap(addr, size);
+    }
+    return img;
+}
+
+/* The entry read into a new image (a uniform image has one row for all: every row of the file
+ * is read into it). NULL with *bad set for an entry that does not match. */
+static WgImage *read_entry(int fd, const uint64_t key[2], int port, int width, int height,
+                           int channels, bool uniform, bool *bad)
+{
+    FILE *f = fdopen(dup(fd), "rb");
+    if (!f) return NULL;
+    WgImage *img = NULL;
+    size_t row = (size_t)width * (size_t)channels;
+    DiskHeader h;
+    if (fread(&h, sizeof h, 1, f) != 1 || !header_matches(&h, key, port, width, height, channels)) {
+        *bad = true;
         goto out;
     }
-    /* a uniform image has one row for all: every row of the file is read into it */
     img = uniform ? wg__image_new_uniform_in(NULL, width, height, channels)
                   : wg_image_new(width, height, channels);
     if (!img) goto out;
@@ -342,24 +428,43 @@ const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, i
     }
     XXH3_64bits_reset(st);
     XXH3_64bits_update(st, &h, sizeof h);
-    for (int y = 0; y < height && !bad; y++) {
+    for (int y = 0; y < height && !*bad; y++) {
         float *r = wg_image_row(img, y);
         if (fread(r, sizeof(float), row, f) != row)
-            bad = true;
+            *bad = true;
         else
             XXH3_64bits_update(st, r, sizeof(float) * row);
     }
     uint64_t sum, expect = XXH3_64bits_digest(st);
     XXH3_freeState(st);
-    if (bad || fread(&sum, sizeof sum, 1, f) != 1 || sum != expect || fgetc(f) != EOF) bad = true;
-    if (bad) {
+    if (*bad || fread(&sum, sizeof sum, 1, f) != 1 || sum != expect || fgetc(f) != EOF) *bad = true;
+    if (*bad) {
         wg_image_unref(img);
         img = NULL;
     }
-    /* a hit marks the entry as just used: pruning the folder removes the least recently used */
-    if (img) futimens(fileno(f), NULL);
 out:
-    if (f) fclose(f);
+    fclose(f);
+    return img;
+}
+
+const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
+                                  int height, int channels, bool uniform)
+{
+    char *path = wg__cache_entry_path(c, key, port);
+    if (!path) return NULL;
+    WgImage *img = NULL;
+    bool bad = false;
+    size_t row = (size_t)width * (size_t)channels;
+    size_t size = sizeof(DiskHeader) + sizeof(float) * row * (size_t)height + 8;
+    int fd = open_entry(path, (off_t)size, &bad);
+    if (fd < 0) goto out;
+    if (maps_safely(fd))
+        img = map_entry(fd, size, key, port, width, height, channels, uniform, &bad);
+    if (!img && !bad) img = read_entry(fd, key, port, width, height, channels, uniform, &bad);
+    /* a hit marks the entry as just used: pruning the folder removes the least recently used */
+    if (img) futimens(fd, NULL);
+    close(fd);
+out:
     if (bad) unlink(path); /* corrupt, stale or someone else's: recompute and rewrite */
     wg_free(path);
     return img;

@@ -336,16 +336,24 @@ static void fit_run(Run *run)
 
 /* ---- evaluating one node ----------------------------------------------------------------- */
 
-/* Whether a node's results go to the disk cache (stored once computed, looked for before).
- * Not a node whose type says it is cheaper to compute than to read (WG_NODE_CHEAP), nor an
- * internal constant, nor a point operation (one evaluated in bands, fuse.c): computing it again
- * from its inputs costs about a pass over memory, about what reading its entry costs, while
- * storing it costs more than either (a 2048² colour image is 64 MiB of fresh page cache, 60 to
- * 300 ms on a VM whose first touch of memory is slow). The wet material's cache is half the
- * size without them, and a re-render after a change of texturing writes no entry at all. */
+/* Whether a node's results are looked for in the disk cache: not a node whose type says it is
+ * cheaper to compute than to read (WG_NODE_CHEAP), nor an internal constant. */
 static bool disk_cacheable(const WgInst *in)
 {
-    return !(in->type->flags & WG_NODE_CHEAP) && !in->constant && !wg__fuse_capable(in);
+    return !(in->type->flags & WG_NODE_CHEAP) && !in->constant;
+}
+
+/* Whether a node just computed is stored in the disk cache: not a point operation (one that
+ * runs in bands, fuse.c) that only the caller reads, a leaf of the render. Its output file
+ * holds it (the CLI keeps that file by its source key without computing anything) and
+ * computing it again from its inputs, which are stored, costs about what writing its entry
+ * does: on a VM whose first touch of memory is slow, a 2048² colour entry is 64 MiB of fresh
+ * page cache, 60 to 300 ms. The wet material's re-render after a change of one texturing
+ * parameter writes one entry (the colour its albedo is made from) instead of two. */
+static bool disk_stores(const Run *run, const Node *n, const WgInst *in)
+{
+    return wg__cache_has_disk(run->e->cache) && disk_cacheable(in) &&
+           !(n->requested && !n->feeds && wg__fuse_capable(in));
 }
 
 /* Names the failing node (and a file it read) in its error. */
@@ -630,8 +638,7 @@ static void node_job(void *user)
         made += mn->out_bytes;
         for (int o = 0; o < mi->n_out; o++) {
             if (run->e->memory_cache) wg__cache_put(run->e->cache, mi->key, o, mn->out[o]);
-            if (wg__cache_has_disk(run->e->cache) && disk_cacheable(mi))
-                wg__cache_disk_put(run->e->cache, mi->key, o, mn->out[o]);
+            if (disk_stores(run, mn, mi)) wg__cache_disk_put(run->e->cache, mi->key, o, mn->out[o]);
         }
     }
     pthread_mutex_lock(&run->mu);

@@ -290,6 +290,9 @@ void wg__cache_put(WgCache *c, const uint64_t key[2], int port, const WgImage *i
 const WgImage *wg__cache_disk_get(WgCache *c, const uint64_t key[2], int port, int width,
                                   int height, int channels, bool uniform);
 int wg__cache_disk_put(WgCache *c, const uint64_t key[2], int port, const WgImage *img);
+/* Whether disk-cache entries on local file systems are mapped (the default) rather than read
+ * into new images: for tests of the reading path. */
+void wg__cache_map_entries(bool on);
 bool wg__cache_has_disk(const WgCache *c);
 /* Evict least recently used memory entries until they hold at most max_bytes that nothing
  * else references. */

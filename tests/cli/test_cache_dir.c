@@ -15,7 +15,7 @@
 #include <sys/stat.h>
 
 /* noise -> blur -> levels(p): a render with a new p reuses the first two from the cache; the
- * levels, a point operation, is never stored */
+ * levels, a point operation only the caller reads, is not stored */
 static const char *const graph =
     "<wetgraph version=\"1\" size=\"64\">\n"
     "  <param name=\"p\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"

@@ -797,8 +797,8 @@ static void test_cache_option(void **state)
     assert_int_equal(json_int(first.out, "evaluated"), 4); /* u, b, $base, c */
     assert_int_equal(count_substr(first.out, "\"cache\": \"miss\""), 4);
     assert_true(exists(at("cache")));
-    /* into another folder: the blur comes from the disk, the blend (a point operation, not
-     * stored) is computed from it */
+    /* into another folder: the blur comes from the disk, the blend (a point operation only
+     * the caller reads: not stored) is computed from it */
     Cmd second = {
         "render g.wetgraph -o c2 --cache cache --output mask --output color --stats=json -q"};
     run1(&second);

@@ -120,8 +120,8 @@ static void test_loader_errors(void **state)
 
 /* The plugin's file and version are in its nodes' cache keys: a plugin replaced by another
  * build (same file name, same type) computes again instead of reading what the old one cached.
- * Its node, a point operation, is not stored itself: a blur of it is, under a key made from
- * the plugin node's. */
+ * Its node, a point operation, would not be stored as the render's last node (a leaf): a
+ * blur reads it. */
 static void test_replaced_plugin_is_not_served_from_the_cache(void **state)
 {
     (void)state;

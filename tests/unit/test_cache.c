@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /* The result cache: re-renders on one engine reuse memory entries, an edit recomputes only the
  * edited node and what depends on it, the seed does not invalidate unseeded nodes, the disk
- * cache serves a fresh engine, damaged entries are ignored, recomputed and rewritten, and an
- * image node's key follows the content of its file. Results are bit-identical cold or warm. */
+ * cache serves a fresh engine (mapping its entries), damaged entries are ignored, recomputed and
+ * rewritten, and an image node's key follows the content of its file. Results are bit-identical
+ * cold or warm. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -350,13 +351,14 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     wg_engine_free(e1);
     expect_same_outputs(computed, ref);
     Entry entries[32];
-    /* img and the blurs; not lev and mix, point operations (run fused, docs/engine.md):
-     * computing them again from their inputs costs about what reading them would */
+    /* img and the blurs; not mix, a point operation only the caller reads (computing it
+     * again from its inputs costs about what storing it would), nor lev, which runs fused
+     * into it (docs/engine.md) and is never materialised */
     assert_int_equal(cache_entries(dirbuf, entries, 32), 3);
     assert_int_equal(cache_temp_files(dirbuf), 0);
 
-    /* a new engine: no memory cache, the disk serves the blurs, the point operations are
-     * computed from them */
+    /* a new engine: no memory cache, the disk serves the blurs, lev and mix are computed from
+     * them */
     WgEngine *e2 = wgt_engine(3, 0, dirbuf);
     WgResult *warm = wgt_render_request(e2, r);
     assert_int_equal(wg_result_evaluated_count(warm), 2);
@@ -397,8 +399,9 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
     wg_graph_free(g);
 }
 
-/* Cheap types (uniform) and point operations (blend, pixel) are not stored: only the blur is. */
-static void test_cheap_and_point_nodes_are_not_written_to_disk(void **state)
+/* Not stored: cheap types (uniform), and a point operation that only the caller reads (the
+ * pixel expression, a leaf); the blend, read by the blur, and the blur are. */
+static void test_cheap_nodes_and_point_leaves_are_not_written_to_disk(void **state)
 {
     (void)state;
     const char *dir = cache_dir("disk_cheap");
@@ -424,18 +427,18 @@ static void test_cheap_and_point_nodes_are_not_written_to_disk(void **state)
     WgResult *a = wgt_render_request(e, r);
     wg_engine_free(e);
     Entry entries[8];
-    /* only the blur: the uniform is cheaper to recompute, the blend and the expression are
-     * computed again from their inputs, the input image is not a node */
-    assert_int_equal(cache_entries(dirbuf, entries, 8), 1);
-    assert_int_equal(entries[0].channels, 1);
+    /* the blend and the blur: the uniform is cheaper to compute, the expression is computed
+     * again from the blur, the input image is not a node */
+    assert_int_equal(cache_entries(dirbuf, entries, 8), 2);
     e = wgt_engine(2, 0, dirbuf);
     WgResult *b = wgt_render_request(e, r);
     expect_stat(b, "b", WG_HIT_DISK);
-    expect_stat(b, "m", WG_COMPUTED);
+    expect_stat(b, "m", WG_HIT_DISK);
     expect_stat(b, "u", WG_COMPUTED);
     expect_stat(b, "p", WG_COMPUTED);
-    assert_int_equal(wg_result_evaluated_count(b), 4); /* and $src, which the blend reads */
-    assert_int_equal(cache_entries(dirbuf, entries, 8), 1);
+    expect_stat(b, "$src", -1);
+    assert_int_equal(wg_result_evaluated_count(b), 2);
+    assert_int_equal(cache_entries(dirbuf, entries, 8), 2);
     expect_same_outputs(a, b);
     wg_result_free(b);
     wg_result_free(a);
@@ -601,10 +604,91 @@ static void test_all_entries_damaged(void **state)
     wg_graph_free(g);
 }
 
+/* How many lines of /proc/self/maps name a file under dir: the entries mapped now. */
+static int mapped_entries(const char *dir)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    assert_non_null(f);
+    char line[4096];
+    int n = 0;
+    while (fgets(line, sizeof line, f))
+        if (strstr(line, dir) && strstr(line, ".wgc")) n++;
+    fclose(f);
+    return n;
+}
+
+/* A disk hit maps its entry (on a local file system): the image is the file's pages, held
+ * while the image is, and unmapped with it. Removing the files (pruning, clearing) or putting
+ * others at their paths does not touch what a render holds. The same render reading the
+ * entries into new images gives the same outputs. */
+static void test_disk_hits_map_their_entries(void **state)
+{
+    (void)state;
+    const char *dir = cache_dir("mapped");
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgGraph *g = chain_graph();
+    WgRequest *r = chain_request(g, NULL);
+    WgResult *ref = cold(r);
+    WgEngine *e = wgt_engine(2, 0, dirbuf);
+    wg_result_free(wgt_render_request(e, r));
+    wg_engine_free(e);
+    Entry entries[8];
+    int n = cache_entries(dirbuf, entries, 8);
+    assert_int_equal(n, 3); /* img, soft, sharp */
+    assert_int_equal(mapped_entries(dirbuf), 0);
+
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *warm = wgt_render_request(e, r);
+    expect_stat(warm, "soft", WG_HIT_DISK);
+    expect_stat(warm, "sharp", WG_HIT_DISK);
+    /* soft is an output, held by the result; both are held by the memory cache */
+    assert_int_equal(mapped_entries(dirbuf), 2);
+    /* the files go, and others take their paths */
+    for (int i = 0; i < n; i++) {
+        assert_int_equal(unlink(entries[i].path), 0);
+        spit(entries[i].path, "not an entry", 12);
+    }
+    expect_same_outputs(warm, ref);
+    /* an edit computes from the mapped images the memory cache holds */
+    WgRequest *r2 = chain_request(g, "1.3");
+    WgResult *edited = wgt_render_request(e, r2);
+    expect_stat(edited, "soft", WG_HIT_MEMORY);
+    expect_stat(edited, "sharp", WG_HIT_MEMORY);
+    WgResult *edited_ref = cold(r2);
+    expect_same_outputs(edited, edited_ref);
+    wg_result_free(edited_ref);
+    wg_result_free(edited);
+    wg_request_free(r2);
+    wg_result_free(warm);
+    wg_engine_free(e);
+    assert_int_equal(mapped_entries(dirbuf), 0); /* unmapped with the last reference */
+
+    /* read rather than mapped: the same outputs, nothing mapped */
+    for (int i = 0; i < n; i++) unlink(entries[i].path);
+    e = wgt_engine(2, 0, dirbuf);
+    wg_result_free(wgt_render_request(e, r));
+    wg_engine_free(e);
+    wg__cache_map_entries(false);
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *read = wgt_render_request(e, r);
+    wg__cache_map_entries(true);
+    expect_stat(read, "soft", WG_HIT_DISK);
+    expect_stat(read, "sharp", WG_HIT_DISK);
+    assert_int_equal(mapped_entries(dirbuf), 0);
+    expect_same_outputs(read, ref);
+    wg_result_free(read);
+    wg_engine_free(e);
+
+    wg_result_free(ref);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 /* Entries of the same shape have the same size: a file copied over another one is still a
  * well-formed entry with a valid checksum, but of the wrong key. Swap the two 32x24 colour
- * entries of the chain (soft and sharp; lev and mix, point operations, have none) so each holds
- * the other's pixels. */
+ * entries of the chain (soft and sharp; lev and mix have none) so each holds the other's
+ * pixels. */
 static void test_swapped_entries_are_misses(void **state)
 {
     (void)state;
@@ -861,7 +945,8 @@ static void test_image_key_follows_file_content(void **state)
     assert_true(wgt_max_abs_diff(out, wg_result_output_image(a, 0)) > 0.1);
 
     /* a fresh engine with the disk cache does not serve the old picture either (the image
-     * comes from the disk, the invert, a point operation, is computed from it) */
+     * comes from the disk, the invert, a point operation only the caller reads, is computed
+     * from it) */
     wg_engine_free(e);
     e = wgt_engine(2, 0, dirbuf);
     WgResult *c = wgt_render_request(e, r);
@@ -933,9 +1018,10 @@ int main(void)
         cmocka_unit_test(test_seed_does_not_invalidate_unseeded_nodes),
         cmocka_unit_test(test_seed_in_an_expression_is_a_parameter_change),
         cmocka_unit_test(test_disk_cache_serves_a_fresh_engine),
-        cmocka_unit_test(test_cheap_and_point_nodes_are_not_written_to_disk),
+        cmocka_unit_test(test_cheap_nodes_and_point_leaves_are_not_written_to_disk),
         cmocka_unit_test(test_damaged_entries_are_recomputed_and_rewritten),
         cmocka_unit_test(test_all_entries_damaged),
+        cmocka_unit_test(test_disk_hits_map_their_entries),
         cmocka_unit_test(test_swapped_entries_are_misses),
         cmocka_unit_test(test_fifo_and_symlink_entries),
         cmocka_unit_test(test_stale_temporaries_are_removed),
