@@ -135,15 +135,18 @@ static int quantize8_formula(float v, bool srgb)
 /* Encoding to 8-bit sRGB: the code grows with the value (checked over every float from 0 to 2),
  * so it is the number of thresholds at or below it, threshold[k] being the smallest float
  * whose code is k; each is found by bisection over the bit patterns of the positive floats,
- * which order as the floats do. */
-static float srgb8_threshold[256];
-/* The code of the smallest float of each run of 2^12 floats (same sign, exponent and top 11
- * mantissa bits) below 1: a run rarely spans a threshold (at most one in fifty runs of those a
- * colour takes), so the compare with the next threshold that settles the rest (quantize8_srgb)
- * is almost always false, a branch the processor predicts; 254 KiB, which stays in the L2. */
-#define SRGB8_SHIFT 12
+ * which order as the floats do. The thresholds are kept as those bit patterns (as int32, with
+ * threshold[256] above every float below 1), so that the packing loop compares integers. */
+static int32_t srgb8_threshold[257];
+/* The code of the smallest float of each run of 2^16 floats (same sign, exponent and top 7
+ * mantissa bits) below 1: no run holds more than one threshold past its first float (the codes
+ * are far apart; srgb8_build checks it, srgb8_one_step), so one compare with the next threshold
+ * settles the code, without a loop: the packing loop below is vectorised. 63.5 KiB, as int32
+ * for the vectoriser. */
+#define SRGB8_SHIFT 16
 #define SRGB8_RUNS (0x3f800000u >> SRGB8_SHIFT)
-static uint8_t srgb8_run_code[SRGB8_RUNS];
+static int32_t srgb8_run_code[SRGB8_RUNS];
+static bool srgb8_one_step;
 static pthread_once_t srgb8_once = PTHREAD_ONCE_INIT;
 
 static void srgb8_build(void)
@@ -159,15 +162,16 @@ static void srgb8_build(void)
             else
                 lo = mid;
         }
-        memcpy(&srgb8_threshold[k], &hi, sizeof hi);
+        srgb8_threshold[k] = (int32_t)hi;
     }
+    srgb8_threshold[256] = INT32_MAX;
     int k = 0; /* the last threshold at or below the run's first float, which only grows */
+    srgb8_one_step = true;
     for (uint32_t run = 0; run < SRGB8_RUNS; run++) {
-        uint32_t bits = run << SRGB8_SHIFT;
-        float f;
-        memcpy(&f, &bits, sizeof f);
-        while (k < 255 && srgb8_threshold[k + 1] <= f) k++;
-        srgb8_run_code[run] = (uint8_t)k;
+        int32_t first = (int32_t)(run << SRGB8_SHIFT), last = first + (1 << SRGB8_SHIFT) - 1;
+        while (k < 255 && srgb8_threshold[k + 1] <= first) k++;
+        srgb8_run_code[run] = k;
+        if (k < 254 && srgb8_threshold[k + 2] <= last) srgb8_one_step = false;
     }
 }
 
@@ -176,10 +180,10 @@ static inline uint8_t quantize8_srgb(float v)
 {
     if (!(v > 0)) return 0; /* NaN, zero and negative values */
     if (v >= 1) return 255;
-    uint32_t bits;
+    int32_t bits;
     memcpy(&bits, &v, sizeof bits);
     int k = srgb8_run_code[bits >> SRGB8_SHIFT];
-    while (k < 255 && srgb8_threshold[k + 1] <= v) k++;
+    while (k < 255 && srgb8_threshold[k + 1] <= bits) k++;
     return (uint8_t)k;
 }
 
@@ -901,6 +905,54 @@ HOT static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_
     }
 }
 
+/* n samples to 8-bit sRGB codes (quantize8_srgb's), in integers on the floats' bit patterns,
+ * without a branch: the vectoriser gathers the run codes. Negative values, zeros and negative
+ * NaNs (negative as int32) go to 0, values from 1 up to the run below 1 (code 255), positive
+ * NaNs to 0 at the end. Needs srgb8_one_step. */
+HOT static void pack8_srgb(const float *restrict r, uint8_t *restrict o, size_t n)
+{
+    for (size_t j = 0; j < n; j++) {
+        int32_t b;
+        memcpy(&b, &r[j], sizeof b);
+        int32_t v = b > 0 ? b : 0;
+        v = v < 0x3f800000 ? v : 0x3f7fffff;
+        int32_t k = srgb8_run_code[v >> SRGB8_SHIFT];
+        k += srgb8_threshold[k + 1] <= v;
+        k = (b & 0x7fffffff) > 0x7f800000 ? 0 : k;
+        o[j] = (uint8_t)k;
+    }
+}
+
+/* A row of 8-bit codes from 4-channel samples, in stretches of PACK8_PIXELS through the
+ * vectorised loops: the first three channels (sRGB or linear), then alpha (always linear) when
+ * c is 4, else dropped (c 3). */
+#define PACK8_PIXELS 256
+static void pack8_rgba_row(const float *r, int w, int c, bool srgb, uint8_t *o)
+{
+    uint8_t codes[4 * PACK8_PIXELS];
+    for (int x0 = 0; x0 < w; x0 += PACK8_PIXELS) {
+        int m = w - x0 < PACK8_PIXELS ? w - x0 : PACK8_PIXELS;
+        const float *s = r + 4 * (size_t)x0;
+        uint8_t *p = o + (size_t)c * (size_t)x0;
+        if (srgb) {
+            pack8_srgb(s, codes, 4 * (size_t)m);
+            if (c == 4)
+                for (int i = 0; i < m; i++) codes[4 * i + 3] = quantize8_linear(s[4 * i + 3]);
+        } else {
+            pack8_linear(s, codes, 4 * (size_t)m);
+        }
+        if (c == 4) {
+            memcpy(p, codes, 4 * (size_t)m);
+            continue;
+        }
+        for (int i = 0; i < m; i++) {
+            p[3 * i] = codes[4 * i];
+            p[3 * i + 1] = codes[4 * i + 1];
+            p[3 * i + 2] = codes[4 * i + 2];
+        }
+    }
+}
+
 /* Quantise rows [y0, y1) of `img` into buf, packed: `c` channels of `bits` each. */
 static void pack_rows(const WgImage *img, WgColorspace cs, int c, int bits, int y0, int y1,
                       void *buf)
@@ -935,6 +987,14 @@ static void pack_rows(const WgImage *img, WgColorspace cs, int c, int bits, int 
             const float *r = wg_image_row(img, y);
             if (!srgb && c == img->channels) {
                 pack8_linear(r, o, n);
+                continue;
+            }
+            if (srgb && c == 1 && img->channels == 1 && srgb8_one_step) {
+                pack8_srgb(r, o, n);
+                continue;
+            }
+            if (img->channels == 4 && c >= 3 && (!srgb || srgb8_one_step)) {
+                pack8_rgba_row(r, img->width, c, srgb, o);
                 continue;
             }
             uint8_t *p = o;
