@@ -878,31 +878,46 @@ static void file_layout(const WgImage *img, WgFormat format, int *channels, int 
 #define HOT
 #endif
 
-/* n linear samples to 16-bit codes with quantize()'s rounding. The code is clamped after the
- * scaling: v·65535 + 0.5 is exact in double (a float has 24 bits, 65535 16), so clamping it to
- * [0.5, 65535.5] gives what clamping v to [0, 1] first gives, NaN failing the first compare and
- * becoming 0. Written so, the loop is vectorised; clamping v first, GCC turned the clamped cases
- * into constants and the loop into a branch per sample. */
-HOT static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t n)
+/* The packing loops with FMA as well (x86-64-v3: AVX2 and FMA), picked at load time. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT_FMA __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define HOT_FMA
+#endif
+
+/* The linear code of a sample for `max` (255 or 65535): floor(clamp(v, 0, 1) * max + 0.5),
+ * quantize()'s rounding, in float with one correction. The clamp is done on the bit pattern
+ * (negatives, zeros and NaNs to 0, from 1 up to 1). fma(x, max, 0.5), rounded once, is never
+ * below the exact value's floor and at most one above it (an integer is a float, so rounding
+ * to nearest cannot cross it downwards); the exact sign of x * max + 0.5 - code, which fma
+ * keeps, says when it is one above. No branch and no double: the loops below are vectorised,
+ * 8 samples to an instruction. Checked against the double formula on all 2^32 floats. */
+static inline int32_t linear_code(float v, float max)
 {
-    for (size_t j = 0; j < n; j++) {
-        double m = (double)r[j] * 65535.0 + 0.5;
-        m = m > 0.5 ? m : 0.5;
-        m = m < 65535.5 ? m : 65535.5;
-        o[j] = (uint16_t)(int32_t)m;
-    }
+    int32_t b;
+    memcpy(&b, &v, sizeof b);
+    int32_t c = b > 0 ? b : 0;
+    c = c < 0x3f800000 ? c : 0x3f800000;
+    c = (b & 0x7fffffff) > 0x7f800000 ? 0 : c;
+    float x;
+    memcpy(&x, &c, sizeof x);
+    int32_t code = (int32_t)__builtin_fmaf(x, max, 0.5f);
+    float rest = __builtin_fmaf(x, max, 0.5f - (float)code);
+    int32_t sign;
+    memcpy(&sign, &rest, sizeof sign);
+    return code + (sign >> 31);
 }
 
-/* n linear samples to 8-bit codes (quantize8_linear's), as pack16_linear: v·255 + 0.5 is exact
- * in double too. */
-HOT static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_t n)
+/* n linear samples to 16-bit codes with quantize()'s rounding. */
+HOT_FMA static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t n)
 {
-    for (size_t j = 0; j < n; j++) {
-        double m = (double)r[j] * 255.0 + 0.5;
-        m = m > 0.5 ? m : 0.5;
-        m = m < 255.5 ? m : 255.5;
-        o[j] = (uint8_t)(int32_t)m;
-    }
+    for (size_t j = 0; j < n; j++) o[j] = (uint16_t)linear_code(r[j], 65535.0f);
+}
+
+/* n linear samples to 8-bit codes (quantize8_linear's). */
+HOT_FMA static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_t n)
+{
+    for (size_t j = 0; j < n; j++) o[j] = (uint8_t)linear_code(r[j], 255.0f);
 }
 
 /* n samples to 8-bit sRGB codes (quantize8_srgb's), in integers on the floats' bit patterns,

@@ -1934,10 +1934,67 @@ static void test_png8_holds_quantize8_codes(void **state)
             }
 }
 
+/* Linear 16- and 8-bit files hold floor(clamp(v, 0, 1) * max + 0.5) of every sample, computed
+ * here in double: the floats within 6 ulps of every place a code changes, (k + 1/2) / max for
+ * every k, and the special values; gray and colour rows, whose packing loops are vectorised. */
+static void test_linear_codes_at_every_boundary(void **state)
+{
+    (void)state;
+    for (int bits = 8; bits <= 16; bits += 8) {
+        double max = bits == 8 ? 255.0 : 65535.0;
+        int n_codes = (int)max;
+        long n = (long)n_codes * 13 + 16;
+        float *values = malloc((size_t)n * sizeof *values);
+        assert_non_null(values);
+        long nv = 0;
+        for (int k = 0; k < n_codes; k++) {
+            float mid = (float)((k + 0.5) / max);
+            uint32_t b;
+            memcpy(&b, &mid, sizeof b);
+            for (int d = -6; d <= 6; d++) values[nv++] = float_of(b + (uint32_t)d);
+        }
+        static const float special[] = {0.0f, -0.0f,          -1.0f,     -INFINITY, INFINITY, 1.0f,
+                                        2.0f, 1e30f,          1e-45f,    -1e-45f,   0.5f,     NAN,
+                                        -NAN, 0x1.fffffep-1f, 0x1p-126f, 1.0000001f};
+        for (size_t i = 0; i < sizeof special / sizeof *special; i++) values[nv++] = special[i];
+        for (int ch = 1; ch <= 4; ch += 3) {
+            int w = 1021, h = (int)((nv + (long)w * ch - 1) / ((long)w * ch));
+            WgImage *img = wg_image_new(w, h, ch);
+            assert_non_null(img);
+            long at = 0;
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w * ch; x++) /* alpha varies too: written as RGBA */
+                    wg_image_row(img, y)[x] = values[at++ % nv];
+            WgError err = {0};
+            const char *path = wgt_path("codes_linear.png");
+            assert_int_equal(wg_image_write(path, img, bits == 8 ? WG_FORMAT_PNG : WG_FORMAT_PNG16,
+                                            WG_LINEAR, &err),
+                             WG_OK);
+            WgImage *back = NULL; /* each sample is its code / max */
+            assert_int_equal(wg_image_read(path, ch, WG_LINEAR, &back, &err), WG_OK);
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w * ch; x++) {
+                    float v = wg_image_row(img, y)[x];
+                    double c = isnan(v) ? 0 : v < 0 ? 0 : v > 1 ? 1 : (double)v;
+                    long want = (long)floor(c * max + 0.5);
+                    long got = lrint(wg_image_row(back, y)[x] * max);
+                    if (got != want)
+                        fail_msg("%d bits, %d channels: sample %d of row %d holds %ld for %a, "
+                                 "not %ld",
+                                 bits, ch, x, y, got, v, want);
+                }
+            wg_image_unref(back);
+            wg_image_unref(img);
+        }
+        free(values);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_png16_round_trip_is_exact),
+        cmocka_unit_test(test_linear_codes_at_every_boundary),
         cmocka_unit_test(test_png8_rounds_to_nearest_and_clamps),
         cmocka_unit_test(test_png16_clamps_and_rounds),
         cmocka_unit_test(test_tif16_round_trip_is_exact),
