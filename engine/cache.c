@@ -6,7 +6,8 @@
  * of header and pixels. An entry whose size, key, port, shape or checksum does not match what
  * was asked for, or that is not a regular file, is deleted and treated as a miss, never trusted:
  * a file copied over another one, or a FIFO or symbolic link in its place, cannot make a render
- * return the wrong image or block. Entries are written to a temporary file
+ * return the wrong image or block. On a local file system a hit maps the entry's file rather
+ * than reading it (map_entry). Entries are written to a temporary file
  * (.<name>.tmp<pid>-<n>.wgc) and renamed, so concurrent renders never see half a file; opening
  * the cache removes the temporaries left behind by processes that no longer exist. */
 #include "internal.h"
@@ -319,17 +320,17 @@ static bool header_matches(const DiskHeader *h, const uint64_t key[2], int port,
            h->channels == channels && h->port == port && h->key[0] == key[0] && h->key[1] == key[1];
 }
 
-/* Whether an entry can be mapped rather than read: on a local file system, unlinking the file
- * or renaming another over it (all that pruning, clearing and other renders do to an entry)
- * leaves its pages to whoever maps it. Not on a network or FUSE file system, where a file
- * another machine deletes faults when its pages are read again. */
-static _Atomic bool no_mapping;
+static _Atomic bool no_mapping; /* wg__cache_map_entries(false): every entry is read */
 
 void wg__cache_map_entries(bool on)
 {
     no_mapping = !on;
 }
 
+/* Whether an entry can be mapped rather than read: on a local file system, unlinking the file
+ * or renaming another over it (all that pruning, clearing and other renders do to an entry)
+ * leaves its pages to whoever maps it. Not on a network or FUSE file system, where a file
+ * another machine deletes faults when its pages are read again. */
 static bool maps_safely(int fd)
 {
     if (no_mapping) return false;
@@ -408,8 +409,12 @@ static WgImage *map_entry(int fd, size_t size, const uint64_t key[2], int port, 
 static WgImage *read_entry(int fd, const uint64_t key[2], int port, int width, int height,
                            int channels, bool uniform, bool *bad)
 {
-    FILE *f = fdopen(dup(fd), "rb");
-    if (!f) return NULL;
+    int own = dup(fd); /* the stream's, closed with it */
+    FILE *f = own < 0 ? NULL : fdopen(own, "rb");
+    if (!f) {
+        if (own >= 0) close(own);
+        return NULL;
+    }
     WgImage *img = NULL;
     size_t row = (size_t)width * (size_t)channels;
     DiskHeader h;
