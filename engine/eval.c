@@ -103,6 +103,7 @@ struct Run {
     Run *token_next; /* the token's other running renders */
     int rc;
     bool skipped; /* a node ended with WG_ERR_CANCELLED: counted as completed, but not done */
+    bool disk_hits; /* some node was read from the disk cache: an edit's re-render */
     /* Outputs streamed to the request's output function: one job per output, submitted to the
      * pool when its node is done and counted in `running` while it runs. The node's image is
      * held (Node.holds) until the job has returned, then released like an intermediate. */
@@ -343,17 +344,21 @@ static bool disk_cacheable(const WgInst *in)
     return !(in->type->flags & WG_NODE_CHEAP) && !in->constant;
 }
 
-/* Whether a node just computed is stored in the disk cache: not a point operation (one that
- * runs in bands, fuse.c) that only the caller reads, a leaf of the render. Its output file
- * holds it (the CLI keeps that file by its source key without computing anything) and
- * computing it again from its inputs, which are stored, costs about what writing its entry
- * does: on a VM whose first touch of memory is slow, a 2048² colour entry is 64 MiB of fresh
- * page cache, 60 to 300 ms. The wet material's re-render after a change of one texturing
- * parameter writes one entry (the colour its albedo is made from) instead of two. */
+/* Whether a node just computed is stored in the disk cache. A point operation (one that runs
+ * in bands, fuse.c) is stored only when it is read by other nodes in a render that read nothing
+ * from the disk cache (a first render, which fills it). Not a leaf, which only the caller
+ * reads: its output file holds it (the CLI keeps that file by its source key without
+ * computing anything). Not in a render that read results from the disk (an edit's re-render):
+ * the point operations it computes lie downstream of the edit, which the next edit changes
+ * again. Computing a point operation again from its inputs costs about a pass over memory,
+ * about what writing its entry costs, and writing is what varies: on a VM whose first touch of
+ * memory is slow, a 2048² colour entry is 64 MiB of fresh page cache, 60 to 300 ms depending on
+ * how much the kernel still has to write back. The wet material's re-render after a change of
+ * one texturing parameter writes no entry, and reads the masks it needs back. */
 static bool disk_stores(const Run *run, const Node *n, const WgInst *in)
 {
-    return wg__cache_has_disk(run->e->cache) && disk_cacheable(in) &&
-           !(n->requested && !n->feeds && wg__fuse_capable(in));
+    if (!wg__cache_has_disk(run->e->cache) || !disk_cacheable(in)) return false;
+    return !wg__fuse_capable(in) || (!run->disk_hits && !(n->requested && !n->feeds));
 }
 
 /* Names the failing node (and a file it read) in its error. */
@@ -761,6 +766,7 @@ static bool lookup_cache(Run *run, int i)
         if (run->e->memory_cache)
             for (int o = 0; o < in->n_out; o++) wg__cache_put(c, in->key, o, n->out[o]);
         n->stat.cache = WG_HIT_DISK;
+        run->disk_hits = true;
         return true;
     }
     for (int o = 0; o < in->n_out; o++) {

@@ -448,6 +448,60 @@ static void test_cheap_nodes_and_point_leaves_are_not_written_to_disk(void **sta
     wg_graph_free(g);
 }
 
+/* blur -> pixel (gain) -> blur: the expression is an interior point operation. A first render
+ * stores it; an edit's re-render, which reads the first blur back from the disk, computes it
+ * and stores only the second blur; the edit undone reads everything back. */
+static void test_point_operations_of_a_rerender_are_not_stored(void **state)
+{
+    (void)state;
+    const char *dir = cache_dir("disk_rerender");
+    char dirbuf[1024];
+    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    WgGraph *g = wgt_load(
+        "<wetgraph version=\"1\" size=\"16\">\n"
+        "  <param name=\"gain\" type=\"float\" default=\"0.5\" min=\"0\" max=\"2\"/>\n"
+        "  <node id=\"n\" type=\"noise\" scale=\"4\"/>\n"
+        "  <node id=\"b1\" type=\"blur\" sigma=\"1\"><in name=\"source\" from=\"n\"/></node>\n"
+        "  <node id=\"p\" type=\"pixel\" expr=\"A * gain\"><in name=\"A\" from=\"b1\"/></node>\n"
+        "  <node id=\"b2\" type=\"blur\" sigma=\"2\"><in name=\"source\" from=\"p\"/></node>\n"
+        "  <output name=\"b2\" from=\"b2\"/>\n"
+        "</wetgraph>\n");
+    WgRequest *r = wg_request_new(g);
+    WgEngine *e = wgt_engine(2, 0, dirbuf);
+    WgResult *first = wgt_render_request(e, r);
+    wg_engine_free(e);
+    Entry entries[8];
+    assert_int_equal(cache_entries(dirbuf, entries, 8), 4); /* n, b1, p and b2 */
+    expect_stat(first, "p", WG_COMPUTED);
+
+    WgError err = {0};
+    assert_int_equal(wg_request_set(r, "gain", "1.5", &err), WG_OK);
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *edited = wgt_render_request(e, r);
+    wg_engine_free(e);
+    expect_stat(edited, "b1", WG_HIT_DISK);
+    expect_stat(edited, "p", WG_COMPUTED);
+    expect_stat(edited, "b2", WG_COMPUTED);
+    assert_int_equal(cache_entries(dirbuf, entries, 8), 5); /* the new b2, not p */
+    WgResult *edited_ref = cold(r);
+    expect_same_outputs(edited, edited_ref);
+
+    /* the edit undone: the first render's entries, p's among them */
+    assert_int_equal(wg_request_set(r, "gain", "0.5", &err), WG_OK);
+    e = wgt_engine(2, 0, dirbuf);
+    WgResult *undone = wgt_render_request(e, r);
+    wg_engine_free(e);
+    assert_int_equal(wg_result_evaluated_count(undone), 0);
+    expect_stat(undone, "b2", WG_HIT_DISK);
+    expect_same_outputs(undone, first);
+    wg_result_free(undone);
+    wg_result_free(edited_ref);
+    wg_result_free(edited);
+    wg_result_free(first);
+    wg_request_free(r);
+    wg_graph_free(g);
+}
+
 /* image (16x12) -> blur (32x24): two disk entries of different shapes. */
 static const char *const pair_xml =
     "<wetgraph version=\"1\" size=\"32x24\">\n"
@@ -1019,6 +1073,7 @@ int main(void)
         cmocka_unit_test(test_seed_in_an_expression_is_a_parameter_change),
         cmocka_unit_test(test_disk_cache_serves_a_fresh_engine),
         cmocka_unit_test(test_cheap_nodes_and_point_leaves_are_not_written_to_disk),
+        cmocka_unit_test(test_point_operations_of_a_rerender_are_not_stored),
         cmocka_unit_test(test_damaged_entries_are_recomputed_and_rewritten),
         cmocka_unit_test(test_all_entries_damaged),
         cmocka_unit_test(test_disk_hits_map_their_entries),

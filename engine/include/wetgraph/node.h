@@ -151,8 +151,8 @@ enum {
     WG_NODE_DYNAMIC_INPUTS = 1 << 6, /* any <in name=...>; `inputs` lists none or fixed ones */
     WG_NODE_EXTRA_PARAMS = 1 << 7,   /* undeclared numeric attributes are passed as extras */
     WG_NODE_CHEAP = 1 << 8,          /* cheaper to recompute than to read from the disk cache:
-                                        never stored (nor is a point operation that only the
-                                        caller reads, docs/engine.md) */
+                                        never stored (point operations are stored only by a
+                                        first render, docs/engine.md) */
     WG_NODE_SCOPED = 1 << 9,         /* reads ctx->scope_* (graph params etc.) in its own maths */
     WG_NODE_SERIAL = 1 << 11,        /* evaluates on one thread (never calls wg_parallel_rows):
                                         the scheduler runs it beside the row-parallel nodes,
