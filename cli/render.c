@@ -533,8 +533,8 @@ void print_stats(const WgEngine *e, const WgResult *res, bool json)
                 "%.1f ms of hashing, encoding and flushing in all, during the render\n",
                 last_write.n - n_kept, copies, n_kept, last_write.ms, last_write.output_ms);
     else if (last_write.n)
-        fprintf(stderr, "outputs: %d written, %d kept, %.1f ms\n", last_write.n - n_kept, n_kept,
-                last_write.ms);
+        fprintf(stderr, "outputs: %d written%s, %d kept, %.1f ms\n", last_write.n - n_kept, copies,
+                n_kept, last_write.ms);
 }
 
 /* The folder part of a file path ("." when there is none). */
@@ -1290,7 +1290,14 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
     clock_gettime(CLOCK_MONOTONIC, &t0);
     OutKey *keys = calloc((size_t)n + 1, sizeof *keys);
     bool *skip = calloc((size_t)n + 1, sizeof *skip), *wrote = calloc((size_t)n + 1, sizeof *wrote);
-    if (!rc && (!keys || !skip || !wrote))
+    bool *copied = calloc((size_t)n + 1, sizeof *copied);
+    /* an output whose key equals an earlier one's being encoded (the same pixels, format, colour
+     * space and compression: the same file) is a copy of that file: staged[i] is output i's place
+     * among the encoded ones, copy_of[i] the output it copies, or -1 */
+    int *staged = calloc((size_t)n + 1, sizeof *staged),
+        *copy_of = calloc((size_t)n + 1, sizeof *copy_of);
+    WgWriteSet *encoded = wg_write_set_new();
+    if (!rc && (!keys || !skip || !wrote || !copied || !staged || !copy_of || !encoded))
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     int nw = 0;
     for (int i = 0; !rc && separate && i < n; i++) {
@@ -1302,8 +1309,17 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         keys[i] =
             output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i), png);
         skip[i] = (kept && kept[i]) || key_matches(paths[i], keys[i]);
+        copy_of[i] = -1;
         if (skip[i]) continue;
         wrote[i] = true;
+        for (int j = 0; j < i && copy_of[i] < 0 && (keys[i].hi || keys[i].lo); j++)
+            if (wrote[j] && !copied[j] && keys[j].hi == keys[i].hi && keys[j].lo == keys[i].lo)
+                copy_of[i] = j;
+        if (copy_of[i] >= 0) {
+            copied[i] = true;
+            continue;
+        }
+        staged[i] = nw;
         wpaths[nw] = paths[i];
         wimages[nw] = wg_result_output_image(res, i);
         wformats[nw] = f;
@@ -1311,7 +1327,12 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         wcs[nw++] = wg_result_output_colorspace(res, i);
     }
     if (!rc && nw)
-        rc = wg_write_set_images(set, nw, wpaths, wimages, wformats, wcs, wpng, o->threads, err);
+        rc =
+            wg_write_set_images(encoded, nw, wpaths, wimages, wformats, wcs, wpng, o->threads, err);
+    for (int i = 0; !rc && separate && i < n; i++)
+        if (copied[i]) rc = wg_write_set_copy(set, paths[i], encoded, staged[copy_of[i]], err);
+    if (!rc) rc = wg_write_set_move(set, encoded, err);
+    wg_write_set_free(encoded);
     int n_gltf = 0;
     char(*gltf_paths)[4096] = calloc((size_t)wg_graph_gltf_count(g) + 1, sizeof *gltf_paths);
     if (!rc && !gltf_paths) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
@@ -1343,12 +1364,17 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         last_write.n = n;
         last_write.paths = paths;
         last_write.kept = skip;
+        last_write.copied = copied;
         paths = NULL;
         skip = NULL;
+        copied = NULL;
     }
     free(keys);
     free(skip);
     free(wrote);
+    free(copied);
+    free(staged);
+    free(copy_of);
     free(paths);
     return rc;
 }

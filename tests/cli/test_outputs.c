@@ -869,7 +869,7 @@ static const char *const graph_twins =
 /* An output whose file would be the same as another's of the same render is staged as a copy of
  * that file: the four files are what a render of each alone writes (the same bytes), --stats=json
  * lists one of a, b, c as written and the two others as copied, and d (8-bit: another file) as
- * written. With 1 and 2 threads. */
+ * written. With 1 and 2 threads, and with the outputs written after the render (--layered). */
 static void test_identical_outputs_are_copied(void **state)
 {
     (void)state;
@@ -913,6 +913,24 @@ static void test_identical_outputs_are_copied(void **state)
     assert_string_equal(r.out, "");
     run_free(&r);
     rm_rf(at("tw"));
+    /* outputs written after the render (the way of --layered with -o, of batches and of watch)
+     * are copied the same way */
+    rm_rf(at("twl"));
+    r = run("render", "tw.wetgraph", "--layered", "twl/all.exr", "-o", "twl", "--stats=json", NULL);
+    expect(&r, 0, "the four outputs and the layered file");
+    static const char *const how[] = {"written", "copied", "copied", "written"};
+    for (int k = 0; k < 4; k++) {
+        char want[96], file[32];
+        snprintf(want, sizeof want, "\"path\": \"twl/tw_%s.png\", \"file\": \"%s\"", names[k],
+                 how[k]);
+        if (!strstr(r.out, want)) fail_msg("no '%s' in:\n%s", want, r.out);
+        snprintf(file, sizeof file, "tw_%s.png", names[k]);
+        char dir[32];
+        snprintf(dir, sizeof dir, "tw_%s", names[k]);
+        expect_same_file(in("twl", file), in(dir, file));
+    }
+    run_free(&r);
+    rm_rf(at("twl"));
     for (int k = 0; k < 4; k++) {
         char dir[32];
         snprintf(dir, sizeof dir, "tw_%s", names[k]);
