@@ -878,12 +878,33 @@ static void file_layout(const WgImage *img, WgFormat format, int *channels, int 
 #define HOT
 #endif
 
-/* The packing loops with FMA as well (x86-64-v3: AVX2 and FMA), picked at load time. */
+/* The linear packing loops come in two kinds, with the same codes: in float with FMA where the
+ * processor has it (x86-64-v3 on x86, chosen at run time), else in double. FMA_LOOPS compiles a
+ * function for FMA; HAS_FMA says whether the processor runs it. */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT_FMA __attribute__((target_clones("arch=x86-64-v3", "default")))
+#define FMA_LOOPS __attribute__((target("arch=x86-64-v3")))
+#define HAS_FMA (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+#elif defined(__FMA__) || defined(__ARM_FEATURE_FMA)
+#define FMA_LOOPS
+#define HAS_FMA 1
 #else
-#define HOT_FMA
+#define FMA_LOOPS
+#define HAS_FMA 0
 #endif
+
+static _Atomic int pack_fma = -1; /* -1: not decided yet */
+
+void wg__pack_with_fma(bool on)
+{
+    pack_fma = on && HAS_FMA;
+}
+
+static bool packs_with_fma(void)
+{
+    int v = pack_fma;
+    if (v < 0) pack_fma = v = HAS_FMA;
+    return v;
+}
 
 /* The linear code of a sample for `max` (255 or 65535): floor(clamp(v, 0, 1) * max + 0.5),
  * quantize()'s rounding, in float with one correction. The clamp is done on the bit pattern
@@ -892,7 +913,7 @@ static void file_layout(const WgImage *img, WgFormat format, int *channels, int 
  * to nearest cannot cross it downwards); the exact sign of x * max + 0.5 - code, which fma
  * keeps, says when it is one above. No branch and no double: the loops below are vectorised,
  * 8 samples to an instruction. Checked against the double formula on all 2^32 floats when
- * written; the tests check the floats around every code boundary. */
+ * written; the tests check the floats around every code boundary, both ways. */
 static inline int32_t linear_code(float v, float max)
 {
     int32_t b;
@@ -909,16 +930,53 @@ static inline int32_t linear_code(float v, float max)
     return code + (sign >> 31);
 }
 
-/* n linear samples to 16-bit codes with quantize()'s rounding. */
-HOT_FMA static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t n)
+/* The same code in double, for processors without FMA: v * max + 0.5 is exact in double (a
+ * float has 24 bits, max 16), so clamping it to [0.5, max + 0.5] gives what clamping v to
+ * [0, 1] first gives, NaN failing the first compare and becoming 0. */
+static inline int32_t linear_code_double(float v, double max)
+{
+    double m = (double)v * max + 0.5;
+    m = m > 0.5 ? m : 0.5;
+    m = m < max + 0.5 ? m : max + 0.5;
+    return (int32_t)m;
+}
+
+FMA_LOOPS static void pack16_fma(const float *restrict r, uint16_t *restrict o, size_t n)
 {
     for (size_t j = 0; j < n; j++) o[j] = (uint16_t)linear_code(r[j], 65535.0f);
 }
 
-/* n linear samples to 8-bit codes (quantize8_linear's). */
-HOT_FMA static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_t n)
+FMA_LOOPS static void pack8_fma(const float *restrict r, uint8_t *restrict o, size_t n)
 {
     for (size_t j = 0; j < n; j++) o[j] = (uint8_t)linear_code(r[j], 255.0f);
+}
+
+HOT static void pack16_double(const float *restrict r, uint16_t *restrict o, size_t n)
+{
+    for (size_t j = 0; j < n; j++) o[j] = (uint16_t)linear_code_double(r[j], 65535.0);
+}
+
+HOT static void pack8_double(const float *restrict r, uint8_t *restrict o, size_t n)
+{
+    for (size_t j = 0; j < n; j++) o[j] = (uint8_t)linear_code_double(r[j], 255.0);
+}
+
+/* n linear samples to 16-bit codes with quantize()'s rounding. */
+static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t n)
+{
+    if (packs_with_fma())
+        pack16_fma(r, o, n);
+    else
+        pack16_double(r, o, n);
+}
+
+/* n linear samples to 8-bit codes (quantize8_linear's). */
+static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_t n)
+{
+    if (packs_with_fma())
+        pack8_fma(r, o, n);
+    else
+        pack8_double(r, o, n);
 }
 
 /* n samples to 8-bit sRGB codes (quantize8_srgb's), in integers on the floats' bit patterns,

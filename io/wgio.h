@@ -20,6 +20,9 @@ extern "C" {
 /* ---- for the engine: temporaries and file hashes (io.c) -------------------------------- */
 
 /* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
+/* Whether linear samples are packed with FMA where the processor has it (the default) or in
+ * double: the same codes either way; for tests of both. */
+void wg__pack_with_fma(bool on);
 char *wg__temp_path_for(const char *path);
 /* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
  * not have exactly that form; with host: the writer's host id there (wg__temp_host), or -1 for

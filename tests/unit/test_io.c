@@ -1936,11 +1936,14 @@ static void test_png8_holds_quantize8_codes(void **state)
 
 /* Linear 16- and 8-bit files hold floor(clamp(v, 0, 1) * max + 0.5) of every sample, computed
  * here in double: the floats within 6 ulps of every place a code changes, (k + 1/2) / max for
- * every k, and the special values; gray and colour rows, whose packing loops are vectorised. */
+ * every k, and the special values; gray and colour rows, whose packing loops are vectorised;
+ * packed with FMA (where the processor has it) and in double. */
 static void test_linear_codes_at_every_boundary(void **state)
 {
     (void)state;
-    for (int bits = 8; bits <= 16; bits += 8) {
+    for (int way = 0; way < 4; way++) {
+        int bits = way % 2 ? 16 : 8;
+        wg__pack_with_fma(way < 2);
         double max = bits == 8 ? 255.0 : 65535.0;
         int n_codes = (int)max;
         long n = (long)n_codes * 13 + 16;
@@ -1979,15 +1982,16 @@ static void test_linear_codes_at_every_boundary(void **state)
                     long want = (long)floor(c * max + 0.5);
                     long got = lrint(wg_image_row(back, y)[x] * max);
                     if (got != want)
-                        fail_msg("%d bits, %d channels: sample %d of row %d holds %ld for %a, "
-                                 "not %ld",
-                                 bits, ch, x, y, got, v, want);
+                        fail_msg("%d bits (%s), %d channels: sample %d of row %d holds %ld for "
+                                 "%a, not %ld",
+                                 bits, way < 2 ? "FMA" : "double", ch, x, y, got, v, want);
                 }
             wg_image_unref(back);
             wg_image_unref(img);
         }
         free(values);
     }
+    wg__pack_with_fma(true);
 }
 
 int main(void)
