@@ -178,11 +178,10 @@ static void spit(const char *path, const char *data, size_t n)
     fclose(f);
 }
 
-static const char *cache_dir(const char *name)
+/* The test's cache folder `name` under the temporary folder, into buf. */
+static void cache_dir(char *buf, size_t size, const char *name)
 {
-    static char buf[1024];
-    snprintf(buf, sizeof buf, "%s/%s", wgt_tmpdir(), name);
-    return buf;
+    snprintf(buf, size, "%s/%s", wgt_tmpdir(), name);
 }
 
 /* ---- in memory --------------------------------------------------------------------------- */
@@ -338,9 +337,8 @@ static void test_seed_in_an_expression_is_a_parameter_change(void **state)
 static void test_disk_cache_serves_a_fresh_engine(void **state)
 {
     (void)state;
-    const char *dir = cache_dir("disk1/nested/cache"); /* created if missing */
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "disk1/nested/cache"); /* created if missing */
     WgGraph *g = chain_graph();
     WgRequest *r = chain_request(g, NULL);
     WgResult *ref = cold(r);
@@ -404,9 +402,8 @@ static void test_disk_cache_serves_a_fresh_engine(void **state)
 static void test_cheap_nodes_and_point_leaves_are_not_written_to_disk(void **state)
 {
     (void)state;
-    const char *dir = cache_dir("disk_cheap");
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "disk_cheap");
     WgGraph *g = wgt_load(
         "<wetgraph version=\"1\" size=\"16\">\n"
         "  <input name=\"src\" type=\"gray\"/>\n"
@@ -454,9 +451,8 @@ static void test_cheap_nodes_and_point_leaves_are_not_written_to_disk(void **sta
 static void test_point_operations_of_a_rerender_are_not_stored(void **state)
 {
     (void)state;
-    const char *dir = cache_dir("disk_rerender");
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "disk_rerender");
     WgGraph *g = wgt_load(
         "<wetgraph version=\"1\" size=\"16\">\n"
         "  <param name=\"gain\" type=\"float\" default=\"0.5\" min=\"0\" max=\"2\"/>\n"
@@ -630,9 +626,8 @@ static void test_all_entries_damaged(void **state)
     write_picture(wgt_path("pair.png"), pic_fn);
     WgGraph *g = wgt_load_at(pair_xml, wgt_path("pair.wetgraph"));
     WgRequest *r = wg_request_new(g);
-    const char *dir = cache_dir("damage_all");
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "damage_all");
     WgEngine *e = wgt_engine(2, 0, dirbuf);
     WgResult *ref = wgt_render_request(e, r);
     wg_engine_free(e);
@@ -678,9 +673,8 @@ static int mapped_entries(const char *dir)
 static void test_disk_hits_map_their_entries(void **state)
 {
     (void)state;
-    const char *dir = cache_dir("mapped");
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "mapped");
     WgGraph *g = chain_graph();
     WgRequest *r = chain_request(g, NULL);
     WgResult *ref = cold(r);
@@ -749,9 +743,8 @@ static void test_swapped_entries_are_misses(void **state)
     WgGraph *g = chain_graph();
     WgRequest *r = chain_request(g, NULL);
     WgResult *ref = cold(r);
-    const char *dir = cache_dir("swap");
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "swap");
     WgEngine *e = wgt_engine(2, 0, dirbuf);
     wg_result_free(wgt_render_request(e, r));
     wg_engine_free(e);
@@ -874,9 +867,8 @@ static void test_stale_temporaries_are_removed(void **state)
     write_picture(wgt_path("pair.png"), pic_fn);
     WgGraph *g = wgt_load_at(pair_xml, wgt_path("pair.wetgraph"));
     WgRequest *r = wg_request_new(g);
-    const char *d = cache_dir("stale");
     char dir[1024];
-    snprintf(dir, sizeof dir, "%s", d);
+    cache_dir(dir, sizeof dir, "stale");
     WgEngine *e = wgt_engine(2, 0, dir);
     WgResult *ref = wgt_render_request(e, r);
     wg_engine_free(e);
@@ -973,9 +965,8 @@ static void test_image_key_follows_file_content(void **state)
                     "</wetgraph>\n",
                     wgt_path("swap.wetgraph"));
     WgRequest *r = wg_request_new(g);
-    const char *dir = cache_dir("swapcache");
     char dirbuf[1024];
-    snprintf(dirbuf, sizeof dirbuf, "%s", dir);
+    cache_dir(dirbuf, sizeof dirbuf, "swapcache");
     WgEngine *e = wgt_engine(2, 0, dirbuf);
     WgResult *a = wgt_render_request(e, r);
     assert_int_equal(wg_result_evaluated_count(a), 2);
