@@ -131,6 +131,29 @@ static const char *need_chromium(void)
     return bin;
 }
 
+static void need_node(void)
+{
+    if (wgt_shell(dir, "command -v node"))
+        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+}
+
+/* Drive the page at http://127.0.0.1:port/?query with tests/cli/page_driver.js running the
+ * steps in the test folder's file `steps`, in the chromium profile profile_NAME; its output goes
+ * to NAME.out and NAME.err there. Returns the output (the caller frees it), the driver's exit
+ * status in *status. */
+static char *drive_page(int port, const char *query, const char *steps, const char *name,
+                        int *status)
+{
+    *status = wgt_shell(dir,
+                        "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?%s' %s "
+                        "profile_%s >%s.out 2>%s.err",
+                        getenv("WETGRAPH_SOURCE"), port, query, steps, name, name, name);
+    char file[64];
+    snprintf(file, sizeof file, "%s.out", name);
+    size_t size;
+    return wgt_read_file(path(file), &size);
+}
+
 /* Load the page at http://127.0.0.1:port/query in headless chromium, its DOM into dom.html (a
  * virtual time budget, and `timeout` as the harness limit). */
 static int budget_ms = 5000;
@@ -765,15 +788,10 @@ static void test_view3d_sphere(void **state)
     if (off_disc(cplane, disc) < P * P / 10)
         fail_msg("the plane's silhouette is the sphere's disc too");
     /* the menu */
-    if (wgt_shell(dir, "command -v node"))
-        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    need_node();
     wgt_write_file(path("shape_steps.js"), shape_steps);
-    int st = wgt_shell(dir,
-                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
-                       "shape_steps.js profile_shape >shape.out 2>shape.err",
-                       getenv("WETGRAPH_SOURCE"), port);
-    size_t size;
-    char *out = wgt_read_file(path("shape.out"), &size);
+    int st;
+    char *out = drive_page(port, "events=0", "shape_steps.js", "shape", &st);
     if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
     if (strcmp(out, "[\"plane\",\"plane,sphere,grid\",\"ready\"]\n"))
         fail_msg("the shape menu: %s", out);
@@ -1029,28 +1047,18 @@ static void test_view3d_moves_at_lower_resolution(void **state)
 {
     (void)state;
     need_chromium();
-    if (wgt_shell(dir, "command -v node"))
-        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    need_node();
     int port = start_lookdev();
     wait_for("watch: waiting", 1);
     wgt_write_file(path("move_steps.js"), move_steps);
-    int st =
-        wgt_shell(dir,
-                  "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0&frame_ms=1' "
-                  "move_steps.js profile_move >move.out 2>move.err",
-                  getenv("WETGRAPH_SOURCE"), port);
-    size_t size;
-    char *out = wgt_read_file(path("move.out"), &size);
+    int st;
+    char *out = drive_page(port, "events=0&frame_ms=1", "move_steps.js", "move", &st);
     if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
     if (strcmp(out, "[true,true,\"1\",true]\n"))
         fail_msg("moving the view at a budget of 1 ms a frame: %s", out);
     free(out);
     /* always full resolution: the driver never sees scale 0.25 (it gives up after 15 s) */
-    st = wgt_shell(dir,
-                   "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0&frame_ms=0' "
-                   "move_steps.js profile_move0 >move0.out 2>move0.err",
-                   getenv("WETGRAPH_SOURCE"), port);
-    out = wgt_read_file(path("move0.out"), &size);
+    out = drive_page(port, "events=0&frame_ms=0", "move_steps.js", "move0", &st);
     if (!st || !strstr(out, "a picture at scale 0.25"))
         fail_msg("with ?frame_ms=0 the view moved at a lower resolution: %s", out);
     free(out);
@@ -1129,18 +1137,13 @@ static void test_param_controls(void **state)
 {
     (void)state;
     need_chromium();
-    if (wgt_shell(dir, "command -v node"))
-        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    need_node();
     wgt_write_file(path("g.wetgraph"), hinted);
     wgt_write_file(path("steps.js"), hinted_steps);
     int port = start("nobin", NULL);
     wait_for("watch: waiting", 1);
-    int st = wgt_shell(dir,
-                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
-                       "steps.js profile_driver >driver.out 2>driver.err",
-                       getenv("WETGRAPH_SOURCE"), port);
-    size_t size;
-    char *out = wgt_read_file(path("driver.out"), &size);
+    int st;
+    char *out = drive_page(port, "events=0", "steps.js", "driver", &st);
     if (st) fail_msg("the page driver failed (status %d):\n%s", st, out);
     static const char *const want[] = {
         "[\"1\",\"64\",\"0.5\",\"0.001\",\"4096\",\"The length the range stands for\",\"Zones\","
@@ -1197,12 +1200,8 @@ static void check_node_view(int port, const char *selector, const char *node, co
         snprintf(at, sizeof steps - (size_t)(at - steps), "%s%s", q, rest);
     }
     wgt_write_file(path("node_steps.js"), steps);
-    int st = wgt_shell(dir,
-                       "node '%s/tests/cli/page_driver.js' 'http://127.0.0.1:%d/?events=0' "
-                       "node_steps.js profile_node >node.out 2>node.err",
-                       getenv("WETGRAPH_SOURCE"), port);
-    size_t size;
-    char *out = wgt_read_file(path("node.out"), &size);
+    int st;
+    char *out = drive_page(port, "events=0", "node_steps.js", "node", &st);
     if (st) fail_msg("the page driver failed (status %d):\n%.2000s", st, out);
     char head[256];
     snprintf(head, sizeof head, "[\"node %s\",\"1\",64,\"wetgraph watch\",false,[", node);
@@ -1236,8 +1235,7 @@ static void test_node_view(void **state)
 {
     (void)state;
     const char *bin = need_chromium();
-    if (wgt_shell(dir, "command -v node"))
-        fail_msg("node is not installed: the page driver needs Node.js (scripts/install-deps.sh)");
+    need_node();
     char g_n[2048];
     snprintf(g_n, sizeof g_n, "%s", graph);
     char *end = strstr(g_n, "</wetgraph>");
