@@ -16,7 +16,8 @@
  * bit-identical for any thread count. */
 /* Without trapping maths the compiler may compute both sides of a select, and without errno
  * sqrtf is one instruction: both let more of the kernels' loops vectorise. No value changes:
- * only the floating-point exception flags and errno could, and nothing reads them. */
+ * only the floating-point exception flags and errno could, and nothing reads them. The kernels'
+ * target clones do not take the errno option from this pragma: meson.build gives it to all. */
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("no-trapping-math", "no-math-errno")
 #endif
