@@ -89,13 +89,14 @@ HOT static void filter_as(const unsigned char *cur, const unsigned char *prev, s
     default:
         for (size_t i = 0; i < k; i++) o[i] = (unsigned char)(cur[i] - prev[i]);
         for (size_t i = k; i < n; i++) {
-            int a = cur[i - k], b = prev[i], c = prev[i - k];
+            /* in 16 bits (|a + b - 2c| <= 510), so that a vector holds 16 of them, not 8 */
+            int16_t a = cur[i - k], b = prev[i], c = prev[i - k];
             /* |p - a|, |p - b| and |p - c| for p = a + b - c */
-            int pa = b - c, pb = a - c, pc = a + b - 2 * c;
-            pa = pa < 0 ? -pa : pa;
-            pb = pb < 0 ? -pb : pb;
-            pc = pc < 0 ? -pc : pc;
-            int pred = pb <= pc ? b : c;
+            int16_t pa = (int16_t)(b - c), pb = (int16_t)(a - c), pc = (int16_t)(a + b - 2 * c);
+            pa = pa < 0 ? (int16_t)-pa : pa;
+            pb = pb < 0 ? (int16_t)-pb : pb;
+            pc = pc < 0 ? (int16_t)-pc : pc;
+            int16_t pred = pb <= pc ? b : c;
             pred = (pa <= pb) & (pa <= pc) ? a : pred;
             o[i] = (unsigned char)(cur[i] - pred);
         }
