@@ -103,6 +103,18 @@ HOT static void filter_as(const unsigned char *cur, const unsigned char *prev, s
     }
 }
 
+/* PNG stores 16-bit samples most significant byte first: the n bytes' pairs swapped (a vector
+ * of shifts, not a byte at a time). */
+HOT static void swap_bytes16(unsigned char *p, size_t n)
+{
+    for (size_t i = 0; i + 2 <= n; i += 2) {
+        uint16_t v;
+        memcpy(&v, p + i, 2);
+        v = (uint16_t)(v << 8 | v >> 8);
+        memcpy(p + i, &v, 2);
+    }
+}
+
 /* The row filtered into out[0..n] with the filter type first: `type` (the fast mode's rows
  * between choices), or with -1 the type of the five whose output costs least; `tries` holds 4
  * rows of n bytes. */
@@ -155,14 +167,7 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
     int type = 0;
     for (int y = 0; y < h; y++) {
         pack(user, y, cur);
-        if (bits == 16) { /* PNG stores 16-bit samples most significant byte first */
-            for (size_t i = 0; i < row; i += 2) {
-                uint16_t v;
-                memcpy(&v, cur + i, 2);
-                cur[i] = (unsigned char)(v >> 8);
-                cur[i + 1] = (unsigned char)v;
-            }
-        }
+        if (bits == 16) swap_bytes16(cur, row);
         unsigned char *f = filtered + (row + 1) * (size_t)y;
         /* none: filter type 0, the bytes as they are; fast: the type chosen on the last choice row
          */
