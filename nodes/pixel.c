@@ -291,6 +291,12 @@ K3(k_smoothstep, smooth(x, y, z))
 K3(k_select, x != 0 ? y : z)
 /* clang-format on */
 
+/* One channel of n colour pixels, s[0], s[4], ... */
+HOT static void read_channel(float *restrict d, const float *restrict s, int n)
+{
+    for (int i = 0; i < n; i++) d[i] = s[4 * i];
+}
+
 /* ---- execution --------------------------------------------------------------------------- */
 
 typedef struct {
@@ -318,11 +324,9 @@ static void run_op(const Job *j, const WgPxVal *v, float *restrict d, const floa
     case WG_PX_V:
         d[0] = (float)((y + 0.5) / p->height);
         break;
-    case WG_PX_INPUT: {
-        const float *s = wg_image_row(j->inputs[v->input], y) + 4 * x0 + v->channel;
-        for (int i = 0; i < n; i++) d[i] = s[4 * i];
+    case WG_PX_INPUT:
+        read_channel(d, wg_image_row(j->inputs[v->input], y) + 4 * x0 + v->channel, n);
         break;
-    }
     /* clang-format off */
     case WG_PX_NEG: k_neg(d, a, n); break;
     case WG_PX_NOT: k_not(d, a, n); break;
