@@ -556,13 +556,26 @@ static void output_key(const WgPlan *p, int k, uint64_t key[2])
     key[1] = h.high64;
 }
 
+/* WgOutputInfo.parallel: parts as row chunks on the render's pool, stopped by its cancel */
+static int output_parallel(const void *ctx, int n, void (*fn)(void *user, int i0, int i1),
+                           void *user)
+{
+    Run *run = (Run *)ctx;
+    return wg__pool_rows(run->e->pool, &run->cancel, n, fn, user);
+}
+
 static WgOutputInfo output_info(const Run *run, int k)
 {
     const WgPlanOutput *po = &run->plan->outputs[k];
     const Node *src = &run->nodes[po->ref.inst];
-    WgOutputInfo info = {k,          po->name,       src->out ? src->out[po->ref.port] : NULL,
-                         po->format, po->colorspace, po->compression,
-                         {0, 0}};
+    WgOutputInfo info = {k,
+                         po->name,
+                         src->out ? src->out[po->ref.port] : NULL,
+                         po->format,
+                         po->colorspace,
+                         po->compression,
+                         {0, 0},
+                         {output_parallel, run}};
     output_key(run->plan, k, info.key);
     return info;
 }

@@ -9,10 +9,14 @@
  * longest shorter code). The codes go out through a 64-bit bit buffer, literals two or four to a
  * write. One pass counts, one pass codes; when the block would not be smaller than stored blocks
  * (known from the count, and checked while coding) the input goes in stored blocks instead, so
- * the output never exceeds wg__zlib_fast_bound. Measured on the filtered rows of the wet
- * material's 23 outputs at 2048² (218 MB; AMD EPYC, one core): 1240 MB/s against 255 MB/s
- * for libdeflate's level 1 (4.8x), streams 1% smaller than its. Stored blocks (wg__zlib_stored)
- * write the bytes as they are, 5 bytes more per 65535. */
+ * the output never exceeds wg__zlib_fast_bound. A stream can also be coded in pieces, each on
+ * its own thread: one code made from the histogram of the whole (wg__deflate_code), then each
+ * piece a block of its own with that code (wg__deflate_piece), ended on a byte boundary by an
+ * empty stored block (as zlib's full flush ends one), so that the pieces are simply concatenated;
+ * a piece that would not be smaller than stored goes in stored blocks alone. Measured on the
+ * filtered rows of the wet material's 23 outputs at 2048² (218 MB; AMD EPYC, one core): 1240 MB/s
+ * against 255 MB/s for libdeflate's level 1 (4.8x), streams 1% smaller than its. Stored blocks
+ * (wg__zlib_stored) write the bytes as they are, 5 bytes more per 65535. */
 #include "internal.h"
 #include "wgio.h"
 
@@ -246,31 +250,57 @@ static size_t zlib_tail(const unsigned char *in, size_t n, unsigned char *out)
     return 4;
 }
 
-size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, size_t cap)
+/* Stored blocks of in[0..n), at least one (empty for n = 0), BFINAL on the last when `last`.
+ * Byte-aligned already: nothing needs flushing. */
+static unsigned char *stored_blocks(const unsigned char *in, size_t n, bool last, unsigned char *p)
 {
-    size_t blocks = n / STORED_MAX + 1;
-    if (cap < n + 5 * blocks + 6) return 0;
-    unsigned char *p = out;
-    *p++ = 0x78, *p++ = 0x01; /* deflate, 32 KiB window, fastest */
     size_t at = 0;
     do {
         size_t k = n - at < STORED_MAX ? n - at : STORED_MAX;
-        *p++ = at + k == n; /* BFINAL, BTYPE 00, padded to the byte */
+        *p++ = last && at + k == n; /* BFINAL, BTYPE 00, padded to the byte */
         p[0] = (unsigned char)k, p[1] = (unsigned char)(k >> 8);
         p[2] = (unsigned char)~k, p[3] = (unsigned char)(~k >> 8);
         memcpy(p + 4, in + at, k);
         p += 4 + k;
         at += k;
     } while (at < n);
+    return p;
+}
+
+size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, size_t cap)
+{
+    size_t blocks = n / STORED_MAX + 1;
+    if (cap < n + 5 * blocks + 6) return 0;
+    out[0] = 0x78, out[1] = 0x01; /* deflate, 32 KiB window, fastest */
+    unsigned char *p = stored_blocks(in, n, true, out + 2);
     p += zlib_tail(in, n, p);
     return (size_t)(p - out);
 }
 
-size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char *out, size_t cap)
+struct WgDeflateCode {
+    bool stored; /* coding would not be smaller than stored blocks */
+    int dist, hlit, hdist, hclen, nc;
+    size_t header_bytes; /* a block's header: its code lengths, coded */
+    uint8_t cl_len[19], cl_sym[286 + 30], cl_extra[286 + 30];
+    uint16_t cl_code[19], lit_code[286];
+    uint8_t lit_len[286];
+    uint64_t mcode[259]; /* a match of length l in one put: length and distance, codes and extra */
+    uint8_t mlen[259];
+    uint64_t lit[256]; /* a literal's code in the low 32 bits, its length above */
+    uint64_t *pair;    /* large inputs: every pair of literals in one entry (at most 30 bits) */
+    bool quads;        /* literals of at most 14 bits: four to a put */
+};
+
+WgDeflateCode *wg__deflate_code(const unsigned char *in, size_t n, int dist)
 {
-    if (cap < wg__zlib_fast_bound(n)) return 0;
-    if (!n) return wg__zlib_stored(in, n, out, cap);
+    WgDeflateCode *c = wg_calloc(1, sizeof *c);
+    if (!c) return NULL;
     if (dist < 1 || dist > 8) dist = 1;
+    c->dist = dist;
+    if (!n) {
+        c->stored = true;
+        return c;
+    }
     /* the count */
     uint32_t lit_freq[4][286] = {{0}}, dist_freq[30] = {0};
     int msym[259], mbits[259], mextra[259], dsym, dbits, dextra;
@@ -279,8 +309,8 @@ size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char 
     uint64_t matches = 0;
     /* Every byte counted as a literal, then the bytes of runs taken off again: the counting
      * loop runs without the parse's branches. Large inputs are counted on a sample, every
-     * SAMPLE_STEP-th SAMPLE_BYTES, with every symbol counted once more so that each has a code;
-     * the coding pass then checks that the block stays below the stored size. */
+     * SAMPLE_STEP-th SAMPLE_BYTES; the coding then checks that each block stays below the
+     * stored size. */
     bool sampled = n >= SAMPLE_MIN;
     size_t step = sampled ? SAMPLE_STEP * SAMPLE_BYTES : n, counted = 0;
     for (size_t c0 = 0; c0 < n; c0 += step) {
@@ -312,10 +342,13 @@ size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char 
     } while (0)
         PARSE(ch, cn, (size_t)dist, COUNT_LITS, COUNT_RUN);
     }
+    /* Every symbol counted once more, so that each has a code: the bytes a sample missed, and
+     * the run lengths and the distance of a piece whose runs the whole's parse cut otherwise
+     * (a run across a piece's end is two shorter runs, or none). */
     for (int s = 0; s < 286; s++)
-        lit_freq[0][s] += lit_freq[1][s] + lit_freq[2][s] + lit_freq[3][s] + sampled;
+        lit_freq[0][s] += lit_freq[1][s] + lit_freq[2][s] + lit_freq[3][s] + 1;
     lit_freq[0][256] = 1; /* end of block */
-    dist_freq[dsym] = (uint32_t)(matches ? matches : 0);
+    dist_freq[dsym] = (uint32_t)matches + 1;
     uint8_t lens[286 + 30];
     uint8_t *lit_len = lens, *dist_len = lens + 286;
     wg__huffman_lengths(lit_freq[0], 286, MAX_BITS, lit_len);
@@ -324,7 +357,7 @@ size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char 
     while (hlit > 257 && !lit_len[hlit - 1]) hlit--;
     while (hdist > 1 && !dist_len[hdist - 1]) hdist--;
     /* the code lengths, run-length coded (RFC 1951 3.2.7): symbols 0..18 with extra bits */
-    uint8_t seq[286 + 30], cl_sym[286 + 30], cl_extra[286 + 30];
+    uint8_t seq[286 + 30];
     int ns = 0, nc = 0;
     memcpy(seq, lit_len, (size_t)hlit);
     memcpy(seq + hlit, dist_len, (size_t)hdist);
@@ -336,73 +369,52 @@ size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char 
         int run = j - i;
         if (seq[i] == 0 && run >= 3) {
             int k = run > 138 ? 138 : run;
-            cl_sym[nc] = k >= 11 ? 18 : 17;
-            cl_extra[nc++] = (uint8_t)(k >= 11 ? k - 11 : k - 3);
+            c->cl_sym[nc] = k >= 11 ? 18 : 17;
+            c->cl_extra[nc++] = (uint8_t)(k >= 11 ? k - 11 : k - 3);
             i += k;
         } else if (seq[i] != 0 && run >= 4) {
-            cl_sym[nc] = seq[i];
-            cl_extra[nc++] = 0;
+            c->cl_sym[nc] = seq[i];
+            c->cl_extra[nc++] = 0;
             int k = run - 1 > 6 ? 6 : run - 1;
-            cl_sym[nc] = 16;
-            cl_extra[nc++] = (uint8_t)(k - 3);
+            c->cl_sym[nc] = 16;
+            c->cl_extra[nc++] = (uint8_t)(k - 3);
             i += 1 + k;
         } else {
-            cl_sym[nc] = seq[i];
-            cl_extra[nc++] = 0;
+            c->cl_sym[nc] = seq[i];
+            c->cl_extra[nc++] = 0;
             i++;
         }
     }
-    for (int k = 0; k < nc; k++) cl_freq[cl_sym[k]]++;
-    uint8_t cl_len[19];
-    uint16_t cl_code[19], lit_code[286], dist_code_[30];
-    wg__huffman_lengths(cl_freq, 19, MAX_CL_BITS, cl_len);
-    canonical_codes(cl_len, 19, cl_code);
-    canonical_codes(lit_len, 286, lit_code);
+    for (int k = 0; k < nc; k++) cl_freq[c->cl_sym[k]]++;
+    uint16_t dist_code_[30];
+    wg__huffman_lengths(cl_freq, 19, MAX_CL_BITS, c->cl_len);
+    canonical_codes(c->cl_len, 19, c->cl_code);
+    canonical_codes(lit_len, 286, c->lit_code);
     canonical_codes(dist_len, 30, dist_code_);
+    memcpy(c->lit_len, lit_len, sizeof c->lit_len);
     static const uint8_t order[19] = {16, 17, 18, 0, 8,  7, 9,  6, 10, 5,
                                       11, 4,  12, 3, 13, 2, 14, 1, 15};
     int hclen = 19;
-    while (hclen > 4 && !cl_len[order[hclen - 1]]) hclen--;
+    while (hclen > 4 && !c->cl_len[order[hclen - 1]]) hclen--;
+    c->hlit = hlit, c->hdist = hdist, c->hclen = hclen, c->nc = nc;
     /* the block's size in bits, known before it is written: stored blocks when not smaller */
     static const uint8_t cl_extra_bits[19] = {[16] = 2, [17] = 3, [18] = 7};
     uint64_t bits = 3 + 5 + 5 + 4 + 3 * (uint64_t)hclen;
-    for (int k = 0; k < nc; k++) bits += cl_len[cl_sym[k]] + cl_extra_bits[cl_sym[k]];
+    for (int k = 0; k < nc; k++) bits += c->cl_len[c->cl_sym[k]] + cl_extra_bits[c->cl_sym[k]];
+    c->header_bytes = (size_t)(bits + 7) / 8;
     for (int s = 0; s < 286; s++) {
         uint64_t extra = s >= 265 && s < 285 ? (uint64_t)(s - 261) / 4 : 0;
         bits += (uint64_t)lit_freq[0][s] * (lit_len[s] + extra);
     }
     bits += matches * (uint64_t)(dist_len[dsym] + dbits);
     size_t stored = n + 5 * (n / STORED_MAX + 1);
-    if ((double)bits / 8 * ((double)n / (double)counted) + 1 >= (double)stored)
-        return wg__zlib_stored(in, n, out, cap);
-    /* past this the block would not be smaller than stored blocks (the margin holds what a
-     * stretch of literals or a match writes before the next check, and the end) */
-    const unsigned char *limit = out + stored - 64;
-
-    /* the header */
-    out[0] = 0x78, out[1] = 0x01;
-    Bits b = {0, 0, out + 2};
-    put(&b, 1 | 2u << 1, 3); /* BFINAL, BTYPE 10: dynamic codes */
-    put(&b, (uint64_t)(hlit - 257), 5);
-    put(&b, (uint64_t)(hdist - 1), 5);
-    put(&b, (uint64_t)(hclen - 4), 4);
-    flush(&b);
-    for (int k = 0; k < hclen; k++) {
-        put(&b, cl_len[order[k]], 3);
-        flush(&b);
+    if ((double)bits / 8 * ((double)n / (double)counted) + 1 >= (double)stored) {
+        c->stored = true;
+        return c;
     }
-    for (int k = 0; k < nc; k++) {
-        put(&b, cl_code[cl_sym[k]], cl_len[cl_sym[k]]);
-        put(&b, cl_extra[k], cl_extra_bits[cl_sym[k]]);
-        flush(&b);
-    }
-    /* a match is one put: its length's code and extra bits, the distance's code and extra bits
-     * (at most 15 + 5 + 15 + 1 bits) */
-    uint64_t mcode[259];
-    uint8_t mlen[259];
     for (int l = 3; l <= 258; l++) {
         int s = msym[l];
-        uint64_t v = lit_code[s];
+        uint64_t v = c->lit_code[s];
         unsigned k = lit_len[s];
         v |= (uint64_t)mextra[l] << k;
         k += (unsigned)mbits[l];
@@ -410,23 +422,67 @@ size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char 
         k += dist_len[dsym];
         v |= (uint64_t)dextra << k;
         k += (unsigned)dbits;
-        mcode[l] = v;
-        mlen[l] = (uint8_t)k;
+        c->mcode[l] = v;
+        c->mlen[l] = (uint8_t)k;
     }
-    /* a literal's code and length in one word: code in the low 32 bits, length above; for
-     * large inputs also every pair of literals in one entry (at most 30 bits: with the bits
-     * left over from a flush, one put per pair) */
-    uint64_t lit[256];
-    for (int s = 0; s < 256; s++) lit[s] = lit_code[s] | (uint64_t)lit_len[s] << 32;
-    uint64_t *pair = n >= PAIR_MIN ? wg_malloc(65536 * sizeof *pair) : NULL;
-    /* literals of at most 14 bits go four to a put (56 bits, and 7 left from a flush) */
+    for (int s = 0; s < 256; s++) c->lit[s] = c->lit_code[s] | (uint64_t)lit_len[s] << 32;
+    c->pair = n >= PAIR_MIN ? wg_malloc(65536 * sizeof *c->pair) : NULL;
     int lit_max = 0;
     for (int s = 0; s < 256; s++) lit_max = lit_len[s] > lit_max ? lit_len[s] : lit_max;
-    bool quads = pair && lit_max <= 14;
-    for (int s = 0; pair && s < 65536; s++) {
-        uint64_t a = lit[s & 255], c = lit[s >> 8];
-        pair[s] = (a & 0xffffffff) | (c & 0xffffffff) << (a >> 32) | ((a >> 32) + (c >> 32)) << 32;
+    c->quads = c->pair && lit_max <= 14;
+    for (int s = 0; c->pair && s < 65536; s++) {
+        uint64_t a = c->lit[s & 255], b = c->lit[s >> 8];
+        c->pair[s] =
+            (a & 0xffffffff) | (b & 0xffffffff) << (a >> 32) | ((a >> 32) + (b >> 32)) << 32;
     }
+    return c;
+}
+
+void wg__deflate_code_free(WgDeflateCode *c)
+{
+    if (!c) return;
+    wg_free(c->pair);
+    wg_free(c);
+}
+
+size_t wg__deflate_piece_bound(size_t n)
+{
+    /* stored blocks (the fallback), the empty stored block that ends a piece that is not the
+     * last, and the 8 bytes the bit writer stores past its end */
+    return n + 5 * (n / STORED_MAX + 1) + 5 + 8;
+}
+
+size_t wg__deflate_piece(const WgDeflateCode *c, const unsigned char *in, size_t n, bool last,
+                         unsigned char *out, size_t cap)
+{
+    if (cap < wg__deflate_piece_bound(n) - (last ? 5 : 0)) return 0;
+    size_t stored = n + 5 * (n / STORED_MAX + 1);
+    /* past `limit` the block would not be smaller than stored blocks (the margin holds what a
+     * stretch of literals or a match writes before the next check, and the end); a piece too
+     * small for the header and that margin is stored at once */
+    if (c->stored || stored < c->header_bytes + 64 + 16)
+        return (size_t)(stored_blocks(in, n, last, out) - out);
+    const unsigned char *limit = out + stored - 64;
+    static const uint8_t order[19] = {16, 17, 18, 0, 8,  7, 9,  6, 10, 5,
+                                      11, 4,  12, 3, 13, 2, 14, 1, 15};
+    static const uint8_t cl_extra_bits[19] = {[16] = 2, [17] = 3, [18] = 7};
+    Bits b = {0, 0, out};
+    put(&b, (uint64_t)last | 2u << 1, 3); /* BFINAL, BTYPE 10: dynamic codes */
+    put(&b, (uint64_t)(c->hlit - 257), 5);
+    put(&b, (uint64_t)(c->hdist - 1), 5);
+    put(&b, (uint64_t)(c->hclen - 4), 4);
+    flush(&b);
+    for (int k = 0; k < c->hclen; k++) {
+        put(&b, c->cl_len[order[k]], 3);
+        flush(&b);
+    }
+    for (int k = 0; k < c->nc; k++) {
+        put(&b, c->cl_code[c->cl_sym[k]], c->cl_len[c->cl_sym[k]]);
+        put(&b, c->cl_extra[k], cl_extra_bits[c->cl_sym[k]]);
+        flush(&b);
+    }
+    const uint64_t *lit = c->lit, *pair = c->pair;
+    bool quads = c->quads;
 #define CODE_LITS(from, k)                                                                         \
     do {                                                                                           \
         const unsigned char *p_ = in + (from);                                                     \
@@ -455,22 +511,37 @@ size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char 
 #define CODE_MATCH(l)                                                                              \
     do {                                                                                           \
         if (b.at > limit) goto overflow;                                                           \
-        put(&b, mcode[l], mlen[l]);                                                                \
+        put(&b, c->mcode[l], c->mlen[l]);                                                          \
         flush(&b);                                                                                 \
     } while (0)
 #define CODE_RUN(from, to) RUN_PIECES((to) - (from), CODE_MATCH)
-    PARSE(in, n, (size_t)dist, CODE_LITS, CODE_RUN);
-    wg_free(pair);
-    if (b.at > limit) return wg__zlib_stored(in, n, out, cap);
+    PARSE(in, n, (size_t)c->dist, CODE_LITS, CODE_RUN);
+    if (b.at > limit) goto overflow;
     flush(&b);
-    put(&b, lit_code[256], lit_len[256]);
-    b.n += 7; /* to the byte */
+    put(&b, c->lit_code[256], c->lit_len[256]);
+    if (!last) put(&b, 0, 3); /* an empty stored block: the piece ends on a byte */
+    b.n += 7;                 /* to the byte */
     b.n &= ~7u;
     flush(&b);
     unsigned char *p = b.at;
-    p += zlib_tail(in, n, p);
+    if (!last) {
+        p[0] = p[1] = 0x00;
+        p[2] = p[3] = 0xff;
+        p += 4;
+    }
     return (size_t)(p - out);
 overflow:
-    wg_free(pair);
-    return wg__zlib_stored(in, n, out, cap);
+    return (size_t)(stored_blocks(in, n, last, out) - out);
+}
+
+size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char *out, size_t cap)
+{
+    if (cap < wg__zlib_fast_bound(n)) return 0;
+    WgDeflateCode *c = wg__deflate_code(in, n, dist);
+    if (!c) return 0;
+    out[0] = 0x78, out[1] = 0x01; /* deflate, 32 KiB window, fastest */
+    size_t k = wg__deflate_piece(c, in, n, true, out + 2, cap - 6);
+    wg__deflate_code_free(c);
+    if (!k) return 0;
+    return 2 + k + zlib_tail(in, n, out + 2 + k);
 }

@@ -8,7 +8,9 @@
  * codes the stream with deflate_fast.c (Huffman coding and runs, about 4x faster in all); none
  * writes the rows unfiltered in stored blocks. The caller packs the rows
  * one at a time as they are filtered (16-bit samples in host order); readers of every kind
- * decode the files, the tests check them with libpng. */
+ * decode the files, the tests check them with libpng. Rows are filtered, and in the fast mode
+ * coded, in pieces of rows that the caller's WgParallel may run on several threads (a render's
+ * idle workers): the pieces depend on the image alone, so the file does too. */
 #include "internal.h"
 #include "wgio.h"
 
@@ -16,6 +18,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <libdeflate.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -146,56 +149,199 @@ static void filter_row(const unsigned char *cur, const unsigned char *prev, size
     memcpy(out + 1, best, n);
 }
 
+/* The image is filtered and coded in pieces of whole rows, each on whichever thread the caller's
+ * WgParallel gives it: pieces of at least PIECE_BYTES of filtered rows, a multiple of
+ * FAST_CHOICE_ROWS rows each (so every piece starts on a row that chooses its filter, and the
+ * filtered rows are those of one pass down the image). The pieces depend on the image alone, so
+ * the file is the same whatever runs them. */
+#define PIECE_BYTES (512 * 1024)
+
+typedef struct {
+    int w, h, c, bits, bpp;
+    WgPngCompression mode;
+    WgPngPack pack;
+    void *user;
+    size_t row;     /* bytes of a packed row */
+    int piece_rows; /* rows of a piece (the last may have fewer) */
+    unsigned char *filtered;
+    const WgDeflateCode *code; /* the fast mode's, for the coding pass */
+    unsigned char *zbuf;       /* the pieces' streams, each at piece * zcap */
+    size_t zcap, *zsize;
+    atomic_int failed;
+} Encode;
+
+static int pieces_of(const Encode *e)
+{
+    return (e->h + e->piece_rows - 1) / e->piece_rows;
+}
+
+static void piece_rows(const Encode *e, int i, int *y0, int *y1)
+{
+    *y0 = i * e->piece_rows;
+    *y1 = *y0 + e->piece_rows < e->h ? *y0 + e->piece_rows : e->h;
+}
+
+/* Pieces [i0, i1): their rows packed and filtered into e->filtered. */
+static void filter_pieces(void *user, int i0, int i1)
+{
+    Encode *e = user;
+    size_t row = e->row;
+    unsigned char *cur = wg_malloc(row ? row : 1), *prev = wg_malloc(row ? row : 1),
+                  *scratch = wg_malloc(4 * row + 1);
+    if (!cur || !prev || !scratch) {
+        atomic_store(&e->failed, 1);
+        goto done;
+    }
+    for (int i = i0; i < i1; i++) {
+        int y0, y1;
+        piece_rows(e, i, &y0, &y1);
+        if (y0 > 0) { /* the row above the piece, which the filters read */
+            e->pack(e->user, y0 - 1, prev);
+            if (e->bits == 16) swap_bytes16(prev, row);
+        } else {
+            memset(prev, 0, row);
+        }
+        int type = 0;
+        for (int y = y0; y < y1; y++) {
+            e->pack(e->user, y, cur);
+            if (e->bits == 16) swap_bytes16(cur, row);
+            unsigned char *f = e->filtered + (row + 1) * (size_t)y;
+            /* none: filter type 0, the bytes as they are; fast: the type chosen on the last
+             * choice row */
+            int given = e->mode == WG_PNG_COMPRESSION_NONE                           ? 0
+                        : e->mode == WG_PNG_COMPRESSION_FAST && y % FAST_CHOICE_ROWS ? type
+                                                                                     : -1;
+            filter_row(cur, prev, row, e->bpp, given, f, scratch);
+            type = f[0];
+            unsigned char *t = prev;
+            prev = cur;
+            cur = t;
+        }
+    }
+done:
+    wg_free(cur);
+    wg_free(prev);
+    wg_free(scratch);
+}
+
+/* Pieces [i0, i1) of the filtered rows coded with e->code, each into its place in e->zbuf. */
+static void code_pieces(void *user, int i0, int i1)
+{
+    Encode *e = user;
+    int n = pieces_of(e);
+    for (int i = i0; i < i1; i++) {
+        int y0, y1;
+        piece_rows(e, i, &y0, &y1);
+        size_t at = (e->row + 1) * (size_t)y0, len = (e->row + 1) * (size_t)(y1 - y0);
+        e->zsize[i] = wg__deflate_piece(e->code, e->filtered + at, len, i == n - 1,
+                                        e->zbuf + (size_t)i * e->zcap, e->zcap);
+        if (!e->zsize[i]) atomic_store(&e->failed, 1);
+    }
+}
+
+/* fn over pieces [0, n): by par, or here */
+static int run_pieces(const WgParallel *par, int n, void (*fn)(void *, int, int), Encode *e)
+{
+    if (par && par->run) return par->run(par->ctx, n, fn, e);
+    fn(e, 0, n);
+    return 0;
+}
+
 int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, WgPngPack pack,
-                        void *user, unsigned char **out, size_t *out_size, char *msg,
-                        size_t msg_size)
+                        void *user, const WgParallel *par, unsigned char **out, size_t *out_size,
+                        char *msg, size_t msg_size)
 {
     *out = NULL, *out_size = 0;
     int bpp = c * bits / 8;
     size_t row = (size_t)w * (size_t)bpp, filtered_size = (row + 1) * (size_t)h;
-    unsigned char *filtered = wg_malloc(filtered_size);
-    unsigned char *cur = wg_malloc(row), *prev = wg_calloc(row ? row : 1, 1),
-                  *scratch = wg_malloc(4 * row + 1);
-    struct libdeflate_compressor *z =
-        mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL) : NULL;
+    size_t rows = PIECE_BYTES / (row + 1) + 1;
+    rows = (rows + FAST_CHOICE_ROWS - 1) / FAST_CHOICE_ROWS * FAST_CHOICE_ROWS;
+    Encode e = {.w = w,
+                .h = h,
+                .c = c,
+                .bits = bits,
+                .bpp = bpp,
+                .mode = mode,
+                .pack = pack,
+                .user = user,
+                .row = row,
+                .piece_rows = rows < (size_t)h ? (int)rows : h};
+    if (e.piece_rows < 1) e.piece_rows = 1;
+    atomic_init(&e.failed, 0);
+    int n = h > 0 ? pieces_of(&e) : 0;
+    WgDeflateCode *code = NULL;
+    struct libdeflate_compressor *z = NULL;
     unsigned char *file = NULL;
     int rc = -1;
-    if (!filtered || !cur || !prev || !scratch || (mode == WG_PNG_COMPRESSION_DEFLATE && !z)) {
+    e.filtered = wg_malloc(filtered_size ? filtered_size : 1);
+    if (!e.filtered) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
-    int type = 0;
-    for (int y = 0; y < h; y++) {
-        pack(user, y, cur);
-        if (bits == 16) swap_bytes16(cur, row);
-        unsigned char *f = filtered + (row + 1) * (size_t)y;
-        /* none: filter type 0, the bytes as they are; fast: the type chosen on the last choice row
-         */
-        int given = mode == WG_PNG_COMPRESSION_NONE                           ? 0
-                    : mode == WG_PNG_COMPRESSION_FAST && y % FAST_CHOICE_ROWS ? type
-                                                                              : -1;
-        filter_row(cur, prev, row, bpp, given, f, scratch);
-        type = f[0];
-        unsigned char *t = prev;
-        prev = cur;
-        cur = t;
+    if (run_pieces(par, n, filter_pieces, &e)) {
+        snprintf(msg, msg_size, "cancelled");
+        goto done;
     }
-    size_t bound =
-        z ? libdeflate_zlib_compress_bound(z, filtered_size) : wg__zlib_fast_bound(filtered_size);
+    if (atomic_load(&e.failed)) {
+        snprintf(msg, msg_size, "out of memory");
+        goto done;
+    }
+    size_t bound;
+    if (mode == WG_PNG_COMPRESSION_FAST) {
+        /* the pieces' streams side by side, then gathered: the zlib header, the pieces in order,
+         * the Adler-32 of all the filtered rows */
+        e.zcap = wg__deflate_piece_bound((row + 1) * (size_t)e.piece_rows);
+        bound = 2 + (size_t)n * e.zcap + 4;
+    } else {
+        z = mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL)
+                                               : NULL;
+        if (mode == WG_PNG_COMPRESSION_DEFLATE && !z) {
+            snprintf(msg, msg_size, "out of memory");
+            goto done;
+        }
+        bound = z ? libdeflate_zlib_compress_bound(z, filtered_size)
+                  : wg__zlib_fast_bound(filtered_size);
+    }
     size_t chunks = bound / IDAT_BYTES + 1;
     /* signature 8, IHDR 25, IDATs 12 each + data, IEND 12: the stream is compressed into the
      * end of the buffer, then moved forward chunk by chunk */
     file = wg_malloc(45 + 12 * chunks + bound);
-    if (!file) {
+    e.zsize = mode == WG_PNG_COMPRESSION_FAST ? wg_calloc((size_t)n + 1, sizeof *e.zsize) : NULL;
+    if (!file || (mode == WG_PNG_COMPRESSION_FAST && !e.zsize)) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
     unsigned char *zbuf = file + 45 + 12 * chunks;
-    size_t zn = mode == WG_PNG_COMPRESSION_FAST
-                    ? wg__zlib_fast(filtered, filtered_size, FAST_DIST, zbuf, bound)
-                : mode == WG_PNG_COMPRESSION_NONE
-                    ? wg__zlib_stored(filtered, filtered_size, zbuf, bound)
-                    : libdeflate_zlib_compress(z, filtered, filtered_size, zbuf, bound);
+    size_t zn;
+    if (mode == WG_PNG_COMPRESSION_FAST) {
+        if (!(code = wg__deflate_code(e.filtered, filtered_size, FAST_DIST))) {
+            snprintf(msg, msg_size, "out of memory");
+            goto done;
+        }
+        e.code = code;
+        e.zbuf = zbuf + 2;
+        if (run_pieces(par, n, code_pieces, &e)) {
+            snprintf(msg, msg_size, "cancelled");
+            goto done;
+        }
+        if (atomic_load(&e.failed)) {
+            snprintf(msg, msg_size, "cannot compress the image");
+            goto done;
+        }
+        zbuf[0] = 0x78, zbuf[1] = 0x01; /* deflate, 32 KiB window, fastest */
+        zn = 2;
+        for (int i = 0; i < n; i++) { /* gathered forward: never overtakes */
+            memmove(zbuf + zn, e.zbuf + (size_t)i * e.zcap, e.zsize[i]);
+            zn += e.zsize[i];
+        }
+        uint32_t a = libdeflate_adler32(1, e.filtered, filtered_size);
+        put32(zbuf + zn, a);
+        zn += 4;
+    } else {
+        zn = mode == WG_PNG_COMPRESSION_NONE
+                 ? wg__zlib_stored(e.filtered, filtered_size, zbuf, bound)
+                 : libdeflate_zlib_compress(z, e.filtered, filtered_size, zbuf, bound);
+    }
     if (!zn) {
         snprintf(msg, msg_size, "cannot compress the image");
         goto done;
@@ -230,10 +376,9 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
     rc = 0;
 done:
     if (z) libdeflate_free_compressor(z);
-    wg_free(filtered);
-    wg_free(cur);
-    wg_free(prev);
-    wg_free(scratch);
+    wg__deflate_code_free(code);
+    wg_free(e.filtered);
+    wg_free(e.zsize);
     wg_free(file);
     return rc;
 }
@@ -253,15 +398,17 @@ int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngComp
                    unsigned char **out, size_t *out_size, char *msg, size_t msg_size)
 {
     Packed p = {samples, (size_t)w * (size_t)c * (size_t)(bits / 8)};
-    return wg__png_encode_rows(w, h, c, bits, png, copy_row, &p, out, out_size, msg, msg_size);
+    return wg__png_encode_rows(w, h, c, bits, png, copy_row, &p, NULL, out, out_size, msg,
+                               msg_size);
 }
 
 int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
-                       WgPngPack pack, void *user, char *msg, size_t msg_size)
+                       WgPngPack pack, void *user, const WgParallel *par, char *msg,
+                       size_t msg_size)
 {
     unsigned char *file;
     size_t total;
-    if (wg__png_encode_rows(w, h, c, bits, png, pack, user, &file, &total, msg, msg_size))
+    if (wg__png_encode_rows(w, h, c, bits, png, pack, user, par, &file, &total, msg, msg_size))
         return -1;
     int rc = -1;
     int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);

@@ -61,20 +61,24 @@ void wg__oiio_close(WgOiioIn *in);
 /* Whether this process has loaded the module (for tests). */
 bool wg__oiio_loaded(void);
 /* PNG (png_write.c) of w x h pixels of `c` channels (1-4) of `bits` (8 or 16), compressed as
- * `png` says, its rows asked for one at a time, top down: pack(user, y, row) writes row y
- * packed, 16-bit samples in host order, so that no packed copy of the image is made. In
- * memory: *out (wg_free it) holds *out_size bytes. Nonzero with msg on failure. */
+ * `png` says, its rows asked for one at a time: pack(user, y, row) writes row y packed, 16-bit
+ * samples in host order, so that no packed copy of the image is made. The rows are filtered
+ * (and in the fast mode coded) in pieces run by `par` (NULL: all on this thread), so pack may be
+ * called from several threads at once, each row once, plus the row above each piece; the file
+ * is the same either way. In memory: *out (wg_free it) holds *out_size bytes. Nonzero with msg
+ * on failure. */
 typedef void (*WgPngPack)(void *user, int y, void *row);
 int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression png, WgPngPack pack,
-                        void *user, unsigned char **out, size_t *out_size, char *msg,
-                        size_t msg_size);
+                        void *user, const WgParallel *par, unsigned char **out, size_t *out_size,
+                        char *msg, size_t msg_size);
 /* The same from `samples`, the packed rows one after the other. */
 int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngCompression png,
                    unsigned char **out, size_t *out_size, char *msg, size_t msg_size);
 /* Encoded with wg__png_encode_rows and written to path. Nonzero with msg (and errno where the
  * system refused) on failure. */
 int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
-                       WgPngPack pack, void *user, char *msg, size_t msg_size);
+                       WgPngPack pack, void *user, const WgParallel *par, char *msg,
+                       size_t msg_size);
 /* Write n bytes to fd, again after short writes and EINTR; -1 with errno (EIO for a write of
  * nothing) on failure. */
 int wg__write_all(int fd, const void *data, size_t n);
@@ -86,6 +90,18 @@ int wg__write_all(int fd, const void *data, size_t n);
 size_t wg__zlib_fast_bound(size_t n);
 size_t wg__zlib_fast(const unsigned char *in, size_t n, int dist, unsigned char *out, size_t cap);
 size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, size_t cap);
+/* The same coding in pieces (raw deflate, no zlib header or trailer): the code made for all of
+ * in[0..n) (NULL when out of memory; wg__deflate_code_free it), then any piece of it coded with
+ * that code into at most wg__deflate_piece_bound(piece's size) bytes, the last piece with
+ * `last` (BFINAL), each other ending on a byte boundary; the pieces' outputs concatenated in
+ * order make one deflate stream. Returns the piece's size, 0 when cap is smaller than the
+ * bound. Pieces may be coded concurrently: the code is only read. */
+typedef struct WgDeflateCode WgDeflateCode;
+WgDeflateCode *wg__deflate_code(const unsigned char *in, size_t n, int dist);
+void wg__deflate_code_free(WgDeflateCode *c);
+size_t wg__deflate_piece_bound(size_t n);
+size_t wg__deflate_piece(const WgDeflateCode *c, const unsigned char *in, size_t n, bool last,
+                         unsigned char *out, size_t cap);
 /* Code lengths (at most `limit` bits, limit <= 30) of a complete prefix code for the n (<= 320)
  * symbols of freq: Huffman's, limited by the heuristic of zlib and miniz; symbols of frequency 0
  * get 0, except that a code of fewer than two symbols is completed with one or two of them. */

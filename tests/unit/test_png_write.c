@@ -5,13 +5,18 @@
  * and run-heavy images, one that needs a length-limited Huffman code and one large enough to be
  * counted on a sample; the zlib streams inflate through zlib's uncompress, inputs the sample
  * misjudges included; stored blocks split at 65535 bytes; the Huffman code lengths are a
- * complete code within the limit. */
+ * complete code within the limit. A stream coded in pieces (any split, empty pieces, pieces that
+ * fall back to stored blocks) inflates as one; an image filtered and coded in pieces on other
+ * threads, in any order, gives the same file as on one thread, and a runner that stops early
+ * fails the encoding. */
 #include "wgtest.h"
 
 #include "internal.h"
 #include "wgio.h"
 
 #include <png.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -370,6 +375,181 @@ static void test_limited_and_sampled_images_read_back(void **state)
     }
 }
 
+/* in[0..n) coded in pieces cut at cuts[0..k) (ascending, within [0, n]) with one code for the
+ * whole, concatenated behind a zlib header and before its Adler-32: zlib inflates it to in. */
+static void pieces_round_trip(const unsigned char *in, size_t n, const size_t *cuts, int k)
+{
+    WgDeflateCode *code = wg__deflate_code(in, n, 1);
+    assert_non_null(code);
+    size_t guard = 64, total = 6;
+    for (int i = 0; i <= k; i++) {
+        size_t a = i ? cuts[i - 1] : 0, b = i < k ? cuts[i] : n;
+        total += wg__deflate_piece_bound(b - a) + guard;
+    }
+    unsigned char *z = malloc(total), *back = malloc(n + 1), *piece = malloc(n + 128 + guard);
+    assert_non_null(z);
+    assert_non_null(back);
+    assert_non_null(piece);
+    z[0] = 0x78, z[1] = 0x01;
+    size_t zn = 2;
+    for (int i = 0; i <= k; i++) {
+        size_t a = i ? cuts[i - 1] : 0, b = i < k ? cuts[i] : n;
+        size_t cap = wg__deflate_piece_bound(b - a);
+        memset(piece + cap, 0xa5, guard);
+        size_t pn = wg__deflate_piece(code, in + a, b - a, i == k, piece, cap);
+        if (!pn || pn > cap) fail_msg("piece [%zu, %zu): %zu bytes, bound %zu", a, b, pn, cap);
+        for (size_t g = 0; g < guard; g++)
+            if (piece[cap + g] != 0xa5) fail_msg("piece [%zu, %zu): written past the bound", a, b);
+        memcpy(z + zn, piece, pn);
+        zn += pn;
+    }
+    uLong adler = adler32(1, in, (uInt)n);
+    z[zn++] = (unsigned char)(adler >> 24), z[zn++] = (unsigned char)(adler >> 16);
+    z[zn++] = (unsigned char)(adler >> 8), z[zn++] = (unsigned char)adler;
+    uLongf bn = n + 1;
+    int rc = uncompress(back, &bn, z, zn);
+    if (rc != Z_OK || bn != n || (n && memcmp(back, in, n)))
+        fail_msg("n %zu in %d pieces: zlib says %d, %lu bytes back", n, k + 1, rc,
+                 (unsigned long)bn);
+    wg__deflate_code_free(code);
+    free(z);
+    free(back);
+    free(piece);
+}
+
+static void test_pieces_inflate_as_one_stream(void **state)
+{
+    (void)state;
+    /* runs, then noise: the code made for the whole fits neither half, and the noise's pieces
+     * are not smaller coded than stored */
+    size_t n = 300000;
+    unsigned char *in = malloc(n);
+    assert_non_null(in);
+    for (size_t i = 0; i < n; i++)
+        in[i] = i < n / 2 ? (unsigned char)(i / 1000 % 7) : (unsigned char)next_rand();
+    const size_t one[] = {0}, ends[] = {n}, two[] = {n / 2}, empty[] = {5, 5, 5, 100000, 100000};
+    size_t many[40];
+    for (int i = 0; i < 40; i++) many[i] = (size_t)i * 7001 + (size_t)(i % 3);
+    pieces_round_trip(in, n, one, 1);  /* an empty first piece */
+    pieces_round_trip(in, n, ends, 1); /* an empty last piece */
+    pieces_round_trip(in, n, two, 1);
+    pieces_round_trip(in, n, empty, 5); /* empty pieces between */
+    pieces_round_trip(in, n, many, 40);
+    pieces_round_trip(in, n, NULL, 0);            /* one piece: as wg__zlib_fast */
+    pieces_round_trip(in, 0, NULL, 0);            /* nothing at all */
+    pieces_round_trip(in + n / 2, n / 2, two, 1); /* all noise: stored blocks */
+    /* one piece makes wg__zlib_fast's stream, byte for byte */
+    unsigned char *whole;
+    size_t zn = deflate_round_trip(in, n, 1, &whole);
+    WgDeflateCode *code = wg__deflate_code(in, n, 1);
+    assert_non_null(code);
+    unsigned char *piece = malloc(wg__deflate_piece_bound(n));
+    assert_non_null(piece);
+    size_t pn = wg__deflate_piece(code, in, n, true, piece, wg__deflate_piece_bound(n));
+    assert_int_equal(pn + 6, zn);
+    assert_memory_equal(piece, whole + 2, pn);
+    wg__deflate_code_free(code);
+    free(piece);
+    free(whole);
+    free(in);
+}
+
+/* Packed rows one after the other, handed out one at a time */
+typedef struct {
+    const unsigned char *px;
+    size_t row;
+} Rows;
+
+static void row_of(void *user, int y, void *row)
+{
+    const Rows *r = user;
+    memcpy(row, r->px + r->row * (size_t)y, r->row);
+}
+
+/* A WgParallel that runs each part on a thread of its own, the last parts first; or, with
+ * `stop`, runs none and says it stopped. */
+typedef struct {
+    void (*fn)(void *, int, int);
+    void *user;
+    int i;
+} Part;
+
+static void *run_part(void *arg)
+{
+    Part *p = arg;
+    p->fn(p->user, p->i, p->i + 1);
+    return NULL;
+}
+
+static atomic_int parts_run;
+
+static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
+{
+    if (ctx) return 1; /* stopped early */
+    Part *parts = calloc((size_t)n + 1, sizeof *parts);
+    pthread_t *t = calloc((size_t)n + 1, sizeof *t);
+    assert_non_null(parts);
+    assert_non_null(t);
+    for (int i = n - 1; i >= 0; i--) {
+        parts[i] = (Part){fn, user, i};
+        assert_int_equal(pthread_create(&t[i], NULL, run_part, &parts[i]), 0);
+    }
+    for (int i = n - 1; i >= 0; i--) pthread_join(t[i], NULL);
+    atomic_fetch_add(&parts_run, n);
+    free(parts);
+    free(t);
+    return 0;
+}
+
+static void test_pieces_on_threads_make_the_same_file(void **state)
+{
+    (void)state;
+    static const int shapes[][4] = {/* w, h, channels, bits: several pieces, a short last one */
+                                    {700, 900, 3, 8},
+                                    {333, 2100, 1, 16},
+                                    {1024, 300, 4, 8}};
+    WgParallel threads = {threads_backwards, NULL}, stops = {threads_backwards, &parts_run};
+    for (size_t si = 0; si < sizeof shapes / sizeof *shapes; si++) {
+        int w = shapes[si][0], h = shapes[si][1], c = shapes[si][2], bits = shapes[si][3];
+        size_t raw = (size_t)w * (size_t)h * (size_t)c * (size_t)(bits / 8);
+        unsigned char *px = malloc(raw);
+        assert_non_null(px);
+        fill(px, w, h, c, bits / 8, si == 1 ? NOISE : GRADIENT);
+        Rows p = {px, (size_t)w * (size_t)c * (size_t)(bits / 8)};
+        for (int mode = 0; mode < 3; mode++) {
+            unsigned char *one, *many, *none = (unsigned char *)"";
+            size_t one_n, many_n, none_n = 7;
+            char msg[256];
+            atomic_store(&parts_run, 0);
+            assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of, &p,
+                                                 NULL, &one, &one_n, msg, sizeof msg),
+                             0);
+            assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of, &p,
+                                                 &threads, &many, &many_n, msg, sizeof msg),
+                             0);
+            /* filtered (and in the fast mode coded) in several pieces */
+            if (atomic_load(&parts_run) < (mode == WG_PNG_COMPRESSION_FAST ? 4 : 2))
+                fail_msg("%dx%d: %d parts", w, h, atomic_load(&parts_run));
+            assert_int_equal(many_n, one_n);
+            assert_memory_equal(many, one, one_n);
+            int rw, rh, rc, rbits;
+            unsigned char *back = libpng_decode(many, many_n, &rw, &rh, &rc, &rbits);
+            assert_int_equal(rw, w);
+            assert_int_equal(rh, h);
+            assert_memory_equal(back, px, raw);
+            free(back);
+            assert_int_not_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of,
+                                                     &p, &stops, &none, &none_n, msg, sizeof msg),
+                                 0);
+            assert_null(none);
+            assert_int_equal(none_n, 0);
+            wg_free(one);
+            wg_free(many);
+        }
+        free(px);
+    }
+}
+
 /* The fast mode on rendered-like content is far smaller than the raw rows. */
 static void test_fast_mode_compresses(void **state)
 {
@@ -398,6 +578,8 @@ int main(void)
         cmocka_unit_test(test_every_mode_reads_back_through_libpng),
         cmocka_unit_test(test_limited_and_sampled_images_read_back),
         cmocka_unit_test(test_fast_mode_compresses),
+        cmocka_unit_test(test_pieces_inflate_as_one_stream),
+        cmocka_unit_test(test_pieces_on_threads_make_the_same_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -6,13 +6,16 @@
  * has been handed over, so a chain of outputs needs the memory of a few images, not of all;
  * pictures read from files wait until a job needs them, also on several workers; an
  * output function that fails makes the render fail with its error, and with one worker no later
- * node runs and no later output is handed over. */
+ * node runs and no later output is handed over; work an output function splits in parts
+ * (WgOutputInfo.parallel) runs each part once, and idle workers take parts too. */
 #include "wgtest.h"
 
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define CHAIN 8
 
@@ -337,6 +340,71 @@ static void test_images_are_made_when_their_consumer_is_near(void **state)
     }
 }
 
+/* Parts of an output function's work: each marks its indices and the thread it ran on. */
+#define PARTS 48
+typedef struct {
+    atomic_int hits[PARTS];
+    pthread_t ran_on[PARTS];
+} Parts;
+
+static void mark_parts(void *user, int i0, int i1)
+{
+    Parts *p = user;
+    for (int i = i0; i < i1; i++) {
+        atomic_fetch_add(&p->hits[i], 1);
+        p->ran_on[i] = pthread_self();
+        nanosleep(&(struct timespec){0, 2000000}, NULL); /* 2 ms: long enough to share */
+    }
+}
+
+static atomic_int split_outputs, shared_outputs;
+
+static int split_output(void *user, const WgOutputInfo *out, WgError *err)
+{
+    (void)user;
+    (void)err;
+    Parts p;
+    for (int i = 0; i < PARTS; i++) atomic_init(&p.hits[i], 0);
+    assert_non_null(out->parallel.run);
+    assert_int_equal(out->parallel.run(out->parallel.ctx, PARTS, mark_parts, &p), 0);
+    bool shared = false;
+    for (int i = 0; i < PARTS; i++) {
+        assert_int_equal(atomic_load(&p.hits[i]), 1);
+        shared |= !pthread_equal(p.ran_on[i], p.ran_on[0]);
+    }
+    atomic_fetch_add(&split_outputs, 1);
+    atomic_fetch_add(&shared_outputs, shared);
+    return WG_OK;
+}
+
+static void test_output_work_runs_on_the_workers(void **state)
+{
+    (void)state;
+    char *xml = chain_graph(32, 32);
+    WgGraph *g = wgt_load(xml);
+    for (int threads = 1; threads <= 2; threads++) {
+        WgEngine *e = wgt_engine(threads, 0, NULL);
+        WgRequest *r = wg_request_new(g);
+        assert_non_null(r);
+        atomic_store(&split_outputs, 0);
+        atomic_store(&shared_outputs, 0);
+        wg_request_set_output_fn(r, split_output, NULL);
+        WgResult *res = wgt_render_request(e, r);
+        assert_int_equal(atomic_load(&split_outputs), CHAIN);
+        /* one worker: all on it; two: the last output's parts at least, with nothing else
+         * left to run, are shared */
+        if (threads == 1)
+            assert_int_equal(atomic_load(&shared_outputs), 0);
+        else
+            assert_true(atomic_load(&shared_outputs) >= 1);
+        wg_result_free(res);
+        wg_request_free(r);
+        wg_engine_free(e);
+    }
+    wg_graph_free(g);
+    free(xml);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -345,6 +413,7 @@ int main(void)
         cmocka_unit_test(test_failing_output_fails_the_render),
         cmocka_unit_test(test_sources_wait_until_they_are_needed),
         cmocka_unit_test(test_images_are_made_when_their_consumer_is_near),
+        cmocka_unit_test(test_output_work_runs_on_the_workers),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -135,6 +135,10 @@ typedef struct WgOutputInfo {
      * that makes it, and the port), known before anything is computed; the same key, the same
      * pixels, in any render, engine or process of this version */
     uint64_t key[2];
+    /* runs parts of the output function's own work on the render's workers, the calling one
+     * among them (wg_write_set_image_png_parallel): idle workers help, so the last outputs of a
+     * render are not encoded on one thread while the others wait */
+    WgParallel parallel;
 } WgOutputInfo;
 typedef int (*WgOutputFn)(void *user, const WgOutputInfo *out, WgError *err);
 /* fn NULL: the result keeps the output images (the default). */
