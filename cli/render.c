@@ -1111,8 +1111,8 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
             if (from >= 0)
                 rc = wg_write_set_copy(s->sets[i], s->paths[i], s->sets[from], 0, err);
             else
-                rc = wg_write_set_image_png_parallel(s->sets[i], s->paths[i], out->image, f,
-                                                     out->colorspace, png, &out->parallel, err);
+                rc = wg_write_set_image_png_on(s->sets[i], s->paths[i], out->image, f,
+                                               out->colorspace, png, &out->workers, err);
             s->wrote[i] = !rc;
             s->copied[i] = !rc && from >= 0;
             pthread_mutex_lock(&s->mu);

@@ -556,12 +556,24 @@ static void output_key(const WgPlan *p, int k, uint64_t key[2])
     key[1] = h.high64;
 }
 
-/* WgOutputInfo.parallel: parts as row chunks on the render's pool, stopped by its cancel */
-static int output_parallel(const void *ctx, int n, void (*fn)(void *user, int i0, int i1),
-                           void *user)
+/* WgOutputInfo.workers: parts as row chunks on the render's workers, stopped by its cancel;
+ * scratch memory from its buffer pool (the kind of a buffer follows from its size, as for a
+ * node's scratch) */
+static int output_run(const void *ctx, int n, void (*fn)(void *user, int i0, int i1), void *user)
 {
     Run *run = (Run *)ctx;
     return wg__pool_rows(run->e->pool, &run->cancel, n, fn, user);
+}
+
+static void *output_alloc(const void *ctx, size_t bytes)
+{
+    int mapped;
+    return wg__mempool_get(((const Run *)ctx)->e->mem, bytes, &mapped);
+}
+
+static void output_free(const void *ctx, void *p, size_t bytes)
+{
+    wg__mempool_release(((const Run *)ctx)->e->mem, p, bytes);
 }
 
 static WgOutputInfo output_info(const Run *run, int k)
@@ -575,7 +587,7 @@ static WgOutputInfo output_info(const Run *run, int k)
                          po->colorspace,
                          po->compression,
                          {0, 0},
-                         {output_parallel, run}};
+                         {output_run, output_alloc, output_free, run}};
     output_key(run->plan, k, info.key);
     return info;
 }

@@ -1111,21 +1111,21 @@ static void png_pack_row(void *user, int y, void *row)
 }
 
 static int encode_png(const char *path, const WgImage *img, WgColorspace cs, int c, int bits,
-                      WgPngCompression png, const WgParallel *par, char *msg, size_t msg_size)
+                      WgPngCompression png, const WgWorkers *workers, char *msg, size_t msg_size)
 {
     PngPack p = {img, cs, c, bits};
-    return wg__png_write_rows(path, img->width, img->height, c, bits, png, png_pack_row, &p, par,
-                              msg, msg_size);
+    return wg__png_write_rows(path, img->width, img->height, c, bits, png, png_pack_row, &p,
+                              workers, msg, msg_size);
 }
 
 /* Other formats go through OpenImageIO, STRIP_ROWS rows at a time, so writing holds a strip of
  * packed pixels, not a packed copy of the image. Nonzero with msg on failure. */
 static int encode_to_file(const char *path, const WgImage *img, WgFormat format, WgColorspace cs,
-                          int c, int bits, WgPngCompression png, const WgParallel *par, char *msg,
-                          size_t msg_size)
+                          int c, int bits, WgPngCompression png, const WgWorkers *workers,
+                          char *msg, size_t msg_size)
 {
     if (format == WG_FORMAT_PNG || format == WG_FORMAT_PNG16)
-        return encode_png(path, img, cs, c, bits, png, par, msg, msg_size);
+        return encode_png(path, img, cs, c, bits, png, workers, msg, msg_size);
     size_t row = (size_t)img->width * (size_t)c;
     size_t elem = bits == 8 ? 1 : bits == 16 ? 2 : 4;
     void *buf = wg_malloc(row * STRIP_ROWS * elem);
@@ -1257,7 +1257,7 @@ static int write_failed(WgError *err, const char *path, const char *msg)
 
 /* Encode one image into the temporary `tmp` of target `path`. */
 static int encode_one(const char *tmp, const char *path, const WgImage *img, WgFormat format,
-                      WgColorspace cs, WgPngCompression png, const WgParallel *par, WgError *err)
+                      WgColorspace cs, WgPngCompression png, const WgWorkers *workers, WgError *err)
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c, bits;
@@ -1267,7 +1267,7 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
     errno = 0;
     if (format == WG_FORMAT_EXR || format == WG_FORMAT_EXR32)
         rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, err);
-    else if (encode_to_file(tmp, img, format, cs, c, bits, png, par, msg, sizeof msg))
+    else if (encode_to_file(tmp, img, format, cs, c, bits, png, workers, msg, sizeof msg))
         rc = write_failed(err, path, msg);
     return rc;
 }
@@ -1347,20 +1347,20 @@ int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, i
     return stage_end(s, rc, err);
 }
 
-int wg_write_set_image_png_parallel(WgWriteSet *s, const char *path, const WgImage *img,
-                                    WgFormat format, WgColorspace cs, WgPngCompression png,
-                                    const WgParallel *par, WgError *err)
+int wg_write_set_image_png_on(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                              WgColorspace cs, WgPngCompression png, const WgWorkers *workers,
+                              WgError *err)
 {
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
-    return stage_end(s, encode_one(tmp, path, img, format, cs, png, par, err), err);
+    return stage_end(s, encode_one(tmp, path, img, format, cs, png, workers, err), err);
 }
 
 int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                            WgColorspace cs, WgPngCompression png, WgError *err)
 {
-    return wg_write_set_image_png_parallel(s, path, img, format, cs, png, NULL, err);
+    return wg_write_set_image_png_on(s, path, img, format, cs, png, NULL, err);
 }
 
 int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,

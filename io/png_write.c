@@ -9,7 +9,7 @@
  * writes the rows unfiltered in stored blocks. The caller packs the rows
  * one at a time as they are filtered (16-bit samples in host order); readers of every kind
  * decode the files, the tests check them with libpng. Rows are filtered, and in the fast mode
- * coded, in pieces of rows that the caller's WgParallel may run on several threads (a render's
+ * coded, in pieces of rows that the caller's WgWorkers may run on several threads (a render's
  * idle workers): the pieces depend on the image alone, so the file does too. */
 #include "internal.h"
 #include "wgio.h"
@@ -150,7 +150,7 @@ static void filter_row(const unsigned char *cur, const unsigned char *prev, size
 }
 
 /* The image is filtered and coded in pieces of whole rows, each on whichever thread the caller's
- * WgParallel gives it: pieces of at least PIECE_BYTES of filtered rows, a multiple of
+ * WgWorkers gives it: pieces of at least PIECE_BYTES of filtered rows, a multiple of
  * FAST_CHOICE_ROWS rows each (so every piece starts on a row that chooses its filter, and the
  * filtered rows are those of one pass down the image). The pieces depend on the image alone, so
  * the file is the same whatever runs them. */
@@ -165,8 +165,9 @@ typedef struct {
     int piece_rows; /* rows of a piece (the last may have fewer) */
     unsigned char *filtered;
     const WgDeflateCode *code; /* the fast mode's, for the coding pass */
-    unsigned char *zbuf;       /* the pieces' streams, each at piece * zcap */
-    size_t zcap, *zsize;
+    unsigned char *zbuf;       /* the pieces' streams, piece i's at i * zcap (new memory: only the
+                                  streams' pages are touched) */
+    size_t zcap, *zsize;       /* the bound of a piece's stream; their sizes */
     atomic_int failed;
 } Encode;
 
@@ -239,19 +240,82 @@ static void code_pieces(void *user, int i0, int i1)
     }
 }
 
-/* fn over pieces [0, n): by par, or here */
-static int run_pieces(const WgParallel *par, int n, void (*fn)(void *, int, int), Encode *e)
+/* A stretch of the zlib stream */
+typedef struct {
+    const unsigned char *p;
+    size_t n;
+} Span;
+
+/* Where the file goes: into one buffer of its size (fd < 0), or to fd through a buffer of at
+ * most STAGE_BYTES, written out whenever the next chunk would not fit (no copy of the file). */
+#define STAGE_BYTES (256 * 1024)
+typedef struct {
+    int fd;
+    unsigned char *buf;
+    size_t cap, len;
+    int err; /* errno of a write that failed */
+} Out;
+
+/* Room for n more bytes at buf + len (n <= cap), after writing out what is there when they
+ * would not fit. */
+static unsigned char *room(Out *o, size_t n)
 {
-    if (par && par->run) return par->run(par->ctx, n, fn, e);
+    if (o->fd >= 0 && o->len + n > o->cap) {
+        if (!o->err && wg__write_all(o->fd, o->buf, o->len)) o->err = errno ? errno : EIO;
+        o->len = 0;
+    }
+    return o->buf + o->len;
+}
+
+/* The stream, given as spans in order, in IDAT chunks of IDAT_BYTES. */
+static void put_idats(Out *o, const Span *span, int spans, size_t total)
+{
+    int s = 0;
+    size_t off = 0;
+    for (size_t at = 0; at < total;) {
+        size_t k = total - at < IDAT_BYTES ? total - at : IDAT_BYTES;
+        unsigned char *chunk = room(o, k + 12), *p = chunk + 8;
+        for (size_t left = k; left;) {
+            size_t take = span[s].n - off < left ? span[s].n - off : left;
+            memcpy(p, span[s].p + off, take);
+            p += take, left -= take, off += take;
+            if (off == span[s].n) s++, off = 0;
+        }
+        put32(chunk, (uint32_t)k);
+        memcpy(chunk + 4, "IDAT", 4);
+        put32(p, (uint32_t)libdeflate_crc32(0, chunk + 4, k + 4));
+        o->len += k + 12;
+        at += k;
+    }
+}
+
+/* fn over pieces [0, n): by workers, or here */
+static int run_pieces(const WgWorkers *workers, int n, void (*fn)(void *, int, int), Encode *e)
+{
+    if (workers && workers->run) return workers->run(workers->ctx, n, fn, e);
     fn(e, 0, n);
     return 0;
 }
 
-int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, WgPngPack pack,
-                        void *user, const WgParallel *par, unsigned char **out, size_t *out_size,
-                        char *msg, size_t msg_size)
+/* Large scratch buffers: the workers' (touched before, when they have a pool), or new memory */
+static void *scratch_alloc(const WgWorkers *workers, size_t bytes)
 {
-    *out = NULL, *out_size = 0;
+    return workers && workers->alloc ? workers->alloc(workers->ctx, bytes) : wg_malloc(bytes);
+}
+
+static void scratch_free(const WgWorkers *workers, void *p, size_t bytes)
+{
+    if (!p) return;
+    if (workers && workers->alloc)
+        workers->free(workers->ctx, p, bytes);
+    else
+        wg_free(p);
+}
+
+/* The file into o (o->buf made here, the caller's to free). */
+static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPack pack, void *user,
+                  const WgWorkers *workers, Out *o, char *msg, size_t msg_size)
+{
     int bpp = c * bits / 8;
     size_t row = (size_t)w * (size_t)bpp, filtered_size = (row + 1) * (size_t)h;
     size_t rows = PIECE_BYTES / (row + 1) + 1;
@@ -271,14 +335,19 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
     int n = h > 0 ? pieces_of(&e) : 0;
     WgDeflateCode *code = NULL;
     struct libdeflate_compressor *z = NULL;
-    unsigned char *file = NULL;
+    unsigned char *zbuf = NULL, zlib_head[2] = {0x78, 0x01}, adler[4]; /* deflate, fastest */
+    size_t bound = 0, zn = 0;
+    Span *spans = NULL;
+    int nspans = 0;
     int rc = -1;
-    e.filtered = wg_malloc(filtered_size ? filtered_size : 1);
+    /* the filtered rows, the size of the raw image, in the workers' scratch memory (touched
+     * before, where they have a pool); the streams and the file are the file's size */
+    e.filtered = scratch_alloc(workers, filtered_size ? filtered_size : 1);
     if (!e.filtered) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
-    if (run_pieces(par, n, filter_pieces, &e)) {
+    if (run_pieces(workers, n, filter_pieces, &e)) {
         snprintf(msg, msg_size, "cancelled");
         goto done;
     }
@@ -286,12 +355,10 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
-    size_t bound;
     if (mode == WG_PNG_COMPRESSION_FAST) {
-        /* the pieces' streams side by side, then gathered: the zlib header, the pieces in order,
-         * the Adler-32 of all the filtered rows */
+        /* the pieces' streams, then gathered: the zlib header, the pieces in order, the
+         * Adler-32 of all the filtered rows */
         e.zcap = wg__deflate_piece_bound((row + 1) * (size_t)e.piece_rows);
-        bound = 2 + (size_t)n * e.zcap + 4;
     } else {
         z = mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL)
                                                : NULL;
@@ -302,25 +369,24 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
         bound = z ? libdeflate_zlib_compress_bound(z, filtered_size)
                   : wg__zlib_fast_bound(filtered_size);
     }
-    size_t chunks = bound / IDAT_BYTES + 1;
-    /* signature 8, IHDR 25, IDATs 12 each + data, IEND 12: the stream is compressed into the
-     * end of the buffer, then moved forward chunk by chunk */
-    file = wg_malloc(45 + 12 * chunks + bound);
-    e.zsize = mode == WG_PNG_COMPRESSION_FAST ? wg_calloc((size_t)n + 1, sizeof *e.zsize) : NULL;
-    if (!file || (mode == WG_PNG_COMPRESSION_FAST && !e.zsize)) {
+    if (mode == WG_PNG_COMPRESSION_FAST) {
+        bound = (size_t)n * e.zcap;
+        e.zsize = wg_calloc((size_t)n + 1, sizeof *e.zsize);
+    }
+    zbuf = wg_malloc(bound); /* new memory, touched only where a stream goes */
+    spans = wg_calloc((size_t)n + 2, sizeof *spans);
+    if (!spans || !zbuf || (mode == WG_PNG_COMPRESSION_FAST && !e.zsize)) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
-    unsigned char *zbuf = file + 45 + 12 * chunks;
-    size_t zn;
     if (mode == WG_PNG_COMPRESSION_FAST) {
         if (!(code = wg__deflate_code(e.filtered, filtered_size, FAST_DIST))) {
             snprintf(msg, msg_size, "out of memory");
             goto done;
         }
         e.code = code;
-        e.zbuf = zbuf + 2;
-        if (run_pieces(par, n, code_pieces, &e)) {
+        e.zbuf = zbuf;
+        if (run_pieces(workers, n, code_pieces, &e)) {
             snprintf(msg, msg_size, "cancelled");
             goto done;
         }
@@ -328,27 +394,37 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
             snprintf(msg, msg_size, "cannot compress the image");
             goto done;
         }
-        zbuf[0] = 0x78, zbuf[1] = 0x01; /* deflate, 32 KiB window, fastest */
-        zn = 2;
-        for (int i = 0; i < n; i++) { /* gathered forward: never overtakes */
-            memmove(zbuf + zn, e.zbuf + (size_t)i * e.zcap, e.zsize[i]);
-            zn += e.zsize[i];
-        }
-        uint32_t a = libdeflate_adler32(1, e.filtered, filtered_size);
-        put32(zbuf + zn, a);
-        zn += 4;
+        /* the stream: the zlib header, the pieces in order, the Adler-32 of the filtered rows */
+        spans[0] = (Span){zlib_head, 2};
+        for (int i = 0; i < n; i++) spans[1 + i] = (Span){zbuf + (size_t)i * e.zcap, e.zsize[i]};
+        put32(adler, libdeflate_adler32(1, e.filtered, filtered_size));
+        spans[1 + n] = (Span){adler, 4};
+        nspans = n + 2;
     } else {
         zn = mode == WG_PNG_COMPRESSION_NONE
                  ? wg__zlib_stored(e.filtered, filtered_size, zbuf, bound)
                  : libdeflate_zlib_compress(z, e.filtered, filtered_size, zbuf, bound);
+        if (!zn) {
+            snprintf(msg, msg_size, "cannot compress the image");
+            goto done;
+        }
+        spans[0] = (Span){zbuf, zn};
+        nspans = 1;
     }
-    if (!zn) {
-        snprintf(msg, msg_size, "cannot compress the image");
+    scratch_free(workers, e.filtered, filtered_size ? filtered_size : 1);
+    e.filtered = NULL;
+    zn = 0;
+    for (int i = 0; i < nspans; i++) zn += spans[i].n;
+    /* signature 8, IHDR 25, IDATs 12 each + data, IEND 12 */
+    size_t total = 45 + 12 * ((zn + IDAT_BYTES - 1) / IDAT_BYTES) + zn;
+    o->cap = o->fd >= 0 && total > STAGE_BYTES ? STAGE_BYTES : total;
+    if (!(o->buf = wg_malloc(o->cap))) {
+        snprintf(msg, msg_size, "out of memory");
         goto done;
     }
     static const unsigned char signature[8] = {137, 'P', 'N', 'G', '\r', '\n', 26, '\n'};
     static const unsigned char color_type[5] = {0, 0, 4, 2, 6};
-    unsigned char *p = file;
+    unsigned char *p = room(o, 33);
     memcpy(p, signature, 8);
     put32(p + 8, 13);
     memcpy(p + 12, "IHDR", 4);
@@ -358,29 +434,44 @@ int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression mode, Wg
     p[25] = color_type[c];
     p[26] = p[27] = p[28] = 0; /* deflate, filter set 0, no interlace */
     put32(p + 29, (uint32_t)libdeflate_crc32(0, p + 12, 17));
-    p += 33;
-    for (size_t at = 0; at < zn; at += IDAT_BYTES) {
-        size_t k = zn - at < IDAT_BYTES ? zn - at : IDAT_BYTES;
-        put32(p, (uint32_t)k);
-        memcpy(p + 4, "IDAT", 4);
-        memmove(p + 8, zbuf + at, k); /* never overtakes: the output trails the stream */
-        put32(p + 8 + k, (uint32_t)libdeflate_crc32(0, p + 4, k + 4));
-        p += 12 + k;
-    }
+    o->len += 33;
+    put_idats(o, spans, nspans, zn);
+    p = room(o, 12);
     put32(p, 0);
     memcpy(p + 4, "IEND", 4);
     put32(p + 8, (uint32_t)libdeflate_crc32(0, p + 4, 4));
-    *out_size = (size_t)(p + 12 - file);
-    *out = file;
-    file = NULL;
+    o->len += 12;
     rc = 0;
 done:
     if (z) libdeflate_free_compressor(z);
     wg__deflate_code_free(code);
-    wg_free(e.filtered);
+    scratch_free(workers, e.filtered, filtered_size ? filtered_size : 1);
+    wg_free(zbuf);
+    wg_free(spans);
     wg_free(e.zsize);
-    wg_free(file);
     return rc;
+}
+
+int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression png, WgPngPack pack,
+                        void *user, const WgWorkers *workers, unsigned char **out, size_t *out_size,
+                        char *msg, size_t msg_size)
+{
+    Out o = {.fd = -1};
+    int rc = encode(w, h, c, bits, png, pack, user, workers, &o, msg, msg_size);
+    if (rc) wg_free(o.buf);
+    *out = rc ? NULL : o.buf;
+    *out_size = rc ? 0 : o.len;
+    return rc;
+}
+
+/* -1 with msg the system's reason for e, lower-cased as the other writers' messages, and errno
+ * e */
+static int system_error(char *msg, size_t msg_size, int e)
+{
+    snprintf(msg, msg_size, "%s", strerror(e));
+    msg[0] = (char)tolower((unsigned char)msg[0]);
+    errno = e;
+    return -1;
 }
 
 typedef struct {
@@ -403,32 +494,21 @@ int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngComp
 }
 
 int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
-                       WgPngPack pack, void *user, const WgParallel *par, char *msg,
+                       WgPngPack pack, void *user, const WgWorkers *workers, char *msg,
                        size_t msg_size)
 {
-    unsigned char *file;
-    size_t total;
-    if (wg__png_encode_rows(w, h, c, bits, png, pack, user, par, &file, &total, msg, msg_size))
-        return -1;
-    int rc = -1;
     int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
-    if (fd < 0 || wg__write_all(fd, file, total)) {
-        int err = errno;
-        snprintf(msg, msg_size, "%s", strerror(err));
-        msg[0] = (char)tolower((unsigned char)msg[0]); /* as the other writers' messages */
-        if (fd >= 0) close(fd);
-        errno = err;
-        goto done;
+    if (fd < 0) return system_error(msg, msg_size, errno);
+    /* written as it is put together, through a buffer of at most STAGE_BYTES: the file is
+     * never held whole (a failure leaves a partial file, which the caller removes) */
+    Out o = {.fd = fd};
+    int rc = encode(w, h, c, bits, png, pack, user, workers, &o, msg, msg_size);
+    if (!rc && !o.err && wg__write_all(fd, o.buf, o.len)) o.err = errno ? errno : EIO;
+    wg_free(o.buf);
+    if (!rc && o.err) {
+        close(fd);
+        return system_error(msg, msg_size, o.err);
     }
-    if (close(fd)) {
-        int err = errno;
-        snprintf(msg, msg_size, "%s", strerror(err));
-        msg[0] = (char)tolower((unsigned char)msg[0]);
-        errno = err;
-        goto done;
-    }
-    rc = 0;
-done:
-    wg_free(file);
+    if (close(fd) && !rc) return system_error(msg, msg_size, errno);
     return rc;
 }

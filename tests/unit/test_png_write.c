@@ -7,8 +7,8 @@
  * misjudges included; stored blocks split at 65535 bytes; the Huffman code lengths are a
  * complete code within the limit. A stream coded in pieces (any split, empty pieces, pieces that
  * fall back to stored blocks) inflates as one; an image filtered and coded in pieces on other
- * threads, in any order, gives the same file as on one thread, and a runner that stops early
- * fails the encoding. */
+ * threads, in any order, gives the same file as on one thread, its large buffers taken from and
+ * given back to the workers' memory, and a runner that stops early fails the encoding. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -466,7 +466,7 @@ static void row_of(void *user, int y, void *row)
     memcpy(row, r->px + r->row * (size_t)y, r->row);
 }
 
-/* A WgParallel that runs each part on a thread of its own, the last parts first; or, with
+/* A WgWorkers that runs each part on a thread of its own, the last parts first; or, with
  * `stop`, runs none and says it stopped. */
 typedef struct {
     void (*fn)(void *, int, int);
@@ -501,6 +501,25 @@ static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int
     return 0;
 }
 
+/* Scratch memory that counts what is out */
+static atomic_long scratch_out;
+static atomic_int scratch_taken;
+
+static void *counted_alloc(const void *ctx, size_t bytes)
+{
+    (void)ctx;
+    atomic_fetch_add(&scratch_out, (long)bytes);
+    atomic_fetch_add(&scratch_taken, 1);
+    return malloc(bytes);
+}
+
+static void counted_free(const void *ctx, void *p, size_t bytes)
+{
+    (void)ctx;
+    atomic_fetch_sub(&scratch_out, (long)bytes);
+    free(p);
+}
+
 static void test_pieces_on_threads_make_the_same_file(void **state)
 {
     (void)state;
@@ -508,7 +527,8 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
                                     {700, 900, 3, 8},
                                     {333, 2100, 1, 16},
                                     {1024, 300, 4, 8}};
-    WgParallel threads = {threads_backwards, NULL}, stops = {threads_backwards, &parts_run};
+    WgWorkers threads = {.run = threads_backwards, .alloc = counted_alloc, .free = counted_free},
+              stops = {.run = threads_backwards, .ctx = &parts_run};
     for (size_t si = 0; si < sizeof shapes / sizeof *shapes; si++) {
         int w = shapes[si][0], h = shapes[si][1], c = shapes[si][2], bits = shapes[si][3];
         size_t raw = (size_t)w * (size_t)h * (size_t)c * (size_t)(bits / 8);
@@ -521,6 +541,7 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
             size_t one_n, many_n, none_n = 7;
             char msg[256];
             atomic_store(&parts_run, 0);
+            atomic_store(&scratch_taken, 0);
             assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of, &p,
                                                  NULL, &one, &one_n, msg, sizeof msg),
                              0);
@@ -530,6 +551,9 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
             /* filtered (and in the fast mode coded) in several pieces */
             if (atomic_load(&parts_run) < (mode == WG_PNG_COMPRESSION_FAST ? 4 : 2))
                 fail_msg("%dx%d: %d parts", w, h, atomic_load(&parts_run));
+            /* the filtered rows in the workers' memory, given back */
+            assert_int_equal(atomic_load(&scratch_taken), 1);
+            assert_int_equal(atomic_load(&scratch_out), 0);
             assert_int_equal(many_n, one_n);
             assert_memory_equal(many, one, one_n);
             int rw, rh, rc, rbits;

@@ -7,7 +7,7 @@
  * pictures read from files wait until a job needs them, also on several workers; an
  * output function that fails makes the render fail with its error, and with one worker no later
  * node runs and no later output is handed over; work an output function splits in parts
- * (WgOutputInfo.parallel) runs each part once, and idle workers take parts too. */
+ * (WgOutputInfo.workers) runs each part once, and idle workers take parts too. */
 #include "wgtest.h"
 
 #include <pthread.h>
@@ -365,8 +365,8 @@ static int split_output(void *user, const WgOutputInfo *out, WgError *err)
     (void)err;
     Parts p;
     for (int i = 0; i < PARTS; i++) atomic_init(&p.hits[i], 0);
-    assert_non_null(out->parallel.run);
-    assert_int_equal(out->parallel.run(out->parallel.ctx, PARTS, mark_parts, &p), 0);
+    assert_non_null(out->workers.run);
+    assert_int_equal(out->workers.run(out->workers.ctx, PARTS, mark_parts, &p), 0);
     bool shared = false;
     for (int i = 0; i < PARTS; i++) {
         assert_int_equal(atomic_load(&p.hits[i]), 1);

@@ -135,10 +135,11 @@ typedef struct WgOutputInfo {
      * that makes it, and the port), known before anything is computed; the same key, the same
      * pixels, in any render, engine or process of this version */
     uint64_t key[2];
-    /* runs parts of the output function's own work on the render's workers, the calling one
-     * among them (wg_write_set_image_png_parallel): idle workers help, so the last outputs of a
-     * render are not encoded on one thread while the others wait */
-    WgParallel parallel;
+    /* the render's workers, to run parts of the output function's own work (the calling one
+     * among them; idle ones help, so the last outputs of a render are not encoded on one thread
+     * while the others wait), and its buffer pool, for scratch memory touched before
+     * (wg_write_set_image_png_on) */
+    WgWorkers workers;
 } WgOutputInfo;
 typedef int (*WgOutputFn)(void *user, const WgOutputInfo *out, WgError *err);
 /* fn NULL: the result keeps the output images (the default). */

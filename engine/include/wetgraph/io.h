@@ -109,21 +109,24 @@ int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFo
 /* The same, a PNG compressed as `png` says. */
 int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                            WgColorspace cs, WgPngCompression png, WgError *err);
-/* Work in parts that may run at once: run(ctx, n, fn, user) calls fn(user, i0, i1) on ranges
- * that together cover [0, n) once each, on whichever threads it has (the calling one among
- * them), and returns when all are done: 0, or nonzero when it stopped early (a cancelled
- * render), and then the work is dropped. An output function gets one that runs the parts on the
- * render's workers (WgOutputInfo.parallel). */
-typedef struct WgParallel {
+/* Threads and memory a writer may borrow (an output function gets a render's in
+ * WgOutputInfo.workers). run(ctx, n, fn, user) calls fn(user, i0, i1) on ranges that together
+ * cover [0, n) once each, on whichever threads it has (the calling one among them), and returns
+ * when all are done: 0, or nonzero when it stopped early (a cancelled render), and then the work
+ * is dropped. alloc(ctx, bytes) gives a scratch buffer (NULL when out of memory), from a pool
+ * whose buffers were touched before where it has one, and free(ctx, p, bytes) gives it back. */
+typedef struct WgWorkers {
     int (*run)(const void *ctx, int n, void (*fn)(void *user, int i0, int i1), void *user);
+    void *(*alloc)(const void *ctx, size_t bytes);
+    void (*free)(const void *ctx, void *p, size_t bytes);
     const void *ctx;
-} WgParallel;
-/* wg_write_set_image_png with the PNG's rows filtered and coded in pieces run by `par` (NULL:
- * on this thread): the same file, sooner when other threads are idle. Other formats are
- * written as by wg_write_set_image_png. */
-int wg_write_set_image_png_parallel(WgWriteSet *s, const char *path, const WgImage *img,
-                                    WgFormat format, WgColorspace cs, WgPngCompression png,
-                                    const WgParallel *par, WgError *err);
+} WgWorkers;
+/* wg_write_set_image_png with the PNG's rows filtered and coded in pieces run by `workers`, in
+ * their scratch memory (NULL: on this thread, in new memory): the same file, sooner when other
+ * threads are idle. Other formats are written as by wg_write_set_image_png. */
+int wg_write_set_image_png_on(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                              WgColorspace cs, WgPngCompression png, const WgWorkers *workers,
+                              WgError *err);
 /* Several images at once, the same as adding each with wg_write_set_image_png (png NULL: every
  * PNG compressed by default), but encoded and flushed by `threads` threads (0: one per core)
  * concurrently. If any fails, none of the n is added (their temporaries are removed) and err is
