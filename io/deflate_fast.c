@@ -2,9 +2,9 @@
 /* A fast zlib encoder for PNG's filtered rows, in the spirit of Google's fpnge: no search for
  * matches, only Huffman coding of the bytes plus runs (a run of at least 8 bytes each equal to
  * the one `dist` bytes before it, found 8 bytes at a time, coded as matches at that distance), in
- * one final dynamic block (RFC 1951). The block's code comes from a histogram of the input (of a
- * quarter of it, in 16 KiB stretches, for inputs from 1 MiB, every symbol counted once more so
- * that each has a code), limited to 15 bits: Huffman's tree, then the heuristic of zlib and
+ * one final dynamic block (RFC 1951). The block's code comes from a histogram of the input (for
+ * inputs from 1 MiB of 16 KiB stretches spread over it, a quarter of it or 512 KiB, whichever is
+ * less; every symbol counted once more so that each has a code), limited to 15 bits: Huffman's tree, then the heuristic of zlib and
  * miniz (overlong codes are cut to the limit and the Kraft sum repaired by lengthening the
  * longest shorter code). The codes go out through a 64-bit bit buffer, literals two or four to a
  * write. One pass counts, one pass codes; when the block would not be smaller than stored blocks
@@ -29,8 +29,9 @@
 #define MAX_CL_BITS 7 /* the code lengths' code */
 #define STORED_MAX 65535
 #define SAMPLE_MIN (1 << 20) /* inputs from this size are counted on a sample: */
-#define SAMPLE_BYTES 16384   /* every SAMPLE_STEP-th stretch of SAMPLE_BYTES */
-#define SAMPLE_STEP 4
+#define SAMPLE_BYTES 16384   /* stretches of SAMPLE_BYTES spread evenly, */
+#define SAMPLE_STEP 4        /* every SAMPLE_STEP-th at least, */
+#define SAMPLE_STRETCHES 32  /* about SAMPLE_STRETCHES of them */
 #define PAIR_MIN 65536 /* inputs from this size code literals in pairs */
 
 /* ---- canonical, length-limited Huffman codes ------------------------------------------------ */
@@ -309,10 +310,13 @@ WgDeflateCode *wg__deflate_code(const unsigned char *in, size_t n, int dist)
     uint64_t matches = 0;
     /* Every byte counted as a literal, then the bytes of runs taken off again: the counting
      * loop runs without the parse's branches. Large inputs are counted on a sample, every
-     * SAMPLE_STEP-th SAMPLE_BYTES; the coding then checks that each block stays below the
-     * stored size. */
+     * SAMPLE_STEP-th SAMPLE_BYTES or sparser, 512 KiB in all for large images (on the wet
+     * material's outputs at 2048², a fifth less time to encode than a quarter of the bytes, for
+     * files as large); the coding then checks that each block stays below the stored size. */
     bool sampled = n >= SAMPLE_MIN;
-    size_t step = sampled ? SAMPLE_STEP * SAMPLE_BYTES : n, counted = 0;
+    size_t stride = n / SAMPLE_STRETCHES / SAMPLE_BYTES;
+    size_t step = !sampled ? n : (stride > SAMPLE_STEP ? stride : SAMPLE_STEP) * SAMPLE_BYTES;
+    size_t counted = 0;
     for (size_t c0 = 0; c0 < n; c0 += step) {
         size_t c1 = sampled && n - c0 > SAMPLE_BYTES ? c0 + SAMPLE_BYTES : n;
         const unsigned char *ch = in + c0;
