@@ -356,9 +356,10 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
         goto done;
     }
     if (mode == WG_PNG_COMPRESSION_FAST) {
-        /* the pieces' streams, then gathered: the zlib header, the pieces in order, the
-         * Adler-32 of all the filtered rows */
+        /* the pieces' streams side by side, each in a slot of its bound */
         e.zcap = wg__deflate_piece_bound((row + 1) * (size_t)e.piece_rows);
+        bound = (size_t)n * e.zcap;
+        e.zsize = wg_calloc((size_t)n + 1, sizeof *e.zsize);
     } else {
         z = mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL)
                                                : NULL;
@@ -369,11 +370,7 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
         bound = z ? libdeflate_zlib_compress_bound(z, filtered_size)
                   : wg__zlib_fast_bound(filtered_size);
     }
-    if (mode == WG_PNG_COMPRESSION_FAST) {
-        bound = (size_t)n * e.zcap;
-        e.zsize = wg_calloc((size_t)n + 1, sizeof *e.zsize);
-    }
-    zbuf = wg_malloc(bound); /* new memory, touched only where a stream goes */
+    zbuf = wg_malloc(bound ? bound : 1); /* new memory, touched only where a stream goes */
     spans = wg_calloc((size_t)n + 2, sizeof *spans);
     if (!spans || !zbuf || (mode == WG_PNG_COMPRESSION_FAST && !e.zsize)) {
         snprintf(msg, msg_size, "out of memory");
