@@ -16,6 +16,8 @@
 #include <ctype.h>
 #include <float.h>
 #include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -367,10 +369,59 @@ typedef struct {
     double lo[3], scale[3]; /* scale 0: flat, output 0.5 */
 } AutoLevelsJob;
 
+/* Compiled for AVX2 too (GCC's function multiversioning, picked at load time). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
+
+/* Eight floats as one vector (GCC and Clang vector types: AVX in the AVX2 clone, two SSE
+ * registers in the baseline, plain code elsewhere). */
+typedef float V8 __attribute__((vector_size(32)));
+typedef int32_t I8 __attribute__((vector_size(32)));
+
+/* mask ? a : b, lane by lane (a macro: a function returning V8 would change the baseline ABI) */
+#define SELECT8(mask, a, b) ((V8)(((I8)(a) & (mask)) | ((I8)(b) & ~(mask))))
+
+/* The smallest and largest finite values of s[0..n) (+inf and -inf when there is none), eight
+ * lanes at a time: min and max do not depend on the order, but for the sign of a zero, which
+ * changes no output of the node. */
+HOT static void finite_range(const float *s, int n, float *lo_out, float *hi_out)
+{
+    const V8 inf = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
+    V8 lo = inf, hi = -inf;
+    int x = 0;
+    for (; x + 8 <= n; x += 8) {
+        V8 v;
+        memcpy(&v, s + x, sizeof v);
+        I8 finite = ((I8)v & 0x7fffffff) <= 0x7f7fffff; /* the bits of a finite float's |v| */
+        V8 a = SELECT8(finite, v, inf), b = SELECT8(finite, v, -inf);
+        lo = SELECT8(a < lo, a, lo);
+        hi = SELECT8(b > hi, b, hi);
+    }
+    float l = INFINITY, h = -INFINITY;
+    for (int k = 0; k < 8; k++) {
+        l = lo[k] < l ? lo[k] : l;
+        h = hi[k] > h ? hi[k] : h;
+    }
+    for (; x < n; x++)
+        if (isfinite(s[x])) {
+            l = s[x] < l ? s[x] : l;
+            h = s[x] > h ? s[x] : h;
+        }
+    *lo_out = l, *hi_out = h;
+}
+
 static void auto_levels_measure(void *user, int y0, int y1)
 {
     AutoLevelsJob *j = user;
     int c = j->in->channels, w = j->in->width, cc = c == 4 ? 3 : 1;
+    if (c == 1) {
+        for (int y = y0; y < y1; y++)
+            finite_range(wg_image_row(j->in, y), w, &j->row_lo[y], &j->row_hi[y]);
+        return;
+    }
     for (int y = y0; y < y1; y++) {
         const float *s = wg_image_row(j->in, y);
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -396,6 +447,18 @@ static inline float auto_levels1(const AutoLevelsJob *j, int slot, float x)
     return t > 0 ? (t < 1 ? (float)t : 1.0f) : 0.0f;
 }
 
+/* auto_levels1 over a gray row with a range (scale not 0), clamped before the conversion so
+ * that the loop vectorises: the same values (NaN and t <= 0 give 0, t >= 1 gives 1). */
+HOT static void auto_levels_row(const float *s, float *d, int n, double lo, double scale)
+{
+    for (int x = 0; x < n; x++) {
+        double t = ((double)s[x] - lo) * scale;
+        t = t > 0 ? t : 0;
+        t = t < 1 ? t : 1;
+        d[x] = (float)t;
+    }
+}
+
 static void auto_levels_apply(void *user, int y0, int y1)
 {
     const AutoLevelsJob *j = user;
@@ -404,7 +467,10 @@ static void auto_levels_apply(void *user, int y0, int y1)
         const float *s = wg_image_row(j->in, y);
         float *d = wg_image_row(j->out, y);
         if (c == 1) {
-            for (int x = 0; x < w; x++) d[x] = auto_levels1(j, 0, s[x]);
+            if (j->scale[0] == 0)
+                for (int x = 0; x < w; x++) d[x] = 0.5f;
+            else
+                auto_levels_row(s, d, w, j->lo[0], j->scale[0]);
             continue;
         }
         for (int x = 0; x < w; x++) {

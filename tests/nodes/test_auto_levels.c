@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* `auto_levels`: exact stretch, flat images, a single bright pixel, linked and per-channel
- * colour, non-finite values, extremes, and independence from threads and row chunking. */
+ * colour, non-finite values (in every lane of the gray scan too), extremes, and independence from
+ * threads and row chunking. */
 #include "colortest.h"
 
 static WgImage *run(const char *attrs, const WgImage *in, int threads)
@@ -121,6 +122,39 @@ static void test_non_finite_and_extremes(void **state)
     wg_image_unref(in);
 }
 
+/* Non-finite values and the extremes in every lane of the eight-wide scan and in its tail: the
+ * range is that of the finite values, each output the formula's. */
+static void test_non_finite_in_every_lane(void **state)
+{
+    (void)state;
+    enum { W = 23 };
+    for (int p = 0; p < W; p++) {
+        float v[W];
+        for (int i = 0; i < W; i++) v[i] = 0.2f + 0.6f * (float)((i * 7 + p) % W) / W;
+        v[p] = NAN;
+        v[(p + 5) % W] = INFINITY;
+        v[(p + 11) % W] = -INFINITY;
+        v[(p + 3) % W] = -2.0f;
+        v[(p + 17) % W] = 3.0f;
+        WgImage *in = wgt_image(W, 1, 1, v);
+        WgImage *out = run("", in, 1);
+        for (int i = 0; i < W; i++)
+            if (wgt_px(out, i, 0, 0) != expect(v[i], -2.0, 3.0))
+                fail_msg("p=%d: x=%d %.9g, expected %.9g", p, i, wgt_px(out, i, 0, 0),
+                         expect(v[i], -2.0, 3.0));
+        wg_image_unref(out);
+        wg_image_unref(in);
+    }
+    /* a row of non-finite values only, longer than a vector: flat */
+    float w[19];
+    for (int i = 0; i < 19; i++) w[i] = i % 3 == 0 ? NAN : i % 3 == 1 ? INFINITY : -INFINITY;
+    WgImage *in = wgt_image(19, 1, 1, w);
+    WgImage *out = run("", in, 1);
+    for (int i = 0; i < 19; i++) assert_true(wgt_px(out, i, 0, 0) == 0.5f);
+    wg_image_unref(out);
+    wg_image_unref(in);
+}
+
 /* Bit-identical to the formula over the whole image for many heights (so many different row
  * chunkings: fewer rows than chunks, exactly 64, uneven splits) and thread counts. */
 static void test_independent_of_chunks_and_threads(void **state)
@@ -183,6 +217,7 @@ int main(void)
         cmocka_unit_test(test_single_bright_pixel),
         cmocka_unit_test(test_colour_linked_and_per_channel),
         cmocka_unit_test(test_non_finite_and_extremes),
+        cmocka_unit_test(test_non_finite_in_every_lane),
         cmocka_unit_test(test_independent_of_chunks_and_threads),
         cmocka_unit_test(test_output_range),
     };
