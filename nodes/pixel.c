@@ -14,13 +14,6 @@
  * by zero and other non-finite intermediates follow IEEE; the output is sanitised (NaN -> 0,
  * ±Inf -> ±FLT_MAX) unless allow_nonfinite="true". Rows are independent, so the output is
  * bit-identical for any thread count. */
-/* Without trapping maths the compiler may compute both sides of a select, and without errno
- * sqrtf is one instruction: both let more of the kernels' loops vectorise. No value changes:
- * only the floating-point exception flags and errno could, and nothing reads them. The kernels'
- * target clones do not take the errno option from this pragma: meson.build gives it to all. */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("no-trapping-math", "no-math-errno")
-#endif
 #include "pixel_program.h"
 
 #include <float.h>
@@ -130,9 +123,10 @@ static inline float sample_one(const WgImage *img, int ch, float u, float v)
 
 /* ---- kernels: one straight loop per operation -------------------------------------------- */
 
-/* Branch-free helpers. GCC (with the default -ftrapping-math) will not if-convert a `?:` whose
- * arm holds float arithmetic or a conversion, and then does not vectorise the loop; blending
- * bit patterns keeps every kernel below a straight vectorisable loop. */
+/* Branch-free helpers. GCC with trapping maths (the C default; meson.build turns it off, as
+ * errno-setting maths, which lets sqrt vectorise) will not if-convert a `?:` whose arm holds
+ * float arithmetic or a conversion, and then does not vectorise the loop; blending bit patterns
+ * keeps every kernel below a straight vectorisable loop whatever the flags. */
 static inline uint32_t bits(float f)
 {
     uint32_t u;
