@@ -106,7 +106,7 @@ int main(int argc, char **argv)
                 size_t out_size;
                 char msg[256];
                 if (wg__png_encode_rows(imgs[i].w, imgs[i].h, imgs[i].c, imgs[i].bits,
-                                        (WgPngCompression)m, pack_row, &imgs[i], NULL, &out,
+                                        (WgPngCompression)m, pack_row, &imgs[i], false, NULL, &out,
                                         &out_size, msg, sizeof msg)) {
                     fprintf(stderr, "%s: %s\n", argv[first + i], msg);
                     return 1;

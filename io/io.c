@@ -1115,7 +1115,7 @@ static int encode_png(const char *path, const WgImage *img, WgColorspace cs, int
 {
     PngPack p = {img, cs, c, bits};
     return wg__png_write_rows(path, img->width, img->height, c, bits, png, png_pack_row, &p,
-                              workers, msg, msg_size);
+                              img->stride == 0, workers, msg, msg_size);
 }
 
 /* Other formats go through OpenImageIO, STRIP_ROWS rows at a time, so writing holds a strip of

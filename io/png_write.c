@@ -161,6 +161,7 @@ typedef struct {
     WgPngCompression mode;
     WgPngPack pack;
     void *user;
+    bool same_rows; /* every row is the same (an image of one value) */
     size_t row;     /* bytes of a packed row */
     int piece_rows; /* rows of a piece (the last may have fewer) */
     unsigned char *filtered;
@@ -183,6 +184,38 @@ static void piece_rows(const Encode *e, int i, int *y0, int *y1)
 }
 
 /* Pieces [i0, i1): their rows packed and filtered into e->filtered. */
+/* The filter type row y is given: none's 0; fast's the type chosen on the last choice row
+ * (`type`); -1 (choose) on the others. */
+static int given_type(const Encode *e, int y, int type)
+{
+    return e->mode == WG_PNG_COMPRESSION_NONE                           ? 0
+           : e->mode == WG_PNG_COMPRESSION_FAST && y % FAST_CHOICE_ROWS ? type
+                                                                        : -1;
+}
+
+/* Rows [y0, y1) of an image whose rows are all the same, as filter_pieces makes them: the row
+ * packed once, and a filtered row below the first copied from the one above when both were
+ * given the same type (their bytes and the bytes above them are the same). */
+static void filter_same_rows(Encode *e, int y0, int y1, unsigned char *cur, unsigned char *zero,
+                             unsigned char *scratch)
+{
+    size_t row = e->row;
+    e->pack(e->user, y0, cur);
+    if (e->bits == 16) swap_bytes16(cur, row);
+    memset(zero, 0, row);
+    int type = 0, last = -2;
+    for (int y = y0; y < y1; y++) {
+        unsigned char *f = e->filtered + (row + 1) * (size_t)y;
+        int given = given_type(e, y, type);
+        if (y > y0 && y > 1 && given == last)
+            memcpy(f, f - (row + 1), row + 1);
+        else
+            filter_row(cur, y ? cur : zero, row, e->bpp, given, f, scratch);
+        type = f[0];
+        last = given;
+    }
+}
+
 static void filter_pieces(void *user, int i0, int i1)
 {
     Encode *e = user;
@@ -196,6 +229,10 @@ static void filter_pieces(void *user, int i0, int i1)
     for (int i = i0; i < i1; i++) {
         int y0, y1;
         piece_rows(e, i, &y0, &y1);
+        if (e->same_rows) {
+            filter_same_rows(e, y0, y1, cur, prev, scratch);
+            continue;
+        }
         if (y0 > 0) { /* the row above the piece, which the filters read */
             e->pack(e->user, y0 - 1, prev);
             if (e->bits == 16) swap_bytes16(prev, row);
@@ -207,12 +244,7 @@ static void filter_pieces(void *user, int i0, int i1)
             e->pack(e->user, y, cur);
             if (e->bits == 16) swap_bytes16(cur, row);
             unsigned char *f = e->filtered + (row + 1) * (size_t)y;
-            /* none: filter type 0, the bytes as they are; fast: the type chosen on the last
-             * choice row */
-            int given = e->mode == WG_PNG_COMPRESSION_NONE                           ? 0
-                        : e->mode == WG_PNG_COMPRESSION_FAST && y % FAST_CHOICE_ROWS ? type
-                                                                                     : -1;
-            filter_row(cur, prev, row, e->bpp, given, f, scratch);
+            filter_row(cur, prev, row, e->bpp, given_type(e, y, type), f, scratch);
             type = f[0];
             unsigned char *t = prev;
             prev = cur;
@@ -314,7 +346,7 @@ static void scratch_free(const WgWorkers *workers, void *p, size_t bytes)
 
 /* The file into o (o->buf made here, the caller's to free). */
 static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPack pack, void *user,
-                  const WgWorkers *workers, Out *o, char *msg, size_t msg_size)
+                  bool same_rows, const WgWorkers *workers, Out *o, char *msg, size_t msg_size)
 {
     int bpp = c * bits / 8;
     size_t row = (size_t)w * (size_t)bpp, filtered_size = (row + 1) * (size_t)h;
@@ -328,6 +360,7 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
                 .mode = mode,
                 .pack = pack,
                 .user = user,
+                .same_rows = same_rows,
                 .row = row,
                 .piece_rows = rows < (size_t)h ? (int)rows : h};
     if (e.piece_rows < 1) e.piece_rows = 1;
@@ -450,11 +483,11 @@ done:
 }
 
 int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression png, WgPngPack pack,
-                        void *user, const WgWorkers *workers, unsigned char **out, size_t *out_size,
-                        char *msg, size_t msg_size)
+                        void *user, bool same_rows, const WgWorkers *workers, unsigned char **out,
+                        size_t *out_size, char *msg, size_t msg_size)
 {
     Out o = {.fd = -1};
-    int rc = encode(w, h, c, bits, png, pack, user, workers, &o, msg, msg_size);
+    int rc = encode(w, h, c, bits, png, pack, user, same_rows, workers, &o, msg, msg_size);
     if (rc) wg_free(o.buf);
     *out = rc ? NULL : o.buf;
     *out_size = rc ? 0 : o.len;
@@ -486,20 +519,20 @@ int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngComp
                    unsigned char **out, size_t *out_size, char *msg, size_t msg_size)
 {
     Packed p = {samples, (size_t)w * (size_t)c * (size_t)(bits / 8)};
-    return wg__png_encode_rows(w, h, c, bits, png, copy_row, &p, NULL, out, out_size, msg,
+    return wg__png_encode_rows(w, h, c, bits, png, copy_row, &p, false, NULL, out, out_size, msg,
                                msg_size);
 }
 
 int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
-                       WgPngPack pack, void *user, const WgWorkers *workers, char *msg,
-                       size_t msg_size)
+                       WgPngPack pack, void *user, bool same_rows, const WgWorkers *workers,
+                       char *msg, size_t msg_size)
 {
     int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
     if (fd < 0) return system_error(msg, msg_size, errno);
     /* written as it is put together, through a buffer of at most STAGE_BYTES: the file is
      * never held whole (a failure leaves a partial file, which the caller removes) */
     Out o = {.fd = fd};
-    int rc = encode(w, h, c, bits, png, pack, user, workers, &o, msg, msg_size);
+    int rc = encode(w, h, c, bits, png, pack, user, same_rows, workers, &o, msg, msg_size);
     if (!rc && !o.err && wg__write_all(fd, o.buf, o.len)) o.err = errno ? errno : EIO;
     wg_free(o.buf);
     if (!rc && o.err) {

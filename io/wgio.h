@@ -62,23 +62,24 @@ void wg__oiio_close(WgOiioIn *in);
 bool wg__oiio_loaded(void);
 /* PNG (png_write.c) of w x h pixels of `c` channels (1-4) of `bits` (8 or 16), compressed as
  * `png` says, its rows asked for one at a time: pack(user, y, row) writes row y packed, 16-bit
- * samples in host order, so that no packed copy of the image is made. The rows are filtered
- * (and in the fast mode coded) in pieces run by `workers` (NULL: all on this thread, in new
- * memory), so pack may be called from several threads at once, each row once, plus the row above
- * each piece; the file is the same either way. In memory: *out (wg_free it) holds *out_size bytes.
- * Nonzero with msg on failure. */
+ * samples in host order, so that no packed copy of the image is made. With same_rows (every row
+ * is the same) a row is packed and filtered once a piece: the same file, sooner. The rows are
+ * filtered (and in the fast mode coded) in pieces run by `workers` (NULL: all on this thread, in
+ * new memory), so pack may be called from several threads at once, each row once, plus the row
+ * above each piece; the file is the same either way. In memory: *out (wg_free it) holds *out_size
+ * bytes. Nonzero with msg on failure. */
 typedef void (*WgPngPack)(void *user, int y, void *row);
 int wg__png_encode_rows(int w, int h, int c, int bits, WgPngCompression png, WgPngPack pack,
-                        void *user, const WgWorkers *workers, unsigned char **out, size_t *out_size,
-                        char *msg, size_t msg_size);
+                        void *user, bool same_rows, const WgWorkers *workers, unsigned char **out,
+                        size_t *out_size, char *msg, size_t msg_size);
 /* The same from `samples`, the packed rows one after the other. */
 int wg__png_encode(const void *samples, int w, int h, int c, int bits, WgPngCompression png,
                    unsigned char **out, size_t *out_size, char *msg, size_t msg_size);
 /* Encoded with wg__png_encode_rows and written to path. Nonzero with msg (and errno where the
  * system refused) on failure. */
 int wg__png_write_rows(const char *path, int w, int h, int c, int bits, WgPngCompression png,
-                       WgPngPack pack, void *user, const WgWorkers *workers, char *msg,
-                       size_t msg_size);
+                       WgPngPack pack, void *user, bool same_rows, const WgWorkers *workers,
+                       char *msg, size_t msg_size);
 /* Write n bytes to fd, again after short writes and EINTR; -1 with errno (EIO for a write of
  * nothing) on failure. */
 int wg__write_all(int fd, const void *data, size_t n);

@@ -8,7 +8,8 @@
  * complete code within the limit. A stream coded in pieces (any split, empty pieces, pieces that
  * fall back to stored blocks) inflates as one; an image filtered and coded in pieces on other
  * threads, in any order, gives the same file as on one thread, its large buffers taken from and
- * given back to the workers' memory, and a runner that stops early fails the encoding. */
+ * given back to the workers' memory, and a runner that stops early fails the encoding; an
+ * image whose rows are all the same, filtered once a piece, gives the same file. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -543,10 +544,10 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
             atomic_store(&parts_run, 0);
             atomic_store(&scratch_taken, 0);
             assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of, &p,
-                                                 NULL, &one, &one_n, msg, sizeof msg),
+                                                 false, NULL, &one, &one_n, msg, sizeof msg),
                              0);
             assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of, &p,
-                                                 &threads, &many, &many_n, msg, sizeof msg),
+                                                 false, &threads, &many, &many_n, msg, sizeof msg),
                              0);
             /* filtered (and in the fast mode coded) in several pieces */
             if (atomic_load(&parts_run) < (mode == WG_PNG_COMPRESSION_FAST ? 4 : 2))
@@ -563,12 +564,56 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
             assert_memory_equal(back, px, raw);
             free(back);
             assert_int_not_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of,
-                                                     &p, &stops, &none, &none_n, msg, sizeof msg),
+                                                     &p, false, &stops, &none, &none_n, msg,
+                                                     sizeof msg),
                                  0);
             assert_null(none);
             assert_int_equal(none_n, 0);
             wg_free(one);
             wg_free(many);
+        }
+        free(px);
+    }
+}
+
+/* Rows all the same (an image of one value, or of one row repeated), packed and filtered once
+ * a piece: the same file as row by row, in every mode, on one thread or several. */
+static void test_same_rows_make_the_same_file(void **state)
+{
+    (void)state;
+    static const int shapes[][4] = {{1, 1, 1, 8},      {5, 1, 3, 8},    {3, 2, 4, 16},
+                                    {37, 33, 1, 8},    {64, 70, 2, 16}, {700, 900, 3, 8},
+                                    {333, 2100, 1, 16}};
+    WgWorkers threads = {.run = threads_backwards};
+    for (size_t si = 0; si < sizeof shapes / sizeof *shapes; si++) {
+        int w = shapes[si][0], h = shapes[si][1], c = shapes[si][2], bits = shapes[si][3];
+        size_t row = (size_t)w * (size_t)c * (size_t)(bits / 8), raw = row * (size_t)h;
+        unsigned char *px = malloc(raw);
+        assert_non_null(px);
+        for (int value = 0; value < 2; value++) { /* one value, then one row repeated */
+            fill(px, w, 1, c, bits / 8, value ? GRADIENT : FLAT);
+            for (int y = 1; y < h; y++) memcpy(px + row * (size_t)y, px, row);
+            Rows p = {px, row};
+            for (int mode = 0; mode < 3; mode++)
+                for (int t = 0; t < 2; t++) {
+                    unsigned char *a, *b;
+                    size_t an, bn;
+                    char msg[256];
+                    const WgWorkers *wk = t ? &threads : NULL;
+                    assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode,
+                                                         row_of, &p, false, wk, &a, &an, msg,
+                                                         sizeof msg),
+                                     0);
+                    assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode,
+                                                         row_of, &p, true, wk, &b, &bn, msg,
+                                                         sizeof msg),
+                                     0);
+                    if (an != bn || memcmp(a, b, an))
+                        fail_msg("%dx%d c%d %d-bit %s, %s: %zu bytes against %zu", w, h, c, bits,
+                                 mode_names[mode], value ? "a row repeated" : "one value", bn, an);
+                    wg_free(a);
+                    wg_free(b);
+                }
         }
         free(px);
     }
@@ -604,6 +649,7 @@ int main(void)
         cmocka_unit_test(test_fast_mode_compresses),
         cmocka_unit_test(test_pieces_inflate_as_one_stream),
         cmocka_unit_test(test_pieces_on_threads_make_the_same_file),
+        cmocka_unit_test(test_same_rows_make_the_same_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
