@@ -556,13 +556,14 @@ static void output_key(const WgPlan *p, int k, uint64_t key[2])
     key[1] = h.high64;
 }
 
-/* WgOutputInfo.workers: parts as row chunks on the render's workers, stopped by its cancel;
- * scratch memory from its buffer pool (the kind of a buffer follows from its size, as for a
- * node's scratch) */
+/* WgOutputInfo.workers: parts as row chunks on the render's workers, every one of them run
+ * also when the render is cancelled meanwhile (an output call is never cut short, so that its
+ * caller does not take a cancel for a failure); scratch memory from the render's buffer pool
+ * (the kind of a buffer follows from its size, as for a node's scratch) */
 static int output_run(const void *ctx, int n, void (*fn)(void *user, int i0, int i1), void *user)
 {
-    Run *run = (Run *)ctx;
-    return wg__pool_rows(run->e->pool, &run->cancel, n, fn, user);
+    const Run *run = ctx;
+    return wg__pool_rows(run->e->pool, NULL, n, fn, user);
 }
 
 static void *output_alloc(const void *ctx, size_t bytes)

@@ -7,7 +7,8 @@
  * pictures read from files wait until a job needs them, also on several workers; an
  * output function that fails makes the render fail with its error, and with one worker no later
  * node runs and no later output is handed over; work an output function splits in parts
- * (WgOutputInfo.workers) runs each part once, and idle workers take parts too. */
+ * (WgOutputInfo.workers) runs each part once, and idle workers take parts too, also when the
+ * render is cancelled meanwhile (it then ends cancelled, not failed). */
 #include "wgtest.h"
 
 #include <pthread.h>
@@ -405,6 +406,52 @@ static void test_output_work_runs_on_the_workers(void **state)
     free(xml);
 }
 
+/* An output call whose render is cancelled while its parts run: every part still runs once and
+ * run() says so; the render ends cancelled, not failed. */
+typedef struct {
+    WgCancel *cancel;
+    atomic_int calls, stopped, missed;
+} CancelSeen;
+
+static int cancel_then_split(void *user, const WgOutputInfo *out, WgError *err)
+{
+    (void)err;
+    CancelSeen *c = user;
+    if (atomic_fetch_add(&c->calls, 1) == 0) wg_cancel_request(c->cancel);
+    Parts p;
+    for (int i = 0; i < PARTS; i++) atomic_init(&p.hits[i], 0);
+    if (out->workers.run(out->workers.ctx, PARTS, mark_parts, &p)) atomic_fetch_add(&c->stopped, 1);
+    for (int i = 0; i < PARTS; i++) atomic_fetch_add(&c->missed, atomic_load(&p.hits[i]) != 1);
+    return WG_OK;
+}
+
+static void test_output_work_finishes_in_a_cancelled_render(void **state)
+{
+    (void)state;
+    char *xml = chain_graph(32, 32);
+    WgGraph *g = wgt_load(xml);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgRequest *r = wg_request_new(g);
+    assert_non_null(r);
+    CancelSeen c = {.cancel = wg_cancel_new()};
+    assert_non_null(c.cancel);
+    wg_request_set_cancel(r, c.cancel);
+    wg_request_set_output_fn(r, cancel_then_split, &c);
+    WgResult *res = NULL;
+    WgError err = {0};
+    int rc = wg_render(e, r, &res, &err);
+    if (rc != WG_ERR_CANCELLED)
+        fail_msg("render returned %d (%s), expected WG_ERR_CANCELLED", rc, err.message);
+    assert_true(atomic_load(&c.calls) >= 1);
+    assert_int_equal(atomic_load(&c.stopped), 0);
+    assert_int_equal(atomic_load(&c.missed), 0);
+    wg_request_free(r);
+    wg_cancel_free(c.cancel);
+    wg_engine_free(e);
+    wg_graph_free(g);
+    free(xml);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -414,6 +461,7 @@ int main(void)
         cmocka_unit_test(test_sources_wait_until_they_are_needed),
         cmocka_unit_test(test_images_are_made_when_their_consumer_is_near),
         cmocka_unit_test(test_output_work_runs_on_the_workers),
+        cmocka_unit_test(test_output_work_finishes_in_a_cancelled_render),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

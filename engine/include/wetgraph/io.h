@@ -112,9 +112,10 @@ int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, 
 /* Threads and memory a writer may borrow (an output function gets a render's in
  * WgOutputInfo.workers). run(ctx, n, fn, user) calls fn(user, i0, i1) on ranges that together
  * cover [0, n) once each, on whichever threads it has (the calling one among them), and returns
- * when all are done: 0, or nonzero when it stopped early (a cancelled render), and then the work
- * is dropped. alloc(ctx, bytes) gives a scratch buffer (NULL when out of memory), from a pool
- * whose buffers were touched before where it has one, and free(ctx, p, bytes) gives it back. */
+ * when all are done: 0, or nonzero when it stopped early, and then the work is dropped (a
+ * render's workers never stop early, also when the render is cancelled meanwhile). alloc(ctx,
+ * bytes) gives a scratch buffer (NULL when out of memory), from a pool whose buffers were touched
+ * before where it has one, and free(ctx, p, bytes) gives it back. */
 typedef struct WgWorkers {
     int (*run)(const void *ctx, int n, void (*fn)(void *user, int i0, int i1), void *user);
     void *(*alloc)(const void *ctx, size_t bytes);
