@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <pthread.h>
 #include <inttypes.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -846,24 +847,62 @@ static int file_setting(WgFormat f, WgPngCompression png)
     return png == WG_PNG_COMPRESSION_DEFLATE ? 0 : png == WG_PNG_COMPRESSION_FAST ? 1 : 2;
 }
 
-/* 0, 0 when out of memory: no key, never matched nor stored */
-static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs, WgPngCompression png)
+/* An image's key hashes its rows in KEY_BANDS bands (one a row in shorter images), each band on
+ * whichever worker takes it, then the bands' hashes in order: the same key whoever computes it,
+ * and during a render the last outputs' keys are not made on one worker while the others wait. */
+#define KEY_BANDS 64
+
+typedef struct {
+    const WgImage *img;
+    int bands;
+    XXH128_hash_t *band;
+    atomic_bool failed;
+} KeyJob;
+
+static void hash_bands(void *user, int b0, int b1)
 {
+    KeyJob *j = user;
+    const WgImage *img = j->img;
+    size_t bytes = (size_t)img->width * (size_t)img->channels * sizeof(float);
     XXH3_state_t *st = XXH3_createState();
-    OutKey k = {0, 0};
-    if (!st) return k;
-    XXH3_128bits_reset(st);
-    /* a JPEG written at another quality, a PNG at another compression, is another file */
-    int head[7] = {KEYS_VERSION, img->width, img->height,         img->channels,
-                   (int)f,       (int)cs,    file_setting(f, png)};
-    XXH3_128bits_update(st, head, sizeof head);
-    for (int y = 0; y < img->height; y++)
-        XXH3_128bits_update(st, wg_image_row(img, y),
-                            (size_t)img->width * (size_t)img->channels * sizeof(float));
-    XXH128_hash_t h = XXH3_128bits_digest(st);
+    if (!st) {
+        atomic_store(&j->failed, true);
+        return;
+    }
+    for (int b = b0; b < b1; b++) {
+        int y0 = (int)((long long)b * img->height / j->bands);
+        int y1 = (int)((long long)(b + 1) * img->height / j->bands);
+        XXH3_128bits_reset(st);
+        for (int y = y0; y < y1; y++) XXH3_128bits_update(st, wg_image_row(img, y), bytes);
+        j->band[b] = XXH3_128bits_digest(st);
+    }
     XXH3_freeState(st);
-    k.hi = h.high64;
-    k.lo = h.low64;
+}
+
+/* 0, 0 when out of memory: no key, never matched nor stored. The bands run on `workers` (NULL:
+ * here). */
+static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs, WgPngCompression png,
+                         const WgWorkers *workers)
+{
+    OutKey k = {0, 0};
+    int bands = img->height < KEY_BANDS ? img->height : KEY_BANDS;
+    /* a JPEG written at another quality, a PNG at another compression, is another file */
+    int head[8] = {KEYS_VERSION, img->width, img->height,          img->channels,
+                   (int)f,       (int)cs,    file_setting(f, png), bands};
+    size_t size = sizeof head + (size_t)bands * sizeof(XXH128_hash_t);
+    unsigned char *all = wg_malloc(size);
+    if (!all) return k;
+    KeyJob j = {img, bands, (XXH128_hash_t *)(all + sizeof head)};
+    atomic_init(&j.failed, false);
+    memcpy(all, head, sizeof head);
+    if (!workers || !workers->run || workers->run(workers->ctx, bands, hash_bands, &j))
+        hash_bands(&j, 0, bands);
+    if (!atomic_load(&j.failed)) {
+        XXH128_hash_t h = XXH3_128bits(all, size);
+        k.hi = h.high64;
+        k.lo = h.low64;
+    }
+    wg_free(all);
     return k;
 }
 
@@ -1096,7 +1135,7 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
         s->first_cs = out->colorspace;
     }
     WgPngCompression png = output_compression(s->o, out->compression);
-    s->keys[i] = output_key(out->image, f, out->colorspace, png);
+    s->keys[i] = output_key(out->image, f, out->colorspace, png, &out->workers);
     s->sources[i] = source_key(out, f, png);
     if (key_matches(s->paths[i], s->keys[i])) {
         s->skip[i] = s->refresh[i] = true;
@@ -1306,8 +1345,8 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
         WgFormat f =
             output_format(o, wg_result_output_name(res, i), wg_result_output_format(res, i));
         WgPngCompression png = output_compression(o, wg_result_output_compression(res, i));
-        keys[i] =
-            output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i), png);
+        keys[i] = output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i),
+                             png, NULL);
         skip[i] = (kept && kept[i]) || key_matches(paths[i], keys[i]);
         copy_of[i] = -1;
         if (skip[i]) continue;

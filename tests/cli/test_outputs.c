@@ -567,6 +567,26 @@ static void test_unchanged_outputs_are_kept(void **state)
     expect_same_file(in("kd", files[2]), in("kfresh", files[2]));
 }
 
+/* The keys made on the render's workers while it runs are the ones made after it (outputs
+ * written after the render, as with --layered and -o): files written one way are kept the other
+ * way, for images of several rows a band. */
+static void test_keys_on_workers_are_the_keys_after_the_render(void **state)
+{
+    (void)state;
+    wgt_write_file(at("k.wetgraph"), graph_keys);
+    rm_rf(at("kw"));
+    Run r = run("render", "k.wetgraph", "-o", "kw", "--layered", "kw/all.exr", "--size", "61x300",
+                "--threads", "2", "-q", NULL);
+    expect(&r, 0, "render written after it");
+    run_free(&r);
+    r = run("render", "k.wetgraph", "-o", "kw", "--size", "61x300", "--threads", "2", "--stats",
+            NULL);
+    expect(&r, 0, "render written during it");
+    if (!strstr(r.err, "outputs: 0 written, 3 kept, "))
+        fail_msg("the files written after the render were not kept:\n%s", r.err);
+    run_free(&r);
+}
+
 /* ---- outputs written while the render runs ----------------------------------------------- */
 
 static int count_words(const char *text)
@@ -963,6 +983,7 @@ int main(void)
         cmocka_unit_test(test_killed_writer_leaves_temporaries_the_next_render_removes),
         cmocka_unit_test(test_full_disk_replaces_nothing),
         cmocka_unit_test(test_unchanged_outputs_are_kept),
+        cmocka_unit_test(test_keys_on_workers_are_the_keys_after_the_render),
         cmocka_unit_test(test_streamed_outputs_are_the_files_written_after_the_render),
         cmocka_unit_test(test_failing_output_mid_render_replaces_nothing),
         cmocka_unit_test(test_png_compression_from_graph_and_command_line),
