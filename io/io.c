@@ -852,18 +852,51 @@ static double quantize(float v, WgColorspace cs, bool colour_channel, double sca
     return floor(x * scale + 0.5);
 }
 
+/* Is every alpha of a colour image 1? Its rows in bands, on whichever worker takes a band; a
+ * band stops once any band has found an alpha that is not 1. */
+#define OPAQUE_BANDS 64
+
+typedef struct {
+    const WgImage *img;
+    int rows, bands; /* rows: the image's, or 1 when all are the same memory */
+    atomic_bool transparent;
+} OpaqueJob;
+
+static void opaque_bands(void *user, int b0, int b1)
+{
+    OpaqueJob *j = user;
+    const WgImage *img = j->img;
+    for (int b = b0; b < b1 && !atomic_load_explicit(&j->transparent, memory_order_relaxed); b++) {
+        int y0 = (int)((long long)b * j->rows / j->bands);
+        int y1 = (int)((long long)(b + 1) * j->rows / j->bands);
+        for (int y = y0; y < y1; y++) {
+            const float *r = wg_image_row(img, y);
+            bool opaque = true;
+            for (int x = 0; x < img->width; x++) opaque &= r[4 * x + 3] == 1.0f;
+            if (!opaque) {
+                atomic_store_explicit(&j->transparent, true, memory_order_relaxed);
+                return;
+            }
+        }
+    }
+}
+
+static bool opaque(const WgImage *img, const WgWorkers *workers)
+{
+    int rows = img->stride == 0 ? 1 : img->height; /* rows all the same memory: one is enough */
+    OpaqueJob j = {img, rows, rows < OPAQUE_BANDS ? rows : OPAQUE_BANDS};
+    atomic_init(&j.transparent, false);
+    if (!workers || !workers->run || workers->run(workers->ctx, j.bands, opaque_bands, &j))
+        opaque_bands(&j, 0, j.bands);
+    return !atomic_load(&j.transparent);
+}
+
 /* The file layout of `img`: RGB when every alpha is 1, and the sample type of the format. */
-static void file_layout(const WgImage *img, WgFormat format, int *channels, int *bits)
+static void file_layout(const WgImage *img, WgFormat format, const WgWorkers *workers,
+                        int *channels, int *bits)
 {
     int c = img->channels;
-    if (c == 4) {
-        bool opaque = true;
-        for (int y = 0; y < img->height && opaque; y++) {
-            const float *r = wg_image_row(img, y);
-            for (int x = 0; x < img->width && opaque; x++) opaque = r[4 * x + 3] == 1.0f;
-        }
-        if (opaque) c = 3;
-    }
+    if (c == 4 && opaque(img, workers)) c = 3;
     if (format == WG_FORMAT_JPEG && c == 4) c = 3; /* JPEG keeps no alpha */
     *channels = c;
     *bits = format == WG_FORMAT_PNG || format == WG_FORMAT_JPEG || format == WG_FORMAT_TGA ? 8
@@ -1261,7 +1294,7 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c, bits;
-    file_layout(img, format, &c, &bits);
+    file_layout(img, format, workers, &c, &bits);
     char msg[512];
     int rc = WG_OK;
     errno = 0;
