@@ -318,10 +318,8 @@ void wg__mempool_close(WgMemPool *p);
  * *mapped says which kind it is (pass it back to wg__mempool_put). NULL when out of memory. */
 void *wg__mempool_get(WgMemPool *p, size_t bytes, int *mapped);
 void wg__mempool_put(WgMemPool *p, void *ptr, size_t bytes, int mapped);
-/* The same for a buffer taken while the allocation hook was what it is now: its kind follows
- * from its size. */
-void wg__mempool_put_sized(WgMemPool *p, void *ptr, size_t bytes);
-/* A buffer of wg__mempool_get given back to the system, not kept idle. */
+/* A buffer of wg__mempool_get given back to the system, not kept idle (its kind follows from
+ * its size, as long as the allocation hook has not changed since it was taken). */
 void wg__mempool_release(WgMemPool *p, void *ptr, size_t bytes);
 /* Gives idle buffers back to the system until at most max_idle bytes are idle. */
 void wg__mempool_trim(WgMemPool *p, size_t max_idle);

@@ -317,12 +317,7 @@ void *wg_scratch_alloc(const WgNodeContext *ctx, size_t bytes)
 
 void wg_scratch_free(const WgNodeContext *ctx, void *ptr, size_t bytes)
 {
-    wg__mempool_put_sized(ctx ? ctx->mem_ : NULL, ptr, bytes);
-}
-
-void wg__mempool_put_sized(WgMemPool *p, void *ptr, size_t bytes)
-{
-    wg__mempool_put(p, ptr, bytes, kind_for(class_bytes(bytes)));
+    wg__mempool_put(ctx ? ctx->mem_ : NULL, ptr, bytes, kind_for(class_bytes(bytes)));
 }
 
 void wg__mempool_release(WgMemPool *p, void *ptr, size_t bytes)

@@ -4,9 +4,9 @@
  * render on the same engine takes every buffer from the pool and gives the same bytes as a fresh
  * engine with another thread count, even when every buffer handed out is first filled with NaNs (so
  * no node may read memory it has not written); the memory budget holds with the pool's idle buffers
- * counted; images may outlive their engine; and under injected allocation failures at every point,
- * a render (first or second on one engine) fails with WG_ERR_NOMEM or gives the normal result,
- * leaking nothing. */
+ * counted; a released buffer goes back to the system; images may outlive their engine; and under
+ * injected allocation failures at every point, a render (first or second on one engine) fails with
+ * WG_ERR_NOMEM or gives the normal result, leaking nothing. */
 #include "wgtest.h"
 
 #include "internal.h"
@@ -162,6 +162,35 @@ static void test_split(void **state)
     wg__mempool_stats(p, &s);
     assert_int_equal(s.pool_bytes, 13 * MIB + MIB / 2);
     wg__mempool_close(p);
+}
+
+/* A buffer taken from the pool and released goes back to the system, not to the pool: an
+ * idle buffer reused that way (a writer's scratch) leaves the pool smaller, the released count
+ * grows, and the pool's references balance (it closes cleanly after, also with one still out). */
+static void test_release(void **state)
+{
+    (void)state;
+    WgMemPool *p = wg__mempool_new(64 * MIB);
+    WgMemoryStats s;
+    int m;
+    char *a = wg__mempool_get(p, 6 * MIB, &m), *b = wg__mempool_get(p, 2 * MIB, &m);
+    memset(a, 1, 6 * MIB);
+    wg__mempool_put(p, a, 6 * MIB, m);
+    char *again = wg__mempool_get(p, 6 * MIB, &m); /* the idle one, touched before */
+    assert_ptr_equal(again, a);
+    memset(again, 2, 6 * MIB);
+    wg__mempool_release(p, again, 6 * MIB);
+    wg__mempool_stats(p, &s);
+    assert_int_equal(s.pool_bytes, 0);
+    assert_int_equal(s.pool_buffers, 0);
+    assert_int_equal(s.pool_released, 6 * MIB);
+    wg__mempool_release(p, NULL, 6 * MIB); /* nothing */
+    char *small = wg__mempool_get(p, 1000, &m);
+    memset(small, 3, 1000);
+    wg__mempool_release(p, small, 1000);
+    wg__mempool_close(p);
+    memset(b, 4, 2 * MIB);
+    wg__mempool_release(p, b, 2 * MIB); /* after close: the last reference */
 }
 
 /* An image outlives its engine: its buffer goes back to the system when it is freed. */
@@ -408,7 +437,7 @@ int main(void)
         cmocka_unit_test(test_classes),         cmocka_unit_test(test_outlives_engine),
         cmocka_unit_test(test_reuse_identical), cmocka_unit_test(test_budget_counts_pool),
         cmocka_unit_test(test_alloc_failures),  cmocka_unit_test(test_trim),
-        cmocka_unit_test(test_split),
+        cmocka_unit_test(test_split),           cmocka_unit_test(test_release),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
