@@ -321,11 +321,24 @@ static void put_idats(Out *o, const Span *span, int spans, size_t total)
     }
 }
 
-/* fn over pieces [0, n): by workers, or here */
-static int run_pieces(const WgWorkers *workers, int n, void (*fn)(void *, int, int), Encode *e)
+/* fn over pieces [0, n): by workers, or here. Nonzero with msg when the workers stopped early
+ * ("cancelled") or a piece failed (`failure`). */
+static int run_pieces(const WgWorkers *workers, int n, void (*fn)(void *, int, int), Encode *e,
+                      const char *failure, char *msg, size_t msg_size)
 {
-    if (workers && workers->run) return workers->run(workers->ctx, n, fn, e);
-    fn(e, 0, n);
+    int stopped = 0;
+    if (workers && workers->run)
+        stopped = workers->run(workers->ctx, n, fn, e);
+    else
+        fn(e, 0, n);
+    if (stopped) {
+        snprintf(msg, msg_size, "cancelled");
+        return -1;
+    }
+    if (atomic_load(&e->failed)) {
+        snprintf(msg, msg_size, "%s", failure);
+        return -1;
+    }
     return 0;
 }
 
@@ -380,14 +393,7 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
-    if (run_pieces(workers, n, filter_pieces, &e)) {
-        snprintf(msg, msg_size, "cancelled");
-        goto done;
-    }
-    if (atomic_load(&e.failed)) {
-        snprintf(msg, msg_size, "out of memory");
-        goto done;
-    }
+    if (run_pieces(workers, n, filter_pieces, &e, "out of memory", msg, msg_size)) goto done;
     if (mode == WG_PNG_COMPRESSION_FAST) {
         /* the pieces' streams side by side, each in a slot of its bound */
         e.zcap = wg__deflate_piece_bound((row + 1) * (size_t)e.piece_rows);
@@ -416,14 +422,8 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
         }
         e.code = code;
         e.zbuf = zbuf;
-        if (run_pieces(workers, n, code_pieces, &e)) {
-            snprintf(msg, msg_size, "cancelled");
+        if (run_pieces(workers, n, code_pieces, &e, "cannot compress the image", msg, msg_size))
             goto done;
-        }
-        if (atomic_load(&e.failed)) {
-            snprintf(msg, msg_size, "cannot compress the image");
-            goto done;
-        }
         /* the stream: the zlib header, the pieces in order, the Adler-32 of the filtered rows */
         spans[0] = (Span){zlib_head, 2};
         for (int i = 0; i < n; i++) spans[1 + i] = (Span){zbuf + (size_t)i * e.zcap, e.zsize[i]};
