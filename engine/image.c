@@ -9,6 +9,7 @@
  * (wg_image_new), in which case buffers of 1 MiB and more are mappings of their own, returned to
  * the system as soon as the image is freed. */
 #include "internal.h"
+#include "hot.h"
 
 #include <float.h>
 #include <math.h>
@@ -470,10 +471,7 @@ static void resample_row_x_generic(const Resample *r, const float *in, float *ou
 
 /* Compiled for AVX2 too (GCC's function multiversioning, picked at load time): 8 values a vector
  * instead of 4, the same operations in the same order, so the same bits. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-__attribute__((target_clones("avx2", "default")))
-#endif
-static void resample_row_y(const Resample *r, int y, const float *const *rows, float *out)
+HOT static void resample_row_y(const Resample *r, int y, const float *const *rows, float *out)
 {
     const Axis *ay = &r->ay;
     int count = r->dst->width * r->dst->channels;

@@ -16,6 +16,7 @@
  * PNG files are checked (png_check.c) before the library sees them, because libpng prints its
  * own errors to stderr. */
 #include "internal.h"
+#include "hot.h"
 #include "wgio.h"
 
 #include <dirent.h>
@@ -904,12 +905,6 @@ static void file_layout(const WgImage *img, WgFormat format, const WgWorkers *wo
             : format == WG_FORMAT_EXR32                                                    ? 32
                                                                                            : 16;
 }
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 /* The linear packing loops come in two kinds, with the same codes: in float with FMA where the
  * processor has it (x86-64-v3 on x86, chosen at run time), else in double. FMA_LOOPS compiles a

@@ -12,6 +12,7 @@
  * coded, in pieces of rows that the caller's WgWorkers may run on several threads (a render's
  * idle workers): the pieces depend on the image alone, so the file does too. */
 #include "internal.h"
+#include "hot.h"
 #include "wgio.h"
 
 #include <ctype.h>
@@ -48,13 +49,8 @@ static void put32(unsigned char *p, uint32_t v)
     p[3] = (unsigned char)v;
 }
 
-/* The filters' loops compiled for AVX2 too (GCC's function multiversioning), picked at load
- * time: filtering takes half the time of the baseline SSE2 code. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
+/* The filters' loops are HOT (hot.h): filtering takes half the time of the baseline SSE2
+ * code. */
 
 /* The filter heuristic's cost: the sum of the bytes taken as signed, |x| being the smaller of x
  * and -x as bytes (128 for 128), summed in 32 bits: a row has at most 2^17 bytes. */

@@ -43,6 +43,7 @@
  * fast medians rise to 12-20 ms at σ ≤ 2 px, 17-27 ms at 16..256 px and 25-48 ms at 3..4 px (the
  * FFT's costliest range: most spectrum columns kept). */
 #include "gaussian.h"
+#include "hot.h"
 #include "wetgraph/node.h"
 
 #include <fftw3.h>
@@ -72,14 +73,6 @@ static const WgPortSpec blur_out[] = {WG_PORT("output", WG_ANY), WG_PORT_END};
 /* Below this σ in pixels the direct sum is faster than the FFT at 2048² (bench/bench_blur:
  * direct 11 ms at σ = 2, 14.6 at 3, 15.4 at 4; FFT 16.6, 14.0, 14.8). */
 #define DIRECT_MAX_SIGMA 3.0
-
-/* Hot loops get an AVX2 clone picked at load time (same IEEE operations, no FMA contraction,
- * so both clones give bit-identical pixels). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 static double blur_sigma_px(const WgNodeContext *ctx)
 {

@@ -13,6 +13,7 @@
  * rows around the current cell row are cached and each cell's run of pixels is processed in
  * vectorised loops; finer cells are hashed per pixel. */
 #include "wetgraph/node.h"
+#include "hot.h"
 
 #include <math.h>
 #include <string.h>
@@ -56,12 +57,6 @@ static inline uint32_t lattice_key(uint64_t i)
 {
     return (uint32_t)i ^ (i >> 32 ? wg_hash_u32((uint32_t)(i >> 32) ^ 0x5bd1e995u) : 0x5a6bc3e1u);
 }
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 typedef struct {
     float *ox, *oy, *id; /* (2r+1) rows of px+2r points, row dj at (dj+r)*stride, column c at c+r */

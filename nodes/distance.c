@@ -21,6 +21,7 @@
  * 411 sparse seeds 17 ms; signed mode runs the transform twice (56 ms); the Voronoi fill of a
  * colour source 42 ms (blobs) and 26 ms (seeds), mostly the 64 MB colour output and source. */
 #include "wetgraph/node.h"
+#include "hot.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -57,12 +58,6 @@ typedef struct {
 } Job;
 
 enum { BAND = 512 };
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 /* Columns [x0, x1): forward sweep records the last site at or above each row, backward sweep the
  * first at or below; the nearer wins, a tie the smaller row. With wrap the sweeps continue from

@@ -15,6 +15,7 @@
  * lattice column per pixel, a row is evaluated per lattice cell (gradients cached per cell row,
  * each cell reduced to a linear function of the column's fraction), else per pixel. */
 #include "wetgraph/node.h"
+#include "hot.h"
 
 #include <math.h>
 #include <string.h>
@@ -105,14 +106,6 @@ static inline float hash_signed(uint32_t h)
 }
 
 /* ---- job --------------------------------------------------------------------------------- */
-
-/* Hot loops get an AVX2 clone picked at load time (same IEEE operations, no FMA contraction,
- * so both clones give bit-identical pixels). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 typedef struct {
     uint64_t px, py; /* lattice cells across and down (simplex: triangle columns, rows) */

@@ -30,6 +30,7 @@
  * same bits.
  */
 #include "wetgraph/node.h"
+#include "hot.h"
 
 #include <math.h>
 #include <stdbool.h>
@@ -72,18 +73,6 @@ static const WgPortSpec slope_out[] = {WG_PORT("slope", WG_GRAY), WG_PORT_END};
 
 /* Pixels per block: a block's gradient and its wrapped source rows live on the stack. */
 enum { BLOCK = 256 };
-
-/* Hot loops get an AVX2 clone picked at load time (same IEEE operations, no FMA contraction,
- * so both clones give bit-identical pixels). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-/* Without trapping maths the compiler may evaluate both sides of a select, which lets the atan
- * below vectorise; no value changes (only the floating-point exception flags could). */
-#define SELECTS __attribute__((optimize("no-trapping-math")))
-#else
-#define HOT
-#define SELECTS
-#endif
 
 typedef struct {
     const WgImage *height;
@@ -193,7 +182,7 @@ static void normal_rows(void *user, int y0, int y1)
  * remainder below 0.268¹⁹/19 < 3e-13, and the reductions' rounding adds a few ulps of double:
  * the result is within 1e-12 of atan(a), four orders below the float output's resolution.
  * a = +inf gives π/2 (1/a = 0); the caller never passes NaN. */
-SELECTS static inline double atan_nonneg(double a)
+static inline double atan_nonneg(double a)
 {
     const double tan_pi12 = 0.26794919243112270, sqrt3 = 1.7320508075688772;
     double inv = 1 / a; /* both branches computed, then selected */
@@ -217,7 +206,7 @@ SELECTS static inline double atan_nonneg(double a)
 
 /* |g| = √(gx² + gy²) cannot overflow: the components are at most 1e150. The slope is within
  * 1e-12 of atan|g| / (π/2) before its rounding to float. */
-HOT SELECTS static void slope_block(const double *gx, const double *gy, int n, float *o)
+HOT static void slope_block(const double *gx, const double *gy, int n, float *o)
 {
     double mag[BLOCK];
     for (int i = 0; i < n; i++) mag[i] = gx[i] * gx[i] + gy[i] * gy[i];

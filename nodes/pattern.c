@@ -14,19 +14,14 @@
  * inside (polygons and stars are folded into one symmetric wedge, where the outline is a single
  * segment). Only `bricks` uses the seed. */
 #include "wetgraph/node.h"
+#include "hot.h"
 
 #include <math.h>
 #include <string.h>
 
 #define PI 3.14159265358979323846
 
-/* Row loops get an AVX2 clone picked at load time (same IEEE operations, no FMA contraction,
- * so both clones give bit-identical pixels; floor and friends inline there). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
+/* Row loops are HOT (hot.h): floor and friends inline in their AVX2 clone. */
 
 /* Pixel p of n samples the axis at (p + 0.5)/n of the tile, i.e. at lattice coordinate
  * (2p+1)·period/(2n) = cell + frac, computed exactly. */

@@ -15,6 +15,7 @@
  * ±Inf -> ±FLT_MAX) unless allow_nonfinite="true". Rows are independent, so the output is
  * bit-identical for any thread count. */
 #include "pixel_program.h"
+#include "hot.h"
 
 #include <float.h>
 #include <ctype.h>
@@ -177,14 +178,6 @@ static inline float round_f(float x)
     k += xs >= (float)k + 0.5f;
     return pick(small, (float)k, x); /* ±0 give +0, as floor(±0 + 0.5) */
 }
-
-/* Each kernel is compiled twice, for AVX2 and for the baseline, and the loader picks one. Both
- * run the same IEEE operations without contraction, so they give the same bits. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 /* Kernels take operands as arrays; an operand that is constant over the span (a constant or a
  * row-uniform value) is passed as a pointer to one float, and the variant of the kernel that

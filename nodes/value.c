@@ -12,6 +12,7 @@
  * `auto_levels` measures the finite minimum and maximum per row (so the result does not depend on
  * how rows are split between threads), combines them in row order, then stretches linearly. */
 #include "wetgraph/node.h"
+#include "hot.h"
 
 #include <ctype.h>
 #include <float.h>
@@ -368,13 +369,6 @@ typedef struct {
     float *row_lo, *row_hi; /* [height * slots]; +inf/-inf when a row has no finite value */
     double lo[3], scale[3]; /* scale 0: flat, output 0.5 */
 } AutoLevelsJob;
-
-/* Compiled for AVX2 too (GCC's function multiversioning, picked at load time). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HOT __attribute__((target_clones("avx2", "default")))
-#else
-#define HOT
-#endif
 
 /* Eight floats as one vector (GCC and Clang vector types: AVX in the AVX2 clone, two SSE
  * registers in the baseline, plain code elsewhere). */
