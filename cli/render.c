@@ -803,7 +803,7 @@ void output_path(const Options *o, const WgGraph *g, const WgResult *res, int i,
  * written. */
 
 #define KEY_ATTR "user.wetgraph.key"
-#define KEYS_VERSION 3 /* changes whenever a file written from the same image would differ */
+#define KEYS_VERSION 4 /* changes whenever a file written from the same image would differ */
 
 typedef struct {
     unsigned long long hi, lo;

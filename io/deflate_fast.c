@@ -4,19 +4,21 @@
  * the one `dist` bytes before it, found 8 bytes at a time, coded as matches at that distance), in
  * one final dynamic block (RFC 1951). The block's code comes from a histogram of the input (for
  * inputs from 1 MiB of 16 KiB stretches spread over it, a quarter of it or 512 KiB, whichever is
- * less; every symbol counted once more so that each has a code), limited to 15 bits: Huffman's tree, then the heuristic of zlib and
- * miniz (overlong codes are cut to the limit and the Kraft sum repaired by lengthening the
- * longest shorter code). The codes go out through a 64-bit bit buffer, literals two or four to a
- * write. One pass counts, one pass codes; when the block would not be smaller than stored blocks
- * (known from the count, and checked while coding) the input goes in stored blocks instead, so
- * the output never exceeds wg__zlib_fast_bound. A stream can also be coded in pieces, each on
- * its own thread: one code made from the histogram of the whole (wg__deflate_code), then each
- * piece a block of its own with that code (wg__deflate_piece), ended on a byte boundary by an
- * empty stored block (as zlib's full flush ends one), so that the pieces are simply concatenated;
- * a piece that would not be smaller than stored goes in stored blocks alone. Measured on the
- * filtered rows of the wet material's 23 outputs at 2048² (218 MB; AMD EPYC, one core): 1240 MB/s
- * against 255 MB/s for libdeflate's level 1 (4.8x), streams 1% smaller than its. Stored blocks
- * (wg__zlib_stored) write the bytes as they are, 5 bytes more per 65535. */
+ * less; every symbol counted once more so that each has a code), limited to 15 bits: Huffman's
+ * tree, then the heuristic of zlib and miniz (overlong codes are cut to the limit and the Kraft sum
+ * repaired by lengthening the longest shorter code). The codes go out through a 64-bit bit buffer,
+ * literals two or four to a write. One pass counts, one pass codes; when the block would not be
+ * smaller than stored blocks (known from the count, and checked while coding) the input goes in
+ * stored blocks instead, so the output never exceeds wg__zlib_fast_bound. A stream can also be
+ * coded in pieces, each on its own thread: one code made from the histogram of the whole
+ * (wg__deflate_code, or wg__deflate_code_of given the stretches to count, for a caller that makes
+ * the stream a piece at a time and samples it itself), then each piece a block of its own with that
+ * code (wg__deflate_piece), ended on a byte boundary by an empty stored block (as zlib's full flush
+ * ends one), so that the pieces are simply concatenated; a piece that would not be smaller than
+ * stored goes in stored blocks alone. Measured on the filtered rows of the wet material's 23
+ * outputs at 2048² (218 MB; AMD EPYC, one core): 1240 MB/s against 255 MB/s for libdeflate's level
+ * 1 (4.8x), streams 1% smaller than its. Stored blocks (wg__zlib_stored) write the bytes as they
+ * are, 5 bytes more per 65535. */
 #include "internal.h"
 #include "wgio.h"
 
@@ -294,11 +296,31 @@ struct WgDeflateCode {
 
 WgDeflateCode *wg__deflate_code(const unsigned char *in, size_t n, int dist)
 {
+    /* Large inputs are counted on a sample, every SAMPLE_STEP-th SAMPLE_BYTES or sparser, 512
+     * KiB in all for large images (on the wet material's outputs at 2048², a fifth less time to
+     * encode than a quarter of the bytes, for files as large); the coding then checks that each
+     * block stays below the stored size. */
+    WgBytes sample[SAMPLE_STRETCHES + SAMPLE_STRETCHES / SAMPLE_STEP + 1]; /* ceil(n / step) */
+    int k = 0;
+    bool sampled = n >= SAMPLE_MIN;
+    size_t stride = n / SAMPLE_STRETCHES / SAMPLE_BYTES;
+    size_t step = !sampled ? n : (stride > SAMPLE_STEP ? stride : SAMPLE_STEP) * SAMPLE_BYTES;
+    for (size_t c0 = 0; c0 < n; c0 += step) {
+        size_t c1 = sampled && n - c0 > SAMPLE_BYTES ? c0 + SAMPLE_BYTES : n;
+        sample[k++] = (WgBytes){in + c0, c1 - c0};
+    }
+    return wg__deflate_code_of(sample, k, n, dist);
+}
+
+WgDeflateCode *wg__deflate_code_of(const WgBytes *sample, int stretches, size_t n, int dist)
+{
     WgDeflateCode *c = wg_calloc(1, sizeof *c);
     if (!c) return NULL;
     if (dist < 1 || dist > 8) dist = 1;
     c->dist = dist;
-    if (!n) {
+    size_t counted = 0;
+    for (int k = 0; k < stretches; k++) counted += sample[k].n;
+    if (!n || !counted) {
         c->stored = true;
         return c;
     }
@@ -309,19 +331,10 @@ WgDeflateCode *wg__deflate_code(const unsigned char *in, size_t n, int dist)
     distance_code(dist, &dsym, &dbits, &dextra);
     uint64_t matches = 0;
     /* Every byte counted as a literal, then the bytes of runs taken off again: the counting
-     * loop runs without the parse's branches. Large inputs are counted on a sample, every
-     * SAMPLE_STEP-th SAMPLE_BYTES or sparser, 512 KiB in all for large images (on the wet
-     * material's outputs at 2048², a fifth less time to encode than a quarter of the bytes, for
-     * files as large); the coding then checks that each block stays below the stored size. */
-    bool sampled = n >= SAMPLE_MIN;
-    size_t stride = n / SAMPLE_STRETCHES / SAMPLE_BYTES;
-    size_t step = !sampled ? n : (stride > SAMPLE_STEP ? stride : SAMPLE_STEP) * SAMPLE_BYTES;
-    size_t counted = 0;
-    for (size_t c0 = 0; c0 < n; c0 += step) {
-        size_t c1 = sampled && n - c0 > SAMPLE_BYTES ? c0 + SAMPLE_BYTES : n;
-        const unsigned char *ch = in + c0;
-        size_t cn = c1 - c0, q = 0;
-        counted += cn;
+     * loop runs without the parse's branches. */
+    for (int k = 0; k < stretches; k++) {
+        const unsigned char *ch = sample[k].p;
+        size_t cn = sample[k].n, q = 0;
         for (; q + 4 <= cn; q += 4) { /* four tables: no wait on the same counter */
             lit_freq[0][ch[q]]++;
             lit_freq[1][ch[q + 1]]++;
@@ -447,6 +460,18 @@ void wg__deflate_code_free(WgDeflateCode *c)
     if (!c) return;
     wg_free(c->pair);
     wg_free(c);
+}
+
+uint32_t wg__adler32_combine(uint32_t a, uint32_t b, size_t b_bytes)
+{
+    /* Adler-32 is (1 + sum of the bytes, n + sum of the running sums) mod 65521: appending b's
+     * bytes adds their sum to the first half, and to the second b's own second half plus
+     * b_bytes times a's first half less the 1 that b's first half already holds */
+    const uint64_t mod = 65521;
+    uint64_t a1 = a & 0xffff, a2 = a >> 16, b1 = b & 0xffff, b2 = b >> 16;
+    uint64_t s1 = (a1 + b1 + mod - 1) % mod;
+    uint64_t s2 = (a2 + b2 + (b_bytes % mod) * ((a1 + mod - 1) % mod)) % mod;
+    return (uint32_t)(s2 << 16 | s1);
 }
 
 size_t wg__deflate_piece_bound(size_t n)

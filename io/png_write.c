@@ -148,9 +148,19 @@ static void filter_row(const unsigned char *cur, const unsigned char *prev, size
 /* The image is filtered and coded in pieces of whole rows, each on whichever thread the caller's
  * WgWorkers gives it: pieces of at least PIECE_BYTES of filtered rows, a multiple of
  * FAST_CHOICE_ROWS rows each (so every piece starts on a row that chooses its filter, and the
- * filtered rows are those of one pass down the image). The pieces depend on the image alone, so
- * the file is the same whatever runs them. */
+ * filtered rows are those of one pass down the image). In the fast mode a piece's rows are
+ * packed, filtered, coded and checked (Adler-32) while they are in the cache, in a buffer of the
+ * piece's size: the filtered image is never held whole. The pieces depend on the image alone,
+ * so the file is the same whatever runs them. */
 #define PIECE_BYTES (512 * 1024)
+/* The fast mode's code is made from a sample of the filtered rows: images of less than
+ * SAMPLE_ALL bytes filtered whole, larger ones SAMPLE_STRETCHES stretches of rows spread down the
+ * image, each of at least SAMPLE_BYTES and starting on a row that chooses its filter, and none
+ * closer than SAMPLE_GAP bytes to the next (as deflate_fast.c samples a stream it holds whole). */
+#define SAMPLE_ALL (1 << 20)
+#define SAMPLE_STRETCHES 32
+#define SAMPLE_BYTES 16384
+#define SAMPLE_GAP (4 * SAMPLE_BYTES)
 
 typedef struct {
     int w, h, c, bits, bpp;
@@ -160,13 +170,20 @@ typedef struct {
     bool same_rows; /* every row is the same (an image of one value) */
     size_t row;     /* bytes of a packed row */
     int piece_rows; /* rows of a piece (the last may have fewer) */
-    unsigned char *filtered;
-    const WgDeflateCode *code; /* the fast mode's, for the coding pass */
-    unsigned char *zbuf;       /* the pieces' streams, piece i's at i * zcap (new memory: only the
-                                  streams' pages are touched) */
+    unsigned char *filtered;   /* deflate and none: the whole filtered image */
+    const WgDeflateCode *code; /* fast: the code of every piece */
+    unsigned char *zbuf;       /* fast: the pieces' streams, piece i's at i * zcap (new memory:
+                                  only the streams' pages are touched) */
     size_t zcap, *zsize;       /* the bound of a piece's stream; their sizes */
+    uint32_t *adler;           /* the Adler-32 of each piece's filtered rows */
     atomic_int failed;
 } Encode;
+
+/* A thread's rows while it filters: the row being filtered, the one above (packed), and the
+ * filter heuristic's four tries */
+typedef struct {
+    unsigned char *cur, *prev, *tries;
+} Rows;
 
 static int pieces_of(const Encode *e)
 {
@@ -179,7 +196,21 @@ static void piece_rows(const Encode *e, int i, int *y0, int *y1)
     *y1 = *y0 + e->piece_rows < e->h ? *y0 + e->piece_rows : e->h;
 }
 
-/* Pieces [i0, i1): their rows packed and filtered into e->filtered. */
+static bool rows_new(Rows *r, size_t row)
+{
+    r->cur = wg_malloc(row ? row : 1);
+    r->prev = wg_malloc(row ? row : 1);
+    r->tries = wg_malloc(4 * row + 1);
+    return r->cur && r->prev && r->tries;
+}
+
+static void rows_free(Rows *r)
+{
+    wg_free(r->cur);
+    wg_free(r->prev);
+    wg_free(r->tries);
+}
+
 /* The filter type row y is given: none's 0; fast's the type chosen on the last choice row
  * (`type`); -1 (choose) on the others. */
 static int given_type(const Encode *e, int y, int type)
@@ -189,83 +220,139 @@ static int given_type(const Encode *e, int y, int type)
                                                                         : -1;
 }
 
-/* Rows [y0, y1) of an image whose rows are all the same, as filter_pieces makes them: the row
+/* Rows [y0, y1) of an image whose rows are all the same, as filter_rows makes them: the row
  * packed once, and a filtered row below the first copied from the one above when both were
  * given the same type (their bytes and the bytes above them are the same). */
-static void filter_same_rows(Encode *e, int y0, int y1, unsigned char *cur, unsigned char *zero,
-                             unsigned char *scratch)
+static void filter_same_rows(const Encode *e, int y0, int y1, unsigned char *out, Rows *r)
 {
     size_t row = e->row;
-    e->pack(e->user, y0, cur);
-    if (e->bits == 16) swap_bytes16(cur, row);
-    memset(zero, 0, row);
+    e->pack(e->user, y0, r->cur);
+    if (e->bits == 16) swap_bytes16(r->cur, row);
+    memset(r->prev, 0, row);
     int type = 0, last = -2;
     for (int y = y0; y < y1; y++) {
-        unsigned char *f = e->filtered + (row + 1) * (size_t)y;
+        unsigned char *f = out + (row + 1) * (size_t)(y - y0);
         int given = given_type(e, y, type);
         if (y > y0 && y > 1 && given == last)
             memcpy(f, f - (row + 1), row + 1);
         else
-            filter_row(cur, y ? cur : zero, row, e->bpp, given, f, scratch);
+            filter_row(r->cur, y ? r->cur : r->prev, row, e->bpp, given, f, r->tries);
         type = f[0];
         last = given;
     }
 }
 
+/* Rows [y0, y1) packed and filtered into out, (row + 1) bytes each; y0 is 0 or a row that
+ * chooses its filter. */
+static void filter_rows(const Encode *e, int y0, int y1, unsigned char *out, Rows *r)
+{
+    size_t row = e->row;
+    if (e->same_rows) {
+        filter_same_rows(e, y0, y1, out, r);
+        return;
+    }
+    if (y0 > 0) { /* the row above, which the filters read */
+        e->pack(e->user, y0 - 1, r->prev);
+        if (e->bits == 16) swap_bytes16(r->prev, row);
+    } else {
+        memset(r->prev, 0, row);
+    }
+    int type = 0;
+    for (int y = y0; y < y1; y++) {
+        e->pack(e->user, y, r->cur);
+        if (e->bits == 16) swap_bytes16(r->cur, row);
+        unsigned char *f = out + (row + 1) * (size_t)(y - y0);
+        filter_row(r->cur, r->prev, row, e->bpp, given_type(e, y, type), f, r->tries);
+        type = f[0];
+        unsigned char *t = r->prev;
+        r->prev = r->cur;
+        r->cur = t;
+    }
+}
+
+/* Pieces [i0, i1) filtered into their places in e->filtered (deflate and none). */
 static void filter_pieces(void *user, int i0, int i1)
 {
     Encode *e = user;
-    size_t row = e->row;
-    unsigned char *cur = wg_malloc(row ? row : 1), *prev = wg_malloc(row ? row : 1),
-                  *scratch = wg_malloc(4 * row + 1);
-    if (!cur || !prev || !scratch) {
+    Rows r;
+    if (!rows_new(&r, e->row)) {
         atomic_store(&e->failed, 1);
         goto done;
     }
     for (int i = i0; i < i1; i++) {
         int y0, y1;
         piece_rows(e, i, &y0, &y1);
-        if (e->same_rows) {
-            filter_same_rows(e, y0, y1, cur, prev, scratch);
-            continue;
-        }
-        if (y0 > 0) { /* the row above the piece, which the filters read */
-            e->pack(e->user, y0 - 1, prev);
-            if (e->bits == 16) swap_bytes16(prev, row);
-        } else {
-            memset(prev, 0, row);
-        }
-        int type = 0;
-        for (int y = y0; y < y1; y++) {
-            e->pack(e->user, y, cur);
-            if (e->bits == 16) swap_bytes16(cur, row);
-            unsigned char *f = e->filtered + (row + 1) * (size_t)y;
-            filter_row(cur, prev, row, e->bpp, given_type(e, y, type), f, scratch);
-            type = f[0];
-            unsigned char *t = prev;
-            prev = cur;
-            cur = t;
-        }
+        filter_rows(e, y0, y1, e->filtered + (e->row + 1) * (size_t)y0, &r);
     }
 done:
-    wg_free(cur);
-    wg_free(prev);
-    wg_free(scratch);
+    rows_free(&r);
 }
 
-/* Pieces [i0, i1) of the filtered rows coded with e->code, each into its place in e->zbuf. */
+/* Pieces [i0, i1) filtered, each into one buffer in turn, and coded with e->code into its place
+ * in e->zbuf (fast). */
 static void code_pieces(void *user, int i0, int i1)
 {
     Encode *e = user;
     int n = pieces_of(e);
+    size_t cap = (e->row + 1) * (size_t)e->piece_rows;
+    unsigned char *buf = wg_malloc(cap ? cap : 1);
+    Rows r;
+    if (!rows_new(&r, e->row) || !buf) {
+        atomic_store(&e->failed, 1);
+        goto done;
+    }
     for (int i = i0; i < i1; i++) {
         int y0, y1;
         piece_rows(e, i, &y0, &y1);
-        size_t at = (e->row + 1) * (size_t)y0, len = (e->row + 1) * (size_t)(y1 - y0);
-        e->zsize[i] = wg__deflate_piece(e->code, e->filtered + at, len, i == n - 1,
+        size_t len = (e->row + 1) * (size_t)(y1 - y0);
+        filter_rows(e, y0, y1, buf, &r);
+        e->zsize[i] = wg__deflate_piece(e->code, buf, len, i == n - 1,
                                         e->zbuf + (size_t)i * e->zcap, e->zcap);
+        e->adler[i] = (uint32_t)libdeflate_adler32(1, buf, len);
         if (!e->zsize[i]) atomic_store(&e->failed, 1);
     }
+done:
+    rows_free(&r);
+    wg_free(buf);
+}
+
+/* The fast mode's code, from a sample of the filtered rows (see SAMPLE_ALL): NULL when out of
+ * memory. */
+static WgDeflateCode *sampled_code(const Encode *e)
+{
+    size_t row = e->row + 1, size = row * (size_t)e->h;
+    int ys[SAMPLE_STRETCHES], ye[SAMPLE_STRETCHES], k = 0;
+    if (size < SAMPLE_ALL) {
+        ys[k] = 0, ye[k++] = e->h;
+    } else {
+        int count =
+            size / SAMPLE_GAP < SAMPLE_STRETCHES ? (int)(size / SAMPLE_GAP) : SAMPLE_STRETCHES;
+        int rows = (int)((SAMPLE_BYTES + row - 1) / row);
+        for (int j = 0; j < count; j++) {
+            int y = (int)((int64_t)j * e->h / count) / FAST_CHOICE_ROWS * FAST_CHOICE_ROWS;
+            if (k && y < ye[k - 1]) continue; /* a stretch of rows already taken */
+            ys[k] = y;
+            ye[k++] = y + rows < e->h ? y + rows : e->h;
+        }
+    }
+    size_t total = 0;
+    for (int j = 0; j < k; j++) total += row * (size_t)(ye[j] - ys[j]);
+    unsigned char *buf = wg_malloc(total ? total : 1);
+    WgBytes sample[SAMPLE_STRETCHES];
+    Rows r;
+    WgDeflateCode *code = NULL;
+    if (rows_new(&r, e->row) && buf) {
+        unsigned char *at = buf;
+        for (int j = 0; j < k; j++) {
+            filter_rows(e, ys[j], ye[j], at, &r);
+            sample[j] = (WgBytes){at, row * (size_t)(ye[j] - ys[j])};
+            at += sample[j].n;
+        }
+        code = wg__deflate_code_of(sample, k, size, FAST_DIST);
+    }
+    rows_free(&r);
+    wg_free(buf);
+    return code;
 }
 
 /* A stretch of the zlib stream */
@@ -382,37 +469,19 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
     Span *spans = NULL;
     int nspans = 0;
     int rc = -1;
-    /* the filtered rows, the size of the raw image, in the workers' scratch memory (touched
-     * before, where they have a pool); the streams and the file are the file's size */
-    e.filtered = scratch_alloc(workers, filtered_size ? filtered_size : 1);
-    if (!e.filtered) {
-        snprintf(msg, msg_size, "out of memory");
-        goto done;
-    }
-    if (run_pieces(workers, n, filter_pieces, &e, "out of memory", msg, msg_size)) goto done;
-    if (mode == WG_PNG_COMPRESSION_FAST) {
-        /* the pieces' streams side by side, each in a slot of its bound */
-        e.zcap = wg__deflate_piece_bound((row + 1) * (size_t)e.piece_rows);
-        bound = (size_t)n * e.zcap;
-        e.zsize = wg_calloc((size_t)n + 1, sizeof *e.zsize);
-    } else {
-        z = mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL)
-                                               : NULL;
-        if (mode == WG_PNG_COMPRESSION_DEFLATE && !z) {
-            snprintf(msg, msg_size, "out of memory");
-            goto done;
-        }
-        bound = z ? libdeflate_zlib_compress_bound(z, filtered_size)
-                  : wg__zlib_fast_bound(filtered_size);
-    }
-    zbuf = wg_malloc(bound ? bound : 1); /* new memory, touched only where a stream goes */
     spans = wg_calloc((size_t)n + 2, sizeof *spans);
-    if (!spans || !zbuf || (mode == WG_PNG_COMPRESSION_FAST && !e.zsize)) {
+    if (!spans) {
         snprintf(msg, msg_size, "out of memory");
         goto done;
     }
     if (mode == WG_PNG_COMPRESSION_FAST) {
-        if (!(code = wg__deflate_code(e.filtered, filtered_size, FAST_DIST))) {
+        /* the pieces' streams side by side, each in a slot of its bound (new memory, touched
+         * only where a stream goes) */
+        e.zcap = wg__deflate_piece_bound((row + 1) * (size_t)e.piece_rows);
+        e.zsize = wg_calloc((size_t)n + 1, sizeof *e.zsize);
+        e.adler = wg_calloc((size_t)n + 1, sizeof *e.adler);
+        zbuf = wg_malloc((size_t)n * e.zcap + 1);
+        if (!e.zsize || !e.adler || !zbuf || !(code = sampled_code(&e))) {
             snprintf(msg, msg_size, "out of memory");
             goto done;
         }
@@ -422,11 +491,37 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
             goto done;
         /* the stream: the zlib header, the pieces in order, the Adler-32 of the filtered rows */
         spans[0] = (Span){zlib_head, 2};
-        for (int i = 0; i < n; i++) spans[1 + i] = (Span){zbuf + (size_t)i * e.zcap, e.zsize[i]};
-        put32(adler, libdeflate_adler32(1, e.filtered, filtered_size));
+        uint32_t check = 1;
+        for (int i = 0; i < n; i++) {
+            int y0, y1;
+            piece_rows(&e, i, &y0, &y1);
+            spans[1 + i] = (Span){zbuf + (size_t)i * e.zcap, e.zsize[i]};
+            check = wg__adler32_combine(check, e.adler[i], (row + 1) * (size_t)(y1 - y0));
+        }
+        put32(adler, check);
         spans[1 + n] = (Span){adler, 4};
         nspans = n + 2;
     } else {
+        /* the filtered rows, the size of the raw image, in the workers' scratch memory (touched
+         * before, where they have a pool); the stream is the file's size */
+        e.filtered = scratch_alloc(workers, filtered_size ? filtered_size : 1);
+        if (!e.filtered) {
+            snprintf(msg, msg_size, "out of memory");
+            goto done;
+        }
+        if (run_pieces(workers, n, filter_pieces, &e, "out of memory", msg, msg_size)) goto done;
+        z = mode == WG_PNG_COMPRESSION_DEFLATE ? libdeflate_alloc_compressor(PNG_DEFLATE_LEVEL)
+                                               : NULL;
+        if (mode == WG_PNG_COMPRESSION_DEFLATE && !z) {
+            snprintf(msg, msg_size, "out of memory");
+            goto done;
+        }
+        bound = z ? libdeflate_zlib_compress_bound(z, filtered_size)
+                  : wg__zlib_fast_bound(filtered_size);
+        if (!(zbuf = wg_malloc(bound ? bound : 1))) {
+            snprintf(msg, msg_size, "out of memory");
+            goto done;
+        }
         zn = mode == WG_PNG_COMPRESSION_NONE
                  ? wg__zlib_stored(e.filtered, filtered_size, zbuf, bound)
                  : libdeflate_zlib_compress(z, e.filtered, filtered_size, zbuf, bound);
@@ -436,9 +531,9 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
         }
         spans[0] = (Span){zbuf, zn};
         nspans = 1;
+        scratch_free(workers, e.filtered, filtered_size ? filtered_size : 1);
+        e.filtered = NULL;
     }
-    scratch_free(workers, e.filtered, filtered_size ? filtered_size : 1);
-    e.filtered = NULL;
     zn = 0;
     for (int i = 0; i < nspans; i++) zn += spans[i].n;
     /* signature 8, IHDR 25, IDATs 12 each + data, IEND 12 */
@@ -475,6 +570,7 @@ done:
     wg_free(zbuf);
     wg_free(spans);
     wg_free(e.zsize);
+    wg_free(e.adler);
     return rc;
 }
 

@@ -99,7 +99,17 @@ size_t wg__zlib_stored(const unsigned char *in, size_t n, unsigned char *out, si
  * bound. Pieces may be coded concurrently: the code is only read. */
 typedef struct WgDeflateCode WgDeflateCode;
 WgDeflateCode *wg__deflate_code(const unsigned char *in, size_t n, int dist);
+/* The same code made from the count of the given stretches of a stream of n bytes (a sample of
+ * it, or all of it), for a caller that has the stream only in pieces. */
+typedef struct {
+    const unsigned char *p;
+    size_t n;
+} WgBytes;
+WgDeflateCode *wg__deflate_code_of(const WgBytes *sample, int stretches, size_t n, int dist);
 void wg__deflate_code_free(WgDeflateCode *c);
+/* The Adler-32 of a stream from those of its two parts (b's of b_bytes bytes), as zlib's
+ * adler32_combine: pieces checked on their own threads. */
+uint32_t wg__adler32_combine(uint32_t a, uint32_t b, size_t b_bytes);
 size_t wg__deflate_piece_bound(size_t n);
 size_t wg__deflate_piece(const WgDeflateCode *c, const unsigned char *in, size_t n, bool last,
                          unsigned char *out, size_t cap);

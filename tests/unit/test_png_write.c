@@ -7,8 +7,10 @@
  * misjudges included; stored blocks split at 65535 bytes; the Huffman code lengths are a
  * complete code within the limit. A stream coded in pieces (any split, empty pieces, pieces that
  * fall back to stored blocks) inflates as one; an image filtered and coded in pieces on other
- * threads, in any order, gives the same file as on one thread, its large buffers taken from and
- * given back to the workers' memory, and a runner that stops early fails the encoding; an
+ * threads, in any order, gives the same file as on one thread, its whole filtered image (not in
+ * the fast mode, which codes each piece as it is filtered) taken from and given back to the
+ * workers' memory, and a runner that stops early fails the encoding; the pieces' Adler-32s
+ * combine to the whole's; an
  * image whose rows are all the same, filtered once a piece, gives the same file. */
 #include "wgtest.h"
 
@@ -373,6 +375,11 @@ static void test_limited_and_sampled_images_read_back(void **state)
         round_trip(1024, 520, 4, 8, GRADIENT, (WgPngCompression)mode);
         round_trip(700, 400, 3, 16, NOISE, (WgPngCompression)mode);
         round_trip(1000, 300, 1, 16, RUNS, (WgPngCompression)mode);
+        /* the fast mode's sample of rows: rows longer than a stretch and fewer rows than
+         * stretches (stretches starting on the same row taken once), and rows so short that a
+         * stretch runs past the next row that chooses its filter */
+        round_trip(12000, 40, 3, 8, NOISE, (WgPngCompression)mode);
+        round_trip(37, 30000, 1, 8, GRADIENT, (WgPngCompression)mode);
     }
 }
 
@@ -521,6 +528,37 @@ static void counted_free(const void *ctx, void *p, size_t bytes)
     free(p);
 }
 
+/* The Adler-32 of pieces checked apart, combined, is zlib's of the whole: splits at the ends,
+ * around the modulus (65521), bytes of 255 (the sums' largest) and random ones. */
+static void test_adler32_of_pieces_combined(void **state)
+{
+    (void)state;
+    enum { N = 300000 };
+    unsigned char *in = malloc(N);
+    assert_non_null(in);
+    static const size_t splits[] = {0, 1, 5552, 65520, 65521, 65522, 131042, 200000, N - 1, N};
+    for (int kind = 0; kind < 2; kind++) {
+        for (size_t i = 0; i < N; i++) in[i] = kind ? (unsigned char)next_rand() : 255;
+        uint32_t whole = (uint32_t)adler32(1, in, N);
+        for (size_t s = 0; s < sizeof splits / sizeof *splits; s++) {
+            size_t k = splits[s];
+            uint32_t a = (uint32_t)adler32(1, in, (uInt)k),
+                     b = (uint32_t)adler32(1, in + k, (uInt)(N - k));
+            if (wg__adler32_combine(a, b, N - k) != whole)
+                fail_msg("split at %zu of %s bytes", k, kind ? "random" : "255");
+        }
+        /* in three, combined left to right as the writer does */
+        uint32_t check = 1;
+        size_t cut[4] = {0, 70000, 70001, N};
+        for (int j = 0; j < 3; j++)
+            check = wg__adler32_combine(
+                check, (uint32_t)adler32(1, in + cut[j], (uInt)(cut[j + 1] - cut[j])),
+                cut[j + 1] - cut[j]);
+        assert_int_equal(check, whole);
+    }
+    free(in);
+}
+
 static void test_pieces_on_threads_make_the_same_file(void **state)
 {
     (void)state;
@@ -550,10 +588,11 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
                                                  false, &threads, &many, &many_n, msg, sizeof msg),
                              0);
             /* filtered (and in the fast mode coded) in several pieces */
-            if (atomic_load(&parts_run) < (mode == WG_PNG_COMPRESSION_FAST ? 4 : 2))
+            if (atomic_load(&parts_run) < 2)
                 fail_msg("%dx%d: %d parts", w, h, atomic_load(&parts_run));
-            /* the filtered rows in the workers' memory, given back */
-            assert_int_equal(atomic_load(&scratch_taken), 1);
+            /* the whole filtered image in the workers' memory, given back; the fast mode codes
+             * each piece as it is filtered, and never holds the filtered image */
+            assert_int_equal(atomic_load(&scratch_taken), mode == WG_PNG_COMPRESSION_FAST ? 0 : 1);
             assert_int_equal(atomic_load(&scratch_out), 0);
             assert_int_equal(many_n, one_n);
             assert_memory_equal(many, one, one_n);
@@ -648,6 +687,7 @@ int main(void)
         cmocka_unit_test(test_limited_and_sampled_images_read_back),
         cmocka_unit_test(test_fast_mode_compresses),
         cmocka_unit_test(test_pieces_inflate_as_one_stream),
+        cmocka_unit_test(test_adler32_of_pieces_combined),
         cmocka_unit_test(test_pieces_on_threads_make_the_same_file),
         cmocka_unit_test(test_same_rows_make_the_same_file),
     };
