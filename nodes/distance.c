@@ -5,16 +5,16 @@
  * Computing 8 (2012): a 1-D pass down each column gives, for every pixel, the nearest site row
  * in its column; a 1-D lower envelope of parabolas along each row then gives the nearest site.
  * All of it is exact integer arithmetic on squared distances between pixel centres (an envelope
- * breakpoint is a rational whose floor a double division gets exactly, see breakpoint()); the
- * square root is taken once, per output pixel. Wrap-around: the column pass walks each column as
- * a ring; the row pass puts each column's site at its images x - W, x, x + W as well, keeping
- * those that can matter (within W/2 of the row, and beyond an edge no further than the row's
- * nearest in-image site, see reach()), so every pixel sees the nearest image of every site,
- * across the tile edges and corners too. Without wrap the image edges are not crossed. Ties
- * (several nearest sites) go to the site with the smallest (y, x), its row then its column in the
- * image: the column pass keeps the smallest tied row and the envelope orders equal parabolas by
- * that key at their breakpoints, so the result is the brute-force answer, whatever the thread
- * count (columns and rows are independent, split in chunks fixed by the size). Cost: O(W·H)
+ * breakpoint is a rational whose floor a multiplication by a reciprocal and an integer check get
+ * exactly, see breakpoint()); the square root is taken once, per output pixel. Wrap-around: the
+ * column pass walks each column as a ring; the row pass puts each column's site at its images x -
+ * W, x, x + W as well, keeping those that can matter (within W/2 of the row, and beyond an edge no
+ * further than the row's nearest in-image site, see reach()), so every pixel sees the nearest image
+ * of every site, across the tile edges and corners too. Without wrap the image edges are not
+ * crossed. Ties (several nearest sites) go to the site with the smallest (y, x), its row then its
+ * column in the image: the column pass keeps the smallest tied row and the envelope orders equal
+ * parabolas by that key at their breakpoints, so the result is the brute-force answer, whatever the
+ * thread count (columns and rows are independent, split in chunks fixed by the size). Cost: O(W·H)
  * whatever the mask and the distance. Measured at 2048², 2 threads, release build, median of 15
  * on the shared 2-core development VM (bench/bench_distance, node time only): random blobs
  * (half covered) 29 ms in pixels, falloff or no-wrap mode, 26-27 ms for dilate and erode;
@@ -53,6 +53,7 @@ typedef struct {
     int emit;
     double scale;  /* EMIT_FALLOFF: 1 / R in pixels; EMIT_DILATE / ERODE: r² in pixels */
     int16_t *near; /* w*h: nearest site row in the pixel's column (< 16384), -1 for none */
+    double *inv;   /* inv[d] = 1 / d for the breakpoints' denominators d < 4 w */
     atomic_int nonempty_columns;
     atomic_int failed;
 } Job;
@@ -128,24 +129,26 @@ typedef struct {
 enum { KEY_BITS = 14 };
 
 /* First integer x where parabola b beats a (a.q < b.q): b is lower, or equal with a smaller key.
- * They are equal at s = num / den; the integer numerator is below 2^53, so the double quotient
- * is exact when s is an integer and never rounds onto one otherwise, and the truncation below
- * gives floor(s) exactly (without a libm call). */
-static inline int breakpoint(const Parabola *a, const Parabola *b)
+ * They are equal at s = num / den, den = 2 (b.q - a.q); the integer numerator is below 2^53, so
+ * num times the double reciprocal of den (inv[den], from a table: a multiplication where a
+ * division would stand on the envelope's chain of dependent steps) is within 1 of s, and the
+ * integer steps after it give floor(s) exactly. */
+static inline int breakpoint(const Parabola *a, const Parabola *b, const double *inv)
 {
     if (a->f == b->f) { /* s = (a.q + b.q) / 2: common on the mask (f = 0), no division */
         int sum = a->q + b->q, t = sum >= 0 ? sum / 2 : -((1 - sum) / 2);
         return 2 * t == sum && b->key < a->key ? t : t + 1;
     }
     long long num = (long long)b->f + (long long)b->q * b->q - a->f - (long long)a->q * a->q;
-    if (b->q - a->q == 1) { /* neighbouring columns (dense masks): s = num / 2, no division */
+    if (b->q - a->q == 1) { /* neighbouring columns (dense masks): s = num / 2 */
         long long t = (num - (num & 1)) / 2;
         return !(num & 1) && b->key < a->key ? (int)t : (int)t + 1;
     }
-    double s = (double)num / (double)(2 * (b->q - a->q));
-    long long t = (long long)s;
-    if ((double)t > s) t--;
-    return (double)t == s && b->key < a->key ? (int)t : (int)t + 1;
+    long long den = 2 * (long long)(b->q - a->q);
+    long long t = (long long)((double)num * inv[den]);
+    while (t * den > num) t--;
+    while ((t + 1) * den <= num) t++;
+    return t * den == num && b->key < a->key ? (int)t : (int)t + 1;
 }
 
 /* Squared distances fit an int: at most 2 × 16383². */
@@ -275,7 +278,7 @@ HOT static void row_pass(void *user, int y0, int y1)
             Parabola p = {q, 0, fy(y, r, h, j->wrap), r << KEY_BITS | x};
             /* env[k] never wins once p beats it where it starts: drop it (no division) */
             while (k > 0 && beats(&p, &env[k], env[k].z)) k--;
-            p.z = k < 0 ? INT32_MIN : breakpoint(&env[k], &p);
+            p.z = k < 0 ? INT32_MIN : breakpoint(&env[k], &p, j->inv);
             env[++k] = p;
         }
         int n = k + 1;
@@ -333,6 +336,12 @@ static size_t near_bytes(const Job *j)
     return sizeof(int16_t) * (size_t)j->w * (size_t)j->h;
 }
 
+static void job_free(WgNodeContext *ctx, Job *j)
+{
+    wg_scratch_free(ctx, j->near, near_bytes(j));
+    wg_free(j->inv);
+}
+
 static int job_init(Job *j, WgNodeContext *ctx, bool wrap, WgError *err)
 {
     memset(j, 0, sizeof *j);
@@ -342,7 +351,13 @@ static int job_init(Job *j, WgNodeContext *ctx, bool wrap, WgError *err)
     j->h = ctx->height;
     j->wrap = wrap;
     j->near = wg_scratch_alloc(ctx, near_bytes(j));
-    if (!j->near) return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    /* the columns q of a row's parabolas lie in [-w/2, w - 1 + w/2]: 2 (b.q - a.q) < 4 w */
+    j->inv = wg_malloc(sizeof(double) * 4 * (size_t)j->w);
+    if (!j->near || !j->inv) {
+        job_free(ctx, j);
+        return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    }
+    for (int d = 1; d < 4 * j->w; d++) j->inv[d] = 1.0 / d;
     return WG_OK;
 }
 
@@ -376,7 +391,7 @@ static int distance_eval(WgNodeContext *ctx, WgError *err)
             if (!rc && empty) fill(j.out, (float)-none); /* a full mask */
         }
     }
-    wg_scratch_free(ctx, j.near, near_bytes(&j));
+    job_free(ctx, &j);
     return rc;
 }
 
@@ -393,7 +408,7 @@ static int morph_eval(WgNodeContext *ctx, WgError *err, bool erode)
     bool empty;
     rc = transform(ctx, &j, &empty, err);
     if (!rc && empty) fill(j.out, erode ? 1.0f : 0.0f);
-    wg_scratch_free(ctx, j.near, near_bytes(&j));
+    job_free(ctx, &j);
     return rc;
 }
 

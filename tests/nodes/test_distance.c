@@ -259,6 +259,22 @@ static void test_fill_tie_rule(void **state)
     wg_image_unref(f);
     wg_image_unref(src);
     wg_image_unref(mask);
+    /* a tie at a breakpoint whose quotient, 98 / 98, a double product 98 x (1 / 98) puts just
+     * below 1: on row 48, (0,0) and (49,47) are both sqrt(2305) from (1,48); the smaller row
+     * wins there, the other from x = 2 on */
+    mask = wgt_image(60, 60, 1, NULL);
+    src = wgt_image_fn(60, 60, 4, id_fn);
+    wg_image_row(mask, 0)[0] = 1;
+    wg_image_row(mask, 47)[49] = 1;
+    f = run("distance", "wrap=\"false\"", mask, src, 1);
+    assert_true(wgt_px(f, 1, 48, 0) == 0 && wgt_px(f, 1, 48, 1) == 0);
+    assert_true(wgt_px(f, 2, 48, 0) == 49 && wgt_px(f, 2, 48, 1) == 47);
+    int ties = 0;
+    check_fill(mask, false, 2, &ties);
+    assert_true(ties > 0);
+    wg_image_unref(f);
+    wg_image_unref(src);
+    wg_image_unref(mask);
 }
 
 static void test_exact_small_cases(void **state)
