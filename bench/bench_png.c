@@ -3,8 +3,9 @@
  * into packed rows, then encoded from memory by png_write.c in each mode, one file after the
  * other on one thread, best of --reps; nothing is written to disk. Prints, per mode, the time,
  * the speed in MB/s of raw image data (width x height x channels x bytes per sample), the total
- * size of the encoded files and their ratio to the default mode's (fast). Run on the wet material's
- * outputs by bench/run_write.sh.
+ * size of the encoded files and their ratio to the default mode's (fast); where the fast coder's
+ * wide path runs (AVX-512 with VBMI), the fast mode once more with the scalar coder alone
+ * ("scalar": the same files). Run on the wet material's outputs by bench/run_write.sh.
  * Usage: bench_png [--reps R] [--mode fast|deflate|none] FILE.png... (--mode: that mode only, for
  * a profiler) */
 #include "wgio.h"
@@ -91,12 +92,16 @@ int main(int argc, char **argv)
         }
         raw += (double)w * h * c * (im->bits / 8);
     }
-    static const char *const names[] = {"fast", "deflate", "none"};
+    /* the fast mode once more through its scalar coder alone, where the wide one runs */
+    static const char *const names[] = {"fast", "deflate", "none", "scalar"};
+    int modes = wg__deflate_wide(true) ? 4 : 3;
     double base_size = 0;
     printf("%d files, %.1f MB of raw image data, one thread, best of %d\n", n, raw / 1e6, reps);
     printf("mode      ms      MB/s    size MB   / fast\n");
-    for (int m = 0; m < 3; m++) {
+    for (int m = 0; m < modes; m++) {
         if (only >= 0 && m != only) continue;
+        wg__deflate_wide(m != 3);
+        WgPngCompression mode = m == 3 ? WG_PNG_COMPRESSION_FAST : (WgPngCompression)m;
         double best = 0, size = 0;
         for (int r = 0; r < reps; r++) {
             double t0 = now_ms();
@@ -105,9 +110,9 @@ int main(int argc, char **argv)
                 unsigned char *out;
                 size_t out_size;
                 char msg[256];
-                if (wg__png_encode_rows(imgs[i].w, imgs[i].h, imgs[i].c, imgs[i].bits,
-                                        (WgPngCompression)m, pack_row, &imgs[i], false, NULL, &out,
-                                        &out_size, msg, sizeof msg)) {
+                if (wg__png_encode_rows(imgs[i].w, imgs[i].h, imgs[i].c, imgs[i].bits, mode,
+                                        pack_row, &imgs[i], false, NULL, &out, &out_size, msg,
+                                        sizeof msg)) {
                     fprintf(stderr, "%s: %s\n", argv[first + i], msg);
                     return 1;
                 }
@@ -121,6 +126,7 @@ int main(int argc, char **argv)
         printf("%-8s %6.0f %7.0f %9.2f %8.2f\n", names[m], best, raw / 1e3 / best, size / 1e6,
                size / base_size);
     }
+    wg__deflate_wide(true);
     for (int i = 0; i < n; i++) free(imgs[i].px);
     free(imgs);
     return 0;

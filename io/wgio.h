@@ -107,6 +107,11 @@ typedef struct {
 } WgBytes;
 WgDeflateCode *wg__deflate_code_of(const WgBytes *sample, int stretches, size_t n, int dist);
 void wg__deflate_code_free(WgDeflateCode *c);
+/* The fast coder's wide path (AVX-512 with VBMI, where the processor has it) on or off; returns
+ * whether it is on. It gives the same bits as the scalar coder; for the tests, which also count
+ * the blocks it coded. */
+bool wg__deflate_wide(bool on);
+unsigned long wg__deflate_wide_blocks(void);
 /* The Adler-32 of a stream from those of its two parts (b's of b_bytes bytes), as zlib's
  * adler32_combine: pieces checked on their own threads. */
 uint32_t wg__adler32_combine(uint32_t a, uint32_t b, size_t b_bytes);

@@ -10,7 +10,7 @@
  * threads, in any order, gives the same file as on one thread, its whole filtered image (not in
  * the fast mode, which codes each piece as it is filtered) taken from and given back to the
  * workers' memory, and a runner that stops early fails the encoding; the pieces' Adler-32s
- * combine to the whole's; an
+ * combine to the whole's; the wide coder gives the scalar coder's bits; an
  * image whose rows are all the same, filtered once a piece, gives the same file. */
 #include "wgtest.h"
 
@@ -528,6 +528,99 @@ static void counted_free(const void *ctx, void *p, size_t bytes)
     free(p);
 }
 
+/* A byte of a skewed distribution: short codes and, rarely, codes of the limit's length */
+static unsigned char skewed_byte(void)
+{
+    uint32_t r = next_rand();
+    int k = 0;
+    while (k < 14 && (r & 1)) k++, r >>= 1;
+    return (unsigned char)(k * 17 + (next_rand() % 17));
+}
+
+/* in[0..n) of one kind: 0 literals only (no byte equal to the one before), 1 literals with runs
+ * of every length from 1 to 40 and of 70 at every offset, 2 mostly runs with short stretches of
+ * literals between them, 3 uniform random bytes */
+static void wide_input(unsigned char *in, size_t n, int kind)
+{
+    for (size_t i = 0; i < n;) {
+        unsigned char b = kind == 3 ? (unsigned char)next_rand() : skewed_byte();
+        if (kind == 0 && i && b == in[i - 1]) b++;
+        in[i++] = b;
+        if (kind == 1 && next_rand() % 24 == 0) {
+            size_t run = next_rand() % 8 == 0 ? 70 : 1 + next_rand() % 40;
+            for (size_t k = 0; k < run && i < n; k++, i++) in[i] = b;
+        }
+        if (kind == 2 && next_rand() % 3 == 0) {
+            size_t run = 8 + next_rand() % 120;
+            for (size_t k = 0; k < run && i < n; k++, i++) in[i] = b;
+        }
+    }
+}
+
+/* The wide coder (AVX-512 with VBMI, where the processor has it) gives the scalar coder's bits:
+ * literals only, runs of many lengths at every offset of a block, at distances 1 to 8, lengths
+ * around the block's size, and a piece that outgrows stored blocks while the wide coder runs
+ * (both fall back to stored blocks, within the bound). */
+static void test_wide_coder_matches_scalar(void **state)
+{
+    (void)state;
+    bool wide = wg__deflate_wide(true);
+    if (!wide) print_message("no AVX-512 with VBMI here: the scalar coder alone is checked\n");
+    unsigned long blocks = wg__deflate_wide_blocks();
+    static const size_t sizes[] = {65536, 65536 + 31, 65536 + 64, 65536 + 65, 300000};
+    static const int dists[] = {1, 3, 4, 8};
+    size_t max = 300000, cap = wg__zlib_fast_bound(max);
+    unsigned char *in = malloc(max), *a = malloc(cap), *b = malloc(cap), *back = malloc(max);
+    assert_non_null(in);
+    assert_non_null(a);
+    assert_non_null(b);
+    assert_non_null(back);
+    for (int kind = 0; kind < 3; kind++)
+        for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
+            for (size_t di = 0; di < sizeof dists / sizeof *dists; di++) {
+                size_t n = sizes[si];
+                wide_input(in, n, kind);
+                wg__deflate_wide(true);
+                size_t an = wg__zlib_fast(in, n, dists[di], a, cap);
+                wg__deflate_wide(false);
+                size_t bn = wg__zlib_fast(in, n, dists[di], b, cap);
+                if (!an || an != bn || memcmp(a, b, an))
+                    fail_msg("kind %d, %zu bytes, distance %d: %zu bytes wide, %zu scalar", kind, n,
+                             dists[di], an, bn);
+                uLongf back_n = max;
+                assert_int_equal(uncompress(back, &back_n, a, an), Z_OK);
+                assert_int_equal(back_n, n);
+                assert_memory_equal(back, in, n);
+            }
+    /* a code made for skewed bytes, a piece of uniform ones: longer than stored blocks */
+    size_t n = 200000, guard = 64, pcap = wg__deflate_piece_bound(n);
+    wide_input(in, n, 0);
+    WgDeflateCode *code = wg__deflate_code(in, n, 1);
+    assert_non_null(code);
+    wide_input(in, n, 3);
+    unsigned char *pa = malloc(pcap + guard), *pb = malloc(pcap + guard);
+    assert_non_null(pa);
+    assert_non_null(pb);
+    memset(pa + pcap, 0xa5, guard);
+    wg__deflate_wide(true);
+    size_t an = wg__deflate_piece(code, in, n, true, pa, pcap);
+    wg__deflate_wide(false);
+    size_t bn = wg__deflate_piece(code, in, n, true, pb, pcap);
+    assert_int_equal(an, bn);
+    assert_memory_equal(pa, pb, an);
+    assert_true(an >= n); /* stored */
+    for (size_t g = 0; g < guard; g++) assert_int_equal(pa[pcap + g], 0xa5);
+    wg__deflate_code_free(code);
+    /* the wide coder ran where it can */
+    if (wg__deflate_wide(true)) assert_true(wg__deflate_wide_blocks() > blocks + 1000);
+    free(pa);
+    free(pb);
+    free(in);
+    free(a);
+    free(b);
+    free(back);
+}
+
 /* The Adler-32 of pieces checked apart, combined, is zlib's of the whole: splits at the ends,
  * around the modulus (65521), bytes of 255 (the sums' largest) and random ones. */
 static void test_adler32_of_pieces_combined(void **state)
@@ -688,6 +781,7 @@ int main(void)
         cmocka_unit_test(test_fast_mode_compresses),
         cmocka_unit_test(test_pieces_inflate_as_one_stream),
         cmocka_unit_test(test_adler32_of_pieces_combined),
+        cmocka_unit_test(test_wide_coder_matches_scalar),
         cmocka_unit_test(test_pieces_on_threads_make_the_same_file),
         cmocka_unit_test(test_same_rows_make_the_same_file),
     };
