@@ -281,19 +281,22 @@ HOT static void row_pass(void *user, int y0, int y1)
             p.z = k < 0 ? INT32_MIN : breakpoint(&env[k], &p, j->inv);
             env[++k] = p;
         }
+        /* each parabola painted over the columns where it is lowest (its breakpoints grow),
+         * then the sites: each its own nearest, whether or not it is in env */
         int n = k + 1;
-        k = 0;
-        for (int x = 0; x < w; x++) {
-            if (nr[x] == y) { /* a site: its own nearest, whether or not it is in env */
-                d2[x] = 0;
-                key[x] = y << KEY_BITS | x;
-                continue;
-            }
-            while (k + 1 < n && env[k + 1].z <= x) k++;
-            int dx = x - env[k].q;
-            d2[x] = dx * dx + env[k].f;
-            key[x] = env[k].key;
+        bool keys = j->emit == EMIT_FILL;
+        for (k = 0; k < n; k++) {
+            int x0 = env[k].z > 0 ? env[k].z : 0;
+            int x1 = k + 1 < n && env[k + 1].z < w ? env[k + 1].z : w;
+            if (x0 >= w) break;
+            int q = env[k].q, f = env[k].f;
+            for (int x = x0; x < x1; x++) d2[x] = (x - q) * (x - q) + f;
+            if (keys)
+                for (int x = x0; x < x1; x++) key[x] = env[k].key;
         }
+        for (int x = 0; x < w; x++) d2[x] = nr[x] == y ? 0 : d2[x];
+        if (keys)
+            for (int x = 0; x < w; x++) key[x] = nr[x] == y ? y << KEY_BITS | x : key[x];
         emit_row(j, y, d2, key);
     }
 done:
