@@ -1294,7 +1294,7 @@ static int encode_one(const char *tmp, const char *path, const WgImage *img, WgF
     int rc = WG_OK;
     errno = 0;
     if (format == WG_FORMAT_EXR || format == WG_FORMAT_EXR32)
-        rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, err);
+        rc = wg__exr_write_image(tmp, path, img, c, format == WG_FORMAT_EXR, workers, err);
     else if (encode_to_file(tmp, img, format, cs, c, bits, png, workers, msg, sizeof msg))
         rc = write_failed(err, path, msg);
     return rc;
@@ -1492,7 +1492,7 @@ int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const ch
     if (rc) return rc;
     char *tmp;
     if ((rc = stage_begin(s, path, &tmp, err))) return rc;
-    rc = wg__exr_write_file(tmp, path, count, names, images, half, err);
+    rc = wg__exr_write_file(tmp, path, count, names, images, half, NULL, err);
     return stage_end(s, rc, err);
 }
 

@@ -5,8 +5,11 @@
  * layers whose channels are "<layer>.Y" for gray images and "<layer>.R/G/B/A" for colour ones.
  * The library converts our float rows to half while encoding (round to nearest even, as
  * OpenImageIO does); the ZIP chunks are deflated here with libdeflate (zip_compress), and a
- * chunk that ZIP does not make smaller is stored raw. The file is written as a temporary of a
- * write set (io.c) and renamed over the target when complete.
+ * chunk that ZIP does not make smaller is stored raw. The chunks are encoded in windows of 64 on
+ * the caller's workers (a render's: an RGBA float output at 2048² is written in three quarters of
+ * the time), each window then written in order, so the file is the same on any number of
+ * threads. The file is written as a temporary of a write set (io.c) and renamed over the target
+ * when complete.
  * Checking: before any library reads an EXR, wg__exr_check walks its header (the OpenEXR file
  * layout: magic, version, attributes as name, type, size, value) and refuses a declared size
  * beyond the end of the file, windows whose sides are outside 1..WG_MAX_SIDE, and windows that
@@ -26,6 +29,7 @@
 #include <errno.h>
 #include <libdeflate.h>
 #include <openexr.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -109,83 +113,187 @@ static exr_result_t zip_compress(exr_encode_pipeline_t *enc)
     return EXR_ERR_SUCCESS;
 }
 
-/* Encode every scanline chunk of `part` from `images`. With layer names, channel "name.X" comes
+/* The chunks are encoded (converted, packed and compressed) in windows of WINDOW_CHUNKS, each
+ * window's chunks on whichever threads the caller's WgWorkers gives them (every thread with a
+ * pipeline of its own, as OpenEXR's C API allows), their bytes kept until the window is done and
+ * then written in order: the file is the same on any number of threads, and writing holds one
+ * window of chunks (a thousand rows at 16 a chunk), not the whole file. */
+#define WINDOW_CHUNKS 64
+
+typedef struct {
+    exr_context_t ctx;
+    int part, h, count;
+    int32_t lines;
+    const char *const *names;
+    const WgImage *const *images;
+    int first;      /* the window's first chunk */
+    uint8_t **data; /* each chunk of the window: its bytes as written */
+    uint64_t *size;
+    atomic_int failed; /* 0, or the window's first failure: */
+    exr_result_t rv;   /* OpenEXR's error, */
+    const char *what;  /* the step, */
+    char channel[300]; /* or a channel with no image */
+} Window;
+
+/* A thread's pipeline state: the compressor's, and where its chunk's bytes go */
+typedef struct {
+    ZipState zip;
+    Window *win;
+    int index; /* in the window */
+} Coder;
+
+static exr_result_t zip_compress_coder(exr_encode_pipeline_t *enc)
+{
+    Coder *co = enc->encoding_user_data;
+    enc->encoding_user_data = &co->zip;
+    exr_result_t rv = zip_compress(enc);
+    enc->encoding_user_data = co;
+    return rv;
+}
+
+/* The chunk's bytes (compressed, or packed when the part or the chunk is not) kept for the
+ * window's writing, instead of written now */
+static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
+{
+    Coder *co = enc->encoding_user_data;
+    const void *bytes = enc->compressed_buffer ? enc->compressed_buffer : enc->packed_buffer;
+    uint64_t n = enc->compressed_buffer ? enc->compressed_bytes : enc->packed_bytes;
+    uint8_t *copy = wg_malloc(n ? n : 1);
+    if (!copy) return EXR_ERR_OUT_OF_MEMORY;
+    memcpy(copy, bytes, n);
+    wg_free(co->win->data[co->index]);
+    co->win->data[co->index] = copy;
+    co->win->size[co->index] = n;
+    return EXR_ERR_SUCCESS;
+}
+
+static void window_fail(Window *w, exr_result_t rv, const char *what, const char *channel)
+{
+    int expected = 0;
+    if (!atomic_compare_exchange_strong(&w->failed, &expected, 1)) return;
+    w->rv = rv;
+    w->what = what;
+    if (channel) snprintf(w->channel, sizeof w->channel, "%s", channel);
+}
+
+/* Chunks [i0, i1) of the window encoded into w->data. With layer names, channel "name.X" comes
  * from the image of that name; without (names NULL, one image), channel "X" from images[0]. X is
  * R, G, B, A, or Y for gray (component 0). */
-static int encode_chunks(exr_context_t ctx, int part, const char *path, int h, int32_t lines,
-                         int count, const char *const *names, const WgImage *const *images,
-                         WgError *err)
+static void encode_window(void *user, int i0, int i1)
 {
     static const char *const rgba[] = {"R", "G", "B", "A"};
+    Window *w = user;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     bool initialised = false;
-    int rc = WG_OK;
+    Coder co = {.win = w};
     exr_result_t rv;
-    ZipState zip = {0};
-    for (int y = 0; y < h && !rc; y += lines) {
+    for (int i = i0; i < i1 && !atomic_load(&w->failed); i++) {
         exr_chunk_info_t cinfo;
-        if ((rv = exr_write_scanline_chunk_info(ctx, part, y, &cinfo))) {
-            rc = exr_fail(err, path, rv, "chunk");
+        if ((rv = exr_write_scanline_chunk_info(w->ctx, w->part, (w->first + i) * w->lines,
+                                                &cinfo))) {
+            window_fail(w, rv, "chunk", NULL);
             break;
         }
-        rv = initialised ? exr_encoding_update(ctx, part, &cinfo, &enc)
-                         : exr_encoding_initialize(ctx, part, &cinfo, &enc);
+        rv = initialised ? exr_encoding_update(w->ctx, w->part, &cinfo, &enc)
+                         : exr_encoding_initialize(w->ctx, w->part, &cinfo, &enc);
         if (rv) {
-            rc = exr_fail(err, path, rv, "encoder");
+            window_fail(w, rv, "encoder", NULL);
             break;
         }
         initialised = true;
-        for (int c = 0; c < enc.channel_count; c++) {
+        bool ok = true;
+        for (int c = 0; c < enc.channel_count && ok; c++) {
             exr_coding_channel_info_t *ci = &enc.channels[c];
             /* channel names come back sorted: map each to its image and component */
             const char *suffix = ci->channel_name;
-            int img = names ? -1 : 0, comp = 0;
-            if (names) {
+            int img = w->names ? -1 : 0, comp = 0;
+            if (w->names) {
                 const char *dot = strrchr(ci->channel_name, '.');
-                for (int i = 0; dot && i < count && img < 0; i++)
-                    if ((size_t)(dot - ci->channel_name) == strlen(names[i]) &&
-                        !strncmp(ci->channel_name, names[i], strlen(names[i])))
-                        img = i;
+                for (int k = 0; dot && k < w->count && img < 0; k++)
+                    if ((size_t)(dot - ci->channel_name) == strlen(w->names[k]) &&
+                        !strncmp(ci->channel_name, w->names[k], strlen(w->names[k])))
+                        img = k;
                 suffix = dot ? dot + 1 : suffix;
             }
             if (img < 0) {
-                rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "internal: channel '%s'",
-                                     ci->channel_name);
+                window_fail(w, EXR_ERR_SUCCESS, NULL, ci->channel_name);
+                ok = false;
                 break;
             }
             for (int k = 0; k < 4; k++)
                 if (!strcmp(suffix, rgba[k])) comp = k;
-            const WgImage *im = images[img];
+            const WgImage *im = w->images[img];
             ci->user_bytes_per_element = 4;
             ci->user_data_type = EXR_PIXEL_FLOAT;
             ci->user_pixel_stride = 4 * im->channels;
             ci->user_line_stride = (int32_t)(im->stride * sizeof(float));
             ci->encode_from_ptr = (const uint8_t *)(wg_image_row(im, cinfo.start_y) + comp);
         }
-        if (rc) break;
+        if (!ok) break;
         if (!enc.convert_and_pack_fn) {
-            if ((rv = exr_encoding_choose_default_routines(ctx, part, &enc))) {
-                rc = exr_fail(err, path, rv, "encoder");
+            if ((rv = exr_encoding_choose_default_routines(w->ctx, w->part, &enc))) {
+                window_fail(w, rv, "encoder", NULL);
                 break;
             }
-            if (enc.compress_fn) { /* the part is ZIP: our compressor */
-                enc.encoding_user_data = &zip;
-                enc.compress_fn = zip_compress;
-            }
+            if (enc.compress_fn) enc.compress_fn = zip_compress_coder; /* the part is ZIP */
+            /* kept, not written: no waiting for the chunks before to be written */
+            enc.yield_until_ready_fn = NULL;
+            enc.write_fn = keep_chunk;
+            enc.encoding_user_data = &co;
         }
-        rv = exr_encoding_run(ctx, part, &enc);
+        co.index = i;
+        rv = exr_encoding_run(w->ctx, w->part, &enc);
         /* the compressed buffer is zip's (or the packed one): never the library's to free */
         enc.compressed_buffer = NULL;
         enc.compressed_alloc_size = 0;
-        if (rv) rc = exr_fail(err, path, rv, "encoding");
+        if (rv) window_fail(w, rv, "encoding", NULL);
     }
-    if (initialised) exr_encoding_destroy(ctx, &enc);
-    zip_state_free(&zip);
+    if (initialised) exr_encoding_destroy(w->ctx, &enc);
+    zip_state_free(&co.zip);
+}
+
+/* Encode and write every scanline chunk of `part` from `images`, the encoding on `workers`
+ * (NULL: here). */
+static int encode_chunks(exr_context_t ctx, int part, const char *path, int h, int32_t lines,
+                         int count, const char *const *names, const WgImage *const *images,
+                         const WgWorkers *workers, WgError *err)
+{
+    int chunks = (int)((h + lines - 1) / lines);
+    Window w = {ctx, part, h, count, lines, names, images};
+    w.data = wg_calloc(WINDOW_CHUNKS, sizeof *w.data);
+    w.size = wg_calloc(WINDOW_CHUNKS, sizeof *w.size);
+    int rc = WG_OK;
+    if (!w.data || !w.size) rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+    for (w.first = 0; !rc && w.first < chunks; w.first += WINDOW_CHUNKS) {
+        int n = chunks - w.first < WINDOW_CHUNKS ? chunks - w.first : WINDOW_CHUNKS;
+        atomic_init(&w.failed, 0);
+        if (workers && workers->run) {
+            if (workers->run(workers->ctx, n, encode_window, &w))
+                rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot write the EXR: cancelled");
+        } else {
+            encode_window(&w, 0, n);
+        }
+        if (!rc && atomic_load(&w.failed))
+            rc = w.what ? exr_fail(err, path, w.rv, w.what)
+                        : wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "internal: channel '%s'",
+                                          w.channel);
+        for (int i = 0; i < n; i++) {
+            exr_result_t rv;
+            if (!rc && (rv = exr_write_scanline_chunk(ctx, part, (w.first + i) * lines, w.data[i],
+                                                      w.size[i])))
+                rc = exr_fail(err, path, rv, "chunk");
+            wg_free(w.data[i]);
+            w.data[i] = NULL;
+        }
+    }
+    wg_free(w.data);
+    wg_free(w.size);
     return rc;
 }
 
 static int write_part(exr_context_t ctx, const char *path, int count, const char *const *names,
-                      const WgImage *const *images, bool half, WgError *err)
+                      const WgImage *const *images, bool half, const WgWorkers *workers,
+                      WgError *err)
 {
     int w = images[0]->width, h = images[0]->height, part;
     exr_result_t rv = exr_add_part(ctx, "layers", EXR_STORAGE_SCANLINE, &part);
@@ -206,7 +314,7 @@ static int write_part(exr_context_t ctx, const char *path, int count, const char
     int32_t lines;
     if ((rv = exr_get_scanlines_per_chunk(ctx, part, &lines)))
         return exr_fail(err, path, rv, "chunks");
-    return encode_chunks(ctx, part, path, h, lines, count, names, images, err);
+    return encode_chunks(ctx, part, path, h, lines, count, names, images, workers, err);
 }
 
 int wg__exr_check_layers(const char *path, int count, const char *const *names,
@@ -229,7 +337,8 @@ int wg__exr_check_layers(const char *path, int count, const char *const *names,
 }
 
 int wg__exr_write_file(const char *file, const char *path, int count, const char *const *names,
-                       const WgImage *const *images, bool half, WgError *err)
+                       const WgImage *const *images, bool half, const WgWorkers *workers,
+                       WgError *err)
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = quiet;
@@ -240,7 +349,7 @@ int wg__exr_write_file(const char *file, const char *path, int count, const char
     if (rv) {
         rc = exr_fail(err, path, rv, "open");
     } else {
-        rc = write_part(ctx, path, count, names, images, half, err);
+        rc = write_part(ctx, path, count, names, images, half, workers, err);
         rv = exr_finish(&ctx);
         if (!rc && rv) rc = exr_fail(err, path, rv, "finish");
     }
@@ -707,7 +816,7 @@ int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, 
 }
 
 int wg__exr_write_image(const char *file, const char *path, const WgImage *img, int c, bool half,
-                        WgError *err)
+                        const WgWorkers *workers, WgError *err)
 {
     static const char *const gray[] = {"Y"}, *const rgba[] = {"R", "G", "B", "A"};
     const char *const *names = c == 1 ? gray : rgba;
@@ -736,7 +845,7 @@ int wg__exr_write_image(const char *file, const char *path, const WgImage *img, 
         rc = exr_fail(err, path, rv, "header");
         goto done;
     }
-    rc = encode_chunks(ctx, part, path, h, lines, 1, NULL, &img, err);
+    rc = encode_chunks(ctx, part, path, h, lines, 1, NULL, &img, workers, err);
 done:
     rv = exr_finish(&ctx);
     if (!rc && rv) rc = exr_fail(err, path, rv, "finish");

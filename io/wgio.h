@@ -160,9 +160,10 @@ int wg__exr_read_rows(WgExrIn *in, int y0, int y1, int cb, int ce, float *data, 
                       ptrdiff_t ystride, char *msg, size_t msg_size);
 void wg__exr_close(WgExrIn *in);
 /* Single-layer EXR written natively: `c` channels (1: Y, 3: RGB, 4: RGBA) of img, half or float,
- * ZIP, straight to `file`, errors naming `path`. */
+ * ZIP, straight to `file`, errors naming `path`; the chunks encoded on `workers` (NULL: on the
+ * calling thread), the same file either way. */
 int wg__exr_write_image(const char *file, const char *path, const WgImage *img, int c, bool half,
-                        WgError *err);
+                        const WgWorkers *workers, WgError *err);
 /* PNG header read natively (png_check.c): size and the channels OpenImageIO gives (palette
  * expanded to RGB, a tRNS chunk adding alpha). 1 when `path` is not a PNG. */
 int wg__png_probe(const char *path, int *w, int *h, int *c, char *msg, size_t size);
@@ -203,7 +204,8 @@ size_t wg__jpeg_decoder_bytes(const char *path);
 int wg__exr_check_layers(const char *path, int count, const char *const *names,
                          const WgImage *const *images, WgError *err);
 int wg__exr_write_file(const char *file, const char *path, int count, const char *const *names,
-                       const WgImage *const *images, bool half, WgError *err);
+                       const WgImage *const *images, bool half, const WgWorkers *workers,
+                       WgError *err);
 /* strerror of errno after a failed write when it is a cause a write can have (no space, quota,
  * read-only, I/O error, ...), else NULL: encoders' messages rarely say why. */
 const char *wg__write_cause(int e);

@@ -17,6 +17,7 @@
 #include <fcntl.h>
 #include <math.h>
 #include <openexr.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -329,7 +330,7 @@ static void write_and_check(int content, int w, int h, int c, bool alpha, bool h
         for (int y = 0; y < h && c == 4; y++)
             for (int x = 0; x < w; x++)
                 if (wgt_px(img, x, y, 3) != 1.0f) fc = 4;
-        rc = wg__exr_write_image(path, path, img, fc, half, &err);
+        rc = wg__exr_write_image(path, path, img, fc, half, NULL, &err);
     }
     if (rc) fail_msg("write %dx%d: %s", w, h, err.message);
     expect_exr_holds(path, img, half, names[content]);
@@ -1392,6 +1393,108 @@ static void test_exr_zip_chunks_read_back_everywhere(void **state)
                 }
 }
 
+/* A WgWorkers that runs each part on a thread of its own, the last parts first (or, with a
+ * context, runs none and says it stopped), counting the parts it ran */
+typedef struct {
+    void (*fn)(void *, int, int);
+    void *user;
+    int i;
+} Part;
+
+static void *run_part(void *arg)
+{
+    Part *p = arg;
+    p->fn(p->user, p->i, p->i + 1);
+    return NULL;
+}
+
+static int parts_run;
+
+static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
+{
+    if (ctx) return 1;
+    Part *parts = calloc((size_t)n + 1, sizeof *parts);
+    pthread_t *t = calloc((size_t)n + 1, sizeof *t);
+    assert_non_null(parts);
+    assert_non_null(t);
+    for (int i = n - 1; i >= 0; i--) {
+        parts[i] = (Part){fn, user, i};
+        assert_int_equal(pthread_create(&t[i], NULL, run_part, &parts[i]), 0);
+    }
+    for (int i = n - 1; i >= 0; i--) pthread_join(t[i], NULL);
+    parts_run += n;
+    free(parts);
+    free(t);
+    return 0;
+}
+
+static unsigned char *file_bytes(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    *n = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc(*n + 1);
+    assert_non_null(b);
+    assert_int_equal(fread(b, 1, *n, f), *n);
+    fclose(f);
+    return b;
+}
+
+/* The chunks of an EXR encoded on other threads, in any order, a window of them at a time: the
+ * same file as on the calling thread (more chunks than a window, a short last window, half and
+ * float, gray and colour, compressible and not); a runner that stops fails the write, naming the
+ * file. */
+static void test_exr_chunks_on_threads_make_the_same_file(void **state)
+{
+    (void)state;
+    static const int sizes[][2] = {{7, 64 * 16 + 37}, {33, 16 * 64}, {5, 3}};
+    WgWorkers threads = {.run = threads_backwards};
+    WgWorkers stops = {.run = threads_backwards, .ctx = &parts_run};
+    unsigned seed = 99;
+    for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
+        for (int ch = 1; ch <= 4; ch += 3)
+            for (int half = 0; half < 2; half++) {
+                int w = sizes[si][0], h = sizes[si][1];
+                WgImage *img = wg_image_new(w, h, ch);
+                assert_non_null(img);
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w * ch; x++) {
+                        seed = seed * 1103515245u + 12345u;
+                        wg_image_row(img, y)[x] =
+                            y % 50 < 25 ? (float)(x + y) / 64.0f : (float)(seed >> 8) / 65536.0f;
+                    }
+                const char *one = wgt_path("one.exr"), *many = wgt_path("many.exr");
+                WgError err = {0};
+                parts_run = 0;
+                assert_int_equal(wg__exr_write_image(one, one, img, ch, half, NULL, &err), WG_OK);
+                assert_int_equal(wg__exr_write_image(many, many, img, ch, half, &threads, &err),
+                                 WG_OK);
+                assert_true(parts_run >= (h + 15) / 16); /* every chunk a part */
+                size_t an, bn;
+                unsigned char *a = file_bytes(one, &an), *b = file_bytes(many, &bn);
+                assert_int_equal(an, bn);
+                assert_memory_equal(a, b, an);
+                free(a);
+                free(b);
+                WgImage *back = NULL;
+                assert_int_equal(wg_image_read(many, 0, WG_LINEAR, &back, &err), WG_OK);
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w * ch; x++) {
+                        float want = wg_image_row(img, y)[x];
+                        if (half) want = to_half(want);
+                        assert_true(same_bits(want, wg_image_row(back, y)[x]));
+                    }
+                wg_image_unref(back);
+                const char *cut = wgt_path("cut.exr");
+                assert_int_not_equal(wg__exr_write_image(cut, cut, img, ch, half, &stops, &err),
+                                     WG_OK);
+                assert_non_null(strstr(err.message, "cancelled"));
+                wg_image_unref(img);
+            }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1413,6 +1516,7 @@ int main(void)
         cmocka_unit_test(test_png_writer_codes_read_back_through_libpng),
         cmocka_unit_test(test_parallel_write_failure_leaves_the_old_set),
         cmocka_unit_test(test_exr_zip_chunks_read_back_everywhere),
+        cmocka_unit_test(test_exr_chunks_on_threads_make_the_same_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
