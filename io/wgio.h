@@ -109,7 +109,7 @@ WgDeflateCode *wg__deflate_code_of(const WgBytes *sample, int stretches, size_t 
 void wg__deflate_code_free(WgDeflateCode *c);
 /* The fast coder's wide path (AVX-512 with VBMI, where the processor has it) on or off; returns
  * whether it is on. It gives the same bits as the scalar coder; for the tests, which also count
- * the blocks it coded. */
+ * the blocks it coded on the calling thread. */
 bool wg__deflate_wide(bool on);
 unsigned long wg__deflate_wide_blocks(void);
 /* The Adler-32 of a stream from those of its two parts (b's of b_bytes bytes), as zlib's
