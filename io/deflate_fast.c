@@ -8,8 +8,8 @@
  * heuristic of zlib and miniz (overlong codes are cut to the limit and the Kraft sum repaired by
  * lengthening the longest shorter code) to 14 bits for literals and lengths, so that four
  * literals always fit the 64-bit bit buffer in one put (on the wet material's outputs the files
- * are 0.3% larger than with deflate's 15), and 15 for distances. Large inputs put literals four
- * to a write, and where the processor has AVX-512 with VBMI, blocks of literals without runs go
+ * are 0.3% larger than with deflate's 15), and 15 for distances. Literals go four to a write,
+ * and where the processor has AVX-512 with VBMI, the literals between runs go
  * through the wide coder below, with the same bits. One pass counts, one pass codes; when the
  * block would not be smaller than stored blocks (known from the count, and checked while coding)
  * the input goes in stored blocks instead, so the output never exceeds wg__zlib_fast_bound. A
@@ -52,7 +52,6 @@
 #define SAMPLE_BYTES 16384   /* stretches of SAMPLE_BYTES spread evenly, */
 #define SAMPLE_STEP 4        /* every SAMPLE_STEP-th at least, */
 #define SAMPLE_STRETCHES 32  /* about SAMPLE_STRETCHES of them */
-#define PAIR_MIN 65536 /* inputs from this size code literals in pairs */
 
 /* ---- canonical, length-limited Huffman codes ------------------------------------------------ */
 
@@ -173,6 +172,21 @@ static inline void flush(Bits *b)
     b->at += b->n >> 3;
     b->buf >>= b->n & 56;
     b->n &= 7;
+}
+
+/* The first k of the four literals at p (k <= 4; all four are read) in one put: codes of at most
+ * LIT_BITS bits, so that the four fit beside the 7 bits the buffer may hold. */
+static inline void put_quad(Bits *b, const uint64_t *lit, const unsigned char *p, unsigned k)
+{
+    uint64_t v = 0;
+    unsigned len = 0;
+    for (unsigned j = 0; j < 4; j++) {
+        uint64_t e = lit[p[j]], m = -(uint64_t)(j < k);
+        v |= (e & 0xffffffff & m) << len;
+        len += (unsigned)(e >> 32) & (unsigned)m;
+    }
+    put(b, v, len);
+    flush(b);
 }
 
 /* ---- the parse: literals and runs ------------------------------------------------------------ */
@@ -309,8 +323,6 @@ struct WgDeflateCode {
     uint64_t mcode[259]; /* a match of length l in one put: length and distance, codes and extra */
     uint8_t mlen[259];
     uint64_t lit[256]; /* a literal's code in the low 32 bits, its length above */
-    uint64_t *pair;    /* large inputs: every pair of literals in one entry (at most 30 bits) */
-    bool quads;        /* large inputs: four literals to a put */
     /* the wide coder's tables: each literal's code length and the code's low and high bytes */
     uint8_t wide_len[256], wide_lo[256], wide_hi[256];
 };
@@ -465,27 +477,16 @@ WgDeflateCode *wg__deflate_code_of(const WgBytes *sample, int stretches, size_t 
         c->mlen[l] = (uint8_t)k;
     }
     for (int s = 0; s < 256; s++) c->lit[s] = c->lit_code[s] | (uint64_t)lit_len[s] << 32;
-    c->pair = n >= PAIR_MIN ? wg_malloc(65536 * sizeof *c->pair) : NULL;
-    int lit_max = 0;
-    for (int s = 0; s < 256; s++) lit_max = lit_len[s] > lit_max ? lit_len[s] : lit_max;
-    c->quads = c->pair && lit_max <= LIT_BITS;
     for (int s = 0; s < 256; s++) {
         c->wide_len[s] = lit_len[s];
         c->wide_lo[s] = (uint8_t)c->lit_code[s];
         c->wide_hi[s] = (uint8_t)(c->lit_code[s] >> 8);
-    }
-    for (int s = 0; c->pair && s < 65536; s++) {
-        uint64_t a = c->lit[s & 255], b = c->lit[s >> 8];
-        c->pair[s] =
-            (a & 0xffffffff) | (b & 0xffffffff) << (a >> 32) | ((a >> 32) + (b >> 32)) << 32;
     }
     return c;
 }
 
 void wg__deflate_code_free(WgDeflateCode *c)
 {
-    if (!c) return;
-    wg_free(c->pair);
     wg_free(c);
 }
 
@@ -656,27 +657,13 @@ size_t wg__deflate_piece(const WgDeflateCode *c, const unsigned char *in, size_t
         put(&b, c->cl_extra[k], cl_extra_bits[c->cl_sym[k]]);
         flush(&b);
     }
-    const uint64_t *lit = c->lit, *pair = c->pair;
-    bool quads = c->quads;
+    const uint64_t *lit = c->lit;
 #define CODE_LITS(from, k)                                                                         \
     do {                                                                                           \
         const unsigned char *p_ = in + (from);                                                     \
         size_t q_ = 0;                                                                             \
         if (b.at > limit) goto overflow;                                                           \
-        if (quads)                                                                                 \
-            for (; q_ + 4 <= (k); q_ += 4) {                                                       \
-                uint64_t e_ = pair[p_[q_] | p_[q_ + 1] << 8];                                      \
-                uint64_t f_ = pair[p_[q_ + 2] | p_[q_ + 3] << 8];                                  \
-                unsigned ke_ = (unsigned)(e_ >> 32);                                               \
-                put(&b, (e_ & 0xffffffff) | (f_ & 0xffffffff) << ke_, ke_ + (unsigned)(f_ >> 32)); \
-                flush(&b);                                                                         \
-            }                                                                                      \
-        if (pair)                                                                                  \
-            for (; q_ + 2 <= (k); q_ += 2) {                                                       \
-                uint64_t e_ = pair[p_[q_] | p_[q_ + 1] << 8];                                      \
-                put(&b, e_ & 0xffffffff, (unsigned)(e_ >> 32));                                    \
-                flush(&b);                                                                         \
-            }                                                                                      \
+        for (; q_ + 4 <= (k); q_ += 4) put_quad(&b, lit, p_ + q_, 4);                              \
         for (; q_ < (k); q_++) {                                                                   \
             uint64_t e_ = lit[p_[q_]];                                                             \
             put(&b, e_ & 0xffffffff, (unsigned)(e_ >> 32));                                        \
@@ -693,7 +680,7 @@ size_t wg__deflate_piece(const WgDeflateCode *c, const unsigned char *in, size_t
     /* the wide coder where it runs: tried at each step of the parse, but not again at the
      * position where it stopped (where a run starts, which the parse codes, or near the end or
      * the limit) */
-    bool wide = quads && stored >= 4 * WIDE_BYTES + 64 && wide_on();
+    bool wide = stored >= 4 * WIDE_BYTES + 64 && wide_on();
     size_t retry = 0;
     /* a block writes at most 8 x 56 bits, and the bit buffer's store 8 bytes past them */
     const unsigned char *wide_stop = wide ? limit - 2 * WIDE_BYTES : out;
