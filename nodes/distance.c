@@ -15,11 +15,13 @@
  * column in the image: the column pass keeps the smallest tied row and the envelope orders equal
  * parabolas by that key at their breakpoints, so the result is the brute-force answer, whatever the
  * thread count (columns and rows are independent, split in chunks fixed by the size). Cost: O(W·H)
- * whatever the mask and the distance. Measured at 2048², 2 threads, release build, median of 15
- * on the shared 2-core development VM (bench/bench_distance, node time only): random blobs
- * (half covered) 29 ms in pixels, falloff or no-wrap mode, 26-27 ms for dilate and erode;
- * 411 sparse seeds 17 ms; signed mode runs the transform twice (56 ms); the Voronoi fill of a
- * colour source 42 ms (blobs) and 26 ms (seeds), mostly the 64 MB colour output and source. */
+ * whatever the mask and the distance; each row's values are painted a parabola at a time over the
+ * columns where it is lowest. Measured at 2048², 2 threads, release build, median of 15 on an AMD
+ * EPYC VM with 2 cores (bench/bench_distance, node time only): random blobs (half covered)
+ * 16.7-17.1 ms in pixels or falloff mode, 16.0-16.2 without wrap, 16.3-16.7 for dilate and
+ * erode; 411 sparse seeds 8.1 ms; signed mode runs the transform twice (33.7-34.2 ms); the
+ * Voronoi fill of a colour source 21.1-21.2 ms (blobs) and 9.3-9.4 ms (seeds), mostly the 64 MB
+ * colour output and source. */
 #include "wetgraph/node.h"
 #include "hot.h"
 
