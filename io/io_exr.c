@@ -290,6 +290,11 @@ static int encode_chunks(exr_context_t ctx, int part, const char *path, int h, i
             rc = w.what ? exr_fail(err, path, w.rv, w.what)
                         : wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "internal: channel '%s'",
                                           w.channel);
+        for (int i = 0; i < n && !rc; i++)
+            if (!w.data[i])
+                rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0,
+                                     "cannot write the EXR: a chunk was not encoded (the workers "
+                                     "ran only some of the parts)");
         for (int i = 0; i < n; i++) {
             exr_result_t rv;
             if (!rc && (rv = exr_write_scanline_chunk(ctx, part, (w.first + i) * lines, w.data[i],

@@ -177,6 +177,7 @@ typedef struct {
     size_t zcap, *zsize;       /* the bound of a piece's stream; their sizes */
     uint32_t *adler;           /* the Adler-32 of each piece's filtered rows */
     atomic_int failed;
+    atomic_int pieces_done; /* by the last run: fewer than the pieces when the workers left some */
 } Encode;
 
 /* A thread's rows while it filters: the row being filtered, the one above (packed), and the
@@ -283,6 +284,7 @@ static void filter_pieces(void *user, int i0, int i1)
         int y0, y1;
         piece_rows(e, i, &y0, &y1);
         filter_rows(e, y0, y1, e->filtered + (e->row + 1) * (size_t)y0, &r);
+        atomic_fetch_add(&e->pieces_done, 1);
     }
 done:
     rows_free(&r);
@@ -310,6 +312,7 @@ static void code_pieces(void *user, int i0, int i1)
                                         e->zbuf + (size_t)i * e->zcap, e->zcap);
         e->adler[i] = (uint32_t)libdeflate_adler32(1, buf, len);
         if (!e->zsize[i]) atomic_store(&e->failed, 1);
+        atomic_fetch_add(&e->pieces_done, 1);
     }
 done:
     rows_free(&r);
@@ -410,6 +413,7 @@ static int run_pieces(const WgWorkers *workers, int n, void (*fn)(void *, int, i
                       const char *failure, char *msg, size_t msg_size)
 {
     int stopped = 0;
+    atomic_store(&e->pieces_done, 0);
     if (workers && workers->run)
         stopped = workers->run(workers->ctx, n, fn, e);
     else
@@ -420,6 +424,11 @@ static int run_pieces(const WgWorkers *workers, int n, void (*fn)(void *, int, i
     }
     if (atomic_load(&e->failed)) {
         snprintf(msg, msg_size, "%s", failure);
+        return -1;
+    }
+    if (atomic_load(&e->pieces_done) != n) {
+        snprintf(msg, msg_size,
+                 "a piece of the image was not coded (the workers ran only some of the parts)");
         return -1;
     }
     return 0;
@@ -461,6 +470,7 @@ static int encode(int w, int h, int c, int bits, WgPngCompression mode, WgPngPac
                 .piece_rows = rows < (size_t)h ? (int)rows : h};
     if (e.piece_rows < 1) e.piece_rows = 1;
     atomic_init(&e.failed, 0);
+    atomic_init(&e.pieces_done, 0);
     int n = h > 0 ? pieces_of(&e) : 0;
     WgDeflateCode *code = NULL;
     struct libdeflate_compressor *z = NULL;

@@ -1410,6 +1410,15 @@ static void *run_part(void *arg)
 
 static int parts_run;
 
+/* A WgWorkers that breaks its contract: it runs every part but the second */
+static int skips_one(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
+{
+    (void)ctx;
+    for (int i = 0; i < n; i++)
+        if (i != 1) fn(user, i, i + 1);
+    return 0;
+}
+
 static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
 {
     if (ctx) return 1;
@@ -1491,6 +1500,13 @@ static void test_exr_chunks_on_threads_make_the_same_file(void **state)
                 assert_int_not_equal(wg__exr_write_image(cut, cut, img, ch, half, &stops, &err),
                                      WG_OK);
                 assert_non_null(strstr(err.message, "cancelled"));
+                /* and one that leaves a chunk out fails, never writing a file without it */
+                WgWorkers skips = {.run = skips_one};
+                if (h > 16) {
+                    assert_int_not_equal(wg__exr_write_image(cut, cut, img, ch, half, &skips, &err),
+                                         WG_OK);
+                    assert_non_null(strstr(err.message, "not encoded"));
+                }
                 wg_image_unref(img);
             }
 }

@@ -491,6 +491,15 @@ static void *run_part(void *arg)
 
 static atomic_int parts_run;
 
+/* A WgWorkers that breaks its contract: it runs every part but the second */
+static int skips_one(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
+{
+    (void)ctx;
+    for (int i = 0; i < n; i++)
+        if (i != 1) fn(user, i, i + 1);
+    return 0;
+}
+
 static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
 {
     if (ctx) return 1; /* stopped early */
@@ -701,6 +710,13 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
                                  0);
             assert_null(none);
             assert_int_equal(none_n, 0);
+            /* a runner that leaves a piece out fails the encoding */
+            WgWorkers skips = {.run = skips_one};
+            assert_int_not_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of,
+                                                     &p, false, &skips, &none, &none_n, msg,
+                                                     sizeof msg),
+                                 0);
+            assert_non_null(strstr(msg, "not coded"));
             wg_free(one);
             wg_free(many);
         }
