@@ -1485,15 +1485,22 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
     return rc;
 }
 
-int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
-                            const WgImage *const *images, bool half, WgError *err)
+int wg_write_set_exr_layers_on(WgWriteSet *s, const char *path, int count, const char *const *names,
+                               const WgImage *const *images, bool half, const WgWorkers *workers,
+                               WgError *err)
 {
     int rc = wg__exr_check_layers(path, count, names, images, err);
     if (rc) return rc;
     char *tmp;
     if ((rc = stage_begin(s, path, &tmp, err))) return rc;
-    rc = wg__exr_write_file(tmp, path, count, names, images, half, NULL, err);
+    rc = wg__exr_write_file(tmp, path, count, names, images, half, workers, err);
     return stage_end(s, rc, err);
+}
+
+int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
+                            const WgImage *const *images, bool half, WgError *err)
+{
+    return wg_write_set_exr_layers_on(s, path, count, names, images, half, NULL, err);
 }
 
 int wg_write_set_move(WgWriteSet *into, WgWriteSet *from, WgError *err)

@@ -590,6 +590,47 @@ static void test_keys_on_workers_are_the_keys_after_the_render(void **state)
     run_free(&r);
 }
 
+/* A layered EXR, written after the render, has its chunks encoded on as many threads as the
+ * render had: the same file as the library's writer makes on the calling thread, on one thread
+ * and on three (1100 rows: more chunks than one window of them). */
+static void test_layered_exr_on_threads_is_the_same_file(void **state)
+{
+    (void)state;
+    wgt_write_file(at("k.wetgraph"), graph_keys);
+    rm_rf(at("lt"));
+    Run r = run("render", "k.wetgraph", "--layered", "lt/one.exr", "--size", "23x1100", "--threads",
+                "1", "-q", NULL);
+    expect(&r, 0, "layered on one thread");
+    run_free(&r);
+    r = run("render", "k.wetgraph", "--layered", "lt/three.exr", "--size", "23x1100", "--threads",
+            "3", "-q", NULL);
+    expect(&r, 0, "layered on three threads");
+    run_free(&r);
+    /* the reference: the same images through wg_exr_write_layers, here */
+    WgGraph *g = wgt_load_at(graph_keys, at("k.wetgraph"));
+    WgRequest *req = wg_request_new(g);
+    assert_non_null(req);
+    wg_request_set_size(req, 23, 1100);
+    WgEngine *e = wgt_engine(2, 0, NULL);
+    WgResult *res = wgt_render_request(e, req);
+    int n = wg_result_output_count(res);
+    const char *names[8];
+    const WgImage *images[8];
+    assert_true(n <= 8);
+    for (int i = 0; i < n; i++) {
+        names[i] = wg_result_output_name(res, i);
+        images[i] = wg_result_output_image(res, i);
+    }
+    WgError err = {0};
+    assert_int_equal(wg_exr_write_layers(at("lt/here.exr"), n, names, images, true, &err), WG_OK);
+    wg_result_free(res);
+    wg_engine_free(e);
+    wg_request_free(req);
+    wg_graph_free(g);
+    expect_same_file(at("lt/here.exr"), at("lt/one.exr"));
+    expect_same_file(at("lt/here.exr"), at("lt/three.exr"));
+}
+
 /* ---- outputs written while the render runs ----------------------------------------------- */
 
 static int count_words(const char *text)
@@ -987,6 +1028,7 @@ int main(void)
         cmocka_unit_test(test_full_disk_replaces_nothing),
         cmocka_unit_test(test_unchanged_outputs_are_kept),
         cmocka_unit_test(test_keys_on_workers_are_the_keys_after_the_render),
+        cmocka_unit_test(test_layered_exr_on_threads_is_the_same_file),
         cmocka_unit_test(test_streamed_outputs_are_the_files_written_after_the_render),
         cmocka_unit_test(test_failing_output_mid_render_replaces_nothing),
         cmocka_unit_test(test_png_compression_from_graph_and_command_line),

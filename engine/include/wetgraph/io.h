@@ -139,6 +139,11 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
 /* Same layout as wg_exr_write_layers. */
 int wg_write_set_exr_layers(WgWriteSet *s, const char *path, int count, const char *const *names,
                             const WgImage *const *images, bool half, WgError *err);
+/* The same with the file's chunks converted and compressed by `workers` (NULL: on this thread),
+ * a window of them at a time, then written in order: the same file, sooner on several threads. */
+int wg_write_set_exr_layers_on(WgWriteSet *s, const char *path, int count, const char *const *names,
+                               const WgImage *const *images, bool half, const WgWorkers *workers,
+                               WgError *err);
 /* Move every file staged in `from` to the end of `into`, in order (a set per thread can be
  * filled concurrently, then gathered for one commit); `from` is empty afterwards. When out of
  * memory both sets are left as they were. */
