@@ -11,6 +11,7 @@
 #include <ftw.h>
 #include <stdarg.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -594,4 +595,47 @@ char *wgt_slow_graph(const char *params, const char *radius, const char *directi
              "  <output name=\"c\" from=\"ao16\" format=\"exr32\"/>\n"
              "</wetgraph>\n");
     return text;
+}
+
+/* ---- WgWorkers runners ------------------------------------------------------------------- */
+
+_Atomic int wgt_parts_run;
+
+typedef struct {
+    void (*fn)(void *, int, int);
+    void *user;
+    int i;
+} Part;
+
+static void *run_part(void *arg)
+{
+    Part *p = arg;
+    p->fn(p->user, p->i, p->i + 1);
+    return NULL;
+}
+
+int wgt_run_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
+{
+    if (ctx) return 1; /* stopped early */
+    Part *parts = calloc((size_t)n + 1, sizeof *parts);
+    pthread_t *t = calloc((size_t)n + 1, sizeof *t);
+    assert_non_null(parts);
+    assert_non_null(t);
+    for (int i = n - 1; i >= 0; i--) {
+        parts[i] = (Part){fn, user, i};
+        assert_int_equal(pthread_create(&t[i], NULL, run_part, &parts[i]), 0);
+    }
+    for (int i = n - 1; i >= 0; i--) pthread_join(t[i], NULL);
+    wgt_parts_run += n;
+    free(parts);
+    free(t);
+    return 0;
+}
+
+int wgt_run_skipping_one(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
+{
+    (void)ctx;
+    for (int i = 0; i < n; i++)
+        if (i != 1) fn(user, i, i + 1);
+    return 0;
 }

@@ -138,4 +138,12 @@ void wgt_assert_range(const WgImage *img, double lo, double hi);
  * every part of `needles` (parts separated by '|'; NULL: don't check). */
 void wgt_assert_error(const WgError *err, int code, int line, const char *needles);
 
+/* WgWorkers runners for the writers' tests. wgt_run_backwards runs each part on a thread of its
+ * own, the last parts first, and adds the parts to wgt_parts_run; with a ctx (any non-NULL) it
+ * runs none and says it stopped early. wgt_run_skipping_one breaks the runners' contract: it
+ * runs every part but the second, on the calling thread. */
+int wgt_run_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user);
+int wgt_run_skipping_one(const void *ctx, int n, void (*fn)(void *, int, int), void *user);
+extern _Atomic int wgt_parts_run;
+
 #endif

@@ -17,7 +17,6 @@
 #include <fcntl.h>
 #include <math.h>
 #include <openexr.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -1393,64 +1392,6 @@ static void test_exr_zip_chunks_read_back_everywhere(void **state)
                 }
 }
 
-/* A WgWorkers that runs each part on a thread of its own, the last parts first (or, with a
- * context, runs none and says it stopped), counting the parts it ran */
-typedef struct {
-    void (*fn)(void *, int, int);
-    void *user;
-    int i;
-} Part;
-
-static void *run_part(void *arg)
-{
-    Part *p = arg;
-    p->fn(p->user, p->i, p->i + 1);
-    return NULL;
-}
-
-static int parts_run;
-
-/* A WgWorkers that breaks its contract: it runs every part but the second */
-static int skips_one(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
-{
-    (void)ctx;
-    for (int i = 0; i < n; i++)
-        if (i != 1) fn(user, i, i + 1);
-    return 0;
-}
-
-static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
-{
-    if (ctx) return 1;
-    Part *parts = calloc((size_t)n + 1, sizeof *parts);
-    pthread_t *t = calloc((size_t)n + 1, sizeof *t);
-    assert_non_null(parts);
-    assert_non_null(t);
-    for (int i = n - 1; i >= 0; i--) {
-        parts[i] = (Part){fn, user, i};
-        assert_int_equal(pthread_create(&t[i], NULL, run_part, &parts[i]), 0);
-    }
-    for (int i = n - 1; i >= 0; i--) pthread_join(t[i], NULL);
-    parts_run += n;
-    free(parts);
-    free(t);
-    return 0;
-}
-
-static unsigned char *file_bytes(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    *n = (size_t)ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc(*n + 1);
-    assert_non_null(b);
-    assert_int_equal(fread(b, 1, *n, f), *n);
-    fclose(f);
-    return b;
-}
-
 /* The chunks of an EXR encoded on other threads, in any order, a window of them at a time: the
  * same file as on the calling thread (more chunks than a window, a short last window, half and
  * float, gray and colour, compressible and not); a runner that stops fails the write, naming the
@@ -1459,8 +1400,8 @@ static void test_exr_chunks_on_threads_make_the_same_file(void **state)
 {
     (void)state;
     static const int sizes[][2] = {{7, 64 * 16 + 37}, {33, 16 * 64}, {5, 3}};
-    WgWorkers threads = {.run = threads_backwards};
-    WgWorkers stops = {.run = threads_backwards, .ctx = &parts_run};
+    WgWorkers threads = {.run = wgt_run_backwards};
+    WgWorkers stops = {.run = wgt_run_backwards, .ctx = &wgt_parts_run};
     unsigned seed = 99;
     for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
         for (int ch = 1; ch <= 4; ch += 3)
@@ -1476,17 +1417,12 @@ static void test_exr_chunks_on_threads_make_the_same_file(void **state)
                     }
                 const char *one = wgt_path("one.exr"), *many = wgt_path("many.exr");
                 WgError err = {0};
-                parts_run = 0;
+                wgt_parts_run = 0;
                 assert_int_equal(wg__exr_write_image(one, one, img, ch, half, NULL, &err), WG_OK);
                 assert_int_equal(wg__exr_write_image(many, many, img, ch, half, &threads, &err),
                                  WG_OK);
-                assert_true(parts_run >= (h + 15) / 16); /* every chunk a part */
-                size_t an, bn;
-                unsigned char *a = file_bytes(one, &an), *b = file_bytes(many, &bn);
-                assert_int_equal(an, bn);
-                assert_memory_equal(a, b, an);
-                free(a);
-                free(b);
+                assert_true(wgt_parts_run >= (h + 15) / 16); /* every chunk a part */
+                assert_true(wgt_same_file(one, many));
                 WgImage *back = NULL;
                 assert_int_equal(wg_image_read(many, 0, WG_LINEAR, &back, &err), WG_OK);
                 for (int y = 0; y < h; y++)
@@ -1501,7 +1437,7 @@ static void test_exr_chunks_on_threads_make_the_same_file(void **state)
                                      WG_OK);
                 assert_non_null(strstr(err.message, "cancelled"));
                 /* and one that leaves a chunk out fails, never writing a file without it */
-                WgWorkers skips = {.run = skips_one};
+                WgWorkers skips = {.run = wgt_run_skipping_one};
                 if (h > 16) {
                     assert_int_not_equal(wg__exr_write_image(cut, cut, img, ch, half, &skips, &err),
                                          WG_OK);

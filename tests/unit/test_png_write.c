@@ -18,7 +18,6 @@
 #include "wgio.h"
 
 #include <png.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -474,50 +473,6 @@ static void row_of(void *user, int y, void *row)
     memcpy(row, r->px + r->row * (size_t)y, r->row);
 }
 
-/* A WgWorkers that runs each part on a thread of its own, the last parts first; or, with
- * `stop`, runs none and says it stopped. */
-typedef struct {
-    void (*fn)(void *, int, int);
-    void *user;
-    int i;
-} Part;
-
-static void *run_part(void *arg)
-{
-    Part *p = arg;
-    p->fn(p->user, p->i, p->i + 1);
-    return NULL;
-}
-
-static atomic_int parts_run;
-
-/* A WgWorkers that breaks its contract: it runs every part but the second */
-static int skips_one(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
-{
-    (void)ctx;
-    for (int i = 0; i < n; i++)
-        if (i != 1) fn(user, i, i + 1);
-    return 0;
-}
-
-static int threads_backwards(const void *ctx, int n, void (*fn)(void *, int, int), void *user)
-{
-    if (ctx) return 1; /* stopped early */
-    Part *parts = calloc((size_t)n + 1, sizeof *parts);
-    pthread_t *t = calloc((size_t)n + 1, sizeof *t);
-    assert_non_null(parts);
-    assert_non_null(t);
-    for (int i = n - 1; i >= 0; i--) {
-        parts[i] = (Part){fn, user, i};
-        assert_int_equal(pthread_create(&t[i], NULL, run_part, &parts[i]), 0);
-    }
-    for (int i = n - 1; i >= 0; i--) pthread_join(t[i], NULL);
-    atomic_fetch_add(&parts_run, n);
-    free(parts);
-    free(t);
-    return 0;
-}
-
 /* Scratch memory that counts what is out */
 static atomic_long scratch_out;
 static atomic_int scratch_taken;
@@ -668,8 +623,8 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
                                     {700, 900, 3, 8},
                                     {333, 2100, 1, 16},
                                     {1024, 300, 4, 8}};
-    WgWorkers threads = {.run = threads_backwards, .alloc = counted_alloc, .free = counted_free},
-              stops = {.run = threads_backwards, .ctx = &parts_run};
+    WgWorkers threads = {.run = wgt_run_backwards, .alloc = counted_alloc, .free = counted_free},
+              stops = {.run = wgt_run_backwards, .ctx = &wgt_parts_run};
     for (size_t si = 0; si < sizeof shapes / sizeof *shapes; si++) {
         int w = shapes[si][0], h = shapes[si][1], c = shapes[si][2], bits = shapes[si][3];
         size_t raw = (size_t)w * (size_t)h * (size_t)c * (size_t)(bits / 8);
@@ -681,7 +636,7 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
             unsigned char *one, *many, *none = (unsigned char *)"";
             size_t one_n, many_n, none_n = 7;
             char msg[256];
-            atomic_store(&parts_run, 0);
+            wgt_parts_run = 0;
             atomic_store(&scratch_taken, 0);
             assert_int_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of, &p,
                                                  false, NULL, &one, &one_n, msg, sizeof msg),
@@ -690,8 +645,7 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
                                                  false, &threads, &many, &many_n, msg, sizeof msg),
                              0);
             /* filtered (and in the fast mode coded) in several pieces */
-            if (atomic_load(&parts_run) < 2)
-                fail_msg("%dx%d: %d parts", w, h, atomic_load(&parts_run));
+            if (wgt_parts_run < 2) fail_msg("%dx%d: %d parts", w, h, wgt_parts_run);
             /* the whole filtered image in the workers' memory, given back; the fast mode codes
              * each piece as it is filtered, and never holds the filtered image */
             assert_int_equal(atomic_load(&scratch_taken), mode == WG_PNG_COMPRESSION_FAST ? 0 : 1);
@@ -711,7 +665,7 @@ static void test_pieces_on_threads_make_the_same_file(void **state)
             assert_null(none);
             assert_int_equal(none_n, 0);
             /* a runner that leaves a piece out fails the encoding */
-            WgWorkers skips = {.run = skips_one};
+            WgWorkers skips = {.run = wgt_run_skipping_one};
             assert_int_not_equal(wg__png_encode_rows(w, h, c, bits, (WgPngCompression)mode, row_of,
                                                      &p, false, &skips, &none, &none_n, msg,
                                                      sizeof msg),
@@ -732,7 +686,7 @@ static void test_same_rows_make_the_same_file(void **state)
     static const int shapes[][4] = {{1, 1, 1, 8},      {5, 1, 3, 8},    {3, 2, 4, 16},
                                     {37, 33, 1, 8},    {64, 70, 2, 16}, {700, 900, 3, 8},
                                     {333, 2100, 1, 16}};
-    WgWorkers threads = {.run = threads_backwards};
+    WgWorkers threads = {.run = wgt_run_backwards};
     for (size_t si = 0; si < sizeof shapes / sizeof *shapes; si++) {
         int w = shapes[si][0], h = shapes[si][1], c = shapes[si][2], bits = shapes[si][3];
         size_t row = (size_t)w * (size_t)c * (size_t)(bits / 8), raw = row * (size_t)h;
