@@ -50,9 +50,5 @@ void cli_json_warning(FILE *f, const WgWarning *w);
 void cli_trim_after(WgEngine *e, const WgResult *res);
 /* Make a graph runnable for checking: placeholder images for inputs without a default. */
 int cli_fill_placeholders(const WgGraph *g, WgRequest *r, WgError *err);
-/* Workers of their own for a writer called after a render (whose workers are gone): each run
- * starts *threads threads (0: one per core, never more than the parts), the calling one among
- * them, which take the parts one at a time. *threads must outlive the workers' use. */
-WgWorkers cli_thread_workers(const int *threads);
 
 #endif

@@ -1305,7 +1305,7 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
                 images[i] = wg_result_output_image(res, i);
             }
             bool half = o->format != WG_FORMAT_EXR32;
-            WgWorkers workers = cli_thread_workers(&o->threads);
+            WgWorkers workers = wg_workers_threads(&o->threads);
             rc = wg_write_set_exr_layers_on(set, layered, n, names, images, half, &workers, err);
         }
         free(names);

@@ -3,12 +3,9 @@
 #include "cli.h"
 
 #include <ctype.h>
-#include <pthread.h>
 #include <stdarg.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 int cli_exit_for(int code)
 {
@@ -182,47 +179,4 @@ void cli_trim_after(WgEngine *e, const WgResult *res)
     size_t used = 0;
     for (int i = 0; i < wg_result_stat_count(res); i++) used += wg_result_stat(res, i)->bytes;
     wg_engine_trim(e, 2 * used, wg_result_peak_bytes(res));
-}
-
-/* ---- workers for writing after a render ------------------------------------------------- */
-
-typedef struct {
-    void (*fn)(void *user, int i0, int i1);
-    void *user;
-    int n;
-    atomic_int next;
-} ThreadRun;
-
-static void *take_parts(void *arg)
-{
-    ThreadRun *r = arg;
-    for (int i; (i = atomic_fetch_add(&r->next, 1)) < r->n;) r->fn(r->user, i, i + 1);
-    return NULL;
-}
-
-static int run_on_threads(const void *ctx, int n, void (*fn)(void *user, int i0, int i1),
-                          void *user)
-{
-    int threads = *(const int *)ctx;
-    if (threads <= 0) {
-        long cores = sysconf(_SC_NPROCESSORS_ONLN);
-        threads = cores > 0 ? (int)cores : 1;
-    }
-    if (threads > n) threads = n;
-    if (threads > 256) threads = 256;
-    ThreadRun r = {fn, user, n};
-    atomic_init(&r.next, 0);
-    pthread_t tids[256];
-    int started = 0;
-    /* a thread that cannot start leaves its share to the others */
-    for (int t = 1; t < threads; t++)
-        if (!pthread_create(&tids[started], NULL, take_parts, &r)) started++;
-    take_parts(&r);
-    for (int t = 0; t < started; t++) pthread_join(tids[t], NULL);
-    return 0;
-}
-
-WgWorkers cli_thread_workers(const int *threads)
-{
-    return (WgWorkers){.run = run_on_threads, .ctx = threads};
 }

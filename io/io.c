@@ -1397,28 +1397,71 @@ int wg_write_set_image(WgWriteSet *s, const char *path, const WgImage *img, WgFo
     return wg_write_set_image_png(s, path, img, format, cs, WG_PNG_COMPRESSION_FAST, err);
 }
 
+/* ---- threads of their own --------------------------------------------------------------- */
+
+typedef struct {
+    void (*fn)(void *user, int i0, int i1);
+    void *user;
+    int n;
+    atomic_int next;
+} ThreadRun;
+
+static void *take_parts(void *arg)
+{
+    ThreadRun *r = arg;
+    for (int i; (i = atomic_fetch_add(&r->next, 1)) < r->n;) r->fn(r->user, i, i + 1);
+    return NULL;
+}
+
+static int run_on_threads(const void *ctx, int n, void (*fn)(void *user, int i0, int i1),
+                          void *user)
+{
+    int threads = *(const int *)ctx;
+    if (threads <= 0) {
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        threads = cores > 0 ? (int)cores : 1;
+    }
+    if (threads > n) threads = n;
+    if (threads > 256) threads = 256;
+    ThreadRun r = {fn, user, n};
+    atomic_init(&r.next, 0);
+    pthread_t tids[256];
+    int started = 0;
+    /* the calling thread is one of them; a thread that cannot start leaves its share to the
+     * others */
+    for (int t = 1; t < threads; t++)
+        if (!pthread_create(&tids[started], NULL, take_parts, &r)) started++;
+    take_parts(&r);
+    for (int t = 0; t < started; t++) pthread_join(tids[t], NULL);
+    return 0;
+}
+
+WgWorkers wg_workers_threads(const int *threads)
+{
+    return (WgWorkers){.run = run_on_threads, .ctx = threads};
+}
+
 typedef struct {
     WgWriteSet *s;
-    int base, n;
+    int base;
     const WgImage *const *images;
     const WgFormat *formats;
     const WgColorspace *cs;
     const WgPngCompression *png;
-    atomic_int next;
     int *rc;
     WgError *errs;
 } Batch;
 
-static void *batch_worker(void *arg)
+/* Images [i0, i1) of the batch encoded and flushed */
+static void batch_part(void *user, int i0, int i1)
 {
-    Batch *b = arg;
-    for (int i; (i = atomic_fetch_add(&b->next, 1)) < b->n;) {
+    Batch *b = user;
+    for (int i = i0; i < i1; i++) {
         const Staged *f = &b->s->files[b->base + i];
         int rc = encode_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i],
                             b->png ? b->png[i] : WG_PNG_COMPRESSION_FAST, NULL, &b->errs[i]);
         b->rc[i] = rc ? rc : sync_temp(f->temp, f->path, &b->errs[i]);
     }
-    return NULL;
 }
 
 /* Drop the staged files from `from` on, removing their temporaries. */
@@ -1446,32 +1489,19 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
         unstage(s, base);
         return rc;
     }
-    if (threads <= 0) {
-        long cores = sysconf(_SC_NPROCESSORS_ONLN);
-        threads = cores > 0 ? (int)cores : 1;
-    }
-    if (threads > n) threads = n;
     Batch b = {s,
                base,
-               n,
                images,
                formats,
                cs,
                png,
-               0,
                wg_calloc((size_t)n + 1, sizeof(int)),
                wg_calloc((size_t)n + 1, sizeof(WgError))};
-    pthread_t *tids = wg_calloc((size_t)threads + 1, sizeof *tids);
-    if (!b.rc || !b.errs || !tids) {
+    if (!b.rc || !b.errs) {
         rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     } else {
-        /* the calling thread is one of the encoders; a thread that cannot start leaves its
-         * share to the others */
-        int started = 0;
-        for (int t = 1; t < threads; t++)
-            if (!pthread_create(&tids[started], NULL, batch_worker, &b)) started++;
-        batch_worker(&b);
-        for (int t = 0; t < started; t++) pthread_join(tids[t], NULL);
+        WgWorkers workers = wg_workers_threads(&threads);
+        workers.run(workers.ctx, n, batch_part, &b);
         for (int i = 0; i < n && !rc; i++)
             if (b.rc[i]) {
                 rc = b.rc[i];
@@ -1479,7 +1509,6 @@ int wg_write_set_images(WgWriteSet *s, int n, const char *const *paths,
             }
     }
     if (rc) unstage(s, base);
-    wg_free(tids);
     wg_free(b.rc);
     wg_free(b.errs);
     return rc;

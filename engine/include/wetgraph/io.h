@@ -122,6 +122,11 @@ typedef struct WgWorkers {
     void (*free)(const void *ctx, void *p, size_t bytes);
     const void *ctx;
 } WgWorkers;
+/* Workers of their own: each run starts *threads threads (0: one per core, never more than the
+ * parts nor 256), the calling one among them, which take the parts one at a time; no scratch
+ * memory of their own (writers then use new memory). For a writer called outside a render,
+ * whose workers are gone. *threads must outlive the workers' use. */
+WgWorkers wg_workers_threads(const int *threads);
 /* wg_write_set_image_png with the PNG's rows filtered and coded in pieces run by `workers`, in
  * their scratch memory (NULL: on this thread, in new memory): the same file, sooner when other
  * threads are idle. Other formats are written as by wg_write_set_image_png. */
