@@ -165,15 +165,23 @@ static exr_result_t zip_compress_coder(exr_encode_pipeline_t *enc)
 }
 
 /* The chunk's bytes (compressed, or packed when the part or the chunk is not) kept for the
- * window's writing, instead of written now */
+ * window's writing, instead of written now: the compressor's buffer itself (it makes a new one
+ * for the next chunk), a copy of the packed one */
 static exr_result_t keep_chunk(exr_encode_pipeline_t *enc)
 {
     Coder *co = enc->encoding_user_data;
     const void *bytes = enc->compressed_buffer ? enc->compressed_buffer : enc->packed_buffer;
     uint64_t n = enc->compressed_buffer ? enc->compressed_bytes : enc->packed_bytes;
-    uint8_t *copy = wg_malloc(n ? n : 1);
-    if (!copy) return EXR_ERR_OUT_OF_MEMORY;
-    memcpy(copy, bytes, n);
+    uint8_t *copy;
+    if (bytes == co->zip.out) { /* the compressor's output: taken, not copied */
+        copy = co->zip.out;
+        co->zip.out = NULL;
+        co->zip.out_size = 0;
+    } else if ((copy = wg_malloc(n ? n : 1))) {
+        memcpy(copy, bytes, n);
+    } else {
+        return EXR_ERR_OUT_OF_MEMORY;
+    }
     wg_free(co->win->data[co->index]);
     co->win->data[co->index] = copy;
     co->win->size[co->index] = n;
