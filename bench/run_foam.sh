@@ -6,7 +6,8 @@
 #     shore's distance transform ran (once). Target: 48 frames in <= 5 s of node time on 2 cores.
 #  2. FRAMES frames (default 60) with all four outputs (two PNGs, two float EXRs): whole process
 #     per frame against node time per frame (target: at most 2x), the outputs' work during the
-#     renders, peak resident memory, and what the engine held between frames (which must not
+#     renders, how many files were encoded and how many copied (the EXRs, which do not depend
+#     on $time, are encoded for the first frame only), peak resident memory, and what the engine held between frames (which must not
 #     grow with the number of frames: also printed for a third of the frames).
 # Results vary with the machine's load, which is printed.
 #   bench/run_foam.sh [BUILD_DIR] [THREADS] [FRAMES]
@@ -51,7 +52,8 @@ node = sum(n["ms"] for n in s["nodes"])
 f = s["frames"]
 print(f"{f} frames, all outputs: whole process {wall / f:.0f} ms a frame, node time "
       f"{node / f:.0f} ms a frame, ratio {wall / node:.2f} (target <= 2); output work "
-      f"{s['output_ms'] / f:.0f} ms a frame during the renders; peak RSS "
+      f"{s['output_ms'] / f:.0f} ms a frame during the renders; files "
+      f"{s['files']['written']} encoded, {s['files']['copied']} copied; peak RSS "
       f"{int(sys.argv[4]) / 1024:.0f} MiB; held between frames {s['held_bytes'] / 2**20:.0f} MiB")
 PY
 done

@@ -27,6 +27,7 @@ typedef struct {
     size_t peak;
     size_t held;      /* the most the memory cache and the buffer pool held after a frame */
     double output_ms; /* the outputs' hashing, encoding and flushing, summed over the workers */
+    int written, copied, kept; /* files (stream_last_files), summed over the frames */
 } Totals;
 
 /* The distinct warnings of the sequence so far (own copies). */
@@ -112,8 +113,9 @@ static void totals_print(const Totals *t, const Seen *seen, bool json)
 {
     if (json) {
         printf("{\n  \"frames\": %d,\n  \"total_ms\": %.3f,\n  \"output_ms\": %.3f,\n  "
+               "\"files\": {\"written\": %d, \"copied\": %d, \"kept\": %d},\n  "
                "\"peak_bytes\": %zu,\n  \"held_bytes\": %zu,\n  \"nodes\": [\n",
-               t->frames, t->ms, t->output_ms, t->peak, t->held);
+               t->frames, t->ms, t->output_ms, t->written, t->copied, t->kept, t->peak, t->held);
         for (int i = 0; i < t->n; i++) {
             const NodeTotal *n = &t->nodes[i];
             printf("    {\"id\": ");
@@ -142,6 +144,10 @@ static void totals_print(const Totals *t, const Seen *seen, bool json)
             "image memory %.1f MiB; between frames the cache and the buffer pool held at most "
             "%.1f MiB\n",
             t->frames, t->ms, t->output_ms, t->peak / 1048576.0, t->held / 1048576.0);
+    fprintf(stderr,
+            "files: %d written, %d copied (the same image as another file of the frame or of "
+            "the frame before), %d kept (they held these images already)\n",
+            t->written, t->copied, t->kept);
 }
 
 static void totals_free(Totals *t)
@@ -196,7 +202,14 @@ int render_frames(const Options *o, const WgGraph *g, WgRequest *r, WgEngine *e,
             img = wg_image_ref(img); /* outlives the stream */
         if (stream) {
             rc = stream_finish(stream, res, rc, err);
-            totals.output_ms += rc ? 0 : stream_last_output_ms();
+            if (!rc) {
+                int w, c, k;
+                stream_last_files(&w, &c, &k);
+                totals.output_ms += stream_last_output_ms();
+                totals.written += w;
+                totals.copied += c;
+                totals.kept += k;
+            }
             wg_request_set_output_fn(r, NULL, NULL);
             wg_request_set_output_held(r, NULL, NULL);
         }

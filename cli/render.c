@@ -1109,6 +1109,17 @@ static int claim(Stream *s, int i, bool *complete)
     return from;
 }
 
+/* In a sequence, whether the previous frame's file of output i (its path in buf) holds this
+ * output's image, untouched: an output that does not change with $time is then a copy of that
+ * file instead of being encoded again every frame. */
+static bool previous_frame_holds(const Stream *s, const char *name, WgFormat f, int i, char *buf,
+                                 size_t size)
+{
+    if (!s->o->has_frames || s->frame <= s->o->frame_first) return false;
+    output_path_of(s->o, s->g, name, f, s->frame - 1, buf, size);
+    return buf[0] && strcmp(buf, s->paths[i]) && key_matches(buf, s->keys[i]);
+}
+
 /* The engine's output function: on a worker, concurrently with other outputs and nodes. An
  * output the same as another of this render (two outputs of one node, or of nodes that made the
  * same pixels) is staged as a copy of that one's file instead of being encoded again: at once
@@ -1137,8 +1148,15 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
     WgPngCompression png = output_compression(s->o, out->compression);
     s->keys[i] = output_key(out->image, f, out->colorspace, png, &out->workers);
     s->sources[i] = source_key(out, f, png);
+    char previous[4096];
     if (key_matches(s->paths[i], s->keys[i])) {
         s->skip[i] = s->refresh[i] = true;
+    } else if (previous_frame_holds(s, out->name, f, i, previous, sizeof previous)) {
+        if (!(s->sets[i] = wg_write_set_new()))
+            rc = wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
+        else
+            rc = wg_write_set_copy_file(s->sets[i], s->paths[i], previous, err);
+        s->wrote[i] = s->copied[i] = !rc;
     } else {
         bool complete = false;
         int from = claim(s, i, &complete);
@@ -1257,6 +1275,19 @@ int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err)
 double stream_last_output_ms(void)
 {
     return last_write.streamed ? last_write.output_ms : 0;
+}
+
+void stream_last_files(int *written, int *copied, int *kept)
+{
+    *written = *copied = *kept = 0;
+    for (int i = 0; last_write.streamed && i < last_write.n; i++) {
+        if (last_write.kept[i])
+            ++*kept;
+        else if (last_write.copied[i])
+            ++*copied;
+        else
+            ++*written;
+    }
 }
 
 const WgImage *stream_first(const Stream *s, WgColorspace *cs)

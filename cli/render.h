@@ -111,6 +111,10 @@ bool stream_held(void *user, const WgOutputInfo *out);
 int stream_finish(Stream *s, const WgResult *res, int render_rc, WgError *err);
 /* The time of the output calls of the last stream_finish that succeeded, summed (ms). */
 double stream_last_output_ms(void);
+/* What the last stream_finish that succeeded did with its outputs' files: encoded, staged as
+ * copies of identical files (another output's of the render, the previous frame's), left as they
+ * were (they held the images already). */
+void stream_last_files(int *written, int *copied, int *kept);
 /* Output 0's image (NULL unless kept) and its colour space; owned by the stream. */
 const WgImage *stream_first(const Stream *s, WgColorspace *cs);
 /* The per-node table (stderr) or JSON (stdout) of one render. */

@@ -1358,21 +1358,37 @@ int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t
     return stage_end(s, stage_fd_done(fd, fill, path, "file", err), err);
 }
 
-int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, int k, WgError *err)
+/* Stage path with the bytes of the file `source`. */
+static int stage_copy(WgWriteSet *s, const char *path, const char *source, WgError *err)
 {
-    if (k < 0 || k >= from->count)
-        return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0, "no staged file %d to copy", k);
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
-    int in = open(from->files[k].temp, O_RDONLY | O_CLOEXEC);
-    int out = in < 0 ? -1 : open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
+    int in = open(source, O_RDONLY | O_CLOEXEC);
+    if (in < 0) {
+        rc = wg_error_set_at(err, WG_ERR_IO, path, 0, 0, "cannot read %s to copy it: %s", source,
+                             strerror(errno));
+        return stage_end(s, rc, err);
+    }
+    int out = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0666);
     int fill = out >= 0 ? copy_fd(in, out) : -1, e = errno;
-    if (in >= 0) close(in);
+    close(in);
     errno = e;
     /* worded as an encoder's failure: the file is an image's, written another way */
     rc = stage_fd_done(out, fill, path, "image", err);
     return stage_end(s, rc, err);
+}
+
+int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, int k, WgError *err)
+{
+    if (k < 0 || k >= from->count)
+        return wg_error_set_at(err, WG_ERR_USAGE, path, 0, 0, "no staged file %d to copy", k);
+    return stage_copy(s, path, from->files[k].temp, err);
+}
+
+int wg_write_set_copy_file(WgWriteSet *s, const char *path, const char *source, WgError *err)
+{
+    return stage_copy(s, path, source, err);
 }
 
 int wg_write_set_image_png_on(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* `wetgraph render --frames`: file names, each frame equal to a single render at its $time,
- * nodes that do not depend on $time computed once for the sequence (from --stats=json), what
+ * nodes that do not depend on $time computed once for the sequence (from --stats=json) and
+ * outputs that do not either encoded once (later frames' files are copies), what
  * the engine holds between frames not growing with their number, the
  * contact sheet's layout and pixels, layered EXR names, and usage errors. Runs WETGRAPH_BIN. */
 #include "wgtest.h"
@@ -135,6 +136,28 @@ static void test_untimed_nodes_run_once(void **state)
     free(json);
 }
 
+/* An output that does not change with $time is encoded once: each later frame's file is a copy
+ * of the frame before's, byte for byte, and counted as copied; the timed output is encoded
+ * every frame. A second run over the same files keeps every one of them. */
+static void test_unchanged_outputs_copied(void **state)
+{
+    (void)state;
+    static const char *const runs[] = {"\"files\": {\"written\": 5, \"copied\": 3, \"kept\": 0}",
+                                       "\"files\": {\"written\": 0, \"copied\": 0, \"kept\": 8}"};
+    for (int r = 0; r < 2; r++) {
+        assert_int_equal(run("render anim.wetgraph --frames 0:3 -o cp -q --stats=json"), 0);
+        char *json = wgt_read_file(path("out"), NULL);
+        assert_non_null(json);
+        if (!strstr(json, runs[r])) fail_msg("run %d: no %s in:\n%s", r + 1, runs[r], json);
+        free(json);
+    }
+    for (int k = 1; k <= 3; k++) {
+        char name[64];
+        snprintf(name, sizeof name, "cp/anim_dist_%04d.exr", k);
+        assert_true(wgt_same_file(path("cp/anim_dist_0000.exr"), path(name)));
+    }
+}
+
 /* "held_bytes" of a --stats=json report */
 static long long held_bytes(const char *json)
 {
@@ -239,6 +262,7 @@ int main(void)
         cmocka_unit_test(test_frames_match_single_renders),
         cmocka_unit_test(test_time_offset_and_numbering),
         cmocka_unit_test(test_untimed_nodes_run_once),
+        cmocka_unit_test(test_unchanged_outputs_copied),
         cmocka_unit_test(test_memory_does_not_grow_with_frames),
         cmocka_unit_test(test_contact_sheet),
         cmocka_unit_test(test_layered_frames),

@@ -846,6 +846,43 @@ static void test_write_set_copy(void **state)
     wg_write_set_free(from);
 }
 
+/* A file in place copied into a set: the same bytes once committed, the source untouched; a
+ * source that does not exist is an error naming the target and the source that stages
+ * nothing. */
+static void test_write_set_copy_file(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("setcopyfile");
+    char a[1100], b[1100], c[1100], gone[1100];
+    snprintf(a, sizeof a, "%s/a.bin", dir);
+    snprintf(b, sizeof b, "%s/b.bin", dir);
+    snprintf(c, sizeof c, "%s/c.bin", dir);
+    snprintf(gone, sizeof gone, "%s/gone.bin", dir);
+    static unsigned char bytes[200000];
+    for (size_t i = 0; i < sizeof bytes; i++) bytes[i] = (unsigned char)(i * 13 + (i >> 7));
+    WgError err = {0};
+    WgWriteSet *set = wg_write_set_new();
+    assert_int_equal(wg_write_set_bytes(set, a, bytes, sizeof bytes, &err), WG_OK);
+    assert_int_equal(wg_write_set_commit(set, &err), WG_OK);
+    assert_int_equal(wg_write_set_copy_file(set, b, a, &err), WG_OK);
+    assert_int_equal(wg_write_set_copy_file(set, c, gone, &err), WG_ERR_IO);
+    assert_string_equal(err.file, c);
+    assert_non_null(strstr(err.message, "cannot read"));
+    assert_non_null(strstr(err.message, "gone.bin"));
+    char names[4][256];
+    assert_int_equal(temps_in(dir, names, 4), 1); /* b's */
+    assert_int_equal(wg_write_set_commit(set, &err), WG_OK);
+    assert_true(wgt_same_file(a, b));
+    size_t n;
+    char *got = wgt_read_file(a, &n);
+    assert_int_equal(n, sizeof bytes);
+    assert_memory_equal(got, bytes, n);
+    free(got);
+    assert_int_equal(access(c, F_OK), -1);
+    assert_int_equal(temps_in(dir, names, 4), 0);
+    wg_write_set_free(set);
+}
+
 static void test_write_set_replaces_all_or_reports_which(void **state)
 {
     (void)state;
@@ -2024,6 +2061,7 @@ int main(void)
         cmocka_unit_test(test_stale_temporaries_by_host),
         cmocka_unit_test(test_write_set_replaces_all_or_reports_which),
         cmocka_unit_test(test_write_set_copy),
+        cmocka_unit_test(test_write_set_copy_file),
         cmocka_unit_test(test_layered_exr_channels_and_values),
         cmocka_unit_test(test_layered_exr_rejects_bad_layers),
         cmocka_unit_test(test_non_finite_values_are_rejected),

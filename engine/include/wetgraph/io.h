@@ -157,6 +157,9 @@ int wg_write_set_move(WgWriteSet *into, WgWriteSet *from, WgError *err);
 /* Stage the file `path` with the bytes of the k-th file staged in `from` (0 the first): an
  * image the same as one already staged is copied instead of encoded again. */
 int wg_write_set_copy(WgWriteSet *s, const char *path, const WgWriteSet *from, int k, WgError *err);
+/* Stage the file `path` with the bytes of the file `source` (a file in place, such as the
+ * previous frame's of a sequence whose output did not change). */
+int wg_write_set_copy_file(WgWriteSet *s, const char *path, const char *source, WgError *err);
 /* Stage `size` bytes of `data` as the file `path`. */
 int wg_write_set_bytes(WgWriteSet *s, const char *path, const void *data, size_t size,
                        WgError *err);
