@@ -1186,6 +1186,7 @@ static int encode_to_file(const char *path, const WgImage *img, WgFormat format,
 
 typedef struct {
     char *path, *temp;
+    WgFlush *flush; /* its flush to the disk, until the commit has waited for it (NULL: none) */
 } Staged;
 
 struct WgWriteSet {
@@ -1221,7 +1222,7 @@ static int stage_begin(WgWriteSet *s, const char *path, char **temp, WgError *er
         wg_free(*temp);
         return wg_error_set(err, WG_ERR_NOMEM, NULL, "out of memory");
     }
-    s->files[s->count] = (Staged){copy, *temp};
+    s->files[s->count] = (Staged){copy, *temp, NULL};
     return WG_OK;
 }
 
@@ -1237,11 +1238,12 @@ static int sync_temp(const char *temp, const char *path, WgError *err)
     return rc;
 }
 
-/* The temporary is written (rc says how): flush it to the disk and keep it, or remove it. */
+/* The temporary is written (rc says how): keep it, its flush to the disk handed to the flusher
+ * thread (or done here when it cannot be), or remove it. */
 static int stage_end(WgWriteSet *s, int rc, WgError *err)
 {
     Staged *f = &s->files[s->count];
-    if (!rc) rc = sync_temp(f->temp, f->path, err);
+    if (!rc && !(f->flush = wg__flush_start(f->temp))) rc = sync_temp(f->temp, f->path, err);
     if (rc) {
         unlink(f->temp);
         wg_free(f->path);
@@ -1603,6 +1605,7 @@ static void sync_folders(const WgWriteSet *s, int n)
 static void forget(WgWriteSet *s, int from)
 {
     for (int i = 0; i < s->count; i++) {
+        wg__flush_drop(s->files[i].flush);
         if (i >= from) unlink(s->files[i].temp);
         wg_free(s->files[i].path);
         wg_free(s->files[i].temp);
@@ -1610,8 +1613,31 @@ static void forget(WgWriteSet *s, int from)
     s->count = 0;
 }
 
+/* Every temporary on the disk before any is renamed; on a failure none is. */
+static int wait_flushes(WgWriteSet *s, WgError *err)
+{
+    int rc = WG_OK;
+    for (int i = 0; i < s->count; i++) {
+        Staged *f = &s->files[i];
+        if (!f->flush) continue;
+        int e = wg__flush_wait(f->flush);
+        f->flush = NULL;
+        if (e < 0 && !rc)
+            rc = sync_temp(f->temp, f->path, err);
+        else if (e > 0 && !rc)
+            rc = wg_error_set_at(err, WG_ERR_IO, f->path, 0, 0,
+                                 "cannot write the file: %s; no file was replaced", strerror(e));
+    }
+    return rc;
+}
+
 int wg_write_set_commit(WgWriteSet *s, WgError *err)
 {
+    int flushed = wait_flushes(s, err);
+    if (flushed) {
+        forget(s, 0);
+        return flushed;
+    }
     /* a folder in a target's place would make its rename fail after others succeeded */
     for (int i = 0; i < s->count; i++) {
         struct stat st;

@@ -34,6 +34,19 @@ uint32_t wg__temp_host(void);
 /* wg_remove_stale_temporaries removes another machine's temporaries (and those without a host
  * id) only when they have not been modified for this many seconds. */
 #define WG_TEMP_FOREIGN_AGE (24 * 60 * 60)
+/* Flushing a staged temporary to the disk on the process's flusher thread (flush.c), so that
+ * the thread that wrote it goes on: NULL when it cannot be handed over (flush it yourself). */
+typedef struct WgFlush WgFlush;
+WgFlush *wg__flush_start(const char *temp);
+/* Waits for the flush and frees it: 0, the errno of a failed fsync, or -1 when it was handed
+ * back unflushed (in a child made by fork meanwhile): flush it yourself. */
+int wg__flush_wait(WgFlush *f);
+/* The flush is no longer wanted (its temporary is being removed); NULL is ignored. */
+void wg__flush_drop(WgFlush *f);
+/* How many temporaries the flusher thread has flushed in this process. */
+long wg__flush_count(void);
+/* For tests: the flusher thread holds every flush while paused. */
+void wg__flush_pause(bool on);
 /* xxh3 of a whole file's content; false when it cannot be read. */
 bool wg__hash_file(const char *path, uint64_t out[2]);
 

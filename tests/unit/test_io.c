@@ -14,6 +14,8 @@
 #include <errno.h>
 #include <math.h>
 #include <openexr.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -881,6 +883,120 @@ static void test_write_set_copy_file(void **state)
     assert_int_equal(access(c, F_OK), -1);
     assert_int_equal(temps_in(dir, names, 4), 0);
     wg_write_set_free(set);
+}
+
+/* Three files of `bytes` (seeded by k) staged in a new set in dir as f0.bin .. f2.bin. */
+static WgWriteSet *stage_three(const char *dir, int k, char path[3][1100])
+{
+    WgWriteSet *s = wg_write_set_new();
+    assert_non_null(s);
+    for (int i = 0; i < 3; i++) {
+        unsigned char bytes[4096];
+        for (size_t j = 0; j < sizeof bytes; j++) bytes[j] = (unsigned char)(j * 31 + i + 7 * k);
+        snprintf(path[i], 1100, "%s/f%d.bin", dir, i);
+        WgError err = {0};
+        assert_int_equal(wg_write_set_bytes(s, path[i], bytes, sizeof bytes, &err), WG_OK);
+    }
+    return s;
+}
+
+/* Does the file hold what stage_three(k) staged for it? */
+static bool holds_stage(const char *path, int i, int k)
+{
+    size_t n = 0;
+    unsigned char *got = (unsigned char *)wgt_read_file(path, &n);
+    bool same = n == 4096;
+    for (size_t j = 0; same && j < n; j++) same = got[j] == (unsigned char)(j * 31 + i + 7 * k);
+    free(got);
+    return same;
+}
+
+typedef struct {
+    WgWriteSet *set;
+    int rc;
+    atomic_bool returned;
+} CommitJob;
+
+static void *commit_thread(void *arg)
+{
+    CommitJob *j = arg;
+    WgError err = {0};
+    j->rc = wg_write_set_commit(j->set, &err);
+    atomic_store(&j->returned, true);
+    return NULL;
+}
+
+/* Staged temporaries are flushed to the disk on the flusher thread, and a commit renames
+ * nothing before every one of its flushes is done: while the flusher is held, the commit waits
+ * and the targets keep their old bytes; released, the three are flushed there and renamed. A
+ * set freed uncommitted has its flushes dropped: removed, never flushed. */
+static void test_write_set_flushes_on_a_thread(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("flush");
+    char path[3][1100];
+    WgWriteSet *s = stage_three(dir, 0, path);
+    WgError err = {0};
+    assert_int_equal(wg_write_set_commit(s, &err), WG_OK);
+    wg_write_set_free(s);
+
+    wg__flush_pause(true);
+    long before = wg__flush_count();
+    CommitJob j = {stage_three(dir, 1, path), -1};
+    atomic_init(&j.returned, false);
+    pthread_t t;
+    assert_int_equal(pthread_create(&t, NULL, commit_thread, &j), 0);
+    struct timespec wait = {0, 100 * 1000 * 1000};
+    nanosleep(&wait, NULL);
+    bool early = atomic_load(&j.returned);
+    for (int i = 0; i < 3; i++) assert_true(holds_stage(path[i], i, 0));
+    wg__flush_pause(false);
+    assert_int_equal(pthread_join(t, NULL), 0);
+    assert_false(early);
+    assert_int_equal(j.rc, WG_OK);
+    assert_int_equal(wg__flush_count() - before, 3);
+    for (int i = 0; i < 3; i++) assert_true(holds_stage(path[i], i, 1));
+    wg_write_set_free(j.set);
+
+    wg__flush_pause(true);
+    before = wg__flush_count();
+    s = stage_three(dir, 2, path);
+    wg_write_set_free(s);
+    wg__flush_pause(false);
+    char names[4][256];
+    assert_int_equal(temps_in(dir, names, 4), 0);
+    s = stage_three(dir, 3, path); /* flushed after the dropped ones: they are settled by then */
+    assert_int_equal(wg_write_set_commit(s, &err), WG_OK);
+    wg_write_set_free(s);
+    assert_int_equal(wg__flush_count() - before, 3);
+    for (int i = 0; i < 3; i++) assert_true(holds_stage(path[i], i, 3));
+}
+
+/* A child made by fork while its parent's flushes wait has no flusher thread: they come back
+ * to it unflushed and its commit flushes them itself, instead of waiting forever. */
+static void test_write_set_commit_after_fork(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("flushfork");
+    char path[3][1100];
+    wg__flush_pause(true);
+    WgWriteSet *s = stage_three(dir, 4, path);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        alarm(20); /* a commit waiting forever fails the test */
+        WgError err = {0};
+        _exit(wg_write_set_commit(s, &err) == WG_OK ? 0 : 1);
+    }
+    int status = 0;
+    assert_int_equal(waitpid(pid, &status, 0), pid);
+    wg__flush_pause(false);
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+    for (int i = 0; i < 3; i++) assert_true(holds_stage(path[i], i, 4));
+    wg_write_set_free(s); /* the parent's temporaries are the renamed files: nothing left */
+    char names[4][256];
+    assert_int_equal(temps_in(dir, names, 4), 0);
 }
 
 static void test_write_set_replaces_all_or_reports_which(void **state)
@@ -2062,6 +2178,8 @@ int main(void)
         cmocka_unit_test(test_write_set_replaces_all_or_reports_which),
         cmocka_unit_test(test_write_set_copy),
         cmocka_unit_test(test_write_set_copy_file),
+        cmocka_unit_test(test_write_set_flushes_on_a_thread),
+        cmocka_unit_test(test_write_set_commit_after_fork),
         cmocka_unit_test(test_layered_exr_channels_and_values),
         cmocka_unit_test(test_layered_exr_rejects_bad_layers),
         cmocka_unit_test(test_non_finite_values_are_rejected),
