@@ -6,8 +6,10 @@
  * renamed file is still complete on the disk first.
  *
  * One thread for the process, started on first use, takes the temporaries in the order they
- * come. A child process made by fork has no such thread: what was handed over and not flushed
- * when it forked comes back to the child as not flushed, for its writer to flush itself. */
+ * come. Each waits there with its file open, so at most WG_FLUSH_QUEUE_MAX wait at once: beyond,
+ * the writer flushes its file itself (a set of thousands of files must not run the process out
+ * of descriptors). A child process made by fork has no such thread: what was handed over and not
+ * flushed when it forked comes back to the child as not flushed, for its writer to flush itself. */
 #include "wgio.h"
 
 #include "wetgraph/image.h"
@@ -30,6 +32,7 @@ struct WgFlush {
 static pthread_mutex_t mu = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t work = PTHREAD_COND_INITIALIZER, finished = PTHREAD_COND_INITIALIZER;
 static WgFlush *head, *tail, *current; /* the queue, and the one being flushed */
+static int queued;                     /* in the queue: each holds its temporary open */
 static bool running, atfork_set, paused;
 static atomic_long flushed; /* temporaries the thread flushed, for tests */
 
@@ -59,6 +62,7 @@ static void *flusher(void *arg)
         WgFlush *f = current = head;
         head = f->next;
         if (!head) tail = NULL;
+        queued--;
         bool wanted = !f->dropped;
         pthread_mutex_unlock(&mu);
         int error = 0;
@@ -95,6 +99,7 @@ static void after_fork_child(void)
         finish(f, -1);
     }
     head = tail = current = NULL;
+    queued = 0;
     running = false;
     pthread_mutex_unlock(&mu);
 }
@@ -125,8 +130,9 @@ WgFlush *wg__flush_start(const char *temp)
         return NULL;
     }
     pthread_mutex_lock(&mu);
-    bool ok = start_locked();
+    bool ok = queued < WG_FLUSH_QUEUE_MAX && start_locked();
     if (ok) {
+        queued++;
         if (tail)
             tail->next = f;
         else

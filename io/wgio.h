@@ -35,8 +35,10 @@ uint32_t wg__temp_host(void);
  * id) only when they have not been modified for this many seconds. */
 #define WG_TEMP_FOREIGN_AGE (24 * 60 * 60)
 /* Flushing a staged temporary to the disk on the process's flusher thread (flush.c), so that
- * the thread that wrote it goes on: NULL when it cannot be handed over (flush it yourself). */
+ * the thread that wrote it goes on: NULL when it cannot be handed over (the queue is full, or
+ * out of memory or descriptors): flush it yourself. */
 typedef struct WgFlush WgFlush;
+#define WG_FLUSH_QUEUE_MAX 64 /* flushes waiting at most (each holds its file open) */
 WgFlush *wg__flush_start(const char *temp);
 /* Waits for the flush and frees it: 0, the errno of a failed fsync, or -1 when it was handed
  * back unflushed (in a child made by fork meanwhile): flush it yourself. */

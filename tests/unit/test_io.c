@@ -972,6 +972,35 @@ static void test_write_set_flushes_on_a_thread(void **state)
     for (int i = 0; i < 3; i++) assert_true(holds_stage(path[i], i, 3));
 }
 
+/* At most WG_FLUSH_QUEUE_MAX flushes wait, each with its file open: while the flusher is held,
+ * the files staged beyond are flushed by their writer, and all are in place after the commit. */
+static void test_write_set_flush_queue_is_bounded(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("flushmax");
+    enum { N = WG_FLUSH_QUEUE_MAX + 6 };
+    static char paths[N][1100];
+    wg__flush_pause(true);
+    long before = wg__flush_count();
+    WgWriteSet *s = wg_write_set_new();
+    WgError err = {0};
+    for (int i = 0; i < N; i++) {
+        snprintf(paths[i], sizeof paths[i], "%s/f%03d.bin", dir, i);
+        assert_int_equal(wg_write_set_bytes(s, paths[i], &i, sizeof i, &err), WG_OK);
+    }
+    wg__flush_pause(false);
+    assert_int_equal(wg_write_set_commit(s, &err), WG_OK);
+    wg_write_set_free(s);
+    assert_int_equal(wg__flush_count() - before, WG_FLUSH_QUEUE_MAX);
+    for (int i = 0; i < N; i++) {
+        size_t n = 0;
+        char *got = wgt_read_file(paths[i], &n);
+        assert_int_equal(n, sizeof i);
+        assert_memory_equal(got, &i, sizeof i);
+        free(got);
+    }
+}
+
 /* A child made by fork while its parent's flushes wait has no flusher thread: they come back
  * to it unflushed and its commit flushes them itself, instead of waiting forever. */
 static void test_write_set_commit_after_fork(void **state)
@@ -2179,6 +2208,7 @@ int main(void)
         cmocka_unit_test(test_write_set_copy),
         cmocka_unit_test(test_write_set_copy_file),
         cmocka_unit_test(test_write_set_flushes_on_a_thread),
+        cmocka_unit_test(test_write_set_flush_queue_is_bounded),
         cmocka_unit_test(test_write_set_commit_after_fork),
         cmocka_unit_test(test_layered_exr_channels_and_values),
         cmocka_unit_test(test_layered_exr_rejects_bad_layers),
