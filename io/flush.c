@@ -70,11 +70,16 @@ static void *flusher(void *arg)
             if (fsync(f->fd) != 0) error = errno;
             atomic_fetch_add(&flushed, 1);
         }
-        close(f->fd);
-        f->fd = -1;
+        /* the descriptor leaves the record under the lock, so that a fork never copies a record
+         * naming a descriptor already closed (its number could be another file's by then) */
         pthread_mutex_lock(&mu);
+        int fd = f->fd;
+        f->fd = -1;
         current = NULL;
         finish(f, error);
+        pthread_mutex_unlock(&mu);
+        close(fd);
+        pthread_mutex_lock(&mu);
     }
     return NULL;
 }
@@ -100,7 +105,7 @@ static void after_fork_child(void)
     }
     head = tail = current = NULL;
     queued = 0;
-    running = false;
+    running = paused = false;
     pthread_mutex_unlock(&mu);
 }
 
