@@ -321,6 +321,54 @@ static void test_srgb_png_round_trips_every_code(void **state)
     wg_image_unref(img);
 }
 
+/* Opaque colour images are written as RGB (four pixels at a time where the processor allows),
+ * others as RGBA whichever pixel has the alpha that is not 1: every width from 1 to 20 and a few
+ * across the packing's stretches of 256 pixels, linear and sRGB, each code read back. */
+static void test_rgb_codes_at_every_width(void **state)
+{
+    (void)state;
+    int widths[27];
+    for (int k = 0; k < 20; k++) widths[k] = k + 1;
+    int wide[] = {255, 256, 257, 259, 300, 513, 517};
+    memcpy(widths + 20, wide, sizeof wide);
+    for (int wi = 0; wi < 27; wi++) {
+        int w = widths[wi];
+        for (int transparent = -1; transparent < 3; transparent++) {
+            /* -1: opaque; else the pixel of row 2 whose alpha is 0.5: first, middle, last */
+            int tx = transparent == 0 ? 0 : transparent == 1 ? w / 2 : w - 1;
+            WgImage *img = wgt_image(w, 3, 4, NULL);
+            for (int y = 0; y < 3; y++)
+                for (int x = 0; x < w; x++) {
+                    float *p = wg_image_row(img, y) + 4 * x;
+                    for (int c = 0; c < 3; c++)
+                        p[c] = (float)((x * 7 + y * 31 + c * 85) % 256) / 255.0f;
+                    p[3] = transparent >= 0 && y == 2 && x == tx ? 0.5f : 1.0f;
+                }
+            for (int srgb = 0; srgb < 2; srgb++) {
+                WgColorspace cs = srgb ? WG_SRGB : WG_LINEAR;
+                const char *path = wgt_path("rgb_width.png");
+                write_ok(path, img, WG_FORMAT_PNG, cs);
+                assert_int_equal(probe_channels(path), transparent < 0 ? 3 : 4);
+                WgImage *back = read_ok(path, 4, cs);
+                for (int y = 0; y < 3; y++)
+                    for (int x = 0; x < w; x++)
+                        for (int c = 0; c < 4; c++) {
+                            bool colour = c < 3;
+                            int want = wg_quantize8(wgt_px(img, x, y, c), srgb && colour);
+                            int got = wg_quantize8(wgt_px(back, x, y, c), srgb && colour);
+                            if (got != want)
+                                fail_msg("width %d, %s, alpha at %d: pixel (%d, %d) channel %d is "
+                                         "%d, expected %d",
+                                         w, srgb ? "sRGB" : "linear", transparent, x, y, c, got,
+                                         want);
+                        }
+                wg_image_unref(back);
+            }
+            wg_image_unref(img);
+        }
+    }
+}
+
 /* sRGB decoding of integer files uses a table; it must give exactly the formula's result on the
  * value read, for every 16-bit code (and so every 8-bit one), and the formula elsewhere. */
 static void test_srgb_decode_table_is_exact(void **state)
@@ -2182,6 +2230,7 @@ int main(void)
         cmocka_unit_test(test_png16_round_trip_is_exact),
         cmocka_unit_test(test_linear_codes_at_every_boundary),
         cmocka_unit_test(test_png8_rounds_to_nearest_and_clamps),
+        cmocka_unit_test(test_rgb_codes_at_every_width),
         cmocka_unit_test(test_png16_clamps_and_rounds),
         cmocka_unit_test(test_tif16_round_trip_is_exact),
         cmocka_unit_test(test_tif16_keeps_alpha_unassociated),
