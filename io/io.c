@@ -909,31 +909,45 @@ static void file_layout(const WgImage *img, WgFormat format, const WgWorkers *wo
                                                                                            : 16;
 }
 
-/* The linear packing loops come in two kinds, with the same codes: in float with FMA where the
- * processor has it (x86-64-v3 on x86, chosen at run time), else in double. FMA_LOOPS compiles a
- * function for FMA; HAS_FMA says whether the processor runs it. */
+/* The linear packing loops come in three kinds, with the same codes: in float with FMA, 16
+ * samples to an instruction where the processor has AVX-512 (x86-64-v4 on x86) or 8 where it has
+ * AVX2 (x86-64-v3), chosen at run time, else in double. FMA_LOOPS and WIDE_LOOPS compile a
+ * function for those; HAS_FMA and HAS_WIDE say whether the processor runs it. */
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
 #define FMA_LOOPS __attribute__((target("arch=x86-64-v3")))
+#define WIDE_LOOPS __attribute__((target("arch=x86-64-v4")))
 #define HAS_FMA (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+#define HAS_WIDE __builtin_cpu_supports("x86-64-v4")
 #elif defined(__FMA__) || defined(__ARM_FEATURE_FMA)
 #define FMA_LOOPS
+#define WIDE_LOOPS
 #define HAS_FMA 1
+#define HAS_WIDE 0
 #else
 #define FMA_LOOPS
+#define WIDE_LOOPS
 #define HAS_FMA 0
+#define HAS_WIDE 0
 #endif
 
-static _Atomic int pack_fma = -1; /* -1: not decided yet */
+static _Atomic int pack_way = -1; /* WG_PACK_*; -1: not decided yet */
 
-void wg__pack_with_fma(bool on)
+static int best_pack_way(void)
 {
-    pack_fma = on && HAS_FMA;
+    return HAS_WIDE ? WG_PACK_WIDE : HAS_FMA ? WG_PACK_FMA : WG_PACK_DOUBLE;
 }
 
-static bool packs_with_fma(void)
+int wg__pack_loops(int way)
 {
-    int v = pack_fma;
-    if (v < 0) pack_fma = v = HAS_FMA;
+    int best = best_pack_way();
+    pack_way = way < 0 || way > best ? best : way;
+    return pack_way;
+}
+
+static int pack_loops(void)
+{
+    int v = pack_way;
+    if (v < 0) pack_way = v = best_pack_way();
     return v;
 }
 
@@ -982,6 +996,16 @@ FMA_LOOPS static void pack8_fma(const float *restrict r, uint8_t *restrict o, si
     for (size_t j = 0; j < n; j++) o[j] = (uint8_t)linear_code(r[j], 255.0f);
 }
 
+WIDE_LOOPS static void pack16_wide(const float *restrict r, uint16_t *restrict o, size_t n)
+{
+    for (size_t j = 0; j < n; j++) o[j] = (uint16_t)linear_code(r[j], 65535.0f);
+}
+
+WIDE_LOOPS static void pack8_wide(const float *restrict r, uint8_t *restrict o, size_t n)
+{
+    for (size_t j = 0; j < n; j++) o[j] = (uint8_t)linear_code(r[j], 255.0f);
+}
+
 HOT static void pack16_double(const float *restrict r, uint16_t *restrict o, size_t n)
 {
     for (size_t j = 0; j < n; j++) o[j] = (uint16_t)linear_code_double(r[j], 65535.0);
@@ -995,7 +1019,10 @@ HOT static void pack8_double(const float *restrict r, uint8_t *restrict o, size_
 /* n linear samples to 16-bit codes with quantize()'s rounding. */
 static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t n)
 {
-    if (packs_with_fma())
+    int way = pack_loops();
+    if (way == WG_PACK_WIDE)
+        pack16_wide(r, o, n);
+    else if (way == WG_PACK_FMA)
         pack16_fma(r, o, n);
     else
         pack16_double(r, o, n);
@@ -1004,7 +1031,10 @@ static void pack16_linear(const float *restrict r, uint16_t *restrict o, size_t 
 /* n linear samples to 8-bit codes (quantize8_linear's). */
 static void pack8_linear(const float *restrict r, uint8_t *restrict o, size_t n)
 {
-    if (packs_with_fma())
+    int way = pack_loops();
+    if (way == WG_PACK_WIDE)
+        pack8_wide(r, o, n);
+    else if (way == WG_PACK_FMA)
         pack8_fma(r, o, n);
     else
         pack8_double(r, o, n);

@@ -20,9 +20,11 @@ extern "C" {
 /* ---- for the engine: temporaries and file hashes (io.c) -------------------------------- */
 
 /* Temporary path beside `path` for an atomic write, keeping the extension; caller frees. */
-/* Whether linear samples are packed with FMA where the processor has it (the default) or in
- * double: the same codes either way; for tests of both. */
-void wg__pack_with_fma(bool on);
+/* The loops that pack linear samples to codes, the same codes each way (for tests of each):
+ * WG_PACK_WIDE (AVX-512 with FMA), WG_PACK_FMA (AVX2 with FMA) or WG_PACK_DOUBLE; a way the
+ * processor lacks, or -1, gives the best it has (the default). Returns the way now used. */
+enum { WG_PACK_DOUBLE, WG_PACK_FMA, WG_PACK_WIDE };
+int wg__pack_loops(int way);
 char *wg__temp_path_for(const char *path);
 /* The process id in a file name (no folder) made by wg__temp_path_for, or 0 when the name does
  * not have exactly that form; with host: the writer's host id there (wg__temp_host), or -1 for

@@ -2167,13 +2167,14 @@ static void test_png8_holds_quantize8_codes(void **state)
 /* Linear 16- and 8-bit files hold floor(clamp(v, 0, 1) * max + 0.5) of every sample, computed
  * here in double: the floats within 6 ulps of every place a code changes, (k + 1/2) / max for
  * every k, and the special values; gray and colour rows, whose packing loops are vectorised;
- * packed with FMA (where the processor has it) and in double. */
+ * packed by each of the loops the processor runs: AVX-512, AVX2 (both with FMA), double. */
 static void test_linear_codes_at_every_boundary(void **state)
 {
     (void)state;
-    for (int way = 0; way < 4; way++) {
-        int bits = way % 2 ? 16 : 8;
-        wg__pack_with_fma(way < 2);
+    static const char *const loop_names[] = {"double", "FMA", "AVX-512"};
+    for (int way = 0; way < 6; way++) {
+        int bits = way % 2 ? 16 : 8, loops = way / 2;
+        if (wg__pack_loops(loops) != loops) continue; /* not on this processor */
         double max = bits == 8 ? 255.0 : 65535.0;
         int n_codes = (int)max;
         long n = (long)n_codes * 13 + 16;
@@ -2214,14 +2215,14 @@ static void test_linear_codes_at_every_boundary(void **state)
                     if (got != want)
                         fail_msg("%d bits (%s), %d channels: sample %d of row %d holds %ld for "
                                  "%a, not %ld",
-                                 bits, way < 2 ? "FMA" : "double", ch, x, y, got, v, want);
+                                 bits, loop_names[loops], ch, x, y, got, v, want);
                 }
             wg_image_unref(back);
             wg_image_unref(img);
         }
         free(values);
     }
-    wg__pack_with_fma(true);
+    wg__pack_loops(-1);
 }
 
 int main(void)
