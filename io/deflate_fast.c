@@ -573,8 +573,12 @@ WIDE static size_t wide_literals(const WgDeflateCode *c, const unsigned char *in
         uint64_t next =
             _mm256_cmpeq_epi8_mask(_mm256_loadu_si256((const void *)(in + i + WIDE_BYTES)),
                                    _mm256_loadu_si256((const void *)(in + i + WIDE_BYTES - dist)));
-        uint64_t run = eq; /* positions whose 8 bytes from there all equal those before */
-        for (int k = 1; k < 8; k++) run &= eq >> k | next << (32 - k);
+        /* positions whose 8 bytes from there all equal those before: where 8 ones in a row of
+         * the 64 comparisons start (2 in a row, then 4, then 8) */
+        uint64_t run = eq | next << 32;
+        run &= run >> 1;
+        run &= run >> 2;
+        run &= run >> 4;
         run &= 0xffffffffu;
         /* the literals before the first run, all 32 when there is none */
         unsigned take = run ? (unsigned)__builtin_ctzll(run) : WIDE_BYTES;
@@ -588,9 +592,19 @@ WIDE static size_t wide_literals(const WgDeflateCode *c, const unsigned char *in
                                        _mm512_slli_epi16(_mm512_cvtepu8_epi16(hi), 8));
         uint64_t codes[8], lens[8];
         wide_fours(code, _mm512_cvtepu8_epi16(len), codes, lens);
-        for (int q = 0; q < 8; q++) {
-            put(&b, codes[q], (unsigned)lens[q]);
-            flush(&b);
+        /* two fours in one put when they fit beside the 7 bits the buffer may hold (flush
+         * takes at most 63 bits) */
+        for (int q = 0; q < 8; q += 2) {
+            unsigned l0 = (unsigned)lens[q], l1 = (unsigned)lens[q + 1];
+            if (l0 + l1 <= 56) {
+                put(&b, codes[q] | codes[q + 1] << l0, l0 + l1);
+                flush(&b);
+            } else {
+                put(&b, codes[q], l0);
+                flush(&b);
+                put(&b, codes[q + 1], l1);
+                flush(&b);
+            }
         }
         i += take;
         blocks++;
