@@ -153,8 +153,9 @@ typedef struct {
     unsigned char *at; /* 8 bytes writable past the end of the bits */
 } Bits;
 
-/* bits must fit: n + k <= 64. Every put is followed by a flush, which leaves at most 7 bits,
- * and no put is longer than 36 bits (a match). */
+/* bits must fit: n + k <= 63 (flush shifts the buffer by whole bytes below 64). Every put is
+ * followed by a flush, which leaves at most 7 bits, and no put is longer than 56 bits (four
+ * literals, or two fours that fit). */
 static inline void put(Bits *b, uint64_t v, unsigned k)
 {
     b->buf |= v << b->n;
