@@ -9,7 +9,7 @@
  * lengthening the longest shorter code) to 14 bits for literals and lengths, so that four
  * literals always fit the 64-bit bit buffer in one put (on the wet material's outputs the files
  * are 0.3% larger than with deflate's 15), and 15 for distances. Literals go four to a write,
- * and where the processor has AVX-512 with VBMI, the literals between runs go
+ * and where the processor has AVX-512 with VBMI, the literals and the runs between them go
  * through the wide coder below, with the same bits. One pass counts, one pass codes; when the
  * block would not be smaller than stored blocks (known from the count, and checked while coding)
  * the input goes in stored blocks instead, so the output never exceeds wg__zlib_fast_bound. A
@@ -552,10 +552,11 @@ WIDE static inline void wide_fours(__m512i code, __m512i len, uint64_t *codes, u
     _mm512_storeu_si512(lens, len);
 }
 
-/* From i, blocks of literals up to the first position where a run can start, while the bits
- * stay below `stop` and 2 x WIDE_BYTES bytes are left (the look past the block): returns where it
- * stopped. Codes of at most LIT_BITS bits (a four fits the bit buffer beside the 7 bits it may
- * hold). */
+/* From i, blocks of literals and the runs between them, as the scalar parse finds and codes
+ * them, while the bits stay below `stop` and 2 x WIDE_BYTES bytes are left (the look past the
+ * block): returns where it stopped, which is where a run starts when that run's matches might
+ * pass `stop` (the scalar parse codes it, and sees the limit). Codes of at most LIT_BITS bits (a
+ * four fits the bit buffer beside the 7 bits it may hold). */
 WIDE static size_t wide_literals(const WgDeflateCode *c, const unsigned char *in, size_t i,
                                  size_t n, size_t dist, Bits *bits, const unsigned char *stop)
 {
@@ -583,7 +584,7 @@ WIDE static size_t wide_literals(const WgDeflateCode *c, const unsigned char *in
         run &= 0xffffffffu;
         /* the literals before the first run, all 32 when there is none */
         unsigned take = run ? (unsigned)__builtin_ctzll(run) : WIDE_BYTES;
-        if (!take) break;
+        if (!take) goto run;
         __mmask32 keep = (__mmask32)((1ull << take) - 1);
         __m512i x = _mm512_zextsi256_si512(x32);
         __m256i lo = _mm256_maskz_mov_epi8(keep, _mm512_castsi512_si256(wide_lookup(tlo, x)));
@@ -609,7 +610,21 @@ WIDE static size_t wide_literals(const WgDeflateCode *c, const unsigned char *in
         }
         i += take;
         blocks++;
-        if (take < WIDE_BYTES) break; /* a run starts here: the scalar parse codes it */
+        if (take == WIDE_BYTES || i + 2 * WIDE_BYTES > n || b.at > stop) continue;
+    run:; /* a run starts at i: its end as the scalar parse finds it */
+        size_t j = i + 8;
+        while (j + 8 <= n && load64(in + j) == load64(in + j - dist)) j += 8;
+        while (j < n && in[j] == in[j - dist]) j++;
+        /* a match writes at most 36 bits, so at most 5 bytes with the 7 the buffer may hold */
+        if ((size_t)(stop - b.at) < 5 * ((j - i) / 258 + 1)) break;
+#define WIDE_MATCH(l)                                                                              \
+    do {                                                                                           \
+        put(&b, c->mcode[l], c->mlen[l]);                                                          \
+        flush(&b);                                                                                 \
+    } while (0)
+        RUN_PIECES(j - i, WIDE_MATCH);
+#undef WIDE_MATCH
+        i = j;
     }
     *bits = b;
     wide_blocks += blocks;
@@ -693,8 +708,8 @@ size_t wg__deflate_piece(const WgDeflateCode *c, const unsigned char *in, size_t
     } while (0)
 #define CODE_RUN(from, to) RUN_PIECES((to) - (from), CODE_MATCH)
     /* the wide coder where it runs: tried at each step of the parse, but not again at the
-     * position where it stopped (where a run starts, which the parse codes, or near the end or
-     * the limit) */
+     * position where it stopped (near the end or the limit, or where a run starts whose matches
+     * might pass it, which the parse codes) */
     bool wide = stored >= 4 * WIDE_BYTES + 64 && wide_on();
     size_t retry = 0;
     /* a block writes at most 8 x 56 bits, and the bit buffer's store 8 bytes past them */

@@ -523,8 +523,9 @@ static void wide_input(unsigned char *in, size_t n, int kind)
 
 /* The wide coder (AVX-512 with VBMI, where the processor has it) gives the scalar coder's bits:
  * literals only, runs of many lengths at every offset of a block, at distances 1 to 8, lengths
- * around the block's size, and a piece that outgrows stored blocks while the wide coder runs
- * (both fall back to stored blocks, within the bound). */
+ * around the block's size, a piece that outgrows stored blocks while the wide coder runs, and
+ * long runs that start ever nearer that limit (both fall back to stored blocks, within the
+ * bound). */
 static void test_wide_coder_matches_scalar(void **state)
 {
     (void)state;
@@ -574,6 +575,52 @@ static void test_wide_coder_matches_scalar(void **state)
     assert_memory_equal(pa, pb, an);
     assert_true(an >= n); /* stored */
     for (size_t g = 0; g < guard; g++) assert_int_equal(pa[pcap + g], 0xa5);
+    /* the same code, uniform bytes (1.4 bytes each in it) and then a long run (a byte repeated,
+     * about 1,500 bytes of matches) and a few more: from the fewest uniform bytes that make the
+     * piece stored blocks on, the run starts ever closer to the limit, where the run's matches
+     * would pass the piece's bound (the wide coder leaves such a run to the scalar parse) */
+    size_t tail = 200, run_len = 200000, most = 700000;
+    unsigned char *uni = malloc(most), *big = malloc(most + run_len + tail);
+    assert_non_null(uni);
+    assert_non_null(big);
+    wide_input(uni, most, 3);
+    size_t bcap = wg__deflate_piece_bound(most + run_len + tail);
+    unsigned char *ba = malloc(bcap + guard), *bb = malloc(bcap + guard);
+    assert_non_null(ba);
+    assert_non_null(bb);
+    size_t lo = 1000, hi = most; /* stored from hi on, not at lo */
+    while (lo + 1 < hi) {
+        size_t head = lo + (hi - lo) / 2, m = head + run_len + tail;
+        memcpy(big, uni, head);
+        memset(big + head, big[head - 1], run_len);
+        memcpy(big + head + run_len, uni + head, tail);
+        wg__deflate_wide(false);
+        if (wg__deflate_piece(code, big, m, true, bb, wg__deflate_piece_bound(m)) >= m)
+            hi = head;
+        else
+            lo = head;
+    }
+    assert_true(hi < most);
+    for (size_t head = hi > 200 ? hi - 200 : 1; head < hi + 2000 && head < most; head += 25) {
+        size_t m = head + run_len + tail, mcap = wg__deflate_piece_bound(m);
+        memcpy(big, uni, head);
+        memset(big + head, big[head - 1], run_len);
+        memcpy(big + head + run_len, uni + head, tail);
+        memset(ba + mcap, 0xa5, guard);
+        wg__deflate_wide(true);
+        an = wg__deflate_piece(code, big, m, true, ba, mcap);
+        wg__deflate_wide(false);
+        bn = wg__deflate_piece(code, big, m, true, bb, mcap);
+        if (an != bn || memcmp(ba, bb, an))
+            fail_msg("%zu uniform bytes, a run of %zu, %zu more: %zu bytes wide, %zu scalar", head,
+                     run_len, tail, an, bn);
+        for (size_t g = 0; g < guard; g++)
+            if (ba[mcap + g] != 0xa5) fail_msg("%zu uniform bytes: written past the bound", head);
+    }
+    free(uni);
+    free(big);
+    free(ba);
+    free(bb);
     wg__deflate_code_free(code);
     /* the wide coder ran where it can */
     if (wg__deflate_wide(true)) assert_true(wg__deflate_wide_blocks() > blocks + 1000);
