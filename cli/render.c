@@ -16,6 +16,9 @@
 #include <time.h>
 #include <unistd.h>
 #include <xxhash.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 #if defined(__x86_64__) && __has_include(<xxh_x86dispatch.h>)
 /* The same hashes by the widest vector code the processor runs, chosen at run time (libxxhash's
  * *_dispatch functions, which this header puts in place of the usual names): AVX2 hashes 2.3x
@@ -849,7 +852,9 @@ static int file_setting(WgFormat f, WgPngCompression png)
 
 /* An image's key hashes its rows in KEY_BANDS bands (one a row in shorter images), each band on
  * whichever worker takes it, then the bands' hashes in order: the same key whoever computes it,
- * and during a render the last outputs' keys are not made on one worker while the others wait. */
+ * and during a render the last outputs' keys are not made on one worker while the others wait.
+ * The same pass finds whether every alpha of a colour image is 1, each row looked at while it is
+ * in the cache, so that the writer need not read the image again to choose RGB or RGBA. */
 #define KEY_BANDS 64
 
 typedef struct {
@@ -857,7 +862,31 @@ typedef struct {
     int bands;
     XXH128_hash_t *band;
     atomic_bool failed;
+    atomic_bool transparent; /* some alpha of the colour image is not 1 */
 } KeyJob;
+
+/* Whether every alpha of a row of w RGBA pixels is 1: with SSE2 (x86-64's baseline) four pixels
+ * a step, whole pixels compared with 1 and the alpha lane kept at the end. */
+static bool row_alpha_one(const float *r, int w)
+{
+    bool one = true;
+    int x = 0;
+#ifdef __SSE2__
+    const __m128 ones = _mm_set1_ps(1.0f);
+    __m128 all = _mm_castsi128_ps(_mm_set1_epi32(-1));
+    for (; x + 4 <= w; x += 4) {
+        const float *p = r + 4 * (size_t)x;
+        __m128 a = _mm_and_ps(_mm_cmpeq_ps(_mm_loadu_ps(p), ones),
+                              _mm_cmpeq_ps(_mm_loadu_ps(p + 4), ones));
+        __m128 b = _mm_and_ps(_mm_cmpeq_ps(_mm_loadu_ps(p + 8), ones),
+                              _mm_cmpeq_ps(_mm_loadu_ps(p + 12), ones));
+        all = _mm_and_ps(all, _mm_and_ps(a, b));
+    }
+    one = _mm_movemask_ps(all) & 8;
+#endif
+    for (; x < w; x++) one &= r[4 * x + 3] == 1.0f;
+    return one;
+}
 
 static void hash_bands(void *user, int b0, int b1)
 {
@@ -873,18 +902,26 @@ static void hash_bands(void *user, int b0, int b1)
         int y0 = (int)((long long)b * img->height / j->bands);
         int y1 = (int)((long long)(b + 1) * img->height / j->bands);
         XXH3_128bits_reset(st);
-        for (int y = y0; y < y1; y++) XXH3_128bits_update(st, wg_image_row(img, y), bytes);
+        for (int y = y0; y < y1; y++) {
+            XXH3_128bits_update(st, wg_image_row(img, y), bytes);
+            if (img->channels == 4 &&
+                !atomic_load_explicit(&j->transparent, memory_order_relaxed) &&
+                !row_alpha_one(wg_image_row(img, y), img->width))
+                atomic_store_explicit(&j->transparent, true, memory_order_relaxed);
+        }
         j->band[b] = XXH3_128bits_digest(st);
     }
     XXH3_freeState(st);
 }
 
 /* 0, 0 when out of memory: no key, never matched nor stored. The bands run on `workers` (NULL:
- * here). */
+ * here). *alpha_one (when not NULL): for a colour image, 1 when every alpha is 1 and 0 when one
+ * is not; -1 for a gray one, or when not found. */
 static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs, WgPngCompression png,
-                         const WgWorkers *workers)
+                         const WgWorkers *workers, int *alpha_one)
 {
     OutKey k = {0, 0};
+    if (alpha_one) *alpha_one = -1;
     int bands = img->height < KEY_BANDS ? img->height : KEY_BANDS;
     /* a JPEG written at another quality, a PNG at another compression, is another file */
     int head[8] = {KEYS_VERSION, img->width, img->height,          img->channels,
@@ -894,6 +931,7 @@ static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs, WgPngC
     if (!all) return k;
     KeyJob j = {img, bands, (XXH128_hash_t *)(all + sizeof head)};
     atomic_init(&j.failed, false);
+    atomic_init(&j.transparent, false);
     memcpy(all, head, sizeof head);
     if (!workers || !workers->run || workers->run(workers->ctx, bands, hash_bands, &j))
         hash_bands(&j, 0, bands);
@@ -901,6 +939,7 @@ static OutKey output_key(const WgImage *img, WgFormat f, WgColorspace cs, WgPngC
         XXH128_hash_t h = XXH3_128bits(all, size);
         k.hi = h.high64;
         k.lo = h.low64;
+        if (alpha_one && img->channels == 4) *alpha_one = !atomic_load(&j.transparent);
     }
     wg_free(all);
     return k;
@@ -1146,7 +1185,8 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
         s->first_cs = out->colorspace;
     }
     WgPngCompression png = output_compression(s->o, out->compression);
-    s->keys[i] = output_key(out->image, f, out->colorspace, png, &out->workers);
+    int alpha_one;
+    s->keys[i] = output_key(out->image, f, out->colorspace, png, &out->workers, &alpha_one);
     s->sources[i] = source_key(out, f, png);
     char previous[4096];
     if (key_matches(s->paths[i], s->keys[i])) {
@@ -1168,8 +1208,9 @@ int stream_output(void *user, const WgOutputInfo *out, WgError *err)
             if (from >= 0)
                 rc = wg_write_set_copy(s->sets[i], s->paths[i], s->sets[from], 0, err);
             else
-                rc = wg_write_set_image_png_on(s->sets[i], s->paths[i], out->image, f,
-                                               out->colorspace, png, &out->workers, err);
+                rc = wg_write_set_image_alpha_on(s->sets[i], s->paths[i], out->image, f,
+                                                 out->colorspace, png, &out->workers, alpha_one,
+                                                 err);
             s->wrote[i] = !rc;
             s->copied[i] = !rc && from >= 0;
             pthread_mutex_lock(&s->mu);
@@ -1378,7 +1419,7 @@ int write_outputs_except(const Options *o, const WgGraph *g, const WgResult *res
             output_format(o, wg_result_output_name(res, i), wg_result_output_format(res, i));
         WgPngCompression png = output_compression(o, wg_result_output_compression(res, i));
         keys[i] = output_key(wg_result_output_image(res, i), f, wg_result_output_colorspace(res, i),
-                             png, NULL);
+                             png, NULL, NULL);
         skip[i] = (kept && kept[i]) || key_matches(paths[i], keys[i]);
         copy_of[i] = -1;
         if (skip[i]) continue;

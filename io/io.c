@@ -895,12 +895,13 @@ static bool opaque(const WgImage *img, const WgWorkers *workers)
     return !atomic_load(&j.transparent);
 }
 
-/* The file layout of `img`: RGB when every alpha is 1, and the sample type of the format. */
+/* The file layout of `img`: RGB when every alpha is 1 (alpha_one, when the caller knows: 1 or
+ * 0; -1: looked at here), and the sample type of the format. */
 static void file_layout(const WgImage *img, WgFormat format, const WgWorkers *workers,
-                        int *channels, int *bits)
+                        int alpha_one, int *channels, int *bits)
 {
     int c = img->channels;
-    if (c == 4 && opaque(img, workers)) c = 3;
+    if (c == 4 && (alpha_one >= 0 ? alpha_one : opaque(img, workers))) c = 3;
     if (format == WG_FORMAT_JPEG && c == 4) c = 3; /* JPEG keeps no alpha */
     *channels = c;
     *bits = format == WG_FORMAT_PNG || format == WG_FORMAT_JPEG || format == WG_FORMAT_TGA ? 8
@@ -1351,11 +1352,12 @@ static int write_failed(WgError *err, const char *path, const char *msg)
 
 /* Encode one image into the temporary `tmp` of target `path`. */
 static int encode_one(const char *tmp, const char *path, const WgImage *img, WgFormat format,
-                      WgColorspace cs, WgPngCompression png, const WgWorkers *workers, WgError *err)
+                      WgColorspace cs, WgPngCompression png, const WgWorkers *workers,
+                      int alpha_one, WgError *err)
 {
     if (format == WG_FORMAT_DEFAULT) format = img->channels == 4 ? WG_FORMAT_PNG : WG_FORMAT_PNG16;
     int c, bits;
-    file_layout(img, format, workers, &c, &bits);
+    file_layout(img, format, workers, alpha_one, &c, &bits);
     char msg[512];
     int rc = WG_OK;
     errno = 0;
@@ -1457,14 +1459,22 @@ int wg_write_set_copy_file(WgWriteSet *s, const char *path, const char *source, 
     return stage_copy(s, path, source, err);
 }
 
-int wg_write_set_image_png_on(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
-                              WgColorspace cs, WgPngCompression png, const WgWorkers *workers,
-                              WgError *err)
+int wg_write_set_image_alpha_on(WgWriteSet *s, const char *path, const WgImage *img,
+                                WgFormat format, WgColorspace cs, WgPngCompression png,
+                                const WgWorkers *workers, int alpha_one, WgError *err)
 {
     char *tmp = NULL;
     int rc = stage_begin(s, path, &tmp, err);
     if (rc) return rc;
-    return stage_end(s, encode_one(tmp, path, img, format, cs, png, workers, err), err);
+    int k = img->channels == 4 && alpha_one >= 0 ? alpha_one != 0 : -1;
+    return stage_end(s, encode_one(tmp, path, img, format, cs, png, workers, k, err), err);
+}
+
+int wg_write_set_image_png_on(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
+                              WgColorspace cs, WgPngCompression png, const WgWorkers *workers,
+                              WgError *err)
+{
+    return wg_write_set_image_alpha_on(s, path, img, format, cs, png, workers, -1, err);
 }
 
 int wg_write_set_image_png(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
@@ -1541,7 +1551,7 @@ static void batch_part(void *user, int i0, int i1)
     for (int i = i0; i < i1; i++) {
         const Staged *f = &b->s->files[b->base + i];
         int rc = encode_one(f->temp, f->path, b->images[i], b->formats[i], b->cs[i],
-                            b->png ? b->png[i] : WG_PNG_COMPRESSION_FAST, NULL, &b->errs[i]);
+                            b->png ? b->png[i] : WG_PNG_COMPRESSION_FAST, NULL, -1, &b->errs[i]);
         b->rc[i] = rc ? rc : sync_temp(f->temp, f->path, &b->errs[i]);
     }
 }

@@ -642,8 +642,9 @@ static int count_words(const char *text)
 }
 
 /* Outputs of every kind the writers handle, from nodes computed at different times: gray and
- * colour, opaque and with alpha, sRGB and linear, 8 and 16 bits, half and float EXR, TIFF, and
- * a uniform image. */
+ * colour, opaque and with alpha (everywhere, or at one pixel at the end of the last row or in the
+ * middle, or at none depending on the size), sRGB and linear, 8 and 16 bits, half and float EXR,
+ * TIFF, and a uniform image. */
 static const char *const graph_kinds =
     "<wetgraph version=\"1\" size=\"37x23\" seed=\"5\">\n"
     "  <param name=\"k\" type=\"float\" default=\"0.5\" min=\"0\" max=\"1\"/>\n"
@@ -652,6 +653,12 @@ static const char *const graph_kinds =
     "  <node id=\"c\" type=\"pixel\" kind=\"color\" expr=\"rgb(n, b * k, 1 - n)\">"
     "<in name=\"n\" from=\"n\"/><in name=\"b\" from=\"b\"/></node>\n"
     "  <node id=\"a\" type=\"pixel\" kind=\"color\" expr=\"rgba(b, n, k, n * 0.9)\">"
+    "<in name=\"n\" from=\"n\"/><in name=\"b\" from=\"b\"/></node>\n"
+    "  <node id=\"e\" type=\"pixel\" kind=\"color\" "
+    "expr=\"rgba(n, b, k, u &gt; 0.97 &amp;&amp; v &gt; 0.97 ? 0.5 : 1)\">"
+    "<in name=\"n\" from=\"n\"/><in name=\"b\" from=\"b\"/></node>\n"
+    "  <node id=\"i\" type=\"pixel\" kind=\"color\" expr=\"rgba(b, k, n, u &gt; 0.4 &amp;&amp; "
+    "u &lt; 0.45 &amp;&amp; v &gt; 0.5 &amp;&amp; v &lt; 0.56 ? 0.25 : 1)\">"
     "<in name=\"n\" from=\"n\"/><in name=\"b\" from=\"b\"/></node>\n"
     "  <node id=\"u\" type=\"uniform\" value=\"=k * 0.3\"/>\n"
     "  <output name=\"gray16\" from=\"n\" format=\"png16\"/>\n"
@@ -663,9 +670,11 @@ static const char *const graph_kinds =
     "  <output name=\"float\" from=\"b\" format=\"exr32\"/>\n"
     "  <output name=\"tiff\" from=\"c\" format=\"tif16\"/>\n"
     "  <output name=\"flat\" from=\"u\" format=\"png16\"/>\n"
+    "  <output name=\"corner8\" from=\"e\" format=\"png\"/>\n"
+    "  <output name=\"inner8\" from=\"i\" format=\"png\" colorspace=\"srgb\"/>\n"
     "</wetgraph>\n";
-static const char *const kinds[] = {"gray16", "gray8", "rgb8", "rgba8", "rgba16",
-                                    "half",   "float", "tiff", "flat"};
+static const char *const kinds[] = {"gray16", "gray8", "rgb8", "rgba8",   "rgba16", "half",
+                                    "float",  "tiff",  "flat", "corner8", "inner8"};
 #define N_KINDS ((int)(sizeof kinds / sizeof *kinds))
 
 /* The files a render of graph_kinds writes, as the library writes them when the whole render
@@ -719,8 +728,8 @@ static bool same_output(const char *a, const char *b)
 static void test_streamed_outputs_are_the_files_written_after_the_render(void **state)
 {
     (void)state;
-    static const char *const ext[N_KINDS] = {"png", "png", "png", "png", "png",
-                                             "exr", "exr", "tif", "png"};
+    static const char *const ext[N_KINDS] = {"png", "png", "png", "png", "png", "exr",
+                                             "exr", "tif", "png", "png", "png"};
     static const char *const sizes[] = {"37x23", "64x5", "3x41"};
     static const char *const ks[] = {"0.5", "0.83", "0.1"};
     wgt_write_file(at("kinds.wetgraph"), graph_kinds);

@@ -896,6 +896,52 @@ static void test_write_set_copy(void **state)
     wg_write_set_free(from);
 }
 
+/* A writer told what the caller found of a colour image's alpha lays the file out by it without
+ * reading the image for it: RGB when told every alpha is 1, RGBA when told one is not (both for
+ * an opaque image here), and found as usual when not told (-1) or for a gray image; PNG and EXR
+ * alike. */
+static void test_write_set_told_alpha(void **state)
+{
+    (void)state;
+    const char *dir = fresh_dir("setalpha");
+    WgImage *colour = wgt_image(9, 5, 4, NULL), *gray = wgt_image(9, 5, 1, NULL);
+    for (int y = 0; y < 5; y++)
+        for (int x = 0; x < 9; x++) {
+            float *p = wg_image_row(colour, y) + 4 * x;
+            p[0] = x / 8.0f, p[1] = y / 4.0f, p[2] = 0.5f, p[3] = 1.0f;
+            wg_image_row(gray, y)[x] = (x + y) / 12.0f;
+        }
+    static const WgFormat formats[] = {WG_FORMAT_PNG, WG_FORMAT_PNG16, WG_FORMAT_EXR};
+    for (size_t f = 0; f < sizeof formats / sizeof *formats; f++)
+        for (int told = -1; told <= 1; told++)
+            for (int g = 0; g < 2; g++) {
+                char path[1100];
+                snprintf(path, sizeof path, "%s/told.%s", dir, wg_format_extension(formats[f]));
+                WgError err = {0};
+                WgWriteSet *set = wg_write_set_new();
+                assert_int_equal(
+                    wg_write_set_image_alpha_on(set, path, g ? gray : colour, formats[f], WG_LINEAR,
+                                                WG_PNG_COMPRESSION_FAST, NULL, told, &err),
+                    WG_OK);
+                assert_int_equal(wg_write_set_commit(set, &err), WG_OK);
+                wg_write_set_free(set);
+                int want = g ? 1 : told == 0 ? 4 : 3;
+                if (probe_channels(path) != want)
+                    fail_msg("%s, %s, told %d: %d channels, expected %d",
+                             wg_format_extension(formats[f]), g ? "gray" : "colour", told,
+                             probe_channels(path), want);
+                WgImage *back = read_ok(path, g ? 1 : 4, WG_LINEAR);
+                double tol = formats[f] == WG_FORMAT_PNG ? 0.51 / 255 : 1e-3;
+                double d = wgt_max_abs_diff(back, g ? gray : colour);
+                if (d > tol)
+                    fail_msg("%s, %s, told %d: read back %g off", wg_format_extension(formats[f]),
+                             g ? "gray" : "colour", told, d);
+                wg_image_unref(back);
+            }
+    wg_image_unref(colour);
+    wg_image_unref(gray);
+}
+
 /* A file in place copied into a set: the same bytes once committed, the source untouched; a
  * source that does not exist is an error naming the target and the source that stages
  * nothing. */
@@ -2257,6 +2303,7 @@ int main(void)
         cmocka_unit_test(test_write_set_replaces_all_or_reports_which),
         cmocka_unit_test(test_write_set_copy),
         cmocka_unit_test(test_write_set_copy_file),
+        cmocka_unit_test(test_write_set_told_alpha),
         cmocka_unit_test(test_write_set_flushes_on_a_thread),
         cmocka_unit_test(test_write_set_flush_queue_is_bounded),
         cmocka_unit_test(test_write_set_commit_after_fork),

@@ -133,6 +133,14 @@ WgWorkers wg_workers_threads(const int *threads);
 int wg_write_set_image_png_on(WgWriteSet *s, const char *path, const WgImage *img, WgFormat format,
                               WgColorspace cs, WgPngCompression png, const WgWorkers *workers,
                               WgError *err);
+/* wg_write_set_image_png_on for a caller that has already looked at a colour image's alpha (as
+ * while hashing its rows): alpha_one 1 when every alpha is 1 (the file is written without alpha
+ * where its format allows), 0 when one is not, -1 when not known (the writer reads the image to
+ * find out). A colour image's layout then follows alpha_one without the image being read again:
+ * it must be true of the image. Ignored for gray images. */
+int wg_write_set_image_alpha_on(WgWriteSet *s, const char *path, const WgImage *img,
+                                WgFormat format, WgColorspace cs, WgPngCompression png,
+                                const WgWorkers *workers, int alpha_one, WgError *err);
 /* Several images at once, the same as adding each with wg_write_set_image_png (png NULL: every
  * PNG compressed by default), but encoded and flushed by `threads` threads (0: one per core)
  * concurrently. If any fails, none of the n is added (their temporaries are removed) and err is
