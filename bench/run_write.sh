@@ -17,7 +17,8 @@
 #  files    the total size of the PNG files of the cold render, and of cv2's
 #  encoder  the PNG encoder alone on those files, every compression mode, one thread, from
 #           memory (build/bench/bench_png): MB/s of raw image data and the files' total size
-# Best of RUNS (default 3) each. Every render writes its PNGs with --png-compression
+# Best of RUNS (default 3) each; the cold renders and the renders alone alternate, so that both
+# meet the host in the same states. Every render writes its PNGs with --png-compression
 # PNG_COMPRESSION (fast, deflate or none; default: fast). Prints the CPU model and the load
 # average: timing is noisy on a loaded machine. Needs python3-opencv (scripts/install-deps.sh
 # --bench).
@@ -65,7 +66,8 @@ echo "host: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'),
     "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "wet_material ${size}², $threads threads, its PNG outputs (--png-compression $compression)," \
     "best of $runs"
-best_wall=0
+# the cold render and the render alone in turn, so that both see the host in the same states
+best_wall=0 alone=0
 for i in $(seq "$runs"); do
     rm -rf "$tmp/cold"
     read -r wall total write _ written out nodes cpu rss < <(timed "$tmp/cold")
@@ -73,9 +75,6 @@ for i in $(seq "$runs"); do
         best_wall=$wall best_total=$total best_write=$write n=$written best_out=$out
         best_nodes=$nodes best_cpu=$cpu best_rss=$rss
     fi
-done
-alone=0
-for i in $(seq "$runs"); do
     a=$(cd "$root" && "$build/bench/bench_wet" --size "$size" --threads "$threads" --reps 1 |
         awk '$1 == "first" { printf "%.0f", $5 }')
     if ((alone == 0 || a < alone)); then alone=$a; fi
