@@ -16,9 +16,6 @@
 #include <time.h>
 #include <unistd.h>
 #include <xxhash.h>
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
 #if defined(__x86_64__) && __has_include(<xxh_x86dispatch.h>)
 /* The same hashes by the widest vector code the processor runs, chosen at run time (libxxhash's
  * *_dispatch functions, which this header puts in place of the usual names): AVX2 hashes 2.3x
@@ -865,29 +862,6 @@ typedef struct {
     atomic_bool transparent; /* some alpha of the colour image is not 1 */
 } KeyJob;
 
-/* Whether every alpha of a row of w RGBA pixels is 1: with SSE2 (x86-64's baseline) four pixels
- * a step, whole pixels compared with 1 and the alpha lane kept at the end. */
-static bool row_alpha_one(const float *r, int w)
-{
-    bool one = true;
-    int x = 0;
-#ifdef __SSE2__
-    const __m128 ones = _mm_set1_ps(1.0f);
-    __m128 all = _mm_castsi128_ps(_mm_set1_epi32(-1));
-    for (; x + 4 <= w; x += 4) {
-        const float *p = r + 4 * (size_t)x;
-        __m128 a = _mm_and_ps(_mm_cmpeq_ps(_mm_loadu_ps(p), ones),
-                              _mm_cmpeq_ps(_mm_loadu_ps(p + 4), ones));
-        __m128 b = _mm_and_ps(_mm_cmpeq_ps(_mm_loadu_ps(p + 8), ones),
-                              _mm_cmpeq_ps(_mm_loadu_ps(p + 12), ones));
-        all = _mm_and_ps(all, _mm_and_ps(a, b));
-    }
-    one = _mm_movemask_ps(all) & 8;
-#endif
-    for (; x < w; x++) one &= r[4 * x + 3] == 1.0f;
-    return one;
-}
-
 static void hash_bands(void *user, int b0, int b1)
 {
     KeyJob *j = user;
@@ -906,7 +880,7 @@ static void hash_bands(void *user, int b0, int b1)
             XXH3_128bits_update(st, wg_image_row(img, y), bytes);
             if (img->channels == 4 &&
                 !atomic_load_explicit(&j->transparent, memory_order_relaxed) &&
-                !row_alpha_one(wg_image_row(img, y), img->width))
+                !wg_image_row_alpha_one(img, y))
                 atomic_store_explicit(&j->transparent, true, memory_order_relaxed);
         }
         j->band[b] = XXH3_128bits_digest(st);

@@ -874,10 +874,7 @@ static void opaque_bands(void *user, int b0, int b1)
         int y0 = (int)((long long)b * j->rows / j->bands);
         int y1 = (int)((long long)(b + 1) * j->rows / j->bands);
         for (int y = y0; y < y1; y++) {
-            const float *r = wg_image_row(img, y);
-            bool opaque = true;
-            for (int x = 0; x < img->width; x++) opaque &= r[4 * x + 3] == 1.0f;
-            if (!opaque) {
+            if (!wg_image_row_alpha_one(img, y)) {
                 atomic_store_explicit(&j->transparent, true, memory_order_relaxed);
                 return;
             }

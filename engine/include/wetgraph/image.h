@@ -54,6 +54,9 @@ static inline float *wg_image_row(const WgImage *img, int y)
 
 /* Bytes of pixel memory the image holds. */
 size_t wg_image_bytes(const WgImage *img);
+/* Whether every alpha of row y of a colour image is exactly 1 (1 for a gray image; 0 where an
+ * alpha is not 1, NaN included). Fast enough to call on a row just read for something else. */
+int wg_image_row_alpha_one(const WgImage *img, int y);
 /* Bytes an image of that size would hold (for budgeting before allocation). */
 size_t wg_image_bytes_for(int width, int height, int channels);
 
